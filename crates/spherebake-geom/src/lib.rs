@@ -1,0 +1,15 @@
+//! Geometry for spherebake: the canonical mesh type, topology analysis, and (in later modules)
+//! BVH ray casts, voxelization, exact sphere ∩ mesh volumes and mean value coordinates.
+//!
+//! Architecture invariant: this crate does no IO and sees no paths. Slices and settings in,
+//! values plus warnings out.
+//!
+//! Conventions: right-handed, positions in model (scene) space in the input's own units
+//! (glTF: metres), colours in linear RGB unless a name says `srgb`.
+
+pub mod mesh;
+pub mod topology;
+
+pub use glam;
+pub use mesh::*;
+pub use topology::TopologyReport;

@@ -1,0 +1,354 @@
+//! The canonical in-memory mesh every stage works on.
+//!
+//! Triangles index *vertices*; each vertex carries its per-corner attributes (position, normal,
+//! UVs, colour, skin influences), so a UV or normal seam is two vertices. For topology, every
+//! vertex also maps to a *welded* position id (bit-identical f32 positions share one id), so
+//! seams do not split the surface.
+
+use glam::{Mat4, Vec3};
+
+/// Linear RGBA colour (not sRGB), components nominally in [0, 1].
+pub type LinearRgba = [f32; 4];
+
+/// Texture wrap mode along one axis (glTF sampler semantics).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum WrapMode {
+    #[default]
+    Repeat,
+    MirroredRepeat,
+    ClampToEdge,
+}
+
+/// Texture filter choice recorded from the glTF sampler (the bake may supersample regardless).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum FilterMode {
+    Nearest,
+    #[default]
+    Linear,
+}
+
+/// A decoded texture image, converted to **linear** RGBA f32 where the source is sRGB
+/// (glTF base colour is). Row 0 is the top row of the image (glTF UV (0,0) = top-left).
+#[derive(Clone, Debug, Default)]
+pub struct Texture {
+    /// Human-readable origin (file name or `image[3]`), for reports only.
+    pub name: String,
+    pub width: u32,
+    pub height: u32,
+    /// `width * height` texels, row-major, linear RGBA.
+    pub texels_linear: Vec<LinearRgba>,
+}
+
+/// KHR_texture_transform: uv' = T(offset) · R(rotation) · S(scale) · uv.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct UvTransform {
+    pub offset: [f32; 2],
+    /// Rotation in radians, counter-clockwise in UV space (glTF convention).
+    pub rotation_rad: f32,
+    pub scale: [f32; 2],
+}
+
+impl Default for UvTransform {
+    fn default() -> Self {
+        Self { offset: [0.0, 0.0], rotation_rad: 0.0, scale: [1.0, 1.0] }
+    }
+}
+
+impl UvTransform {
+    /// Applies the transform to a UV coordinate.
+    pub fn apply(&self, uv: [f32; 2]) -> [f32; 2] {
+        let (s, c) = self.rotation_rad.sin_cos();
+        let x = uv[0] * self.scale[0];
+        let y = uv[1] * self.scale[1];
+        [c * x + s * y + self.offset[0], -s * x + c * y + self.offset[1]]
+    }
+}
+
+/// A reference from a material to a texture.
+#[derive(Clone, Debug, PartialEq)]
+pub struct TextureRef {
+    /// Index into [`Mesh::textures`].
+    pub texture: usize,
+    /// Which UV set the texture reads (0 = TEXCOORD_0, 1 = TEXCOORD_1).
+    pub uv_set: u32,
+    pub wrap_s: WrapMode,
+    pub wrap_t: WrapMode,
+    pub mag_filter: FilterMode,
+    pub transform: UvTransform,
+}
+
+/// The part of a material the bake uses: base colour (albedo).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Material {
+    pub name: String,
+    /// Base colour factor, linear RGBA (glTF `baseColorFactor`, OBJ `Kd`).
+    pub base_color_factor_linear: LinearRgba,
+    pub base_color_texture: Option<TextureRef>,
+    /// glTF `doubleSided`.
+    pub double_sided: bool,
+}
+
+impl Default for Material {
+    fn default() -> Self {
+        Self {
+            name: String::new(),
+            base_color_factor_linear: [1.0; 4],
+            base_color_texture: None,
+            double_sided: false,
+        }
+    }
+}
+
+/// Up to 8 skin influences per vertex (JOINTS_0/WEIGHTS_0 and JOINTS_1/WEIGHTS_1).
+/// `joints` index [`Skeleton::bones`]; unused slots have weight 0. Weights sum to 1.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct SkinInfluences {
+    pub joints: [u32; 8],
+    pub weights: [f32; 8],
+}
+
+/// One bone of the baked bone table.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Bone {
+    pub name: String,
+    /// Index of the glTF node this bone is (for posing from animations).
+    pub node: usize,
+    /// Parent bone index, if the parent node is also a bone.
+    pub parent: Option<u32>,
+    /// glTF inverse bind matrix: maps the skin's bind (mesh) space to the joint's local space.
+    pub inverse_bind: Mat4,
+}
+
+/// A node of the source scene graph (glTF nodes; OBJ has none).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Node {
+    pub name: String,
+    pub parent: Option<usize>,
+    /// Rest local transform, translation / rotation (quaternion xyzw) / scale.
+    pub translation: [f32; 3],
+    pub rotation: [f32; 4],
+    pub scale: [f32; 3],
+}
+
+/// Animation interpolation (glTF `sampler.interpolation`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Interpolation {
+    Linear,
+    Step,
+    CubicSpline,
+}
+
+/// Which node property a channel drives.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum AnimPath {
+    Translation,
+    Rotation,
+    Scale,
+}
+
+/// One animation channel with its sampler data.
+#[derive(Clone, Debug, PartialEq)]
+pub struct AnimChannel {
+    pub node: usize,
+    pub path: AnimPath,
+    pub interpolation: Interpolation,
+    /// Key times in seconds, increasing.
+    pub times: Vec<f32>,
+    /// Flattened values: 3 (T, S) or 4 (R, xyzw) per key; for CubicSpline, (in-tangent, value,
+    /// out-tangent) per key.
+    pub values: Vec<f32>,
+}
+
+/// A named animation.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Animation {
+    pub name: String,
+    pub channels: Vec<AnimChannel>,
+}
+
+/// Skeleton data: scene nodes, the bone table, and animations.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Skeleton {
+    pub nodes: Vec<Node>,
+    pub bones: Vec<Bone>,
+    pub animations: Vec<Animation>,
+}
+
+/// Skinning data attached to a mesh.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Skin {
+    pub skeleton: Skeleton,
+    /// Per vertex: influences (same length as [`Mesh::positions`]). Vertices of rigidly attached
+    /// (unskinned) parts under a joint node get weight 1 on that joint's bone.
+    pub influences: Vec<SkinInfluences>,
+    /// Per vertex: position in the skin's bind (mesh) space, where joint matrices
+    /// `world(joint) × inverse_bind` apply. [`Mesh::positions`] holds the rest pose in scene space.
+    pub bind_positions: Vec<Vec3>,
+}
+
+/// A warning found while importing or analysing (not an error: the pipeline copes).
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Warning(pub String);
+
+/// The canonical triangle mesh.
+#[derive(Clone, Debug, Default)]
+pub struct Mesh {
+    /// Per-vertex position, scene (model) space, rest pose.
+    pub positions: Vec<Vec3>,
+    /// Per-vertex unit shading normal, scene space (computed when the input has none).
+    pub normals: Vec<Vec3>,
+    /// Per-vertex UV sets (`uvs[0]` = TEXCOORD_0, ...); each either empty or one per vertex.
+    pub uvs: Vec<Vec<[f32; 2]>>,
+    /// Per-vertex colour (COLOR_0), linear RGBA; empty when absent.
+    pub colors_linear: Vec<LinearRgba>,
+    /// Triangles as vertex indices, counter-clockwise = front (outward when consistent).
+    pub triangles: Vec<[u32; 3]>,
+    /// Per-triangle material index into `materials`.
+    pub triangle_materials: Vec<u32>,
+    pub materials: Vec<Material>,
+    pub textures: Vec<Texture>,
+    /// Per-vertex welded position id (bit-identical positions share an id).
+    pub weld: Vec<u32>,
+    /// Welded positions, indexed by weld id.
+    pub welded_positions: Vec<Vec3>,
+    pub skin: Option<Skin>,
+}
+
+impl Mesh {
+    /// Number of triangles.
+    pub fn triangle_count(&self) -> usize {
+        self.triangles.len()
+    }
+
+    /// Triangle `t` as three positions.
+    pub fn triangle(&self, t: usize) -> [Vec3; 3] {
+        let [a, b, c] = self.triangles[t];
+        [self.positions[a as usize], self.positions[b as usize], self.positions[c as usize]]
+    }
+
+    /// Triangles as welded position ids.
+    pub fn welded_triangles(&self) -> Vec<[u32; 3]> {
+        self.triangles
+            .iter()
+            .map(|t| [self.weld[t[0] as usize], self.weld[t[1] as usize], self.weld[t[2] as usize]])
+            .collect()
+    }
+
+    /// Rebuilds `weld` and `welded_positions` from `positions`: bit-identical f32 positions
+    /// share an id (ids in order of first appearance, so the result is deterministic).
+    /// `-0.0` and `0.0` are treated as equal.
+    pub fn rebuild_weld(&mut self) {
+        use std::collections::HashMap;
+        let key = |p: Vec3| {
+            let f = |x: f32| if x == 0.0 { 0u32 } else { x.to_bits() };
+            (f(p.x), f(p.y), f(p.z))
+        };
+        let mut map: HashMap<(u32, u32, u32), u32> = HashMap::with_capacity(self.positions.len());
+        self.weld.clear();
+        self.welded_positions.clear();
+        for &p in &self.positions {
+            let next = self.welded_positions.len() as u32;
+            let id = *map.entry(key(p)).or_insert(next);
+            if id == next {
+                self.welded_positions.push(p);
+            }
+            self.weld.push(id);
+        }
+    }
+
+    /// Computes area-weighted vertex normals over welded positions, for vertices whose normal is
+    /// missing (call when the input has no NORMAL attribute). Degenerate neighbourhoods get +Z.
+    pub fn compute_normals(&mut self) {
+        let mut acc = vec![Vec3::ZERO; self.welded_positions.len()];
+        for t in &self.triangles {
+            let [a, b, c] = [t[0] as usize, t[1] as usize, t[2] as usize];
+            let n = (self.positions[b] - self.positions[a]).cross(self.positions[c] - self.positions[a]);
+            for v in [a, b, c] {
+                acc[self.weld[v] as usize] += n;
+            }
+        }
+        self.normals =
+            (0..self.positions.len()).map(|v| acc[self.weld[v] as usize].try_normalize().unwrap_or(Vec3::Z)).collect();
+    }
+
+    /// Axis-aligned bounds over the corners of all triangles (unused vertices ignored).
+    /// Returns `None` for a mesh without triangles.
+    pub fn bounds(&self) -> Option<(Vec3, Vec3)> {
+        let mut it = self.triangles.iter().flatten();
+        let first = self.positions[*it.next()? as usize];
+        let (mut lo, mut hi) = (first, first);
+        for &v in it {
+            let p = self.positions[v as usize];
+            lo = lo.min(p);
+            hi = hi.max(p);
+        }
+        Some((lo, hi))
+    }
+
+    /// Appends another mesh (materials, textures and vertices re-indexed). Skins are not merged:
+    /// the importer builds the skin after appending all parts.
+    pub fn append(&mut self, other: &Mesh) {
+        let v0 = self.positions.len() as u32;
+        let m0 = self.materials.len() as u32;
+        let t0 = self.textures.len();
+        let n_self = self.positions.len();
+        self.positions.extend_from_slice(&other.positions);
+        self.normals.extend_from_slice(&other.normals);
+        let sets = self.uvs.len().max(other.uvs.len());
+        self.uvs.resize(sets, Vec::new());
+        for s in 0..sets {
+            let mine = &mut self.uvs[s];
+            if mine.len() < n_self {
+                mine.resize(n_self, [0.0, 0.0]);
+            }
+            match other.uvs.get(s) {
+                Some(o) if !o.is_empty() => mine.extend_from_slice(o),
+                _ => mine.resize(n_self + other.positions.len(), [0.0, 0.0]),
+            }
+        }
+        if !self.colors_linear.is_empty() || !other.colors_linear.is_empty() {
+            self.colors_linear.resize(n_self, [1.0; 4]);
+            if other.colors_linear.is_empty() {
+                self.colors_linear.resize(n_self + other.positions.len(), [1.0; 4]);
+            } else {
+                self.colors_linear.extend_from_slice(&other.colors_linear);
+            }
+        }
+        self.triangles.extend(other.triangles.iter().map(|t| [t[0] + v0, t[1] + v0, t[2] + v0]));
+        self.triangle_materials.extend(other.triangle_materials.iter().map(|m| m + m0));
+        self.materials.extend(other.materials.iter().map(|m| {
+            let mut m = m.clone();
+            if let Some(t) = &mut m.base_color_texture {
+                t.texture += t0;
+            }
+            m
+        }));
+        self.textures.extend_from_slice(&other.textures);
+        self.rebuild_weld();
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn weld_merges_bit_identical_positions_only() {
+        let mut m = Mesh {
+            positions: vec![Vec3::ZERO, Vec3::X, Vec3::new(-0.0, 0.0, 0.0), Vec3::new(1.0 + f32::EPSILON, 0.0, 0.0)],
+            ..Default::default()
+        };
+        m.rebuild_weld();
+        assert_eq!(m.weld, vec![0, 1, 0, 2]);
+        assert_eq!(m.welded_positions.len(), 3);
+    }
+
+    #[test]
+    fn uv_transform_matches_gltf_matrix() {
+        // KHR_texture_transform example: offset (0.5, 0), rotation 90°, scale (2, 1).
+        let t = UvTransform { offset: [0.5, 0.0], rotation_rad: std::f32::consts::FRAC_PI_2, scale: [2.0, 1.0] };
+        // uv (1, 0) -> scale (2, 0) -> rotate: (c*2 + s*0, -s*2 + c*0) = (0, -2) -> offset (0.5, -2).
+        let r = t.apply([1.0, 0.0]);
+        assert!((r[0] - 0.5).abs() < 1e-6 && (r[1] + 2.0).abs() < 1e-6, "{r:?}");
+    }
+}

@@ -1,0 +1,1 @@
+//! spherebake-io
