@@ -9,6 +9,7 @@
 
 pub mod mesh;
 pub mod topology;
+pub mod volume;
 
 pub use glam;
 pub use mesh::*;
