@@ -1,0 +1,264 @@
+//! The writer: deterministic little-endian bytes with zero padding.
+
+use alloc::vec::Vec;
+
+use crate::model::{AlbedoSh, BoneRecord, Hierarchy, Metadata, Samples, SkinTerms, SphbFile, Sphere, NO_PARENT};
+use crate::{SectionKind, ALIGN, FORMAT_MAJOR, FORMAT_MINOR, HEADER_SIZE, MAGIC, SECTION_ENTRY_SIZE};
+
+/// Saturating conversion of a length to the u32 stored in the file.
+///
+/// Only data beyond 4 GiB saturates, which the reader then rejects by a length rule.
+fn len_u32(len: usize) -> u32 {
+    u32::try_from(len).unwrap_or(u32::MAX)
+}
+
+fn put_u32(out: &mut Vec<u8>, v: u32) {
+    out.extend_from_slice(&v.to_le_bytes());
+}
+
+fn put_f32(out: &mut Vec<u8>, v: f32) {
+    out.extend_from_slice(&v.to_le_bytes());
+}
+
+fn put_f32s(out: &mut Vec<u8>, vs: &[f32]) {
+    for &v in vs {
+        put_f32(out, v);
+    }
+}
+
+fn pad_to_align(out: &mut Vec<u8>) {
+    while out.len() % ALIGN != 0 {
+        out.push(0);
+    }
+}
+
+fn spheres_section(spheres: &[Sphere]) -> Vec<u8> {
+    let mut out = Vec::with_capacity(16 + 16 * spheres.len());
+    put_u32(&mut out, len_u32(spheres.len()));
+    out.extend_from_slice(&[0; 12]);
+    for s in spheres {
+        put_f32s(&mut out, &s.center);
+        put_f32(&mut out, s.radius);
+    }
+    out
+}
+
+fn hierarchy_section(h: &Hierarchy) -> Vec<u8> {
+    let child_total: usize = h.nodes.iter().map(|n| n.children.len()).sum();
+    let leaf_total: usize = h.nodes.iter().map(|n| n.leaf_children.len()).sum();
+    let mut out = Vec::new();
+    put_u32(&mut out, len_u32(h.nodes.len()));
+    put_u32(&mut out, h.root);
+    put_u32(&mut out, len_u32(child_total));
+    put_u32(&mut out, len_u32(leaf_total));
+    let (mut first_child, mut first_leaf) = (0usize, 0usize);
+    for n in &h.nodes {
+        put_f32s(&mut out, &n.center);
+        put_f32(&mut out, n.radius);
+        put_u32(&mut out, len_u32(first_child));
+        put_u32(&mut out, len_u32(n.children.len()));
+        put_u32(&mut out, len_u32(first_leaf));
+        put_u32(&mut out, len_u32(n.leaf_children.len()));
+        first_child = first_child.saturating_add(n.children.len());
+        first_leaf = first_leaf.saturating_add(n.leaf_children.len());
+    }
+    for n in &h.nodes {
+        for &c in &n.children {
+            put_u32(&mut out, c);
+        }
+    }
+    for n in &h.nodes {
+        for &l in &n.leaf_children {
+            put_u32(&mut out, l);
+        }
+    }
+    out
+}
+
+fn samples_section(s: &Samples) -> Vec<u8> {
+    let mut out = Vec::new();
+    put_u32(&mut out, len_u32(s.per_sphere.len()));
+    put_u32(&mut out, len_u32(s.total()));
+    out.extend_from_slice(&[0; 8]);
+    let mut offset = 0usize;
+    put_u32(&mut out, 0);
+    for points in &s.per_sphere {
+        offset = offset.saturating_add(points.len());
+        put_u32(&mut out, len_u32(offset));
+    }
+    pad_to_align(&mut out);
+    for points in &s.per_sphere {
+        for p in points {
+            put_f32s(&mut out, &p.position);
+            put_f32s(&mut out, &p.normal);
+            out.push(p.direction);
+            out.push(p.rule);
+            out.extend_from_slice(&[0; 6]);
+        }
+    }
+    out
+}
+
+fn albedo_sh_section(sh: &AlbedoSh) -> Vec<u8> {
+    // The sphere count is the model's own (coefficients / order²); the reader compares it
+    // with the sphere set.
+    let sphere_count = sh.coefficients.len().checked_div(sh.coefficients_per_sphere()).unwrap_or(0);
+    let mut out = Vec::with_capacity(16 + 12 * sh.coefficients.len());
+    put_u32(&mut out, len_u32(sphere_count));
+    out.push(sh.order);
+    out.push(sh.colour_space.code());
+    out.push(sh.basis.code());
+    out.extend_from_slice(&[0; 9]);
+    for c in &sh.coefficients {
+        put_f32s(&mut out, c);
+    }
+    out
+}
+
+fn skin_section(skin: &SkinTerms) -> Vec<u8> {
+    let sphere_count =
+        usize::try_from(skin.bones_per_sphere).ok().and_then(|k| skin.entries.len().checked_div(k)).unwrap_or(0);
+    let mut out = Vec::with_capacity(16 + 20 * skin.entries.len());
+    put_u32(&mut out, len_u32(sphere_count));
+    put_u32(&mut out, skin.bones_per_sphere);
+    out.extend_from_slice(&[0; 8]);
+    for e in &skin.entries {
+        put_u32(&mut out, e.bone);
+        put_f32s(&mut out, &e.q);
+        put_f32(&mut out, e.b);
+    }
+    out
+}
+
+fn bones_section(bones: &[BoneRecord]) -> Vec<u8> {
+    let name_bytes: usize = bones.iter().map(|b| b.name.len()).sum();
+    let mut out = Vec::new();
+    put_u32(&mut out, len_u32(bones.len()));
+    put_u32(&mut out, len_u32(name_bytes));
+    out.extend_from_slice(&[0; 8]);
+    let mut name_offset = 0usize;
+    for b in bones {
+        put_u32(&mut out, b.parent.unwrap_or(NO_PARENT));
+        put_u32(&mut out, len_u32(name_offset));
+        put_u32(&mut out, len_u32(b.name.len()));
+        put_u32(&mut out, 0);
+        put_f32s(&mut out, &b.inverse_bind);
+        name_offset = name_offset.saturating_add(b.name.len());
+    }
+    for b in bones {
+        out.extend_from_slice(b.name.as_bytes());
+    }
+    out
+}
+
+fn metadata_section(m: &Metadata) -> Vec<u8> {
+    let mut pairs: Vec<(&str, &str)> = Vec::with_capacity(4 + m.extra.len());
+    pairs.push(("tool_version", &m.tool_version));
+    pairs.push(("settings", &m.settings));
+    pairs.push(("input_hash", &m.input_hash));
+    pairs.push(("units", &m.units));
+    for (k, v) in &m.extra {
+        pairs.push((k, v));
+    }
+    let string_bytes: usize = pairs.iter().map(|(k, v)| k.len() + v.len()).sum();
+    let mut out = Vec::new();
+    put_u32(&mut out, len_u32(pairs.len()));
+    put_u32(&mut out, len_u32(string_bytes));
+    out.extend_from_slice(&[0; 8]);
+    let mut at = 0usize;
+    for (k, v) in &pairs {
+        put_u32(&mut out, len_u32(at));
+        put_u32(&mut out, len_u32(k.len()));
+        at = at.saturating_add(k.len());
+        put_u32(&mut out, len_u32(at));
+        put_u32(&mut out, len_u32(v.len()));
+        at = at.saturating_add(v.len());
+    }
+    for (k, v) in &pairs {
+        out.extend_from_slice(k.as_bytes());
+        out.extend_from_slice(v.as_bytes());
+    }
+    out
+}
+
+/// Encodes `file` as `.sphb` v1 bytes (format version [`FORMAT_MAJOR`].[`FORMAT_MINOR`]).
+///
+/// The output is deterministic: the same model gives the same bytes, sections are written in
+/// ascending kind order, every padding and reserved byte is zero.
+/// Floats are stored bit for bit.
+/// The writer does not validate; a model that breaks a rule (say a radius of 0 or a leaf index
+/// past the sphere count) gives bytes that [`read`](crate::read) rejects with that rule.
+///
+/// # Panics
+///
+/// Never.
+#[must_use]
+pub fn write(file: &SphbFile) -> Vec<u8> {
+    let mut sections: Vec<(SectionKind, Vec<u8>)> = Vec::with_capacity(7);
+    sections.push((SectionKind::Spheres, spheres_section(&file.spheres)));
+    if let Some(h) = &file.hierarchy {
+        sections.push((SectionKind::Hierarchy, hierarchy_section(h)));
+    }
+    if let Some(s) = &file.samples {
+        sections.push((SectionKind::Samples, samples_section(s)));
+    }
+    if let Some(sh) = &file.albedo_sh {
+        sections.push((SectionKind::AlbedoSh, albedo_sh_section(sh)));
+    }
+    if let Some(skin) = &file.skin {
+        sections.push((SectionKind::Skin, skin_section(skin)));
+    }
+    if let Some(bones) = &file.bones {
+        sections.push((SectionKind::Bones, bones_section(bones)));
+    }
+    if let Some(m) = &file.metadata {
+        sections.push((SectionKind::Metadata, metadata_section(m)));
+    }
+
+    let table_offset = HEADER_SIZE;
+    let table_len = SECTION_ENTRY_SIZE * sections.len();
+    let mut out = alloc::vec![0; table_offset + table_len];
+    pad_to_align(&mut out);
+    let mut entries: Vec<u8> = Vec::with_capacity(table_len);
+    for (kind, body) in &sections {
+        let offset = out.len() as u64;
+        put_u32(&mut entries, kind.code());
+        put_u32(&mut entries, 0);
+        entries.extend_from_slice(&offset.to_le_bytes());
+        entries.extend_from_slice(&(body.len() as u64).to_le_bytes());
+        put_u32(&mut entries, crc32fast::hash(body));
+        put_u32(&mut entries, 0);
+        out.extend_from_slice(body);
+        pad_to_align(&mut out);
+    }
+    let file_size = out.len() as u64;
+    if let Some(table) = out.get_mut(table_offset..table_offset + table_len) {
+        table.copy_from_slice(&entries);
+    }
+
+    let mut header: Vec<u8> = Vec::with_capacity(HEADER_SIZE);
+    header.extend_from_slice(&MAGIC);
+    header.extend_from_slice(&FORMAT_MAJOR.to_le_bytes());
+    header.extend_from_slice(&FORMAT_MINOR.to_le_bytes());
+    put_u32(&mut header, len_u32(HEADER_SIZE));
+    put_u32(&mut header, 0);
+    put_u32(&mut header, len_u32(sections.len()));
+    header.extend_from_slice(&(table_offset as u64).to_le_bytes());
+    header.extend_from_slice(&file_size.to_le_bytes());
+    put_u32(&mut header, crc32fast::hash(&entries));
+    let header_crc = crc32fast::hash(&header);
+    put_u32(&mut header, header_crc);
+    header.resize(HEADER_SIZE, 0);
+    if let Some(h) = out.get_mut(..HEADER_SIZE) {
+        h.copy_from_slice(&header);
+    }
+    out
+}
+
+impl SphbFile {
+    /// Encodes this file; see [`write`].
+    #[must_use]
+    pub fn to_bytes(&self) -> Vec<u8> {
+        write(self)
+    }
+}
