@@ -7,9 +7,13 @@
 //! Conventions: right-handed, positions in model (scene) space in the input's own units
 //! (glTF: metres), colours in linear RGB unless a name says `srgb`.
 
+pub mod bvh;
 pub mod mesh;
+pub mod sphere;
 pub mod topology;
 pub mod volume;
+pub mod voxel;
+pub mod winding;
 
 pub use glam;
 pub use mesh::*;

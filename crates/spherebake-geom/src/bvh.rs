@@ -1,0 +1,420 @@
+//! Triangle BVH with watertight ray casts and box / ball overlap queries.
+//!
+//! The tree *topology* comes from obvhs 0.4 (PLOC builder, `fast_build` preset, built without
+//! obvhs' `parallel` feature so the tree is the same on every run). It is then copied into a flat
+//! node array of our own with bounding boxes recomputed in f64 from the triangles' f32 corners and
+//! padded by a tiny relative margin, so box tests are conservative.
+//!
+//! Ray/triangle intersection is the watertight test of Woop, Benthin and Wald (JCGT 2013),
+//! evaluated in f64: a ray through a shared edge or vertex hits every triangle that touches it
+//! (it never slips between two triangles). Results never depend on the tree's shape: `ray_hits`
+//! sorts by (t, triangle), `closest_hit` breaks ties by the lowest triangle index, the box and
+//! ball queries return ascending triangle indices.
+//!
+//! Input tolerance: triangles with an out-of-range vertex index or a non-finite coordinate are
+//! left out of the tree (never hit, never returned); degenerate (zero-area) triangles are kept in
+//! the tree but a ray never hits them (zero determinant). Nothing here panics on input data.
+//!
+//! Cost: build O(T log T); a ray, ball or box query visits O(log T) nodes plus the answer size.
+
+use glam::{DVec3, Vec3};
+use obvhs::{aabb::Aabb, bvh2::builder::build_bvh2, BvhBuildParams};
+
+/// One ray/triangle intersection.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Hit {
+    /// Ray parameter: the hit point is `origin + t * dir` (units of `dir`'s length).
+    pub t: f32,
+    /// Index of the triangle in the input triangle list.
+    pub triangle: u32,
+    /// Barycentric coordinates: `p = (1 - u - v) a + u b + v c` for triangle `[a, b, c]`.
+    pub u: f32,
+    pub v: f32,
+}
+
+/// A hit in f64 with the sign of the crossing, used internally (voxelization).
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct HitF64 {
+    pub t: f64,
+    pub triangle: u32,
+    /// Weights of the three corners (sum 1).
+    pub bary: [f64; 3],
+    /// `sign(det)`: +1 when the ray leaves through the triangle's front side (dir · n > 0 for the
+    /// counter-clockwise normal n = (b - a) × (c - a)), −1 when it enters.
+    pub exiting: bool,
+}
+
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Node {
+    pub min: DVec3,
+    pub max: DVec3,
+    /// Inner node: index of the left child (right child = `left + 1`). Leaf: first entry in `prims`.
+    pub first: u32,
+    /// 0 for inner nodes, number of triangles for leaves.
+    pub count: u32,
+}
+
+impl Node {
+    #[inline]
+    pub fn is_leaf(&self) -> bool {
+        self.count > 0
+    }
+}
+
+/// Bounding volume hierarchy over a triangle list (see the module docs).
+#[derive(Clone, Debug, Default)]
+pub struct TriangleBvh {
+    /// Corners of every input triangle in f64 (zero for invalid triangles), indexed by triangle.
+    pub(crate) tris: Vec<[DVec3; 3]>,
+    /// Flat node array; node 0 is the root. Empty when no triangle is valid.
+    pub(crate) nodes: Vec<Node>,
+    /// Triangle indices referenced by leaves.
+    pub(crate) prims: Vec<u32>,
+}
+
+fn pad_box(min: DVec3, max: DVec3) -> (DVec3, DVec3) {
+    let scale = min.abs().max(max.abs()).max_element() + (max - min).max_element();
+    let pad = DVec3::splat(scale * 1e-12 + f64::MIN_POSITIVE);
+    (min - pad, max + pad)
+}
+
+impl TriangleBvh {
+    /// Builds the tree. `positions` in model space; `triangles` index `positions`.
+    pub fn new(positions: &[Vec3], triangles: &[[u32; 3]]) -> Self {
+        let mut tris = Vec::with_capacity(triangles.len());
+        let mut aabbs = Vec::new();
+        let mut indices = Vec::new();
+        for (ti, tri) in triangles.iter().enumerate() {
+            let corners = tri.map(|i| positions.get(i as usize).copied());
+            match corners {
+                [Some(a), Some(b), Some(c)] if a.is_finite() && b.is_finite() && c.is_finite() => {
+                    tris.push([a.as_dvec3(), b.as_dvec3(), c.as_dvec3()]);
+                    let min = a.min(b).min(c);
+                    let max = a.max(b).max(c);
+                    aabbs.push(Aabb::new(min.into(), max.into()));
+                    indices.push(ti as u32);
+                }
+                _ => tris.push([DVec3::ZERO; 3]),
+            }
+        }
+        let mut bvh = TriangleBvh { tris, nodes: Vec::new(), prims: Vec::with_capacity(indices.len()) };
+        if aabbs.is_empty() {
+            return bvh;
+        }
+        let mut params = BvhBuildParams::fast_build();
+        params.max_prims_per_leaf = 4;
+        // `build_bvh2` pairs `aabbs[i]` with primitive id `i`; map back through `indices`.
+        let b2 = build_bvh2(&aabbs, params, &mut std::time::Duration::default());
+        if b2.nodes.is_empty() {
+            return bvh;
+        }
+        // Copy the topology (iteratively, depth-first) and recompute boxes bottom-up.
+        bvh.nodes.push(Node { min: DVec3::ZERO, max: DVec3::ZERO, first: 0, count: 0 });
+        let mut stack = vec![(0usize, 0usize)]; // (obvhs node, our node)
+        while let Some((src, dst)) = stack.pop() {
+            let n = &b2.nodes[src];
+            if n.is_leaf() {
+                let first = bvh.prims.len() as u32;
+                for k in n.first_index..n.first_index + n.prim_count {
+                    let local = b2.primitive_indices[k as usize] as usize;
+                    bvh.prims.push(indices[local]);
+                }
+                bvh.nodes[dst].first = first;
+                bvh.nodes[dst].count = n.prim_count;
+            } else {
+                let left = bvh.nodes.len();
+                bvh.nodes.push(Node { min: DVec3::ZERO, max: DVec3::ZERO, first: 0, count: 0 });
+                bvh.nodes.push(Node { min: DVec3::ZERO, max: DVec3::ZERO, first: 0, count: 0 });
+                bvh.nodes[dst].first = left as u32;
+                stack.push((n.first_index as usize, left));
+                stack.push((n.first_index as usize + 1, left + 1));
+            }
+        }
+        // Children always have larger indices than their parent: refit in reverse order.
+        for i in (0..bvh.nodes.len()).rev() {
+            let n = bvh.nodes[i];
+            let (min, max) = if n.is_leaf() {
+                let mut min = DVec3::INFINITY;
+                let mut max = DVec3::NEG_INFINITY;
+                for &t in &bvh.prims[n.first as usize..(n.first + n.count) as usize] {
+                    for p in bvh.tris[t as usize] {
+                        min = min.min(p);
+                        max = max.max(p);
+                    }
+                }
+                pad_box(min, max)
+            } else {
+                let l = bvh.nodes[n.first as usize];
+                let r = bvh.nodes[n.first as usize + 1];
+                (l.min.min(r.min), l.max.max(r.max))
+            };
+            bvh.nodes[i].min = min;
+            bvh.nodes[i].max = max;
+        }
+        bvh
+    }
+
+    /// Number of input triangles (including invalid ones that are never hit).
+    pub fn triangle_count(&self) -> usize {
+        self.tris.len()
+    }
+
+    /// All hits with `t_min < t < t_max` (f32 `t`), sorted by `t`, ties by triangle index.
+    /// A ray through a shared edge or vertex reports every triangle touching it.
+    pub fn ray_hits(&self, origin: Vec3, dir: Vec3, t_min: f32, t_max: f32, out: &mut Vec<Hit>) {
+        out.clear();
+        let (o, d) = (origin.as_dvec3(), dir.as_dvec3());
+        self.traverse_ray(o, d, t_min as f64, t_max as f64, |h| {
+            let t = h.t as f32;
+            if t > t_min && t < t_max {
+                out.push(Hit { t, triangle: h.triangle, u: h.bary[1] as f32, v: h.bary[2] as f32 });
+            }
+            None
+        });
+        out.sort_by(|a, b| a.t.total_cmp(&b.t).then(a.triangle.cmp(&b.triangle)));
+    }
+
+    /// Closest hit with `t_min < t < t_max`; equal `t` goes to the lowest triangle index.
+    pub fn closest_hit(&self, origin: Vec3, dir: Vec3, t_min: f32, t_max: f32) -> Option<Hit> {
+        let (o, d) = (origin.as_dvec3(), dir.as_dvec3());
+        let mut best: Option<Hit> = None;
+        self.traverse_ray(o, d, t_min as f64, t_max as f64, |h| {
+            let t = h.t as f32;
+            if t > t_min && t < t_max {
+                let better = match best {
+                    None => true,
+                    Some(b) => t < b.t || (t == b.t && h.triangle < b.triangle),
+                };
+                if better {
+                    best = Some(Hit { t, triangle: h.triangle, u: h.bary[1] as f32, v: h.bary[2] as f32 });
+                    // Keep boxes reachable up to (and including) the current best t.
+                    return Some(t as f64);
+                }
+            }
+            None
+        });
+        best
+    }
+
+    /// Triangles whose bounding box intersects the closed ball (a conservative superset of the
+    /// triangles that touch the ball), ascending.
+    pub fn triangles_near_sphere(&self, center: Vec3, radius: f32, out: &mut Vec<u32>) {
+        out.clear();
+        let c = center.as_dvec3();
+        let r = radius as f64;
+        if r.is_nan() || r < 0.0 || !c.is_finite() {
+            return;
+        }
+        let r2 = r * r * (1.0 + 1e-9);
+        let ball_box = |min: DVec3, max: DVec3| {
+            let q = c.clamp(min, max);
+            (q - c).length_squared() <= r2
+        };
+        self.traverse_boxes(&ball_box, |t, tri| {
+            let min = tri[0].min(tri[1]).min(tri[2]);
+            let max = tri[0].max(tri[1]).max(tri[2]);
+            if ball_box(min, max) {
+                out.push(t);
+            }
+        });
+        out.sort_unstable();
+    }
+
+    /// Triangles whose bounding box overlaps the closed box `[min, max]`, ascending.
+    pub fn triangles_in_aabb(&self, min: Vec3, max: Vec3, out: &mut Vec<u32>) {
+        out.clear();
+        let (qmin, qmax) = (min.as_dvec3(), max.as_dvec3());
+        let overlap = |a: DVec3, b: DVec3| a.cmple(qmax).all() && b.cmpge(qmin).all();
+        self.traverse_boxes(&overlap, |t, tri| {
+            let a = tri[0].min(tri[1]).min(tri[2]);
+            let b = tri[0].max(tri[1]).max(tri[2]);
+            if overlap(a, b) {
+                out.push(t);
+            }
+        });
+        out.sort_unstable();
+    }
+
+    /// Visits the triangles of every leaf whose (padded) box passes `node_test`, in tree order.
+    pub(crate) fn traverse_boxes(
+        &self,
+        node_test: &dyn Fn(DVec3, DVec3) -> bool,
+        mut visit: impl FnMut(u32, &[DVec3; 3]),
+    ) {
+        if self.nodes.is_empty() {
+            return;
+        }
+        let mut stack = Vec::with_capacity(64);
+        stack.push(0u32);
+        while let Some(i) = stack.pop() {
+            let n = self.nodes[i as usize];
+            if !node_test(n.min, n.max) {
+                continue;
+            }
+            if n.is_leaf() {
+                for &t in &self.prims[n.first as usize..(n.first + n.count) as usize] {
+                    visit(t, &self.tris[t as usize]);
+                }
+            } else {
+                stack.push(n.first + 1);
+                stack.push(n.first);
+            }
+        }
+    }
+
+    /// Ray traversal in f64. `visit` gets every hit with t in a slightly widened `[t_min, t_max]`
+    /// (callers filter exactly); it may return a new, smaller `t_max` for pruning.
+    pub(crate) fn traverse_ray(
+        &self,
+        origin: DVec3,
+        dir: DVec3,
+        t_min: f64,
+        t_max: f64,
+        mut visit: impl FnMut(&HitF64) -> Option<f64>,
+    ) {
+        if self.nodes.is_empty() || !origin.is_finite() || !dir.is_finite() || dir == DVec3::ZERO {
+            return;
+        }
+        if t_min.is_nan() || t_max.is_nan() || t_min > t_max {
+            return;
+        }
+        let pre = RayPre::new(origin, dir);
+        let inv = dir.recip();
+        let mut t_hi = t_max;
+        let mut stack = Vec::with_capacity(64);
+        stack.push(0u32);
+        while let Some(i) = stack.pop() {
+            let n = self.nodes[i as usize];
+            if !ray_box(origin, dir, inv, n.min, n.max, t_min, t_hi) {
+                continue;
+            }
+            if n.is_leaf() {
+                for &t in &self.prims[n.first as usize..(n.first + n.count) as usize] {
+                    if let Some(h) = pre.intersect(&self.tris[t as usize], t) {
+                        if let Some(new_hi) = visit(&h) {
+                            t_hi = t_hi.min(new_hi);
+                        }
+                    }
+                }
+            } else {
+                stack.push(n.first + 1);
+                stack.push(n.first);
+            }
+        }
+    }
+}
+
+/// Conservative slab test of the ray segment `[t_min, t_max]` against a closed box.
+#[inline]
+fn ray_box(o: DVec3, d: DVec3, inv: DVec3, min: DVec3, max: DVec3, t_min: f64, t_max: f64) -> bool {
+    let mut lo = t_min;
+    let mut hi = t_max;
+    for a in 0..3 {
+        if d[a] == 0.0 {
+            if o[a] < min[a] || o[a] > max[a] {
+                return false;
+            }
+        } else {
+            let t0 = (min[a] - o[a]) * inv[a];
+            let t1 = (max[a] - o[a]) * inv[a];
+            let (n, f) = if t0 <= t1 { (t0, t1) } else { (t1, t0) };
+            // Widen by a relative 1e-12 against rounding (Ize 2013 style).
+            let widen = 1e-12 * (n.abs().max(f.abs()));
+            lo = lo.max(n - widen);
+            hi = hi.min(f + widen);
+        }
+    }
+    // Allow a tiny slack at the ends: t is checked exactly by the callers.
+    lo <= hi + 1e-12 * hi.abs().max(lo.abs())
+}
+
+/// Per-ray precomputation of the watertight test (Woop, Benthin, Wald 2013).
+pub(crate) struct RayPre {
+    origin: DVec3,
+    kx: usize,
+    ky: usize,
+    kz: usize,
+    sx: f64,
+    sy: f64,
+    sz: f64,
+}
+
+impl RayPre {
+    pub(crate) fn new(origin: DVec3, dir: DVec3) -> Self {
+        let ad = dir.abs();
+        let kz = if ad.x >= ad.y && ad.x >= ad.z {
+            0
+        } else if ad.y >= ad.z {
+            1
+        } else {
+            2
+        };
+        let mut kx = (kz + 1) % 3;
+        let mut ky = (kx + 1) % 3;
+        if dir[kz] < 0.0 {
+            std::mem::swap(&mut kx, &mut ky);
+        }
+        RayPre { origin, kx, ky, kz, sx: dir[kx] / dir[kz], sy: dir[ky] / dir[kz], sz: 1.0 / dir[kz] }
+    }
+
+    /// Watertight intersection; `None` for misses and for rays parallel to the triangle's plane.
+    #[inline]
+    pub(crate) fn intersect(&self, tri: &[DVec3; 3], index: u32) -> Option<HitF64> {
+        let a = tri[0] - self.origin;
+        let b = tri[1] - self.origin;
+        let c = tri[2] - self.origin;
+        let (kx, ky, kz) = (self.kx, self.ky, self.kz);
+        let ax = a[kx] - self.sx * a[kz];
+        let ay = a[ky] - self.sy * a[kz];
+        let bx = b[kx] - self.sx * b[kz];
+        let by = b[ky] - self.sy * b[kz];
+        let cx = c[kx] - self.sx * c[kz];
+        let cy = c[ky] - self.sy * c[kz];
+        let u = cx * by - cy * bx;
+        let v = ax * cy - ay * cx;
+        let w = bx * ay - by * ax;
+        if (u < 0.0 || v < 0.0 || w < 0.0) && (u > 0.0 || v > 0.0 || w > 0.0) {
+            return None;
+        }
+        let det = u + v + w;
+        if det == 0.0 || !det.is_finite() {
+            return None;
+        }
+        let az = self.sz * a[kz];
+        let bz = self.sz * b[kz];
+        let cz = self.sz * c[kz];
+        let t = (u * az + v * bz + w * cz) / det;
+        if !t.is_finite() {
+            return None;
+        }
+        // det > 0 means the triangle winds clockwise seen along the ray in the sheared frame,
+        // i.e. its counter-clockwise normal points along the ray: the ray exits.
+        let inv = 1.0 / det;
+        Some(HitF64 { t, triangle: index, bary: [u * inv, v * inv, w * inv], exiting: det < 0.0 })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn check(dir: DVec3, expect_exiting: bool) {
+        // Triangle in the z = 1 plane, counter-clockwise seen from +z: normal +z.
+        let tri = [DVec3::new(-1.0, -1.0, 1.0), DVec3::new(2.0, -1.0, 1.0), DVec3::new(-1.0, 2.0, 1.0)];
+        let origin = DVec3::new(0.0, 0.0, 1.0) - dir;
+        let h = RayPre::new(origin, dir).intersect(&tri, 0).expect("hit");
+        assert!((h.t - 1.0).abs() < 1e-12);
+        assert_eq!(h.exiting, expect_exiting);
+        let p = tri[0] * h.bary[0] + tri[1] * h.bary[1] + tri[2] * h.bary[2];
+        assert!((p - DVec3::new(0.0, 0.0, 1.0)).length() < 1e-12);
+    }
+
+    #[test]
+    fn exiting_sign_follows_normal() {
+        check(DVec3::new(0.0, 0.0, 1.0), true);
+        check(DVec3::new(0.1, 0.2, 1.0), true);
+        check(DVec3::new(0.0, 0.0, -1.0), false);
+        check(DVec3::new(0.3, -0.2, -1.0), false);
+        check(DVec3::new(0.9, 0.0, 0.3), true);
+    }
+}

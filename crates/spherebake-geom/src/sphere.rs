@@ -1,0 +1,323 @@
+//! f64 sphere geometry for sphere sets (math reference §6): ball, cap and lens volumes, the
+//! smallest sphere around two spheres, minimal enclosing balls of points (Welzl, move-to-front)
+//! and of balls (support-set iteration).
+//!
+//! Radii and lengths are in the caller's units (model space); volumes in units³.
+//! Nothing here panics; non-finite input gives non-finite output.
+
+use glam::DVec3;
+use std::f64::consts::PI;
+
+/// Volume of a ball of radius `r`: 4/3 π r³.
+pub fn ball_volume(r: f64) -> f64 {
+    4.0 / 3.0 * PI * r * r * r
+}
+
+/// Volume of a spherical cap of height `h` cut from a ball of radius `r`: π h² (3r − h) / 3.
+/// `h` is clamped to `[0, 2r]` (0 → empty, 2r → the whole ball).
+pub fn cap_volume(r: f64, h: f64) -> f64 {
+    let h = h.clamp(0.0, 2.0 * r.max(0.0));
+    PI * h * h * (3.0 * r - h) / 3.0
+}
+
+/// Volume of the intersection of two balls with radii `r1`, `r2` and centre distance `d`.
+/// Disjoint (d ≥ r1 + r2) → 0; nested (d ≤ |r1 − r2|) → the smaller ball.
+pub fn lens_volume(r1: f64, r2: f64, d: f64) -> f64 {
+    let d = d.abs();
+    if d >= r1 + r2 {
+        return 0.0;
+    }
+    if d <= (r1 - r2).abs() {
+        return ball_volume(r1.min(r2));
+    }
+    let s = r1 + r2 - d;
+    PI * s * s * (d * d + 2.0 * d * (r1 + r2) - 3.0 * (r1 - r2) * (r1 - r2)) / (12.0 * d)
+}
+
+/// Smallest sphere containing the spheres (c1, r1) and (c2, r2); returns (centre, radius).
+pub fn sphere_pair_bound(c1: DVec3, r1: f64, c2: DVec3, r2: f64) -> (DVec3, f64) {
+    let d = c1.distance(c2);
+    if d + r2 <= r1 {
+        return (c1, r1);
+    }
+    if d + r1 <= r2 {
+        return (c2, r2);
+    }
+    let r = (d + r1 + r2) / 2.0;
+    (c1 + (c2 - c1) * ((r - r1) / d), r)
+}
+
+/// Centre of the smallest sphere through the points `support` with its centre in their affine
+/// hull (1 point: itself; 2: midpoint; 3: circumcentre in their plane; 4: circumsphere).
+/// `None` if the points are (numerically) affinely dependent.
+fn circumsphere(support: &[DVec3]) -> Option<(DVec3, f64)> {
+    let p0 = *support.first()?;
+    let k = support.len() - 1;
+    if k == 0 {
+        return Some((p0, 0.0));
+    }
+    let v: Vec<DVec3> = support[1..].iter().map(|p| *p - p0).collect();
+    // Solve G λ = b with G_jl = 2 v_j·v_l, b_j = |v_j|²; centre = p0 + Σ λ_l v_l.
+    let mut g = [[0.0f64; 4]; 3];
+    for j in 0..k {
+        for l in 0..k {
+            g[j][l] = 2.0 * v[j].dot(v[l]);
+        }
+        g[j][3] = v[j].length_squared();
+    }
+    let lambda = solve_small(&mut g, k)?;
+    let mut c = p0;
+    for l in 0..k {
+        c += v[l] * lambda[l];
+    }
+    Some((c, support.iter().map(|p| p.distance(c)).fold(0.0, f64::max)))
+}
+
+#[allow(clippy::needless_range_loop)]
+/// Gaussian elimination with partial pivoting on an augmented k×(k+1) system (k ≤ 3, the
+/// right-hand side in column 3). `None` when the matrix is numerically singular.
+fn solve_small(m: &mut [[f64; 4]; 3], k: usize) -> Option<[f64; 3]> {
+    let scale = (0..k).flat_map(|i| (0..k).map(move |j| (i, j))).map(|(i, j)| m[i][j].abs()).fold(0.0, f64::max);
+    if scale.is_nan() || scale <= 0.0 || !scale.is_finite() {
+        return None;
+    }
+    for col in 0..k {
+        let piv = (col..k).max_by(|&a, &b| m[a][col].abs().total_cmp(&m[b][col].abs()))?;
+        if m[piv][col].abs() <= 1e-12 * scale {
+            return None;
+        }
+        m.swap(col, piv);
+        for row in col + 1..k {
+            let f = m[row][col] / m[col][col];
+            for c in col..k {
+                m[row][c] -= f * m[col][c];
+            }
+            m[row][3] -= f * m[col][3];
+        }
+    }
+    let mut x = [0.0; 3];
+    for row in (0..k).rev() {
+        let mut s = m[row][3];
+        for c in row + 1..k {
+            s -= m[row][c] * x[c];
+        }
+        x[row] = s / m[row][row];
+    }
+    x.iter().all(|v| v.is_finite()).then_some(x)
+}
+
+/// Fixed-seed SplitMix64, for the one shuffle Welzl's expected-linear bound needs.
+struct SplitMix64(u64);
+impl SplitMix64 {
+    fn next(&mut self) -> u64 {
+        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        let mut z = self.0;
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        z ^ (z >> 31)
+    }
+}
+
+/// Minimal enclosing ball of points (Welzl 1991, Gärtner's move-to-front form: recursion depth
+/// ≤ 4 whatever the number of points). Deterministic: one shuffle with a fixed seed.
+/// Returns (centre, radius); empty input → (0, 0). The radius is finally raised to the largest
+/// point distance, so every point is inside. Duplicates and cospherical sets are fine: a point
+/// within 1e-12 · scale of the current ball counts as inside.
+pub fn min_enclosing_ball(points: &[DVec3]) -> (DVec3, f64) {
+    let pts: Vec<DVec3> = points.iter().copied().filter(|p| p.is_finite()).collect();
+    if pts.is_empty() {
+        return (DVec3::ZERO, 0.0);
+    }
+    let mut order: Vec<usize> = (0..pts.len()).collect();
+    let mut rng = SplitMix64(0x5EED_5BE2_E0B1_BA11);
+    for i in (1..order.len()).rev() {
+        let j = (rng.next() % (i as u64 + 1)) as usize;
+        order.swap(i, j);
+    }
+    let scale = pts.iter().map(|p| p.abs().max_element()).fold(0.0, f64::max).max(f64::MIN_POSITIVE);
+    let tol = 1e-12 * scale;
+    let mut list: Vec<DVec3> = order.iter().map(|&i| pts[i]).collect();
+    let mut support: Vec<DVec3> = Vec::with_capacity(4);
+    let (c, _) = mtf_mb(&mut list, pts.len(), &mut support, tol);
+    let r = pts.iter().map(|p| p.distance(c)).fold(0.0, f64::max);
+    (c, r)
+}
+
+fn mtf_mb(list: &mut [DVec3], end: usize, support: &mut Vec<DVec3>, tol: f64) -> (DVec3, f64) {
+    let mut ball =
+        if support.is_empty() { (list[0], -1.0) } else { circumsphere(support).unwrap_or((support[0], 0.0)) };
+    if support.len() == 4 {
+        return ball;
+    }
+    let mut i = 0;
+    while i < end {
+        let p = list[i];
+        if ball.1 < 0.0 || p.distance(ball.0) > ball.1 + tol {
+            support.push(p);
+            let candidate = if circumsphere(support).is_some() { Some(mtf_mb(list, i, support, tol)) } else { None };
+            support.pop();
+            if let Some(b) = candidate {
+                ball = b;
+                // Move p to the front.
+                list[..=i].rotate_right(1);
+            }
+        }
+        i += 1;
+    }
+    if ball.1 < 0.0 {
+        ball.1 = 0.0;
+    }
+    ball
+}
+
+/// Minimal ball enclosing balls `(centre, radius)` (radii ≥ 0; negative radii count as 0).
+///
+/// Support-set iteration: keep the ≤ 4 balls that define the current minimal ball, add the most
+/// violating input ball, recompute the minimal ball of that ≤ 5-set exactly (every subset's
+/// internally tangent ball, solved in closed form: a linear system plus one quadratic), repeat
+/// until no ball sticks out by more than 1e-12 · scale. The radius only grows, so it terminates.
+/// Finally the radius is raised to max(|c − cᵢ| + rᵢ) · (1 + 1e-14), so every input ball is inside.
+/// Empty input → (0, 0).
+pub fn min_enclosing_ball_of_balls(balls: &[(DVec3, f64)]) -> (DVec3, f64) {
+    let balls: Vec<(DVec3, f64)> =
+        balls.iter().filter(|(c, r)| c.is_finite() && r.is_finite()).map(|&(c, r)| (c, r.max(0.0))).collect();
+    if balls.is_empty() {
+        return (DVec3::ZERO, 0.0);
+    }
+    let scale = balls.iter().map(|(c, r)| c.abs().max_element() + r).fold(0.0, f64::max).max(f64::MIN_POSITIVE);
+    let tol = 1e-12 * scale;
+    // Start with the largest ball (lowest index on ties).
+    let first = (0..balls.len()).fold(0, |b, i| if balls[i].1 > balls[b].1 { i } else { b });
+    let mut support = vec![first];
+    let mut cur = balls[first];
+    for _ in 0..10_000 {
+        // Most violating ball (lowest index on ties).
+        let mut worst = None;
+        let mut worst_excess = tol;
+        for (i, &(c, r)) in balls.iter().enumerate() {
+            let excess = c.distance(cur.0) + r - cur.1;
+            if excess > worst_excess {
+                worst_excess = excess;
+                worst = Some(i);
+            }
+        }
+        let Some(w) = worst else { break };
+        if support.contains(&w) {
+            break; // numerical stall
+        }
+        let mut set = support.clone();
+        set.push(w);
+        match min_ball_of_small_set(&balls, &set, tol) {
+            Some((ball, sup)) if ball.1 >= cur.1 - tol => {
+                cur = ball;
+                support = sup;
+            }
+            _ => break,
+        }
+    }
+    let r = balls.iter().map(|(c, r)| c.distance(cur.0) + r).fold(0.0, f64::max);
+    (cur.0, r * (1.0 + 1e-14))
+}
+
+/// Exact minimal enclosing ball of at most 5 balls `set` (indices into `balls`) by enumerating
+/// the subsets' tangent balls; returns the ball and its defining subset.
+fn min_ball_of_small_set(balls: &[(DVec3, f64)], set: &[usize], tol: f64) -> Option<((DVec3, f64), Vec<usize>)> {
+    let n = set.len();
+    let mut best: Option<((DVec3, f64), Vec<usize>)> = None;
+    for mask in 1u32..(1 << n) {
+        let sub: Vec<usize> = (0..n).filter(|&k| mask & (1 << k) != 0).map(|k| set[k]).collect();
+        if sub.len() > 4 {
+            continue;
+        }
+        for cand in tangent_balls(balls, &sub) {
+            let encloses = set.iter().all(|&j| balls[j].0.distance(cand.0) + balls[j].1 <= cand.1 + tol);
+            let smaller = match &best {
+                None => true,
+                Some((b, bs)) => cand.1 < b.1 - tol || (cand.1 <= b.1 + tol && sub.len() < bs.len()),
+            };
+            if encloses && smaller {
+                best = Some((cand, sub.clone()));
+            }
+        }
+    }
+    best
+}
+
+/// Balls (c, R) with every ball of `sub` internally tangent (|c − cⱼ| + rⱼ = R) and c in the affine
+/// hull of the centres. Up to two solutions; none if the centres are affinely dependent.
+fn tangent_balls(balls: &[(DVec3, f64)], sub: &[usize]) -> Vec<(DVec3, f64)> {
+    let (c0, r0) = balls[sub[0]];
+    let k = sub.len() - 1;
+    if k == 0 {
+        return vec![(c0, r0)];
+    }
+    // x = c − c0 = Σ λ_l v_l; x·v_j = a_j + R b_j with a_j = (|v_j|² − r_j² + r0²)/2, b_j = r_j − r0.
+    let v: Vec<DVec3> = sub[1..].iter().map(|&j| balls[j].0 - c0).collect();
+    let mut ga = [[0.0f64; 4]; 3];
+    let mut gb = [[0.0f64; 4]; 3];
+    for j in 0..k {
+        let rj = balls[sub[j + 1]].1;
+        for l in 0..k {
+            ga[j][l] = v[j].dot(v[l]);
+            gb[j][l] = ga[j][l];
+        }
+        ga[j][3] = (v[j].length_squared() - rj * rj + r0 * r0) / 2.0;
+        gb[j][3] = rj - r0;
+    }
+    let (Some(la), Some(lb)) = (solve_small(&mut ga, k), solve_small(&mut gb, k)) else {
+        return Vec::new();
+    };
+    let mut xa = DVec3::ZERO;
+    let mut xb = DVec3::ZERO;
+    for l in 0..k {
+        xa += v[l] * la[l];
+        xb += v[l] * lb[l];
+    }
+    // |xa + R xb|² = (R − r0)²  →  qa R² + qb R + qc = 0.
+    let qa = xb.length_squared() - 1.0;
+    let qb = 2.0 * (xa.dot(xb) + r0);
+    let qc = xa.length_squared() - r0 * r0;
+    let rmax = sub.iter().map(|&j| balls[j].1).fold(0.0, f64::max);
+    let mut roots = Vec::with_capacity(2);
+    if qa.abs() < 1e-14 {
+        if qb != 0.0 {
+            roots.push(-qc / qb);
+        }
+    } else {
+        let disc = qb * qb - 4.0 * qa * qc;
+        if disc >= 0.0 {
+            let s = disc.sqrt();
+            // Numerically stable pair of roots.
+            let q = -0.5 * (qb + qb.signum() * s);
+            if q != 0.0 {
+                roots.push(qc / q);
+            }
+            roots.push(q / qa);
+        }
+    }
+    roots
+        .into_iter()
+        .filter(|r| r.is_finite() && *r >= rmax - 1e-12 * (1.0 + rmax))
+        .map(|r| (c0 + xa + xb * r, r))
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn check(points: &[DVec3], center: DVec3, radius: f64) {
+        let (c, r) = min_enclosing_ball(points);
+        assert!((c - center).length() < 1e-9, "{c} vs {center}");
+        assert!((r - radius).abs() < 1e-9, "{r} vs {radius}");
+    }
+
+    #[test]
+    fn small_cases() {
+        check(&[DVec3::ONE], DVec3::ONE, 0.0);
+        check(&[DVec3::ZERO, DVec3::X * 2.0], DVec3::X, 1.0);
+        check(&[DVec3::ZERO, DVec3::ZERO, DVec3::ZERO], DVec3::ZERO, 0.0);
+        // Collinear: the two extremes decide.
+        check(&[DVec3::ZERO, DVec3::X, DVec3::X * 4.0, DVec3::X * 2.0], DVec3::X * 2.0, 2.0);
+    }
+}

@@ -1,0 +1,292 @@
+//! Generalized winding number of a triangle soup (Jacobson, Kavan, Sorkine-Hornung 2013) with
+//! the hierarchical evaluation of Barill et al. 2018 ("Fast winding numbers for soups and
+//! clouds"), in f64.
+//!
+//! `w(q) = Σ_t Ω_t(q) / 4π` where `Ω_t` is the signed solid angle of triangle t seen from q
+//! (Van Oosterom & Strackee), positive when q is behind the triangle's counter-clockwise normal.
+//! For a closed, outward-oriented mesh w is 1 inside and 0 outside; around holes it varies
+//! smoothly; duplicated triangles and overlapping parts add up (2 in a doubled region); a flipped
+//! mesh gives −1 inside.
+//!
+//! Fast evaluation: every node of the [`TriangleBvh`] stores the area-weighted centroid p̃ of its
+//! triangles, a radius r (p̃ to the farthest corner of the node box) and the first three terms of
+//! the Taylor expansion of the integrand around p̃: the dipole Σ aₜnₜ (order 1), the 3×3 matrix
+//! Σ nₜ ⊗ ∫(x − p̃) dA (order 2) and the 3×3×3 tensor Σ nₜ ⊗ ∫(x − p̃)(x − p̃)ᵀ dA (order 3,
+//! symmetric in its last two indices, 18 numbers). A node with |q − p̃| > β r (β = 2) is replaced
+//! by its expansion; nearer nodes are opened, and leaves near q are summed exactly.
+//! Build O(T log T) (moments are summed bottom-up), evaluation O(log T)-ish per point.
+//! Measured accuracy (tests): |fast − exact| ≲ 1e-3 in the worst case, typically 1e-5.
+
+use crate::bvh::TriangleBvh;
+use glam::{DVec3, Vec3};
+use std::f64::consts::PI;
+
+/// Opening criterion: a node is approximated when |q − p̃| > BETA · r.
+const BETA: f64 = 2.0;
+
+#[derive(Clone, Copy, Debug, Default)]
+struct Expansion {
+    center: DVec3,
+    /// (β r)², compared with |q − p̃|².
+    open_radius2: f64,
+    /// Σ aₜ nₜ.
+    n: DVec3,
+    /// M[i][j] = Σ nᵢ ∫(x − p̃)ⱼ dA.
+    m: [[f64; 3]; 3],
+    /// C[i][jk] = Σ nᵢ ∫(x − p̃)ⱼ(x − p̃)ₖ dA, jk in (xx, yy, zz, xy, xz, yz).
+    c: [[f64; 6]; 3],
+}
+
+/// Raw moments about a global reference point g, summable bottom-up.
+#[derive(Clone, Copy, Debug, Default)]
+struct Raw {
+    area: f64,
+    /// Σ aₜ (centroidₜ − g).
+    area_centroid: DVec3,
+    n: DVec3,
+    /// Σ nᵢ ∫(x − g)ⱼ dA.
+    m: [[f64; 3]; 3],
+    /// Σ nᵢ ∫(x − g)ⱼ(x − g)ₖ dA (6 symmetric components).
+    c: [[f64; 6]; 3],
+}
+
+const PAIRS: [(usize, usize); 6] = [(0, 0), (1, 1), (2, 2), (0, 1), (0, 2), (1, 2)];
+
+impl Raw {
+    fn of_triangle(t: &[DVec3; 3], g: DVec3) -> Raw {
+        let a = t[0] - g;
+        let b = t[1] - g;
+        let c = t[2] - g;
+        let n = 0.5 * (b - a).cross(c - a); // area-weighted normal
+        let area = n.length();
+        let cen = (a + b + c) / 3.0;
+        let mut raw = Raw { area, area_centroid: cen * area, n, ..Default::default() };
+        let d = [a - cen, b - cen, c - cen];
+        for i in 0..3 {
+            for j in 0..3 {
+                raw.m[i][j] = n[i] * cen[j];
+            }
+            for (s, &(j, k)) in PAIRS.iter().enumerate() {
+                let second = cen[j] * cen[k] + (d[0][j] * d[0][k] + d[1][j] * d[1][k] + d[2][j] * d[2][k]) / 12.0;
+                raw.c[i][s] = n[i] * second;
+            }
+        }
+        raw
+    }
+
+    fn add(&mut self, o: &Raw) {
+        self.area += o.area;
+        self.area_centroid += o.area_centroid;
+        self.n += o.n;
+        for i in 0..3 {
+            for j in 0..3 {
+                self.m[i][j] += o.m[i][j];
+            }
+            for s in 0..6 {
+                self.c[i][s] += o.c[i][s];
+            }
+        }
+    }
+
+    /// Moments about p = g + shift.
+    fn expansion(&self, shift: DVec3, radius: f64) -> Expansion {
+        let mut e = Expansion { center: shift, open_radius2: (BETA * radius).powi(2), n: self.n, ..Default::default() };
+        let p = shift;
+        for i in 0..3 {
+            for j in 0..3 {
+                e.m[i][j] = self.m[i][j] - self.n[i] * p[j];
+            }
+            for (s, &(j, k)) in PAIRS.iter().enumerate() {
+                e.c[i][s] = self.c[i][s] - p[k] * self.m[i][j] - p[j] * self.m[i][k] + p[j] * p[k] * self.n[i];
+            }
+        }
+        e
+    }
+}
+
+/// Fast generalized winding number of a triangle soup (see the module docs).
+#[derive(Clone, Debug, Default)]
+pub struct WindingNumber {
+    bvh: TriangleBvh,
+    /// One expansion per BVH node; centres are absolute (model space).
+    exps: Vec<Expansion>,
+}
+
+impl WindingNumber {
+    /// Builds the BVH and the per-node expansions. Invalid triangles (index out of range,
+    /// non-finite corner) are ignored.
+    pub fn new(positions: &[Vec3], triangles: &[[u32; 3]]) -> Self {
+        Self::from_bvh(TriangleBvh::new(positions, triangles))
+    }
+
+    /// Uses an existing BVH (avoids a second build).
+    pub fn from_bvh(bvh: TriangleBvh) -> Self {
+        let nodes = &bvh.nodes;
+        if nodes.is_empty() {
+            return WindingNumber { bvh, exps: Vec::new() };
+        }
+        let g = (nodes[0].min + nodes[0].max) * 0.5;
+        let mut raws = vec![Raw::default(); nodes.len()];
+        for i in (0..nodes.len()).rev() {
+            let n = nodes[i];
+            let mut r = Raw::default();
+            if n.is_leaf() {
+                for &t in &bvh.prims[n.first as usize..(n.first + n.count) as usize] {
+                    r.add(&Raw::of_triangle(&bvh.tris[t as usize], g));
+                }
+            } else {
+                r = raws[n.first as usize];
+                let right = raws[n.first as usize + 1];
+                r.add(&right);
+            }
+            raws[i] = r;
+        }
+        let exps = (0..nodes.len())
+            .map(|i| {
+                let n = nodes[i];
+                let raw = &raws[i];
+                let box_center = (n.min + n.max) * 0.5 - g;
+                let p = if raw.area > 0.0 { raw.area_centroid / raw.area } else { box_center };
+                let far = (n.min - g - p).abs().max((n.max - g - p).abs());
+                let mut e = raw.expansion(p, far.length());
+                e.center = p + g;
+                e
+            })
+            .collect();
+        WindingNumber { bvh, exps }
+    }
+
+    /// The BVH the evaluation uses.
+    pub fn bvh(&self) -> &TriangleBvh {
+        &self.bvh
+    }
+
+    /// Fast hierarchical winding number at `p` (model space): ≈1 inside, ≈0 outside.
+    pub fn eval(&self, p: DVec3) -> f64 {
+        if self.exps.is_empty() || !p.is_finite() {
+            return 0.0;
+        }
+        let mut sum = 0.0;
+        let mut stack: Vec<u32> = Vec::with_capacity(64);
+        stack.push(0);
+        while let Some(i) = stack.pop() {
+            let e = &self.exps[i as usize];
+            let r = e.center - p;
+            let d2 = r.length_squared();
+            if d2 > e.open_radius2 {
+                sum += eval_expansion(e, r, d2);
+                continue;
+            }
+            let n = self.bvh.nodes[i as usize];
+            if n.is_leaf() {
+                for &t in &self.bvh.prims[n.first as usize..(n.first + n.count) as usize] {
+                    sum += solid_angle(&self.bvh.tris[t as usize], p);
+                }
+            } else {
+                stack.push(n.first);
+                stack.push(n.first + 1);
+            }
+        }
+        sum / (4.0 * PI)
+    }
+
+    /// Brute-force reference: sum of all triangles' solid angles / 4π, in triangle order.
+    pub fn eval_exact(&self, p: DVec3) -> f64 {
+        if !p.is_finite() {
+            return 0.0;
+        }
+        let mut sum = 0.0;
+        for &t in self.sorted_prims().iter() {
+            sum += solid_angle(&self.bvh.tris[t as usize], p);
+        }
+        sum / (4.0 * PI)
+    }
+
+    fn sorted_prims(&self) -> Vec<u32> {
+        let mut v = self.bvh.prims.clone();
+        v.sort_unstable();
+        v
+    }
+}
+
+/// Order 1–3 expansion times 4π; `r` = p̃ − q, `d2` = |r|².
+#[inline]
+fn eval_expansion(e: &Expansion, r: DVec3, d2: f64) -> f64 {
+    let inv_d = 1.0 / d2.sqrt();
+    let inv_d2 = inv_d * inv_d;
+    let inv_d3 = inv_d2 * inv_d;
+    let inv_d5 = inv_d3 * inv_d2;
+    let inv_d7 = inv_d5 * inv_d2;
+    let rr = [r.x, r.y, r.z];
+    // Order 1: dipole.
+    let o1 = e.n.dot(r) * inv_d3;
+    // Order 2: J : M with J = I/|r|³ − 3 r rᵀ/|r|⁵.
+    let tr = e.m[0][0] + e.m[1][1] + e.m[2][2];
+    let mut rmr = 0.0;
+    for i in 0..3 {
+        for j in 0..3 {
+            rmr += rr[i] * e.m[i][j] * rr[j];
+        }
+    }
+    let o2 = tr * inv_d3 - 3.0 * rmr * inv_d5;
+    // Order 3: ½ H : C.
+    let cfull = |i: usize, j: usize, k: usize| -> f64 {
+        let s = match (j.min(k), j.max(k)) {
+            (0, 0) => 0,
+            (1, 1) => 1,
+            (2, 2) => 2,
+            (0, 1) => 3,
+            (0, 2) => 4,
+            _ => 5,
+        };
+        e.c[i][s]
+    };
+    let mut t1 = 0.0; // Σ_ik r_k C_iik
+    let mut t3 = 0.0; // Σ_i r_i Σ_j C_ijj
+    let mut t4 = 0.0; // Σ r_i r_j r_k C_ijk
+    for i in 0..3 {
+        let mut trj = 0.0;
+        for j in 0..3 {
+            t1 += rr[j] * cfull(i, i, j);
+            trj += cfull(i, j, j);
+            for k in 0..3 {
+                t4 += rr[i] * rr[j] * rr[k] * cfull(i, j, k);
+            }
+        }
+        t3 += rr[i] * trj;
+    }
+    let o3 = 0.5 * (-3.0 * inv_d5 * (2.0 * t1 + t3) + 15.0 * inv_d7 * t4);
+    o1 + o2 + o3
+}
+
+/// Signed solid angle of triangle `t` seen from `q` (steradians, in [−2π, 2π]).
+#[inline]
+pub(crate) fn solid_angle(t: &[DVec3; 3], q: DVec3) -> f64 {
+    let a = t[0] - q;
+    let b = t[1] - q;
+    let c = t[2] - q;
+    let la = a.length();
+    let lb = b.length();
+    let lc = c.length();
+    let num = a.dot(b.cross(c));
+    let den = la * lb * lc + a.dot(b) * lc + b.dot(c) * la + c.dot(a) * lb;
+    2.0 * num.atan2(den)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn octant_solid_angle() {
+        // Octant triangle: from the origin it covers 1/8 of the sphere, normal away from origin.
+        let t = [DVec3::X, DVec3::Y, DVec3::Z];
+        assert!((solid_angle(&t, DVec3::ZERO) - 4.0 * PI / 8.0).abs() < 1e-12);
+        // Far in front of the triangle: Ω ≈ −area / d² (projected area √3/2, d to the centroid).
+        let s = 1000.0;
+        let d = 3f64.sqrt() * (s - 1.0 / 3.0);
+        let approx = -(3f64.sqrt() / 2.0) / (d * d);
+        let got = solid_angle(&[DVec3::X, DVec3::Y, DVec3::Z], DVec3::splat(s));
+        assert!((got / approx - 1.0).abs() < 1e-5, "{got} vs {approx}");
+    }
+}
