@@ -39,6 +39,7 @@ pub use cube::{
     cube_dir_to_face_uv, cube_face_uv_direction, cube_texel_direction, cube_texel_solid_angle, CubeFace, CubeProjector,
 };
 pub use geodesic::{geodesic_directions_f64, GEODESIC_DIRECTIONS, GEODESIC_DIRECTION_COUNT};
+pub use triple::{sh_product, TripleProduct, TripleProductEntry};
 pub use zonal::{
     cap_visibility_zh, cap_zh, clamped_cosine_convolution, clamped_cosine_zh, legendre_p, ren_window, zh_rotate,
     zh_rotate_f32,
