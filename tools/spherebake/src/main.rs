@@ -1,1 +1,63 @@
-fn main() {}
+//! `spherebake`: bake sphere proxies from meshes, inspect and evaluate `.sphb` files.
+//!
+//! Exit codes: 0 success, 1 an input failed (bad or unsupported input, failed validation, IO),
+//! 2 usage error. Errors print once as `spherebake: error: <file>: <what>`.
+
+mod atomic;
+mod cmd_bake;
+mod cmd_eval;
+mod cmd_inspect;
+mod json;
+
+use clap::{Parser, Subcommand};
+use std::process::ExitCode;
+
+/// Bake bounding sphere proxies (soft shadows, indirect light) from glTF and OBJ meshes.
+#[derive(Parser, Debug)]
+#[command(name = "spherebake", version, about, long_about = None,
+    after_help = "Exit status: 0 success, 1 an input failed (bad input, validation, IO), 2 usage error.")]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand, Debug)]
+enum Command {
+    /// Bake a mesh (.gltf, .glb, .obj) into a .sphb sphere proxy.
+    Bake(cmd_bake::BakeArgs),
+    /// Print a mesh's topology report, or a .sphb file's header, sections and contents.
+    Inspect(cmd_inspect::InspectArgs),
+    /// Measure a baked sphere set against its model: outside-volume ratio E, coverage, radii.
+    Eval(cmd_eval::EvalArgs),
+}
+
+fn main() -> ExitCode {
+    let cli = match Cli::try_parse() {
+        Ok(c) => c,
+        Err(e) => {
+            // clap prints help/version to stdout (exit 0) and usage errors to stderr (exit 2).
+            let code = e.exit_code();
+            let _ = e.print();
+            return ExitCode::from(code as u8);
+        }
+    };
+    let result = match cli.command {
+        Command::Bake(a) => cmd_bake::run(a),
+        Command::Inspect(a) => cmd_inspect::run(a),
+        Command::Eval(a) => cmd_eval::run(a),
+    };
+    match result {
+        Ok(code) => code,
+        Err(e) => {
+            if is_broken_pipe(&e) {
+                return ExitCode::SUCCESS;
+            }
+            eprintln!("spherebake: error: {e:#}");
+            ExitCode::from(1)
+        }
+    }
+}
+
+fn is_broken_pipe(e: &anyhow::Error) -> bool {
+    e.chain().any(|c| c.downcast_ref::<std::io::Error>().is_some_and(|io| io.kind() == std::io::ErrorKind::BrokenPipe))
+}

@@ -1,0 +1,61 @@
+//! [`BakeSettings`]: every knob of a bake, with unit, default and valid range.
+
+use serde::Serialize;
+
+/// How the sphere set is fitted.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Default)]
+#[serde(rename_all = "lowercase")]
+pub enum Method {
+    /// Variational fit of minimal outside volume (Ren et al. 2006 §6.2): Lloyd + Powell + teleportation.
+    #[default]
+    Variational,
+    /// Baseline: k-means of surface points, each sphere the bounding ball of its cluster.
+    Kmeans,
+    /// Baseline: bounding spheres of the leaf cubes of an adaptive octree.
+    Octree,
+}
+
+/// Settings of one bake. Field docs give unit, default and valid range; the CLI repeats them.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct BakeSettings {
+    /// Number of spheres in the set. Default 64, range 1..=4096.
+    pub spheres: usize,
+    /// Fitting method. Default [`Method::Variational`].
+    pub method: Method,
+    /// Target mode: find the smallest sphere count whose outside-volume ratio E is at most this.
+    /// Default none (use `spheres`), range (0, ∞).
+    pub max_outside_ratio: Option<f64>,
+    /// Voxel cells along the longest bounding-box axis, for the solid interior. Default 128, range 16..=1024.
+    pub voxels: u32,
+    /// Seed of the random start. Default 1. Same seed + input + settings → byte-identical output.
+    pub seed: u64,
+}
+
+impl Default for BakeSettings {
+    fn default() -> Self {
+        Self { spheres: 64, method: Method::Variational, max_outside_ratio: None, voxels: 128, seed: 1 }
+    }
+}
+
+impl BakeSettings {
+    /// The settings as one-line JSON (stored in the file's metadata).
+    pub fn to_json(&self) -> String {
+        serde_json::to_string(self).unwrap_or_default()
+    }
+
+    /// Checks ranges; returns a message naming the setting when one is out of range.
+    pub fn validate(&self) -> Result<(), String> {
+        if !(1..=4096).contains(&self.spheres) {
+            return Err(format!("--spheres must be in 1..=4096, got {}", self.spheres));
+        }
+        if !(16..=1024).contains(&self.voxels) {
+            return Err(format!("--voxels must be in 16..=1024, got {}", self.voxels));
+        }
+        if let Some(e) = self.max_outside_ratio {
+            if !(e.is_finite() && e > 0.0) {
+                return Err(format!("--max-outside-ratio must be a positive number, got {e}"));
+            }
+        }
+        Ok(())
+    }
+}
