@@ -289,4 +289,71 @@ mod tests {
         // Euler: V − E + F = 2 with F = 180.
         assert_eq!(92 - edges + 180, 2);
     }
+
+    fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+        [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
+    }
+
+    /// Voronoi cells from the hull triangles (triples of mutual nearest neighbours): 12 pentagons and two hexagon classes.
+    #[test]
+    fn voronoi_cells() {
+        let d = geodesic_directions_f64();
+        let near = |i: usize, j: usize| i != j && dot(d[i], d[j]) > 0.9;
+        let mut tris = std::vec::Vec::new();
+        for i in 0..92 {
+            for j in (i + 1)..92 {
+                for k in (j + 1)..92 {
+                    if near(i, j) && near(j, k) && near(i, k) {
+                        tris.push([i, j, k]);
+                    }
+                }
+            }
+        }
+        assert_eq!(tris.len(), 180);
+        let mut total = 0.0;
+        for p in 0..92 {
+            let pc = d[p];
+            // Circumcentres of the triangles around p, sorted by angle in p's tangent plane.
+            let t1 = {
+                let a = if pc[0].abs() < 0.9 { [1.0, 0.0, 0.0] } else { [0.0, 1.0, 0.0] };
+                let c = cross(pc, a);
+                let n = dot(c, c).sqrt();
+                [c[0] / n, c[1] / n, c[2] / n]
+            };
+            let t2 = cross(pc, t1);
+            let mut centres: std::vec::Vec<(f64, [f64; 3])> = tris
+                .iter()
+                .filter(|t| t.contains(&p))
+                .map(|t| {
+                    let (a, b, c) = (d[t[0]], d[t[1]], d[t[2]]);
+                    let mut n = cross([b[0] - a[0], b[1] - a[1], b[2] - a[2]], [c[0] - a[0], c[1] - a[1], c[2] - a[2]]);
+                    if dot(n, a) < 0.0 {
+                        n = [-n[0], -n[1], -n[2]];
+                    }
+                    let l = dot(n, n).sqrt();
+                    let n = [n[0] / l, n[1] / l, n[2] / l];
+                    (libm::atan2(dot(n, t2), dot(n, t1)), n)
+                })
+                .collect();
+            centres.sort_by(|a, b| a.0.total_cmp(&b.0));
+            assert_eq!(centres.len(), if p < 12 { 5 } else { 6 });
+            let mut area = 0.0;
+            for k in 0..centres.len() {
+                let (a, b) = (centres[k].1, centres[(k + 1) % centres.len()].1);
+                let num = dot(pc, cross(a, b));
+                let den = 1.0 + dot(pc, a) + dot(a, b) + dot(b, pc);
+                area += 2.0 * libm::atan2(num, den);
+            }
+            let want = if p < 12 {
+                0.1107812016
+            } else if p < 72 {
+                0.1378263993
+            } else {
+                0.1483706118
+            };
+            assert!((area - want).abs() < 1e-9, "cell {p}: {area}");
+            total += area;
+        }
+        assert!((total - 4.0 * PI).abs() < 1e-12);
+    }
 }
