@@ -1,0 +1,86 @@
+//! The error type of the importer: every variant names the file it concerns.
+
+use std::path::PathBuf;
+
+/// Why an input could not be imported. Problems the pipeline can cope with (a missing texture,
+/// a skipped line primitive) are [`spherebake_geom::Warning`]s instead.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum IoError {
+    /// The file does not exist.
+    #[error("{}: file not found", path.display())]
+    NotFound { path: PathBuf },
+    /// The file exists but could not be read.
+    #[error("{}: cannot read: {source}", path.display())]
+    Read {
+        path: PathBuf,
+        #[source]
+        source: std::io::Error,
+    },
+    /// The file name extension is not one the importer handles.
+    #[error("{}: unknown file type {extension:?} (expected .gltf, .glb or .obj)", path.display())]
+    UnknownFileType { path: PathBuf, extension: String },
+    /// A `.glb` file does not start with the `glTF` magic.
+    #[error("{}: not a binary glTF file: magic is {found:02x?}, expected \"glTF\"", path.display())]
+    WrongMagic { path: PathBuf, found: [u8; 4] },
+    /// A `.glb` container version other than 2.
+    #[error("{}: binary glTF container version {version}, only version 2 is supported", path.display())]
+    UnsupportedGlbVersion { path: PathBuf, version: u32 },
+    /// A `.glb` file (or one of its chunks) is shorter than its header says.
+    #[error("{}: truncated binary glTF: {what} needs {expected} bytes at offset {offset}, file has {actual}", path.display())]
+    Truncated { path: PathBuf, what: &'static str, offset: usize, expected: usize, actual: usize },
+    /// A `.glb` chunk layout problem other than truncation.
+    #[error("{}: bad binary glTF chunk at offset {offset}: {reason}", path.display())]
+    BadChunk { path: PathBuf, offset: usize, reason: &'static str },
+    /// The glTF JSON does not parse.
+    #[error("{}: invalid glTF JSON: {message}", path.display())]
+    Json { path: PathBuf, message: String },
+    /// The glTF JSON parses but breaks the schema (bad indices, missing fields).
+    #[error("{}: invalid glTF: {message}", path.display())]
+    Invalid { path: PathBuf, message: String },
+    /// `extensionsRequired` names an extension this importer does not implement.
+    #[error("{}: glTF requires extension {extension}, which is not supported", path.display())]
+    UnsupportedExtension { path: PathBuf, extension: String },
+    /// A buffer could not be loaded (missing `.bin`, bad data URI, too short).
+    #[error("{}: buffer {buffer}: {reason}", path.display())]
+    Buffer { path: PathBuf, buffer: usize, reason: String },
+    /// An accessor's data does not fit its buffer view / buffer or has an unexpected type.
+    #[error("{}: accessor {accessor}: {reason}", path.display())]
+    Accessor { path: PathBuf, accessor: usize, reason: String },
+    /// A triangle refers to a vertex that does not exist.
+    #[error("{}: mesh {mesh} primitive {primitive}: index {index} at position {position} is out of range (vertex count {vertex_count})", path.display())]
+    IndexOutOfRange { path: PathBuf, mesh: usize, primitive: usize, position: usize, index: u64, vertex_count: usize },
+    /// A vertex position is NaN or infinite.
+    #[error("{}: mesh {mesh} ({mesh_name:?}) primitive {primitive}: vertex {vertex} has a non-finite position {value:?}", path.display())]
+    NonFinitePosition {
+        path: PathBuf,
+        mesh: usize,
+        mesh_name: String,
+        primitive: usize,
+        vertex: usize,
+        value: [f32; 3],
+    },
+    /// A vertex names a joint its skin does not have.
+    #[error("{}: mesh {mesh} primitive {primitive}: vertex {vertex} uses joint {joint}, skin {skin} has {joint_count}", path.display())]
+    JointOutOfRange {
+        path: PathBuf,
+        mesh: usize,
+        primitive: usize,
+        vertex: usize,
+        skin: usize,
+        joint: u32,
+        joint_count: usize,
+    },
+    /// The node hierarchy is not a forest (a node with two parents, or a cycle).
+    #[error("{}: node {node}: {reason}", path.display())]
+    NodeGraph { path: PathBuf, node: usize, reason: &'static str },
+    /// An animation sampler is inconsistent.
+    #[error("{}: animation {animation} channel {channel}: {reason}", path.display())]
+    Animation { path: PathBuf, animation: usize, channel: usize, reason: String },
+    /// The OBJ parser failed.
+    #[error("{}: cannot parse OBJ: {message}", path.display())]
+    Obj { path: PathBuf, message: String },
+    /// The file imports but holds no triangles.
+    #[error("{}: no triangles to import", path.display())]
+    EmptyMesh { path: PathBuf },
+}

@@ -1,0 +1,1172 @@
+//! glTF 2.0 import (`.gltf` with external or data-URI buffers, `.glb`).
+//!
+//! The `gltf` crate parses and validates the JSON; buffers, images and accessors are read here
+//! with checked arithmetic so that no input can make the importer panic.
+
+use std::collections::HashMap;
+use std::path::{Path, PathBuf};
+
+use glam::{DMat3, DMat4, DQuat, DVec3, Mat4, Vec3};
+use gltf::accessor::{DataType, Dimensions};
+use gltf::mesh::{Mode, Semantic};
+use spherebake_geom::{
+    AnimChannel, AnimPath, Animation, Bone, FilterMode, Interpolation, Material, Mesh, Node, Skeleton, Skin,
+    SkinInfluences, TextureRef, UvTransform, WrapMode,
+};
+
+use crate::texture::decode_srgb_texture;
+use crate::{Ctx, ImportedPart, IoError};
+
+/// Extensions that may appear in `extensionsRequired`: they either do not change geometry or base
+/// colour, or are implemented here (`KHR_texture_transform`).
+const SUPPORTED_REQUIRED: &[&str] = &[
+    "KHR_texture_transform",
+    "KHR_materials_unlit",
+    "KHR_materials_emissive_strength",
+    "KHR_materials_ior",
+    "KHR_materials_specular",
+    "KHR_materials_transmission",
+    "KHR_materials_volume",
+    "KHR_materials_clearcoat",
+    "KHR_materials_sheen",
+    "KHR_lights_punctual",
+];
+
+const GLB_JSON: u32 = 0x4E4F_534A;
+const GLB_BIN: u32 = 0x004E_4942;
+
+/// Splits a `.glb` into its JSON and optional BIN chunk.
+pub(crate) fn parse_glb<'b>(path: &Path, bytes: &'b [u8]) -> Result<(&'b [u8], Option<&'b [u8]>), IoError> {
+    let p = || path.to_path_buf();
+    let trunc = |what, offset, expected, actual| IoError::Truncated { path: p(), what, offset, expected, actual };
+    if bytes.len() < 4 {
+        return Err(trunc("GLB header", 0, 12, bytes.len()));
+    }
+    let magic: [u8; 4] = [bytes[0], bytes[1], bytes[2], bytes[3]];
+    if &magic != b"glTF" {
+        return Err(IoError::WrongMagic { path: p(), found: magic });
+    }
+    if bytes.len() < 12 {
+        return Err(trunc("GLB header", 0, 12, bytes.len()));
+    }
+    let u32_at = |o: usize| u32::from_le_bytes([bytes[o], bytes[o + 1], bytes[o + 2], bytes[o + 3]]);
+    let version = u32_at(4);
+    if version != 2 {
+        return Err(IoError::UnsupportedGlbVersion { path: p(), version });
+    }
+    let length = u32_at(8) as usize;
+    if length > bytes.len() {
+        return Err(trunc("GLB file (header length)", 0, length, bytes.len()));
+    }
+    let bytes = &bytes[..length];
+    let mut offset = 12;
+    let mut json = None;
+    let mut bin = None;
+    while offset < bytes.len() {
+        if bytes.len() - offset < 8 {
+            return Err(trunc("GLB chunk header", offset, 8, bytes.len() - offset));
+        }
+        let chunk_len = u32_at(offset) as usize;
+        let chunk_type = u32_at(offset + 4);
+        let start = offset + 8;
+        if bytes.len() - start < chunk_len {
+            return Err(trunc("GLB chunk", start, chunk_len, bytes.len() - start));
+        }
+        let data = &bytes[start..start + chunk_len];
+        match (chunk_type, json.is_some()) {
+            (GLB_JSON, false) => json = Some(data),
+            (GLB_JSON, true) => return Err(IoError::BadChunk { path: p(), offset, reason: "second JSON chunk" }),
+            (_, false) => {
+                return Err(IoError::BadChunk { path: p(), offset, reason: "first chunk is not the JSON chunk" })
+            }
+            (GLB_BIN, true) if bin.is_none() => bin = Some(data),
+            _ => {} // unknown chunk types are skipped (glTF 2.0 §4.4.3)
+        }
+        offset = start + chunk_len;
+    }
+    let json = json.ok_or(IoError::BadChunk { path: p(), offset: 12, reason: "no JSON chunk" })?;
+    Ok((json, bin))
+}
+
+/// Decodes standard base64 (RFC 4648, padding optional, ASCII whitespace ignored).
+pub(crate) fn decode_base64(s: &str) -> Result<Vec<u8>, String> {
+    let mut out = Vec::with_capacity(s.len() / 4 * 3);
+    let mut acc = 0u32;
+    let mut bits = 0u32;
+    let mut seen_pad = false;
+    for (i, c) in s.bytes().enumerate() {
+        let v = match c {
+            b'A'..=b'Z' => c - b'A',
+            b'a'..=b'z' => c - b'a' + 26,
+            b'0'..=b'9' => c - b'0' + 52,
+            b'+' | b'-' => 62,
+            b'/' | b'_' => 63,
+            b'=' => {
+                seen_pad = true;
+                continue;
+            }
+            b' ' | b'\n' | b'\r' | b'\t' => continue,
+            _ => return Err(format!("invalid base64 character {:?} at offset {i}", c as char)),
+        };
+        if seen_pad {
+            return Err(format!("base64 data after padding at offset {i}"));
+        }
+        acc = (acc << 6) | u32::from(v);
+        bits += 6;
+        if bits >= 8 {
+            bits -= 8;
+            out.push((acc >> bits) as u8);
+            acc &= (1 << bits) - 1;
+        }
+    }
+    Ok(out)
+}
+
+/// Percent-decodes a relative URI reference into a path string.
+fn percent_decode(s: &str) -> String {
+    let b = s.as_bytes();
+    let mut out = Vec::with_capacity(b.len());
+    let mut i = 0;
+    while i < b.len() {
+        if b[i] == b'%' && i + 2 < b.len() {
+            let hex = |c: u8| (c as char).to_digit(16);
+            if let (Some(h), Some(l)) = (hex(b[i + 1]), hex(b[i + 2])) {
+                out.push((h * 16 + l) as u8);
+                i += 3;
+                continue;
+            }
+        }
+        out.push(b[i]);
+        i += 1;
+    }
+    String::from_utf8_lossy(&out).into_owned()
+}
+
+/// Where a URI's bytes come from.
+enum UriData {
+    Inline(Vec<u8>),
+    File(PathBuf),
+}
+
+fn resolve_uri(dir: &Path, uri: &str) -> Result<UriData, String> {
+    if let Some(rest) = uri.strip_prefix("data:") {
+        let (meta, data) = rest.split_once(',').ok_or("data URI without ','")?;
+        if !meta.ends_with(";base64") {
+            return Err("data URI is not base64-encoded".into());
+        }
+        return decode_base64(data).map(UriData::Inline);
+    }
+    if uri.contains("://") {
+        return Err(format!("URI scheme not supported: {uri}"));
+    }
+    Ok(UriData::File(dir.join(percent_decode(uri))))
+}
+
+/// Parsed document plus loaded buffer data.
+struct Source<'c> {
+    ctx: &'c mut Ctx,
+    doc: gltf::Document,
+    buffers: Vec<Vec<u8>>,
+}
+
+pub(crate) fn import(ctx: &mut Ctx, bytes: &[u8], glb: bool) -> Result<(Mesh, Vec<ImportedPart>), IoError> {
+    let path = ctx.path.clone();
+    let (json, bin) = if glb { parse_glb(&path, bytes)? } else { (bytes, None) };
+    let gltf::Gltf { document, .. } = gltf::Gltf::from_slice_without_validation(json).map_err(|e| match e {
+        gltf::Error::Deserialize(e) => IoError::Json { path: path.clone(), message: e.to_string() },
+        e => IoError::Invalid { path: path.clone(), message: e.to_string() },
+    })?;
+    let mut root = document.into_json();
+    for ext in &root.extensions_required {
+        if !SUPPORTED_REQUIRED.contains(&ext.as_str()) {
+            return Err(IoError::UnsupportedExtension { path, extension: ext.clone() });
+        }
+    }
+    // Checked above; the gltf crate would otherwise refuse extensions it has no feature for.
+    root.extensions_required.clear();
+    let doc = gltf::Document::from_json(root).map_err(|e| {
+        let message = match e {
+            gltf::Error::Validation(errs) => {
+                errs.iter().take(5).map(|(p, e)| format!("{}: {e}", p.as_str())).collect::<Vec<_>>().join("; ")
+            }
+            e => e.to_string(),
+        };
+        IoError::Invalid { path: path.clone(), message }
+    })?;
+
+    let mut buffers = Vec::new();
+    for buffer in doc.buffers() {
+        let i = buffer.index();
+        let berr = |reason: String| IoError::Buffer { path: path.clone(), buffer: i, reason };
+        let data = match buffer.source() {
+            gltf::buffer::Source::Bin => match bin {
+                Some(b) => b.to_vec(),
+                None => return Err(berr("refers to the GLB BIN chunk, which is absent".into())),
+            },
+            gltf::buffer::Source::Uri(uri) => match resolve_uri(&ctx.dir, uri).map_err(berr)? {
+                UriData::Inline(d) => d,
+                UriData::File(p) => ctx.read_referenced(&p)?,
+            },
+        };
+        if data.len() < buffer.length() {
+            return Err(berr(format!("holds {} bytes, byteLength says {}", data.len(), buffer.length())));
+        }
+        buffers.push(data);
+    }
+    let mut src = Source { ctx, doc, buffers };
+    src.build()
+}
+
+fn data_type_size(t: DataType) -> usize {
+    match t {
+        DataType::I8 | DataType::U8 => 1,
+        DataType::I16 | DataType::U16 => 2,
+        DataType::U32 | DataType::F32 => 4,
+    }
+}
+
+fn dims_count(d: Dimensions) -> usize {
+    match d {
+        Dimensions::Scalar => 1,
+        Dimensions::Vec2 => 2,
+        Dimensions::Vec3 => 3,
+        Dimensions::Vec4 => 4,
+        Dimensions::Mat2 => 4,
+        Dimensions::Mat3 => 9,
+        Dimensions::Mat4 => 16,
+    }
+}
+
+fn read_component(bytes: &[u8], t: DataType, normalized: bool) -> f64 {
+    let b = |i: usize| bytes[i];
+    match t {
+        DataType::I8 => {
+            let v = f64::from(b(0) as i8);
+            if normalized {
+                (v / 127.0).max(-1.0)
+            } else {
+                v
+            }
+        }
+        DataType::U8 => {
+            let v = f64::from(b(0));
+            if normalized {
+                v / 255.0
+            } else {
+                v
+            }
+        }
+        DataType::I16 => {
+            let v = f64::from(i16::from_le_bytes([b(0), b(1)]));
+            if normalized {
+                (v / 32767.0).max(-1.0)
+            } else {
+                v
+            }
+        }
+        DataType::U16 => {
+            let v = f64::from(u16::from_le_bytes([b(0), b(1)]));
+            if normalized {
+                v / 65535.0
+            } else {
+                v
+            }
+        }
+        DataType::U32 => f64::from(u32::from_le_bytes([b(0), b(1), b(2), b(3)])),
+        DataType::F32 => f64::from(f32::from_le_bytes([b(0), b(1), b(2), b(3)])),
+    }
+}
+
+/// Accessor data decoded to f64 (exact for every glTF component type), `comps` values per element.
+struct AccessorData {
+    comps: usize,
+    values: Vec<f64>,
+}
+
+impl AccessorData {
+    fn count(&self) -> usize {
+        self.values.len() / self.comps.max(1)
+    }
+    fn get<const N: usize>(&self, i: usize) -> [f64; N] {
+        let mut out = [0.0; N];
+        for (k, o) in out.iter_mut().enumerate().take(self.comps.min(N)) {
+            *o = self.values[i * self.comps + k];
+        }
+        out
+    }
+}
+
+impl Source<'_> {
+    fn path(&self) -> PathBuf {
+        self.ctx.path.clone()
+    }
+
+    /// The bytes of a buffer view, bounds-checked.
+    fn view_bytes(&self, view: &gltf::buffer::View, accessor: usize) -> Result<&[u8], IoError> {
+        let buf = &self.buffers[view.buffer().index()];
+        let end = view.offset().checked_add(view.length());
+        match end {
+            Some(end) if end <= buf.len() => Ok(&buf[view.offset()..end]),
+            _ => Err(IoError::Accessor {
+                path: self.path(),
+                accessor,
+                reason: format!(
+                    "buffer view {} (offset {}, length {}) exceeds buffer {} of {} bytes",
+                    view.index(),
+                    view.offset(),
+                    view.length(),
+                    view.buffer().index(),
+                    buf.len()
+                ),
+            }),
+        }
+    }
+
+    /// Reads `count` elements of `elem` bytes from `bytes` at `offset` with `stride`.
+    fn strided<'b>(
+        &self,
+        accessor: usize,
+        bytes: &'b [u8],
+        offset: usize,
+        stride: usize,
+        elem: usize,
+        count: usize,
+    ) -> Result<impl Iterator<Item = &'b [u8]> + 'b, IoError> {
+        let need = stride
+            .checked_mul(count.saturating_sub(1))
+            .and_then(|x| x.checked_add(elem))
+            .and_then(|x| x.checked_add(offset));
+        match need {
+            Some(n) if n <= bytes.len() || count == 0 => {}
+            _ => {
+                return Err(IoError::Accessor {
+                    path: self.path(),
+                    accessor,
+                    reason: format!(
+                        "{count} elements of {elem} bytes (stride {stride}) at offset {offset} exceed the {} bytes of the buffer view",
+                        bytes.len()
+                    ),
+                })
+            }
+        }
+        Ok((0..count).map(move |i| &bytes[offset + i * stride..offset + i * stride + elem]))
+    }
+
+    fn read_accessor(&self, acc: &gltf::Accessor) -> Result<AccessorData, IoError> {
+        let ai = acc.index();
+        let t = acc.data_type();
+        let csize = data_type_size(t);
+        let comps = dims_count(acc.dimensions());
+        if matches!(acc.dimensions(), Dimensions::Mat2 | Dimensions::Mat3) && csize < 4 {
+            return Err(IoError::Accessor {
+                path: self.path(),
+                accessor: ai,
+                reason: "padded matrix layout not supported".into(),
+            });
+        }
+        let elem = csize * comps;
+        let count = acc.count();
+        let norm = acc.normalized();
+        let mut values = Vec::with_capacity(count.saturating_mul(comps).min(1 << 28));
+        match acc.view() {
+            Some(view) => {
+                let bytes = self.view_bytes(&view, ai)?;
+                let stride = view.stride().unwrap_or(elem);
+                if stride < elem {
+                    return Err(IoError::Accessor {
+                        path: self.path(),
+                        accessor: ai,
+                        reason: format!("byte stride {stride} is smaller than the element size {elem}"),
+                    });
+                }
+                for e in self.strided(ai, bytes, acc.offset(), stride, elem, count)? {
+                    for k in 0..comps {
+                        values.push(read_component(&e[k * csize..], t, norm));
+                    }
+                }
+            }
+            None => values.resize(count.saturating_mul(comps), 0.0),
+        }
+        if let Some(sparse) = acc.sparse() {
+            let n = sparse.count();
+            let idx = sparse.indices();
+            let it = match idx.index_type() {
+                gltf::accessor::sparse::IndexType::U8 => DataType::U8,
+                gltf::accessor::sparse::IndexType::U16 => DataType::U16,
+                gltf::accessor::sparse::IndexType::U32 => DataType::U32,
+            };
+            let isize = data_type_size(it);
+            let ib = self.view_bytes(&idx.view(), ai)?;
+            let indices: Vec<usize> = self
+                .strided(ai, ib, idx.offset(), isize, isize, n)?
+                .map(|e| read_component(e, it, false) as usize)
+                .collect();
+            let vals = sparse.values();
+            let vb = self.view_bytes(&vals.view(), ai)?;
+            let sv: Vec<&[u8]> = self.strided(ai, vb, vals.offset(), elem, elem, n)?.collect();
+            for (&i, e) in indices.iter().zip(sv) {
+                if i >= count {
+                    return Err(IoError::Accessor {
+                        path: self.path(),
+                        accessor: ai,
+                        reason: format!("sparse index {i} out of range (count {count})"),
+                    });
+                }
+                for k in 0..comps {
+                    values[i * comps + k] = read_component(&e[k * csize..], t, norm);
+                }
+            }
+        }
+        Ok(AccessorData { comps, values })
+    }
+
+    /// Reads an accessor that must be float-like with `comps` components (or one of `alt`).
+    fn read_vec(&self, acc: &gltf::Accessor, allowed: &[usize], what: &str) -> Result<AccessorData, IoError> {
+        let d = self.read_accessor(acc)?;
+        if !allowed.contains(&d.comps) {
+            return Err(IoError::Accessor {
+                path: self.path(),
+                accessor: acc.index(),
+                reason: format!("{what} has {} components, expected {allowed:?}", d.comps),
+            });
+        }
+        Ok(d)
+    }
+
+    fn build(&mut self) -> Result<(Mesh, Vec<ImportedPart>), IoError> {
+        let path = self.path();
+        let doc = self.doc.clone();
+        let node_count = doc.nodes().len();
+
+        // Node hierarchy: parents, local and world matrices (f64).
+        let mut parent: Vec<Option<usize>> = vec![None; node_count];
+        for node in doc.nodes() {
+            for c in node.children() {
+                if parent[c.index()].is_some() || c.index() == node.index() {
+                    return Err(IoError::NodeGraph { path, node: c.index(), reason: "node has more than one parent" });
+                }
+                parent[c.index()] = Some(node.index());
+            }
+        }
+        let mut local = Vec::with_capacity(node_count);
+        let mut rest_nodes = Vec::with_capacity(node_count);
+        for node in doc.nodes() {
+            let m = match node.transform() {
+                gltf::scene::Transform::Matrix { matrix } => {
+                    let mut a = [0.0f64; 16];
+                    for (c, col) in matrix.iter().enumerate() {
+                        for (r, v) in col.iter().enumerate() {
+                            a[c * 4 + r] = f64::from(*v);
+                        }
+                    }
+                    DMat4::from_cols_array(&a)
+                }
+                gltf::scene::Transform::Decomposed { translation, rotation, scale } => {
+                    let q = DQuat::from_xyzw(
+                        f64::from(rotation[0]),
+                        f64::from(rotation[1]),
+                        f64::from(rotation[2]),
+                        f64::from(rotation[3]),
+                    );
+                    let q = if q.length() > 1e-12 { q.normalize() } else { DQuat::IDENTITY };
+                    DMat4::from_scale_rotation_translation(
+                        DVec3::from(scale.map(f64::from)),
+                        q,
+                        DVec3::from(translation.map(f64::from)),
+                    )
+                }
+            };
+            let (s, r, t) = match node.transform() {
+                gltf::scene::Transform::Decomposed { translation, rotation, scale } => (scale, rotation, translation),
+                gltf::scene::Transform::Matrix { .. } => {
+                    let (s, r, t) = m.as_mat4().to_scale_rotation_translation();
+                    (s.to_array(), r.to_array(), t.to_array())
+                }
+            };
+            rest_nodes.push(Node {
+                name: node.name().map(str::to_owned).unwrap_or_else(|| format!("node{}", node.index())),
+                parent: parent[node.index()],
+                translation: t,
+                rotation: r,
+                scale: s,
+            });
+            local.push(m);
+        }
+        // World matrices in parent-before-child order; nodes never reached sit on a cycle.
+        let mut world: Vec<Option<DMat4>> = vec![None; node_count];
+        let mut stack: Vec<usize> = (0..node_count).filter(|&i| parent[i].is_none()).rev().collect();
+        while let Some(i) = stack.pop() {
+            world[i] = Some(match parent[i] {
+                Some(p) => world[p].unwrap_or(DMat4::IDENTITY) * local[i],
+                None => local[i],
+            });
+            let node = doc.nodes().nth(i).expect("validated index");
+            stack.extend(node.children().map(|c| c.index()).collect::<Vec<_>>().into_iter().rev());
+        }
+        if let Some(i) = world.iter().position(Option::is_none) {
+            return Err(IoError::NodeGraph { path, node: i, reason: "node is part of a cycle" });
+        }
+        let world: Vec<DMat4> = world.into_iter().map(|m| m.unwrap_or(DMat4::IDENTITY)).collect();
+
+        // Mesh instances of the default scene, depth first in document order.
+        let roots: Vec<usize> = match doc.default_scene().or_else(|| doc.scenes().next()) {
+            Some(scene) => scene.nodes().map(|n| n.index()).collect(),
+            None => {
+                self.ctx.warn("glTF has no scene: importing every root node".into());
+                (0..node_count).filter(|&i| parent[i].is_none()).collect()
+            }
+        };
+        let mut instances = Vec::new();
+        let mut stack: Vec<usize> = roots.into_iter().rev().collect();
+        while let Some(i) = stack.pop() {
+            let node = doc.nodes().nth(i).expect("validated index");
+            if node.mesh().is_some() {
+                instances.push(i);
+            }
+            stack.extend(node.children().map(|c| c.index()).collect::<Vec<_>>().into_iter().rev());
+        }
+
+        // Bones: union of the joints of every skin an instance uses.
+        let mut bones: Vec<Bone> = Vec::new();
+        let mut bone_of_key: HashMap<(usize, [u32; 16]), u32> = HashMap::new();
+        let mut skin_joint_bones: HashMap<usize, (Vec<u32>, Vec<DMat4>)> = HashMap::new();
+        let mut node_bone: Vec<Option<u32>> = vec![None; node_count];
+        for &i in &instances {
+            let node = doc.nodes().nth(i).expect("validated index");
+            let Some(skin) = node.skin() else { continue };
+            if skin_joint_bones.contains_key(&skin.index()) {
+                continue;
+            }
+            let joints: Vec<usize> = skin.joints().map(|j| j.index()).collect();
+            let ibms: Vec<Mat4> = match skin.inverse_bind_matrices() {
+                Some(acc) => {
+                    let d = self.read_vec(&acc, &[16], "inverseBindMatrices")?;
+                    if d.count() < joints.len() {
+                        return Err(IoError::Accessor {
+                            path,
+                            accessor: acc.index(),
+                            reason: format!("{} inverse bind matrices for {} joints", d.count(), joints.len()),
+                        });
+                    }
+                    (0..joints.len()).map(|k| Mat4::from_cols_array(&d.get::<16>(k).map(|v| v as f32))).collect()
+                }
+                None => vec![Mat4::IDENTITY; joints.len()],
+            };
+            let mut jb = Vec::with_capacity(joints.len());
+            let mut jm = Vec::with_capacity(joints.len());
+            for (&j, ibm) in joints.iter().zip(&ibms) {
+                let key = (j, ibm.to_cols_array().map(f32::to_bits));
+                let b = *bone_of_key.entry(key).or_insert_with(|| {
+                    let jn = doc.nodes().nth(j).expect("validated index");
+                    bones.push(Bone {
+                        name: jn.name().map(str::to_owned).unwrap_or_else(|| format!("node{j}")),
+                        node: j,
+                        parent: None,
+                        inverse_bind: *ibm,
+                    });
+                    (bones.len() - 1) as u32
+                });
+                node_bone[j].get_or_insert(b);
+                jb.push(b);
+                jm.push(world[j] * ibm.as_dmat4());
+            }
+            skin_joint_bones.insert(skin.index(), (jb, jm));
+        }
+        for b in &mut bones {
+            let mut p = parent[b.node];
+            while let Some(n) = p {
+                if let Some(pb) = node_bone[n] {
+                    b.parent = Some(pb);
+                    break;
+                }
+                p = parent[n];
+            }
+        }
+        let has_skin = !bones.is_empty();
+        // Nearest bone at or above each node.
+        let bone_above = |mut n: usize| -> Option<u32> {
+            loop {
+                if let Some(b) = node_bone[n] {
+                    return Some(b);
+                }
+                n = parent[n]?;
+            }
+        };
+
+        let mut b = Builder::default();
+        let mut parts = Vec::new();
+        let mut material_map: HashMap<Option<usize>, u32> = HashMap::new();
+        let mut image_map: HashMap<usize, Option<usize>> = HashMap::new();
+        let mut warned_unattached = false;
+        for &ni in &instances {
+            let node = doc.nodes().nth(ni).expect("validated index");
+            let mesh = node.mesh().expect("instances have meshes");
+            let mi = mesh.index();
+            for prim in mesh.primitives() {
+                let pi = prim.index();
+                let ctx_name = format!("mesh {mi} ({:?}) primitive {pi}", mesh.name().unwrap_or(""));
+                let mode = prim.mode();
+                if matches!(mode, Mode::Points | Mode::Lines | Mode::LineLoop | Mode::LineStrip) {
+                    self.ctx.warn(format!("{ctx_name}: {mode:?} primitive skipped (only triangles are imported)"));
+                    continue;
+                }
+                let Some(pos_acc) = prim.get(&Semantic::Positions) else {
+                    self.ctx.warn(format!("{ctx_name}: primitive without POSITION skipped"));
+                    continue;
+                };
+                let pos = self.read_vec(&pos_acc, &[3], "POSITION")?;
+                let n = pos.count();
+                let raw: Vec<Vec3> = (0..n).map(|v| Vec3::from(pos.get::<3>(v).map(|x| x as f32))).collect();
+                if let Some((v, p)) = raw.iter().enumerate().find(|(_, p)| !p.is_finite()) {
+                    return Err(IoError::NonFinitePosition {
+                        path,
+                        mesh: mi,
+                        mesh_name: mesh.name().unwrap_or("").to_owned(),
+                        primitive: pi,
+                        vertex: v,
+                        value: p.to_array(),
+                    });
+                }
+                let indices: Vec<u32> = match prim.indices() {
+                    Some(acc) => {
+                        let d = self.read_vec(&acc, &[1], "indices")?;
+                        if acc.data_type() == DataType::F32
+                            || acc.data_type() == DataType::I8
+                            || acc.data_type() == DataType::I16
+                        {
+                            return Err(IoError::Accessor {
+                                path,
+                                accessor: acc.index(),
+                                reason: format!("index component type {:?} is not unsigned", acc.data_type()),
+                            });
+                        }
+                        let mut out = Vec::with_capacity(d.values.len());
+                        for (k, &x) in d.values.iter().enumerate() {
+                            if x >= n as f64 {
+                                return Err(IoError::IndexOutOfRange {
+                                    path,
+                                    mesh: mi,
+                                    primitive: pi,
+                                    position: k,
+                                    index: x as u64,
+                                    vertex_count: n,
+                                });
+                            }
+                            out.push(x as u32);
+                        }
+                        out
+                    }
+                    None => (0..n as u32).collect(),
+                };
+                let mut tris: Vec<[u32; 3]> = match mode {
+                    Mode::TriangleStrip => (0..indices.len().saturating_sub(2))
+                        .map(|i| {
+                            if i % 2 == 0 {
+                                [indices[i], indices[i + 1], indices[i + 2]]
+                            } else {
+                                [indices[i + 1], indices[i], indices[i + 2]]
+                            }
+                        })
+                        .collect(),
+                    Mode::TriangleFan => {
+                        (1..indices.len().saturating_sub(1)).map(|i| [indices[i], indices[i + 1], indices[0]]).collect()
+                    }
+                    _ => {
+                        if indices.len() % 3 != 0 {
+                            self.ctx.warn(format!(
+                                "{ctx_name}: {} indices is not a multiple of 3; the last {} ignored",
+                                indices.len(),
+                                indices.len() % 3
+                            ));
+                        }
+                        indices.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect()
+                    }
+                };
+
+                // Attributes.
+                let normals = match prim.get(&Semantic::Normals) {
+                    Some(acc) => {
+                        let d = self.read_vec(&acc, &[3], "NORMAL")?;
+                        (d.count() == n).then(|| (0..n).map(|v| DVec3::from(d.get::<3>(v))).collect::<Vec<_>>())
+                    }
+                    None => None,
+                };
+                let mut uv_sets: Vec<Option<Vec<[f32; 2]>>> = Vec::new();
+                for set in 0..8u32 {
+                    let Some(acc) = prim.get(&Semantic::TexCoords(set)) else {
+                        if set >= 1 {
+                            break;
+                        }
+                        uv_sets.push(None);
+                        continue;
+                    };
+                    let d = self.read_vec(&acc, &[2], "TEXCOORD")?;
+                    uv_sets.push((d.count() == n).then(|| (0..n).map(|v| d.get::<2>(v).map(|x| x as f32)).collect()));
+                }
+                let colors = match prim.get(&Semantic::Colors(0)) {
+                    Some(acc) => {
+                        let d = self.read_vec(&acc, &[3, 4], "COLOR_0")?;
+                        let c3 = d.comps == 3;
+                        (d.count() == n).then(|| {
+                            (0..n)
+                                .map(|v| {
+                                    let c = d.get::<4>(v).map(|x| x as f32);
+                                    if c3 {
+                                        [c[0], c[1], c[2], 1.0]
+                                    } else {
+                                        c
+                                    }
+                                })
+                                .collect::<Vec<_>>()
+                        })
+                    }
+                    None => None,
+                };
+
+                // Placement: skinned (LBS at rest) or rigid (node world matrix).
+                let skin_data = node.skin().and_then(|s| skin_joint_bones.get(&s.index()).map(|d| (s.index(), d)));
+                let mut joint_sets = Vec::new();
+                if skin_data.is_some() {
+                    for set in 0..2u32 {
+                        match (prim.get(&Semantic::Joints(set)), prim.get(&Semantic::Weights(set))) {
+                            (Some(j), Some(w)) => {
+                                let jd = self.read_vec(&j, &[4], "JOINTS")?;
+                                let wd = self.read_vec(&w, &[4], "WEIGHTS")?;
+                                if jd.count() != n || wd.count() != n {
+                                    return Err(IoError::Accessor {
+                                        path,
+                                        accessor: j.index(),
+                                        reason: format!("JOINTS/WEIGHTS count differs from POSITION count {n}"),
+                                    });
+                                }
+                                joint_sets.push((jd, wd));
+                            }
+                            _ => break,
+                        }
+                    }
+                }
+                let mut scene = Vec::with_capacity(n);
+                let mut scene_normals = Vec::with_capacity(n);
+                let mut infl = Vec::with_capacity(n);
+                let mut bind = Vec::with_capacity(n);
+                let mut negative = Vec::with_capacity(n);
+                let mut zero_weight = 0usize;
+                match (skin_data, joint_sets.is_empty()) {
+                    (Some((si, (jb, jm))), false) => {
+                        for v in 0..n {
+                            let mut inf = SkinInfluences::default();
+                            let mut sum = 0.0f64;
+                            for (s, (jd, wd)) in joint_sets.iter().enumerate() {
+                                let j = jd.get::<4>(v);
+                                let w = wd.get::<4>(v);
+                                for k in 0..4 {
+                                    let joint = j[k] as u32;
+                                    let wk = w[k].max(0.0);
+                                    if wk > 0.0 && joint as usize >= jb.len() {
+                                        return Err(IoError::JointOutOfRange {
+                                            path,
+                                            mesh: mi,
+                                            primitive: pi,
+                                            vertex: v,
+                                            skin: si,
+                                            joint,
+                                            joint_count: jb.len(),
+                                        });
+                                    }
+                                    if wk > 0.0 {
+                                        inf.joints[s * 4 + k] = joint;
+                                        inf.weights[s * 4 + k] = wk as f32;
+                                        sum += wk;
+                                    }
+                                }
+                            }
+                            let mut m = DMat4::ZERO;
+                            if sum > 0.0 {
+                                for k in 0..8 {
+                                    if inf.weights[k] > 0.0 {
+                                        let w = f64::from(inf.weights[k]) / sum;
+                                        m += jm[inf.joints[k] as usize] * w;
+                                        inf.weights[k] = w as f32;
+                                        inf.joints[k] = jb[inf.joints[k] as usize];
+                                    }
+                                }
+                            } else {
+                                zero_weight += 1;
+                                m = DMat4::IDENTITY;
+                            }
+                            let p = raw[v].as_dvec3();
+                            scene.push(m.transform_point3(p));
+                            let m3 = DMat3::from_mat4(m);
+                            negative.push(m3.determinant() < 0.0);
+                            if let Some(nr) = &normals {
+                                let nm = m3.inverse().transpose();
+                                scene_normals.push(nm * nr[v]);
+                            }
+                            infl.push(inf);
+                            bind.push(raw[v]);
+                        }
+                    }
+                    _ => {
+                        let m = world[ni];
+                        let m3 = DMat3::from_mat4(m);
+                        let nm = m3.inverse().transpose();
+                        let neg = m3.determinant() < 0.0;
+                        let attach = if has_skin { bone_above(ni) } else { None };
+                        if has_skin && attach.is_none() && !warned_unattached {
+                            warned_unattached = true;
+                            self.ctx.warn(format!(
+                                "{ctx_name} (node {ni}): unskinned mesh not under any joint; it is attached to no bone and will not move"
+                            ));
+                        }
+                        let to_bind = attach.map(|b| {
+                            let bone = &bones[b as usize];
+                            (world[bone.node] * bone.inverse_bind.as_dmat4()).inverse()
+                        });
+                        for v in 0..n {
+                            let p = m.transform_point3(raw[v].as_dvec3());
+                            scene.push(p);
+                            negative.push(neg);
+                            if let Some(nr) = &normals {
+                                scene_normals.push(nm * nr[v]);
+                            }
+                            if has_skin {
+                                let mut inf = SkinInfluences::default();
+                                match (attach, to_bind) {
+                                    (Some(b), Some(tb)) => {
+                                        inf.joints[0] = b;
+                                        inf.weights[0] = 1.0;
+                                        bind.push(tb.transform_point3(p.as_vec3().as_dvec3()).as_vec3());
+                                    }
+                                    _ => bind.push(p.as_vec3()),
+                                }
+                                infl.push(inf);
+                            }
+                        }
+                    }
+                }
+                if zero_weight > 0 {
+                    self.ctx.warn(format!(
+                        "{ctx_name}: {zero_weight} vertices have all skin weights zero; left at their bind position"
+                    ));
+                }
+                let scene: Vec<Vec3> = scene.into_iter().map(|p| p.as_vec3()).collect();
+                if let Some((v, p)) = scene.iter().enumerate().find(|(_, p)| !p.is_finite()) {
+                    return Err(IoError::NonFinitePosition {
+                        path,
+                        mesh: mi,
+                        mesh_name: mesh.name().unwrap_or("").to_owned(),
+                        primitive: pi,
+                        vertex: v,
+                        value: p.to_array(),
+                    });
+                }
+                for t in &mut tris {
+                    let neg = [t[0], t[1], t[2]].iter().filter(|&&i| negative[i as usize]).count();
+                    if neg >= 2 {
+                        t.swap(1, 2);
+                    }
+                }
+                let normals: Vec<Vec3> = if normals.is_some() {
+                    scene_normals.into_iter().map(|x| x.as_vec3().try_normalize().unwrap_or(Vec3::Z)).collect()
+                } else {
+                    let mut tmp = Mesh { positions: scene.clone(), triangles: tris.clone(), ..Default::default() };
+                    tmp.rebuild_weld();
+                    tmp.compute_normals();
+                    tmp.normals
+                };
+
+                // Material.
+                let mat_key = prim.material().index();
+                let material = match material_map.get(&mat_key) {
+                    Some(&m) => m,
+                    None => {
+                        let m = self.material(&prim.material(), &mut b.mesh, &mut image_map);
+                        b.mesh.materials.push(m);
+                        let id = (b.mesh.materials.len() - 1) as u32;
+                        material_map.insert(mat_key, id);
+                        id
+                    }
+                };
+
+                let v0 = b.mesh.positions.len() as u32;
+                let t0 = b.mesh.triangles.len() as u32;
+                b.push(scene, normals, uv_sets, colors, &tris, material);
+                if has_skin {
+                    b.influences.extend(infl);
+                    b.bind.extend(bind);
+                }
+                parts.push(ImportedPart {
+                    source_mesh: mi,
+                    primitive: pi,
+                    node: Some(ni),
+                    file_vertex_count: n,
+                    vertices: v0..b.mesh.positions.len() as u32,
+                    triangles: t0..b.mesh.triangles.len() as u32,
+                });
+            }
+        }
+
+        let mut mesh = b.finish();
+        if has_skin {
+            let animations = self.animations(&doc)?;
+            mesh.skin = Some(Skin {
+                skeleton: Skeleton { nodes: rest_nodes, bones, animations },
+                influences: std::mem::take(&mut b.influences),
+                bind_positions: std::mem::take(&mut b.bind),
+            });
+        } else if doc.animations().len() > 0 {
+            self.ctx.warn(format!("{} animation(s) ignored: no skinned mesh in the scene", doc.animations().len()));
+        }
+        Ok((mesh, parts))
+    }
+
+    fn material(
+        &mut self,
+        m: &gltf::Material,
+        mesh: &mut Mesh,
+        image_map: &mut HashMap<usize, Option<usize>>,
+    ) -> Material {
+        let pbr = m.pbr_metallic_roughness();
+        let name = m.name().map(str::to_owned).unwrap_or_else(|| match m.index() {
+            Some(i) => format!("material{i}"),
+            None => "default".into(),
+        });
+        let mut out = Material {
+            name,
+            base_color_factor_linear: pbr.base_color_factor(),
+            base_color_texture: None,
+            double_sided: m.double_sided(),
+        };
+        if let Some(info) = pbr.base_color_texture() {
+            let tex = info.texture();
+            let img = tex.source();
+            let ii = img.index();
+            let slot = match image_map.get(&ii) {
+                Some(s) => *s,
+                None => {
+                    let s = self.load_image(&img, &out.name).map(|t| {
+                        mesh.textures.push(t);
+                        mesh.textures.len() - 1
+                    });
+                    image_map.insert(ii, s);
+                    s
+                }
+            };
+            if let Some(texture) = slot {
+                let sampler = tex.sampler();
+                let wrap = |w: gltf::texture::WrappingMode| match w {
+                    gltf::texture::WrappingMode::ClampToEdge => WrapMode::ClampToEdge,
+                    gltf::texture::WrappingMode::MirroredRepeat => WrapMode::MirroredRepeat,
+                    gltf::texture::WrappingMode::Repeat => WrapMode::Repeat,
+                };
+                let (transform, uv_set) = match info.texture_transform() {
+                    Some(tt) => (
+                        UvTransform { offset: tt.offset(), rotation_rad: tt.rotation(), scale: tt.scale() },
+                        tt.tex_coord().unwrap_or(info.tex_coord()),
+                    ),
+                    None => (UvTransform::default(), info.tex_coord()),
+                };
+                out.base_color_texture = Some(TextureRef {
+                    texture,
+                    uv_set,
+                    wrap_s: wrap(sampler.wrap_s()),
+                    wrap_t: wrap(sampler.wrap_t()),
+                    mag_filter: match sampler.mag_filter() {
+                        Some(gltf::texture::MagFilter::Nearest) => FilterMode::Nearest,
+                        _ => FilterMode::Linear,
+                    },
+                    transform,
+                });
+            }
+        }
+        out
+    }
+
+    /// Loads and decodes an image; on failure warns and returns `None` (base colour factor used).
+    fn load_image(&mut self, img: &gltf::Image, material: &str) -> Option<spherebake_geom::Texture> {
+        let ii = img.index();
+        let (name, bytes) = match img.source() {
+            gltf::image::Source::View { view, .. } => {
+                let name = format!("image[{ii}]{}", img.name().map(|n| format!(" {n}")).unwrap_or_default());
+                match self.view_bytes(&view, usize::MAX) {
+                    Ok(b) => (name, b.to_vec()),
+                    Err(_) => {
+                        self.ctx.warn(format!(
+                            "material {material:?}: image {ii} buffer view out of range; using the base colour factor"
+                        ));
+                        return None;
+                    }
+                }
+            }
+            gltf::image::Source::Uri { uri, .. } => match resolve_uri(&self.ctx.dir, uri) {
+                Ok(UriData::Inline(b)) => (format!("image[{ii}] (data URI)"), b),
+                Ok(UriData::File(p)) => match self.ctx.read_referenced(&p) {
+                    Ok(b) => (p.file_name().map(|f| f.to_string_lossy().into_owned()).unwrap_or_default(), b),
+                    Err(e) => {
+                        self.ctx.warn(format!("material {material:?}: texture {e}; using the base colour factor"));
+                        return None;
+                    }
+                },
+                Err(e) => {
+                    self.ctx.warn(format!("material {material:?}: image {ii}: {e}; using the base colour factor"));
+                    return None;
+                }
+            },
+        };
+        match decode_srgb_texture(name.clone(), &bytes) {
+            Ok(t) => Some(t),
+            Err(e) => {
+                self.ctx
+                    .warn(format!("material {material:?}: cannot decode {name}: {e}; using the base colour factor"));
+                None
+            }
+        }
+    }
+
+    fn animations(&mut self, doc: &gltf::Document) -> Result<Vec<Animation>, IoError> {
+        let mut out = Vec::new();
+        for anim in doc.animations() {
+            let ai = anim.index();
+            let mut channels = Vec::new();
+            for (ci, ch) in anim.channels().enumerate() {
+                let aerr =
+                    |reason: String| IoError::Animation { path: self.path(), animation: ai, channel: ci, reason };
+                let (path, comps) = match ch.target().property() {
+                    gltf::animation::Property::Translation => (AnimPath::Translation, 3),
+                    gltf::animation::Property::Rotation => (AnimPath::Rotation, 4),
+                    gltf::animation::Property::Scale => (AnimPath::Scale, 3),
+                    gltf::animation::Property::MorphTargetWeights => {
+                        self.ctx.warn(format!("animation {ai} channel {ci}: morph target weights skipped"));
+                        continue;
+                    }
+                };
+                let s = ch.sampler();
+                let interpolation = match s.interpolation() {
+                    gltf::animation::Interpolation::Linear => Interpolation::Linear,
+                    gltf::animation::Interpolation::Step => Interpolation::Step,
+                    gltf::animation::Interpolation::CubicSpline => Interpolation::CubicSpline,
+                };
+                let times = self.read_vec(&s.input(), &[1], "animation input")?;
+                let values = self.read_vec(&s.output(), &[comps], "animation output")?;
+                let times: Vec<f32> = times.values.iter().map(|&t| t as f32).collect();
+                if times.is_empty() {
+                    self.ctx.warn(format!("animation {ai} channel {ci}: no keys, skipped"));
+                    continue;
+                }
+                if times.iter().any(|t| !t.is_finite()) || times.windows(2).any(|w| w[1] < w[0]) {
+                    return Err(aerr("key times are not finite and non-decreasing".into()));
+                }
+                let per_key = if interpolation == Interpolation::CubicSpline { 3 } else { 1 };
+                if values.count() != times.len() * per_key {
+                    return Err(aerr(format!(
+                        "{} output values for {} keys ({per_key} per key expected)",
+                        values.count(),
+                        times.len()
+                    )));
+                }
+                let values: Vec<f32> = values.values.iter().map(|&v| v as f32).collect();
+                if values.iter().any(|v| !v.is_finite()) {
+                    return Err(aerr("non-finite output value".into()));
+                }
+                channels.push(AnimChannel { node: ch.target().node().index(), path, interpolation, times, values });
+            }
+            out.push(Animation {
+                name: anim.name().map(str::to_owned).unwrap_or_else(|| format!("animation{ai}")),
+                channels,
+            });
+        }
+        Ok(out)
+    }
+}
+
+/// Accumulates primitives into one [`Mesh`], padding optional attributes.
+#[derive(Default)]
+struct Builder {
+    mesh: Mesh,
+    uv_present: Vec<bool>,
+    colors_present: bool,
+    influences: Vec<SkinInfluences>,
+    bind: Vec<Vec3>,
+}
+
+impl Builder {
+    fn push(
+        &mut self,
+        positions: Vec<Vec3>,
+        normals: Vec<Vec3>,
+        uv_sets: Vec<Option<Vec<[f32; 2]>>>,
+        colors: Option<Vec<[f32; 4]>>,
+        tris: &[[u32; 3]],
+        material: u32,
+    ) {
+        let m = &mut self.mesh;
+        let v0 = m.positions.len();
+        let n = positions.len();
+        let sets = m.uvs.len().max(uv_sets.len());
+        m.uvs.resize(sets, Vec::new());
+        self.uv_present.resize(sets, false);
+        for (s, set) in m.uvs.iter_mut().enumerate() {
+            set.resize(v0, [0.0, 0.0]);
+            match uv_sets.get(s) {
+                Some(Some(uv)) => {
+                    set.extend_from_slice(uv);
+                    self.uv_present[s] = true;
+                }
+                _ => set.resize(v0 + n, [0.0, 0.0]),
+            }
+        }
+        m.colors_linear.resize(v0, [1.0; 4]);
+        match colors {
+            Some(c) => {
+                m.colors_linear.extend_from_slice(&c);
+                self.colors_present = true;
+            }
+            None => m.colors_linear.resize(v0 + n, [1.0; 4]),
+        }
+        m.positions.extend(positions);
+        m.normals.extend(normals);
+        let base = v0 as u32;
+        m.triangles.extend(tris.iter().map(|t| [t[0] + base, t[1] + base, t[2] + base]));
+        m.triangle_materials.extend(std::iter::repeat_n(material, tris.len()));
+    }
+
+    fn finish(&mut self) -> Mesh {
+        let mut m = std::mem::take(&mut self.mesh);
+        // Drop trailing UV sets no primitive had; keep earlier absent ones as zero-filled so that
+        // uvs[k] stays TEXCOORD_k.
+        while self.uv_present.last() == Some(&false) {
+            self.uv_present.pop();
+            m.uvs.pop();
+        }
+        for (s, present) in self.uv_present.iter().enumerate() {
+            if !present {
+                m.uvs[s].clear();
+            }
+        }
+        if !self.colors_present {
+            m.colors_linear.clear();
+        }
+        m.rebuild_weld();
+        m
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn base64_rfc4648_vectors() {
+        // RFC 4648 §10 test vectors.
+        for (enc, dec) in [("", ""), ("Zg==", "f"), ("Zm8=", "fo"), ("Zm9v", "foo"), ("Zm9vYmFy", "foobar")] {
+            assert_eq!(decode_base64(enc).unwrap(), dec.as_bytes(), "{enc}");
+        }
+        assert!(decode_base64("Zm9v!").is_err());
+    }
+
+    #[test]
+    fn percent_decoding() {
+        assert_eq!(percent_decode("a%20b.bin"), "a b.bin");
+        assert_eq!(percent_decode("100%"), "100%");
+    }
+}

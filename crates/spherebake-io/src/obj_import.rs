@@ -1,0 +1,195 @@
+//! Wavefront OBJ + MTL import via `tobj` (faces triangulated, one vertex per distinct
+//! position / UV / normal corner).
+
+use std::cell::RefCell;
+use std::collections::HashMap;
+use std::path::{Path, PathBuf};
+
+use glam::Vec3;
+use spherebake_geom::{Material, Mesh, TextureRef};
+
+use crate::texture::decode_srgb_texture;
+use crate::{Ctx, ImportedPart, IoError};
+
+/// An MTL file tobj asked for: resolved path and its bytes (or why it could not be read).
+type MtlRead = (PathBuf, Result<Vec<u8>, IoError>);
+
+pub(crate) fn import(ctx: &mut Ctx, bytes: &[u8]) -> Result<(Mesh, Vec<ImportedPart>), IoError> {
+    let path = ctx.path.clone();
+    let opts = tobj::LoadOptions { triangulate: true, single_index: true, ..Default::default() };
+    // MTL files read by tobj's callback: (resolved path, bytes or the read error).
+    let mtl_reads: RefCell<Vec<MtlRead>> = RefCell::new(Vec::new());
+    let dir = ctx.dir.clone();
+    let (models, materials) = tobj::load_obj_buf(&mut std::io::Cursor::new(bytes), &opts, |p: &Path| {
+        let full = dir.join(p);
+        let read = crate::read_file(&full);
+        let result = match &read {
+            Ok(b) => tobj::load_mtl_buf(&mut std::io::Cursor::new(b.as_slice())),
+            Err(_) => Err(tobj::LoadError::OpenFileFailed),
+        };
+        mtl_reads.borrow_mut().push((full, read));
+        result
+    })
+    .map_err(|e| IoError::Obj { path: path.clone(), message: e.to_string() })?;
+    let mut mtl_dir = dir.clone();
+    for (p, read) in mtl_reads.into_inner() {
+        match read {
+            Ok(b) => {
+                ctx.record(&p, &b);
+                mtl_dir = p.parent().map(Path::to_path_buf).unwrap_or_default();
+            }
+            Err(e) => ctx.warn(format!("material library: {e}; using default materials")),
+        }
+    }
+    let materials = match materials {
+        Ok(m) => m,
+        Err(e) => {
+            if !matches!(e, tobj::LoadError::OpenFileFailed) {
+                ctx.warn(format!("{}: cannot parse material library: {e}; using default materials", path.display()));
+            }
+            Vec::new()
+        }
+    };
+
+    let mut mesh = Mesh::default();
+    let mut material_map: HashMap<Option<usize>, u32> = HashMap::new();
+    let mut texture_map: HashMap<PathBuf, Option<usize>> = HashMap::new();
+    let mut parts = Vec::new();
+    let mut has_uv = false;
+    let mut uvs = Vec::new();
+    for (mi, model) in models.iter().enumerate() {
+        let m = &model.mesh;
+        let n = m.positions.len() / 3;
+        let positions: Vec<Vec3> = m.positions.chunks_exact(3).map(|c| Vec3::new(c[0], c[1], c[2])).collect();
+        if let Some((v, p)) = positions.iter().enumerate().find(|(_, p)| !p.is_finite()) {
+            return Err(IoError::NonFinitePosition {
+                path,
+                mesh: mi,
+                mesh_name: model.name.clone(),
+                primitive: 0,
+                vertex: v,
+                value: p.to_array(),
+            });
+        }
+        let mut tris = Vec::with_capacity(m.indices.len() / 3);
+        for (k, c) in m.indices.chunks_exact(3).enumerate() {
+            for (j, &i) in c.iter().enumerate() {
+                if i as usize >= n {
+                    return Err(IoError::IndexOutOfRange {
+                        path,
+                        mesh: mi,
+                        primitive: 0,
+                        position: k * 3 + j,
+                        index: u64::from(i),
+                        vertex_count: n,
+                    });
+                }
+            }
+            tris.push([c[0], c[1], c[2]]);
+        }
+        let normals: Vec<Vec3> = if m.normals.len() == 3 * n && n > 0 {
+            m.normals.chunks_exact(3).map(|c| Vec3::new(c[0], c[1], c[2]).try_normalize().unwrap_or(Vec3::Z)).collect()
+        } else {
+            let mut tmp = Mesh { positions: positions.clone(), triangles: tris.clone(), ..Default::default() };
+            tmp.rebuild_weld();
+            tmp.compute_normals();
+            tmp.normals
+        };
+        // OBJ v runs bottom-up; glTF convention (row 0 = top) needs v' = 1 - v.
+        if m.texcoords.len() == 2 * n && n > 0 {
+            has_uv = true;
+            uvs.extend(m.texcoords.chunks_exact(2).map(|c| [c[0], 1.0 - c[1]]));
+        } else {
+            uvs.resize(uvs.len() + n, [0.0, 0.0]);
+        }
+        let key = m.material_id.filter(|&i| i < materials.len());
+        let material = match material_map.get(&key) {
+            Some(&id) => id,
+            None => {
+                let mat = match key {
+                    Some(i) => obj_material(ctx, &materials[i], &mtl_dir, &mut mesh, &mut texture_map),
+                    None => Material { name: "default".into(), ..Default::default() },
+                };
+                mesh.materials.push(mat);
+                let id = (mesh.materials.len() - 1) as u32;
+                material_map.insert(key, id);
+                id
+            }
+        };
+        let v0 = mesh.positions.len() as u32;
+        let t0 = mesh.triangles.len() as u32;
+        mesh.positions.extend(positions);
+        mesh.normals.extend(normals);
+        mesh.triangles.extend(tris.iter().map(|t| [t[0] + v0, t[1] + v0, t[2] + v0]));
+        mesh.triangle_materials.extend(std::iter::repeat_n(material, tris.len()));
+        parts.push(ImportedPart {
+            source_mesh: mi,
+            primitive: 0,
+            node: None,
+            file_vertex_count: n,
+            vertices: v0..mesh.positions.len() as u32,
+            triangles: t0..mesh.triangles.len() as u32,
+        });
+    }
+    if has_uv {
+        mesh.uvs = vec![uvs];
+    }
+    mesh.rebuild_weld();
+    Ok((mesh, parts))
+}
+
+fn obj_material(
+    ctx: &mut Ctx,
+    m: &tobj::Material,
+    mtl_dir: &Path,
+    mesh: &mut Mesh,
+    texture_map: &mut HashMap<PathBuf, Option<usize>>,
+) -> Material {
+    let kd = m.diffuse.unwrap_or([1.0; 3]);
+    let mut out = Material {
+        name: m.name.clone(),
+        // MTL `Kd` is taken as linear RGB; `d` (dissolve) as alpha.
+        base_color_factor_linear: [kd[0], kd[1], kd[2], m.dissolve.unwrap_or(1.0)],
+        base_color_texture: None,
+        double_sided: false,
+    };
+    if let Some(tex) = &m.diffuse_texture {
+        // Options such as `-s 1 1 1` may precede the file name; the file name is the last token.
+        let file = tex.split_whitespace().last().unwrap_or("");
+        let p = mtl_dir.join(file.replace('\\', "/"));
+        let slot = match texture_map.get(&p) {
+            Some(s) => *s,
+            None => {
+                let s = match ctx.read_referenced(&p) {
+                    Ok(bytes) => match decode_srgb_texture(file.to_owned(), &bytes) {
+                        Ok(t) => {
+                            mesh.textures.push(t);
+                            Some(mesh.textures.len() - 1)
+                        }
+                        Err(e) => {
+                            ctx.warn(format!("material {:?}: cannot decode {}: {e}; using Kd", m.name, p.display()));
+                            None
+                        }
+                    },
+                    Err(e) => {
+                        ctx.warn(format!("material {:?}: texture {e}; using Kd", m.name));
+                        None
+                    }
+                };
+                texture_map.insert(p, s);
+                s
+            }
+        };
+        if let Some(texture) = slot {
+            out.base_color_texture = Some(TextureRef {
+                texture,
+                uv_set: 0,
+                wrap_s: Default::default(),
+                wrap_t: Default::default(),
+                mag_filter: Default::default(),
+                transform: Default::default(),
+            });
+        }
+    }
+    out
+}
