@@ -256,7 +256,7 @@ pub fn write(file: &SphbFile) -> Vec<u8> {
 }
 
 impl SphbFile {
-    /// Encodes this file; see [`write`].
+    /// Encodes this file; see [`write`](fn@crate::write).
     #[must_use]
     pub fn to_bytes(&self) -> Vec<u8> {
         write(self)

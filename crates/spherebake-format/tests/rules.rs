@@ -1,0 +1,336 @@
+//! Every validation rule of the specification, triggered by a hand-mutated file.
+//!
+//! Offsets come from the byte tables of `formats/spherebake-v1.md`, not from the reader.
+
+mod common;
+
+use common::*;
+use spherebake_format::{read, write, HierarchyNode, Rule, SectionKind, SkinEntry, SphbFile, UNUSED_BONE};
+use SectionKind as K;
+
+/// Absolute offset of section `k` in the valid fixture (patches never move sections).
+fn off(k: SectionKind) -> usize {
+    section_offset(&write(&full_file()), k)
+}
+
+fn model(f: impl FnOnce(&mut SphbFile)) -> Vec<u8> {
+    let mut file = full_file();
+    f(&mut file);
+    write(&file)
+}
+
+/// (rule, file bytes, expected absolute offset of the error when the case pins one).
+fn cases() -> Vec<(Rule, Vec<u8>, Option<u64>)> {
+    let valid = write(&full_file());
+    let mut c: Vec<(Rule, Vec<u8>, Option<u64>)> = Vec::new();
+
+    // 1xxx header
+    c.push((Rule::FileTooSmall, valid[..63].to_vec(), Some(0)));
+    c.push((Rule::FileTooSmall, Vec::new(), Some(0)));
+    c.push((Rule::BadMagic, patched(|b| b[1] = b'X'), Some(0)));
+    c.push((Rule::UnsupportedMajor, patched(|b| put_u16(b, 8, 2)), Some(8)));
+    c.push((Rule::HeaderSize, patched(|b| put_u32(b, 12, 80)), Some(12)));
+    c.push((Rule::HeaderSize, patched(|b| put_u32(b, 12, 0)), Some(12)));
+    // Minor 1 allows a larger header, but not one past the end of the file or unaligned.
+    c.push((
+        Rule::HeaderSize,
+        patched(|b| {
+            put_u16(b, 10, 1);
+            put_u32(b, 12, 72);
+        }),
+        Some(12),
+    ));
+    c.push((
+        Rule::HeaderChecksum,
+        {
+            let mut b = valid.clone();
+            b[16] = 1; // reserved flags, covered by the header CRC
+            b
+        },
+        Some(44),
+    ));
+    c.push((
+        Rule::FileSize,
+        {
+            let mut b = valid.clone();
+            b.extend_from_slice(&[0; 16]);
+            b
+        },
+        Some(32),
+    ));
+    c.push((
+        Rule::FileAlignment,
+        {
+            let mut b = valid.clone();
+            b.push(0);
+            let len = b.len() as u64;
+            put_u64(&mut b, 32, len);
+            spherebake_format::repair_checksums(&mut b);
+            b
+        },
+        Some(32),
+    ));
+
+    // 2xxx section table
+    c.push((Rule::TableOffset, patched(|b| put_u64(b, 24, 8)), Some(24)));
+    c.push((Rule::TableOffset, patched(|b| put_u64(b, 24, 68)), Some(24)));
+    c.push((Rule::TableBounds, patched(|b| put_u32(b, 20, 1000)), Some(20)));
+    c.push((Rule::TableBounds, patched(|b| put_u64(b, 24, u64::MAX - 15)), Some(20)));
+    c.push((
+        Rule::TableChecksum,
+        {
+            let mut b = valid.clone();
+            b[64 + 4] = 1; // reserved field of entry 0
+            b
+        },
+        Some(40),
+    ));
+    c.push((Rule::SectionAlignment, patched(|b| put_u64(b, 64 + 8, 64 + 7 * 32 + 4)), Some(72)));
+    c.push((Rule::SectionBounds, patched(|b| put_u64(b, 64 + 6 * 32 + 16, 1 << 40)), Some(64 + 6 * 32 + 8)));
+    c.push((Rule::SectionBounds, patched(|b| put_u64(b, 64 + 8, 48)), Some(72)));
+    c.push((Rule::SectionBounds, patched(|b| put_u64(b, 64 + 8, u64::MAX - 15)), Some(72)));
+    c.push((
+        Rule::SectionOrder,
+        patched(|b| {
+            let first = u64::from(get_u32(b, 64 + 8));
+            put_u64(b, 64 + 32 + 8, first);
+        }),
+        Some(64 + 32 + 8),
+    ));
+    c.push((Rule::DuplicateSection, patched(|b| put_u32(b, 64 + 32, 1)), Some(96)));
+    c.push((
+        Rule::SectionChecksum,
+        {
+            let mut b = valid.clone();
+            let s = off(K::Spheres);
+            b[s + 20] ^= 0x40;
+            b
+        },
+        Some(64 + 24),
+    ));
+    c.push((Rule::MissingSpheres, patched(|b| put_u32(b, 64, 100)), Some(64)));
+    c.push((
+        Rule::NonZeroPadding,
+        patched(|b| {
+            // The bones section is 16 + 2·80 + 9 = 185 bytes, followed by 7 padding bytes.
+            let at = off(K::Bones) + 185;
+            b[at] = 1;
+        }),
+        None,
+    ));
+    c.push((
+        Rule::NonZeroPadding,
+        patched(|b| {
+            let n = b.len();
+            b[n - 1] = 9; // the padding after the last section
+        }),
+        Some(valid.len() as u64 - 1),
+    ));
+
+    // 3xxx spheres
+    c.push((Rule::SpheresLength, patched(|b| put_u32(b, off(K::Spheres), 4)), None));
+    c.push((Rule::SpheresEmpty, write(&SphbFile::default()), None));
+    c.push((
+        Rule::SphereCentre,
+        patched(|b| put_f32(b, off(K::Spheres) + 32 + 4, f32::NAN)),
+        Some(off(K::Spheres) as u64 + 36),
+    ));
+    for r in [0.0, -1.0, f32::INFINITY, f32::NAN, -0.0] {
+        c.push((
+            Rule::SphereRadius,
+            patched(|b| put_f32(b, off(K::Spheres) + 48 + 12, r)),
+            Some(off(K::Spheres) as u64 + 60),
+        ));
+    }
+
+    // 4xxx hierarchy (node i at +16+32i; child array at +80, leaf array at +84: [2, 0, 1])
+    c.push((Rule::HierarchyLength, patched(|b| put_u32(b, off(K::Hierarchy), 3)), None));
+    c.push((Rule::HierarchyEmpty, model(|f| f.hierarchy.as_mut().unwrap().nodes.clear()), None));
+    c.push((Rule::HierarchyRoot, patched(|b| put_u32(b, off(K::Hierarchy) + 4, 2)), None));
+    c.push((
+        Rule::NodeCentre,
+        patched(|b| put_f32(b, off(K::Hierarchy) + 48 + 8, f32::NEG_INFINITY)),
+        Some(off(K::Hierarchy) as u64 + 56),
+    ));
+    c.push((Rule::NodeRadius, patched(|b| put_f32(b, off(K::Hierarchy) + 16 + 12, -1.0)), None));
+    c.push((Rule::NodeChildRange, patched(|b| put_u32(b, off(K::Hierarchy) + 16 + 16, 1)), None));
+    c.push((Rule::NodeLeafRange, patched(|b| put_u32(b, off(K::Hierarchy) + 48 + 28, 3)), None));
+    c.push((Rule::ChildIndex, patched(|b| put_u32(b, off(K::Hierarchy) + 80, 2)), None));
+    c.push((Rule::LeafIndex, patched(|b| put_u32(b, off(K::Hierarchy) + 84, 3)), None));
+    // The root lists itself as its child: a cycle.
+    c.push((Rule::NodeRevisited, patched(|b| put_u32(b, off(K::Hierarchy) + 80, 0)), None));
+    c.push((
+        Rule::NodeUnreachable,
+        model(|f| {
+            f.hierarchy.as_mut().unwrap().nodes.push(HierarchyNode {
+                center: [0.0; 3],
+                radius: 1.0,
+                children: vec![1],
+                leaf_children: vec![],
+            })
+        }),
+        None,
+    ));
+    c.push((Rule::LeafRevisited, patched(|b| put_u32(b, off(K::Hierarchy) + 92, 2)), None));
+    c.push((Rule::LeafUnreachable, model(|f| f.hierarchy.as_mut().unwrap().nodes[0].leaf_children.clear()), None));
+    c.push((
+        Rule::NodeEmpty,
+        model(|f| {
+            let h = f.hierarchy.as_mut().unwrap();
+            h.nodes[0].children.push(2);
+            h.nodes.push(HierarchyNode { center: [0.0; 3], radius: 1.0, children: vec![], leaf_children: vec![] });
+        }),
+        None,
+    ));
+
+    // 5xxx samples (offsets at +16: [0, 2, 2, 3]; sample j at +32+32j)
+    c.push((Rule::SamplesLength, patched(|b| put_u32(b, off(K::Samples) + 4, 4)), None));
+    c.push((
+        Rule::SamplesSphereCount,
+        model(|f| {
+            f.samples.as_mut().unwrap().per_sphere.pop();
+        }),
+        Some(off(K::Samples) as u64),
+    ));
+    c.push((Rule::SampleOffsets, patched(|b| put_u32(b, off(K::Samples) + 16, 1)), None));
+    c.push((Rule::SampleOffsets, patched(|b| put_u32(b, off(K::Samples) + 24, 1)), None));
+    c.push((Rule::SampleOffsets, patched(|b| put_u32(b, off(K::Samples) + 28, 2)), None));
+    c.push((
+        Rule::SamplePosition,
+        patched(|b| put_f32(b, off(K::Samples) + 64 + 8, f32::NAN)),
+        Some(off(K::Samples) as u64 + 72),
+    ));
+    c.push((Rule::SampleNormal, patched(|b| put_f32(b, off(K::Samples) + 32 + 12, 1.0)), None));
+    c.push((Rule::SampleNormal, patched(|b| put_f32(b, off(K::Samples) + 32 + 16, f32::NAN)), None));
+    c.push((
+        Rule::SampleDirection,
+        patched(|b| put_u8(b, off(K::Samples) + 96 + 24, 92)),
+        Some(off(K::Samples) as u64 + 120),
+    ));
+    for r in [0u8, 4, 255] {
+        c.push((Rule::SampleRule, patched(|b| put_u8(b, off(K::Samples) + 32 + 25, r)), None));
+    }
+    c.push((Rule::SampleDirectionOrder, patched(|b| put_u8(b, off(K::Samples) + 64 + 24, 0)), None));
+
+    // 6xxx albedo SH
+    c.push((Rule::ShLength, patched(|b| put_u8(b, off(K::AlbedoSh) + 4, 3)), None));
+    c.push((Rule::ShSphereCount, model(|f| f.albedo_sh.as_mut().unwrap().coefficients.truncate(8)), None));
+    for o in [0u8, 9] {
+        c.push((Rule::ShOrder, patched(|b| put_u8(b, off(K::AlbedoSh) + 4, o)), None));
+    }
+    c.push((Rule::ShColourSpace, patched(|b| put_u8(b, off(K::AlbedoSh) + 5, 1)), None));
+    c.push((Rule::ShBasis, patched(|b| put_u8(b, off(K::AlbedoSh) + 6, 1)), None));
+    c.push((
+        Rule::ShCoefficient,
+        patched(|b| put_f32(b, off(K::AlbedoSh) + 16 + 12 * 11 + 8, f32::INFINITY)),
+        Some(off(K::AlbedoSh) as u64 + 16 + 132 + 8),
+    ));
+
+    // 7xxx skin (entry i at +16+20i; entry 1 is an unused slot)
+    c.push((Rule::SkinLength, patched(|b| put_u32(b, off(K::Skin) + 4, 3)), None));
+    c.push((Rule::SkinSphereCount, model(|f| f.skin.as_mut().unwrap().entries.truncate(4)), None));
+    for k in [0u32, 65] {
+        c.push((Rule::SkinBonesPerSphere, patched(|b| put_u32(b, off(K::Skin) + 4, k)), None));
+    }
+    c.push((Rule::SkinWithoutBones, model(|f| f.bones = None), None));
+    c.push((Rule::SkinBoneIndex, patched(|b| put_u32(b, off(K::Skin) + 16 + 40, 2)), None));
+    c.push((Rule::SkinTerm, patched(|b| put_f32(b, off(K::Skin) + 16 + 16, f32::NAN)), Some(off(K::Skin) as u64 + 32)));
+    c.push((
+        Rule::SkinUnusedSlot,
+        model(|f| f.skin.as_mut().unwrap().entries[1] = SkinEntry { bone: UNUSED_BONE, q: [0.0; 3], b: 1.0 }),
+        None,
+    ));
+
+    // 8xxx bones (record i at +16+80i: parent, name offset, name length, reserved, matrix)
+    c.push((Rule::BonesLength, patched(|b| put_u32(b, off(K::Bones) + 4, 10)), None));
+    c.push((Rule::BoneNameRange, patched(|b| put_u32(b, off(K::Bones) + 96 + 8, 6)), None));
+    c.push((Rule::BoneNameRange, patched(|b| put_u32(b, off(K::Bones) + 96 + 4, u32::MAX)), None));
+    c.push((Rule::BoneNameUtf8, patched(|b| put_u8(b, off(K::Bones) + 176 + 1, 0xFF)), None));
+    c.push((Rule::BoneParent, patched(|b| put_u32(b, off(K::Bones) + 96, 2)), None));
+    c.push((Rule::BoneCycle, patched(|b| put_u32(b, off(K::Bones) + 16, 1)), None));
+    c.push((Rule::BoneCycle, patched(|b| put_u32(b, off(K::Bones) + 96, 1)), None));
+    c.push((
+        Rule::BoneMatrix,
+        patched(|b| put_f32(b, off(K::Bones) + 96 + 16 + 60, f32::NAN)),
+        Some(off(K::Bones) as u64 + 96 + 76),
+    ));
+
+    // 9xxx metadata (entry i at +16+16i; strings at +96, entry 3 is "units")
+    c.push((Rule::MetadataLength, patched(|b| put_u32(b, off(K::Metadata) + 4, 1)), None));
+    c.push((
+        Rule::MetadataStringRange,
+        patched(|b| put_u32(b, off(K::Metadata) + 16 + 4, 1000)),
+        Some(off(K::Metadata) as u64 + 16),
+    ));
+    c.push((Rule::MetadataStringRange, patched(|b| put_u32(b, off(K::Metadata) + 16 + 8, u32::MAX)), None));
+    c.push((Rule::MetadataUtf8, patched(|b| put_u8(b, off(K::Metadata) + 96, 0xC3)), None));
+    c.push((
+        Rule::MetadataEmptyKey,
+        model(|f| f.metadata.as_mut().unwrap().extra.push((String::new(), "x".into()))),
+        None,
+    ));
+    c.push((
+        Rule::MetadataDuplicateKey,
+        model(|f| f.metadata.as_mut().unwrap().extra.push(("units".into(), "feet".into()))),
+        Some(off(K::Metadata) as u64 + 16 + 16 * 5),
+    ));
+    c.push((
+        Rule::MetadataMissingKey,
+        patched(|b| {
+            let m = off(K::Metadata);
+            let key = m + 96 + get_u32(b, m + 16 + 48) as usize;
+            assert_eq!(&b[key..key + 5], b"units");
+            b[key] = b'x';
+        }),
+        None,
+    ));
+    c
+}
+
+#[test]
+fn every_case_reports_its_rule() {
+    for (i, (rule, bytes, offset)) in cases().into_iter().enumerate() {
+        let e = read(&bytes).expect_err(&format!("case {i} ({rule:?}) must fail"));
+        assert_eq!(e.rule, rule, "case {i}: {e}");
+        if let Some(off) = offset {
+            assert_eq!(e.offset, off, "case {i}: {e}");
+        }
+        // Section attribution follows the rule's thousands digit.
+        let group = rule.id() / 1000;
+        match e.section {
+            None => assert!(group <= 2, "case {i}: {e}"),
+            Some(k) => assert_eq!(u32::from(group) - 2, k.code(), "case {i}: {e}"),
+        }
+    }
+}
+
+#[test]
+fn every_rule_has_a_case() {
+    let cases = cases();
+    for rule in Rule::ALL {
+        assert!(cases.iter().any(|(r, _, _)| r == rule), "rule {} ({rule:?}) has no test case", rule.id());
+    }
+}
+
+#[test]
+fn rule_ids_are_unique_grouped_and_ascending() {
+    let ids: Vec<u16> = Rule::ALL.iter().map(|r| r.id()).collect();
+    assert!(ids.windows(2).all(|w| w[0] < w[1]));
+    assert!(ids.iter().all(|&id| (1001..=9999).contains(&id)));
+    assert_eq!(Rule::SectionChecksum.id(), 2008);
+}
+
+#[test]
+fn the_valid_fixture_passes() {
+    read(&write(&full_file())).unwrap();
+}
+
+#[test]
+fn spec_lists_every_rule() {
+    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../../formats/spherebake-v1.md");
+    let spec = std::fs::read_to_string(path).expect("formats/spherebake-v1.md exists");
+    for rule in Rule::ALL {
+        let line = format!("| {} | {} |", rule.id(), rule.message());
+        assert!(spec.contains(&line), "spec lacks the row `{line}`");
+    }
+}
