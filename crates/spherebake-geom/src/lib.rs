@@ -7,6 +7,7 @@
 //! Conventions: right-handed, positions in model (scene) space in the input's own units
 //! (glTF: metres), colours in linear RGB unless a name says `srgb`.
 
+pub mod anim;
 pub mod bvh;
 pub mod mesh;
 pub mod sphere;
