@@ -1,1 +1,223 @@
-//! spherebake-runtime
+//! Runtime reader of `.sphb` sphere-set files: bytes in, validated plain-data views out.
+//!
+//! This is the crate an engine links.
+//! It validates a file once ([`load`]) and then hands out slices of plain structs of `f32`
+//! arrays (`[f32; 3]` centres, `f32` radii, `[f32; 16]` column-major matrices); bring your own
+//! math library.
+//!
+//! # Conventions
+//!
+//! - **Space and units.** Every centre, radius, sample position and normal is in *model space*
+//!   (the mesh's coordinates before skinning or node transforms), right-handed, in the units
+//!   named by [`Metadata::units`]: metres for glTF input, the file's units for OBJ input.
+//! - **Colour.** Albedo is *linear* RGB (not sRGB-encoded).
+//! - **SH.** Real orthonormal spherical harmonics with the Condon–Shortley phase, coefficient
+//!   index `i = l(l+1) + m`, order n = bands `0..n` = `n²` coefficients; directions are unit
+//!   vectors, θ from +z, φ from +x towards +y. [`Proxy::albedo`] evaluates them.
+//! - **Skinning.** The posed centre of sphere `s` is `Σ_j M_j · (q_j, b_j)` over its slots
+//!   ([`Proxy::skin_slots`]), with `M_j` the joint matrix of bone `j` in glTF convention
+//!   (joint world transform × inverse bind matrix); unused slots ([`UNUSED_BONE`]) hold zeros.
+//!   Radii do not change.
+//! - **Sample directions.** [`SamplePoint::direction`] indexes [`GEODESIC_DIRECTIONS`], the 92
+//!   icosahedral directions in the order the specification fixes.
+//!
+//! # Use
+//!
+//! ```
+//! # use spherebake_format::{write, Sphere, SphbFile};
+//! # let bytes = write(&SphbFile {
+//! #     spheres: vec![Sphere { center: [0.0, 1.0, 0.0], radius: 0.5 }],
+//! #     ..SphbFile::default()
+//! # });
+//! // `bytes` is the content of a .sphb file, read by the engine's own file system.
+//! let proxy = spherebake_runtime::load(&bytes)?;
+//! for sphere in proxy.spheres() {
+//!     let [x, y, z] = sphere.center;
+//!     assert!(sphere.radius > 0.0 && (x + y + z).is_finite());
+//! }
+//! if let Some(h) = proxy.hierarchy() {
+//!     let root = &h.nodes[h.root as usize]; // in range: validated by `load`
+//!     let _ = (root.center, root.radius, &root.children, &root.leaf_children);
+//! }
+//! # Ok::<(), spherebake_runtime::Error>(())
+//! ```
+//!
+//! Errors name a stable rule ID of the specification (`formats/spherebake-v1.md`), the section,
+//! the byte offset and the expected and actual values; see [`ValidationError`].
+//!
+//! # Architecture invariant
+//!
+//! `no_std` + `alloc`.
+//! Depends only on `spherebake-format` and `spherebake-sh`: no file system, no threads, no math
+//! library, nothing from the baker.
+//! No function panics on any input; indices out of range give empty slices or `None`.
+
+#![no_std]
+#![forbid(unsafe_code)]
+#![warn(missing_docs)]
+
+extern crate alloc;
+
+use alloc::vec::Vec;
+
+pub use spherebake_format::{
+    AlbedoSh, BoneRecord, ColourSpace, Detail, Hierarchy, HierarchyNode, Metadata, Rule, SamplePoint, Samples,
+    SectionKind, ShBasis, SkinEntry, SkinTerms, SphbFile, Sphere, ValidationError, FORMAT_MAJOR, FORMAT_MINOR,
+    UNUSED_BONE,
+};
+pub use spherebake_sh::{GEODESIC_DIRECTIONS, GEODESIC_DIRECTION_COUNT};
+
+/// Why a file could not be loaded: the violated validation rule and where.
+pub type Error = ValidationError;
+
+/// A validated sphere-set proxy: one owned copy of the file's data.
+///
+/// Every invariant of the specification holds (indices in range, finite values, positive radii,
+/// a tree hierarchy, unit normals), so views need no further checks.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Proxy {
+    file: SphbFile,
+}
+
+/// Reads and validates a `.sphb` file.
+///
+/// Accepts every minor version of format major 1, skips unknown sections.
+///
+/// # Errors
+///
+/// The first violated rule of the specification, with section, byte offset, expected and actual value.
+///
+/// # Panics
+///
+/// Never, for any byte string.
+///
+/// # Performance
+///
+/// One pass over the bytes plus one copy of the data: linear in the file size.
+pub fn load(bytes: &[u8]) -> Result<Proxy, Error> {
+    spherebake_format::read(bytes).map(|file| Proxy { file })
+}
+
+/// The unit direction (model space) of geodesic direction `index`, `None` for `index >= 92`.
+#[must_use]
+pub fn direction(index: u8) -> Option<[f32; 3]> {
+    GEODESIC_DIRECTIONS.get(usize::from(index)).copied()
+}
+
+impl Proxy {
+    /// Validates an in-memory file by encoding and reading it back, giving the same checks as [`load`].
+    ///
+    /// # Errors
+    ///
+    /// The first rule the model breaks.
+    pub fn from_file(file: &SphbFile) -> Result<Proxy, Error> {
+        load(&spherebake_format::write(file))
+    }
+
+    /// Number of spheres (at least 1).
+    #[must_use]
+    pub fn sphere_count(&self) -> usize {
+        self.file.spheres.len()
+    }
+
+    /// All spheres: centre and radius, model space.
+    #[must_use]
+    pub fn spheres(&self) -> &[Sphere] {
+        &self.file.spheres
+    }
+
+    /// The sphere hierarchy, if the bake produced one.
+    ///
+    /// `nodes[root]` is the root; every node is reached from it once; leaves index [`Proxy::spheres`].
+    #[must_use]
+    pub fn hierarchy(&self) -> Option<&Hierarchy> {
+        self.file.hierarchy.as_ref()
+    }
+
+    /// The samples section, if present.
+    #[must_use]
+    pub fn samples(&self) -> Option<&Samples> {
+        self.file.samples.as_ref()
+    }
+
+    /// Surface sample points of sphere `sphere` in increasing direction order; empty if the file
+    /// has no samples or `sphere` is out of range.
+    #[must_use]
+    pub fn samples_of(&self, sphere: usize) -> &[SamplePoint] {
+        self.file.samples.as_ref().map_or(&[], |s| s.of(sphere))
+    }
+
+    /// The albedo SH section, if present.
+    #[must_use]
+    pub fn albedo_sh(&self) -> Option<&AlbedoSh> {
+        self.file.albedo_sh.as_ref()
+    }
+
+    /// The `order²` linear-RGB SH coefficients of sphere `sphere`.
+    #[must_use]
+    pub fn albedo_coefficients(&self, sphere: usize) -> Option<&[[f32; 3]]> {
+        self.file.albedo_sh.as_ref()?.of(sphere)
+    }
+
+    /// Linear-RGB albedo of sphere `sphere` in unit direction `dir` (model space), evaluating
+    /// its SH expansion; `None` without an SH section or for an out-of-range sphere.
+    ///
+    /// `dir` must be unit length (the SH basis is evaluated as a polynomial in x, y, z).
+    #[must_use]
+    pub fn albedo(&self, sphere: usize, dir: [f32; 3]) -> Option<[f32; 3]> {
+        let sh = self.file.albedo_sh.as_ref()?;
+        let coeffs = sh.of(sphere)?;
+        let mut basis = [0.0f32; spherebake_sh::MAX_COEFFS];
+        spherebake_sh::eval_sh(usize::from(sh.order), dir, &mut basis).ok()?;
+        let mut out = [0.0f32; 3];
+        for (c, y) in coeffs.iter().zip(basis.iter()) {
+            for (o, v) in out.iter_mut().zip(c.iter()) {
+                *o += v * y;
+            }
+        }
+        Some(out)
+    }
+
+    /// The skinning section, if present.
+    #[must_use]
+    pub fn skin(&self) -> Option<&SkinTerms> {
+        self.file.skin.as_ref()
+    }
+
+    /// The `bones_per_sphere` skin slots of sphere `sphere`; empty without skin or out of range.
+    #[must_use]
+    pub fn skin_slots(&self, sphere: usize) -> &[SkinEntry] {
+        self.file.skin.as_ref().map_or(&[], |s| s.of(sphere))
+    }
+
+    /// The bone table (empty if absent): name, parent, column-major inverse bind matrix.
+    #[must_use]
+    pub fn bones(&self) -> &[BoneRecord] {
+        self.file.bones.as_deref().unwrap_or(&[])
+    }
+
+    /// Metadata: tool version, settings, input hash, units, free pairs.
+    #[must_use]
+    pub fn metadata(&self) -> Option<&Metadata> {
+        self.file.metadata.as_ref()
+    }
+
+    /// The whole validated file.
+    #[must_use]
+    pub fn file(&self) -> &SphbFile {
+        &self.file
+    }
+
+    /// Gives up the proxy and returns the file data.
+    #[must_use]
+    pub fn into_file(self) -> SphbFile {
+        self.file
+    }
+
+    /// Encodes the proxy again; deterministic, and equal to the loaded bytes when those came from
+    /// `spherebake_format::write`.
+    #[must_use]
+    pub fn to_bytes(&self) -> Vec<u8> {
+        spherebake_format::write(&self.file)
+    }
+}
