@@ -8,8 +8,11 @@
 //! Units: lengths in the input's units (glTF: metres), model (scene) space; see
 //! `docs/ARCHITECTURE.md` for the conventions of every stage.
 
+mod incremental;
 mod placeholder;
 mod settings;
+
+pub use incremental::{inputs_value, is_up_to_date, recorded_inputs, INPUTS_KEY};
 
 pub use settings::{BakeSettings, Method};
 
@@ -18,6 +21,9 @@ use spherebake_format::{Metadata, SphbFile, Sphere};
 use spherebake_geom::TopologyReport;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
+
+/// The tool version recorded in every file (`metadata.tool_version`).
+pub const TOOL_VERSION: &str = concat!("spherebake ", env!("CARGO_PKG_VERSION"));
 
 /// Everything that can stop a bake.
 #[non_exhaustive]
@@ -128,11 +134,14 @@ pub fn bake_imported(
     let file = SphbFile {
         spheres: fitted.spheres.iter().map(|s| Sphere { center: [s[0], s[1], s[2]], radius: s[3] }).collect(),
         metadata: Some(Metadata {
-            tool_version: concat!("spherebake ", env!("CARGO_PKG_VERSION")).to_string(),
+            tool_version: TOOL_VERSION.to_string(),
             settings: settings.to_json(),
             input_hash: input_hash.clone(),
             units: units_of(path).to_string(),
-            extra: vec![("input_name".to_string(), file_name(path))],
+            extra: vec![
+                ("input_name".to_string(), file_name(path)),
+                (INPUTS_KEY.to_string(), inputs_value(path, &imported.inputs)),
+            ],
         }),
         ..Default::default()
     };

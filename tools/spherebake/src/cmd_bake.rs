@@ -1,10 +1,18 @@
-//! `spherebake bake INPUT -o OUTPUT.sphb`: run the pipeline and write the file atomically.
+//! `spherebake bake INPUT... (-o OUTPUT.sphb | --out-dir DIR)`: run the pipeline on one or many
+//! assets (in parallel), skip those that are up to date, write outputs atomically, optionally
+//! with Make-style depfiles, and print a summary.
 
-use anyhow::{bail, Result};
+use crate::config::{Config, Overrides};
+use anyhow::{Context, Result};
 use clap::{Args, ValueEnum};
+use indicatif::{MultiProgress, ProgressBar, ProgressDrawTarget, ProgressStyle};
+use rayon::prelude::*;
+use serde::Serialize;
 use spherebake_bake::{BakeOutput, BakeSettings, Method};
-use std::path::PathBuf;
+use std::io::IsTerminal;
+use std::path::{Path, PathBuf};
 use std::process::ExitCode;
+use std::time::Instant;
 
 #[derive(Copy, Clone, Debug, PartialEq, Eq, ValueEnum)]
 pub enum MethodArg {
@@ -18,67 +26,340 @@ pub enum MethodArg {
 
 #[derive(Args, Debug)]
 pub struct BakeArgs {
-    /// Input mesh: .gltf, .glb or .obj
-    pub input: PathBuf,
-    /// Output file (.sphb); written atomically
+    /// Input meshes (.gltf, .glb, .obj) or directories to search for them
+    #[arg(required = true, num_args = 1..)]
+    pub inputs: Vec<PathBuf>,
+    /// Output file for a single input (.sphb); written atomically
     #[arg(short, long, value_name = "OUTPUT.sphb")]
-    pub output: PathBuf,
+    pub output: Option<PathBuf>,
+    /// Output directory: each input becomes <DIR>/<input stem>.sphb
+    #[arg(long, value_name = "DIR")]
+    pub out_dir: Option<PathBuf>,
     /// Number of spheres [default: 64, range 1..=4096]
-    #[arg(long, default_value_t = 64)]
-    pub spheres: usize,
-    /// Fitting method
-    #[arg(long, value_enum, default_value_t = MethodArg::Variational)]
-    pub method: MethodArg,
+    #[arg(long)]
+    pub spheres: Option<usize>,
+    /// Fitting method [default: variational]
+    #[arg(long, value_enum)]
+    pub method: Option<MethodArg>,
     /// Find the smallest sphere count whose outside-volume ratio E is at most this (overrides --spheres) [range > 0]
     #[arg(long, value_name = "E")]
     pub max_outside_ratio: Option<f64>,
     /// Voxel cells along the longest bounding-box axis [default: 128, range 16..=1024]
-    #[arg(long, default_value_t = 128)]
-    pub voxels: u32,
-    /// Seed of the random start; same seed + input + settings give byte-identical files
-    #[arg(long, default_value_t = 1)]
-    pub seed: u64,
-    /// Print the bake report as one JSON document instead of the human summary
+    #[arg(long)]
+    pub voxels: Option<u32>,
+    /// Seed of the random start; same seed + input + settings give byte-identical files [default: 1]
+    #[arg(long)]
+    pub seed: Option<u64>,
+    /// Per-asset settings file [default: ./spherebake.toml when present]
+    #[arg(long, value_name = "FILE")]
+    pub config: Option<PathBuf>,
+    /// Bake even when the output is up to date (same inputs, settings and tool version)
+    #[arg(long)]
+    pub force: bool,
+    /// Also write a Make-style dependency file <OUTPUT>.d listing every file read
+    #[arg(long)]
+    pub depfile: bool,
+    /// Print the result as one JSON document instead of the human summary
     #[arg(long)]
     pub json: bool,
     /// Print nothing but errors
-    #[arg(short, long)]
+    #[arg(short, long, conflicts_with = "verbose")]
     pub quiet: bool,
+    /// Print warnings and per-stage times of every asset
+    #[arg(short, long)]
+    pub verbose: bool,
+}
+
+struct Job {
+    input: PathBuf,
+    output: PathBuf,
+    settings: BakeSettings,
+}
+
+#[derive(Serialize)]
+struct AssetResult {
+    input: PathBuf,
+    output: PathBuf,
+    /// "baked", "up-to-date" or "failed".
+    status: &'static str,
+    triangles: Option<usize>,
+    spheres: Option<usize>,
+    outside_ratio_e: Option<f64>,
+    seconds: f64,
+    error: Option<String>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    report: Option<spherebake_bake::BakeReport>,
 }
 
 pub fn run(a: BakeArgs) -> Result<ExitCode> {
-    let settings = BakeSettings {
+    let jobs = match plan(&a) {
+        Ok(j) => j,
+        Err(Usage(msg)) => {
+            eprintln!("spherebake: error: {msg}");
+            return Ok(ExitCode::from(2));
+        }
+    };
+    let show_progress = !a.quiet && !a.json && std::io::stdout().is_terminal();
+    let multi = MultiProgress::with_draw_target(if show_progress {
+        ProgressDrawTarget::stderr()
+    } else {
+        ProgressDrawTarget::hidden()
+    });
+    let style = ProgressStyle::with_template("{prefix:>24} [{bar:30}] {percent:>3}%")
+        .unwrap_or_else(|_| ProgressStyle::default_bar())
+        .progress_chars("=> ");
+
+    let results: Vec<AssetResult> = jobs
+        .par_iter()
+        .map(|job| {
+            let bar = multi.add(ProgressBar::new(1000));
+            bar.set_style(style.clone());
+            bar.set_prefix(job.input.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default());
+            let r = run_job(job, &a, &bar);
+            bar.finish_and_clear();
+            r
+        })
+        .collect();
+
+    let failed = results.iter().filter(|r| r.status == "failed").count();
+    if a.json {
+        let doc = serde_json::json!({
+            "assets": results,
+            "baked": results.iter().filter(|r| r.status == "baked").count(),
+            "up_to_date": results.iter().filter(|r| r.status == "up-to-date").count(),
+            "failed": failed,
+        });
+        println!("{}", serde_json::to_string_pretty(&doc)?);
+    } else if !a.quiet {
+        print_summary(&results, a.verbose);
+    }
+    Ok(if failed > 0 { ExitCode::from(1) } else { ExitCode::SUCCESS })
+}
+
+struct Usage(String);
+
+fn plan(a: &BakeArgs) -> std::result::Result<Vec<Job>, Usage> {
+    if a.output.is_some() && a.out_dir.is_some() {
+        return Err(Usage("--output and --out-dir cannot be used together".into()));
+    }
+    let mut inputs = Vec::new();
+    for p in &a.inputs {
+        if p.is_dir() {
+            let mut found = Vec::new();
+            collect_meshes(p, &mut found).map_err(|e| Usage(format!("{}: {e}", p.display())))?;
+            if found.is_empty() {
+                return Err(Usage(format!("{}: directory holds no .gltf, .glb or .obj file", p.display())));
+            }
+            found.sort();
+            inputs.extend(found);
+        } else {
+            inputs.push(p.clone());
+        }
+    }
+    let outputs: Vec<PathBuf> = match (&a.output, &a.out_dir) {
+        (Some(o), None) if inputs.len() == 1 => vec![o.clone()],
+        (Some(_), None) => {
+            return Err(Usage(format!(
+                "--output takes exactly one input, got {}; use --out-dir for several",
+                inputs.len()
+            )))
+        }
+        (None, Some(d)) => inputs.iter().map(|i| d.join(format!("{}.sphb", stem(i)))).collect(),
+        _ => return Err(Usage("give --output FILE (one input) or --out-dir DIR".into())),
+    };
+    let mut seen = std::collections::BTreeMap::new();
+    for (i, o) in inputs.iter().zip(&outputs) {
+        if let Some(prev) = seen.insert(o.clone(), i.clone()) {
+            return Err(Usage(format!("{} and {} would both write {}", prev.display(), i.display(), o.display())));
+        }
+    }
+    let config = match &a.config {
+        Some(p) => Config::load(p).map_err(|e| Usage(format!("{e:#}")))?,
+        None if Path::new("spherebake.toml").is_file() => {
+            Config::load(Path::new("spherebake.toml")).map_err(|e| Usage(format!("{e:#}")))?
+        }
+        None => Config::default(),
+    };
+    let cli = Overrides {
         spheres: a.spheres,
-        method: match a.method {
-            MethodArg::Variational => Method::Variational,
-            MethodArg::Kmeans => Method::Kmeans,
-            MethodArg::Octree => Method::Octree,
-        },
+        method: a.method.map(|m| format!("{m:?}").to_lowercase()),
         max_outside_ratio: a.max_outside_ratio,
         voxels: a.voxels,
         seed: a.seed,
     };
-    if let Err(msg) = settings.validate() {
-        // A usage error: report like clap does, exit 2, before any work.
-        eprintln!("spherebake: error: {msg}");
-        return Ok(ExitCode::from(2));
-    }
-    if a.output.is_dir() {
-        bail!("{}: output is a directory", a.output.display());
-    }
-    // Library errors already name the file and what is wrong with it.
-    let out = spherebake_bake::bake_path(&a.input, &settings, &|_| {})?;
-    crate::atomic::write_atomic(&a.output, &out.bytes)?;
-    if a.json {
-        println!("{}", serde_json::to_string_pretty(&out.report)?);
-    } else if !a.quiet {
-        print_summary(&a.output, &out);
-    }
-    Ok(ExitCode::SUCCESS)
+    inputs
+        .into_iter()
+        .zip(outputs)
+        .map(|(input, output)| {
+            let o = config.for_input(&input).merged(&cli);
+            let settings = to_settings(&o).map_err(|m| Usage(format!("{}: {m}", input.display())))?;
+            Ok(Job { input, output, settings })
+        })
+        .collect()
 }
 
-fn print_summary(output: &std::path::Path, out: &BakeOutput) {
-    let r = &out.report;
+fn to_settings(o: &Overrides) -> std::result::Result<BakeSettings, String> {
+    let d = BakeSettings::default();
+    let method = match o.method.as_deref() {
+        None => d.method,
+        Some("variational") => Method::Variational,
+        Some("kmeans") => Method::Kmeans,
+        Some("octree") => Method::Octree,
+        Some(m) => return Err(format!("unknown method {m:?} (variational, kmeans, octree)")),
+    };
+    let s = BakeSettings {
+        spheres: o.spheres.unwrap_or(d.spheres),
+        method,
+        max_outside_ratio: o.max_outside_ratio.or(d.max_outside_ratio),
+        voxels: o.voxels.unwrap_or(d.voxels),
+        seed: o.seed.unwrap_or(d.seed),
+    };
+    s.validate()?;
+    Ok(s)
+}
+
+fn collect_meshes(dir: &Path, out: &mut Vec<PathBuf>) -> std::io::Result<()> {
+    for e in std::fs::read_dir(dir)? {
+        let p = e?.path();
+        if p.is_dir() {
+            collect_meshes(&p, out)?;
+        } else if crate::cmd_inspect::is_mesh(&p) {
+            out.push(p);
+        }
+    }
+    Ok(())
+}
+
+fn stem(p: &Path) -> String {
+    p.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_else(|| "out".into())
+}
+
+fn run_job(job: &Job, a: &BakeArgs, bar: &ProgressBar) -> AssetResult {
+    let t0 = Instant::now();
+    let mut r = AssetResult {
+        input: job.input.clone(),
+        output: job.output.clone(),
+        status: "failed",
+        triangles: None,
+        spheres: None,
+        outside_ratio_e: None,
+        seconds: 0.0,
+        error: None,
+        report: None,
+    };
+    if !a.force && spherebake_bake::is_up_to_date(&job.output, &job.input, &job.settings) {
+        r.status = "up-to-date";
+        if a.depfile && !depfile_path(&job.output).exists() {
+            // Keep the depfile promise even when nothing is baked.
+            if let Ok(bytes) = std::fs::read(&job.output) {
+                if let Some(inputs) = spherebake_bake::recorded_inputs(&bytes, &job.input) {
+                    let _ = write_depfile(&job.output, &inputs);
+                }
+            }
+        }
+        r.seconds = t0.elapsed().as_secs_f64();
+        return r;
+    }
+    let progress = |f: f32| bar.set_position((f.clamp(0.0, 1.0) * 1000.0) as u64);
+    let outcome: Result<BakeOutput> = (|| {
+        let out = spherebake_bake::bake_path(&job.input, &job.settings, &progress)?;
+        crate::atomic::write_atomic(&job.output, &out.bytes)?;
+        if a.depfile {
+            write_depfile(&job.output, &out.report.inputs)?;
+        }
+        Ok(out)
+    })();
+    r.seconds = t0.elapsed().as_secs_f64();
+    match outcome {
+        Ok(out) => {
+            r.status = "baked";
+            r.triangles = Some(out.report.triangles);
+            r.spheres = Some(out.report.sphere_count);
+            r.outside_ratio_e = out.report.outside_ratio_e;
+            r.report = Some(out.report);
+        }
+        Err(e) => {
+            let msg = format!("{e:#}");
+            // Printed as it happens so a long batch shows failures early; the table repeats it.
+            eprintln!("spherebake: error: {msg}");
+            r.error = Some(msg);
+        }
+    }
+    r
+}
+
+fn depfile_path(output: &Path) -> PathBuf {
+    let mut s = output.as_os_str().to_owned();
+    s.push(".d");
+    PathBuf::from(s)
+}
+
+/// Make syntax: `target: dep dep ...`, spaces and `#` escaped with a backslash, `$` doubled.
+fn make_escape(p: &Path) -> String {
+    let mut s = String::new();
+    for c in p.to_string_lossy().chars() {
+        match c {
+            ' ' | '#' | '\\' => {
+                s.push('\\');
+                s.push(c);
+            }
+            '$' => s.push_str("$$"),
+            _ => s.push(c),
+        }
+    }
+    s
+}
+
+fn write_depfile(output: &Path, inputs: &[PathBuf]) -> Result<()> {
+    let mut text = format!("{}:", make_escape(output));
+    for i in inputs {
+        text.push_str(" \\\n  ");
+        text.push_str(&make_escape(i));
+    }
+    text.push('\n');
+    let path = depfile_path(output);
+    crate::atomic::write_atomic(&path, text.as_bytes()).with_context(|| format!("{}: writing depfile", path.display()))
+}
+
+fn print_summary(results: &[AssetResult], verbose: bool) {
+    if results.len() == 1 && results[0].status == "baked" {
+        if let Some(r) = &results[0].report {
+            print_single(&results[0].output, r);
+            return;
+        }
+    }
+    let w = results.iter().map(|r| r.input.display().to_string().chars().count()).max().unwrap_or(0).max(5);
+    println!("{:<w$} {:>10} {:>8} {:>8} {:>9}  status", "asset", "triangles", "spheres", "E", "time (s)");
+    let opt = |v: Option<String>| v.unwrap_or_else(|| "-".into());
+    for r in results {
+        let name = r.input.display().to_string();
+        println!(
+            "{:<w$} {:>10} {:>8} {:>8} {:>9.3}  {}",
+            name,
+            opt(r.triangles.map(|t| t.to_string())),
+            opt(r.spheres.map(|t| t.to_string())),
+            opt(r.outside_ratio_e.map(|e| format!("{e:.4}"))),
+            r.seconds,
+            match &r.error {
+                Some(e) => format!("failed: {e}"),
+                None => r.status.to_string(),
+            }
+        );
+        if verbose {
+            if let Some(rep) = &r.report {
+                let stages: Vec<String> = rep.timings.iter().map(|t| format!("{} {:.3}", t.stage, t.seconds)).collect();
+                println!("    stages: {}", stages.join(", "));
+                for w in &rep.warnings {
+                    println!("    warning: {w}");
+                }
+            }
+        }
+    }
+    let n = |s: &str| results.iter().filter(|r| r.status == s).count();
+    println!("{} baked, {} up to date, {} failed", n("baked"), n("up-to-date"), n("failed"));
+}
+
+fn print_single(output: &Path, r: &spherebake_bake::BakeReport) {
     let total: f64 = r.timings.iter().map(|t| t.seconds).sum();
     println!("baked {} -> {}", r.input.display(), output.display());
     println!(

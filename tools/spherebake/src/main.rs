@@ -7,6 +7,7 @@ mod atomic;
 mod cmd_bake;
 mod cmd_eval;
 mod cmd_inspect;
+mod config;
 mod json;
 
 use clap::{Parser, Subcommand};

@@ -1,0 +1,222 @@
+//! Runs the built `spherebake` binary in a fresh temp directory per test (ripgrep style) and checks
+//! exit codes, that stderr names the file, and that no output file is left behind on failure.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn bin() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_spherebake"))
+}
+
+fn repo() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
+}
+
+fn run(args: &[&str], dir: &Path) -> Output {
+    bin().args(args).current_dir(dir).output().expect("run spherebake")
+}
+
+fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+/// Asserts a failed bake: exit 1, one-line error naming `named`, no output nor temp file left.
+fn assert_bake_fails(dir: &Path, input: &str, named: &str, what: &str) {
+    let o = run(&["bake", input, "-o", "out.sphb"], dir);
+    let err = stderr(&o);
+    assert_eq!(o.status.code(), Some(1), "{input}: expected exit 1, stderr: {err}");
+    assert!(err.starts_with("spherebake: error: "), "{err}");
+    assert_eq!(err.trim_end().lines().count(), 1, "one line expected: {err}");
+    assert!(err.contains(named), "stderr must name {named}: {err}");
+    assert!(err.to_lowercase().contains(what), "stderr must say {what:?}: {err}");
+    let left: Vec<_> = std::fs::read_dir(dir)
+        .unwrap()
+        .filter_map(|e| e.ok())
+        .map(|e| e.file_name().to_string_lossy().into_owned())
+        .filter(|n| n.ends_with(".sphb") || n.ends_with(".tmp"))
+        .collect();
+    assert!(left.is_empty(), "output left behind: {left:?}");
+}
+
+fn glb(json: &str, bin_chunk: &[u8]) -> Vec<u8> {
+    let mut j = json.as_bytes().to_vec();
+    while j.len() % 4 != 0 {
+        j.push(b' ');
+    }
+    let mut b = bin_chunk.to_vec();
+    while b.len() % 4 != 0 {
+        b.push(0);
+    }
+    let total = 12 + 8 + j.len() + if b.is_empty() { 0 } else { 8 + b.len() };
+    let mut out = Vec::new();
+    out.extend_from_slice(b"glTF");
+    out.extend_from_slice(&2u32.to_le_bytes());
+    out.extend_from_slice(&(total as u32).to_le_bytes());
+    out.extend_from_slice(&(j.len() as u32).to_le_bytes());
+    out.extend_from_slice(b"JSON");
+    out.extend_from_slice(&j);
+    if !b.is_empty() {
+        out.extend_from_slice(&(b.len() as u32).to_le_bytes());
+        out.extend_from_slice(b"BIN\0");
+        out.extend_from_slice(&b);
+    }
+    out
+}
+
+/// A one-triangle glTF whose positions and indices are given.
+fn triangle_glb(positions: [[f32; 3]; 3], indices: [u16; 3]) -> Vec<u8> {
+    let mut bin = Vec::new();
+    for p in positions {
+        for c in p {
+            bin.extend_from_slice(&c.to_le_bytes());
+        }
+    }
+    for i in indices {
+        bin.extend_from_slice(&i.to_le_bytes());
+    }
+    let json = r#"{"asset":{"version":"2.0"},"scene":0,"scenes":[{"nodes":[0]}],"nodes":[{"mesh":0}],
+      "meshes":[{"primitives":[{"attributes":{"POSITION":0},"indices":1}]}],
+      "buffers":[{"byteLength":42}],
+      "bufferViews":[{"buffer":0,"byteOffset":0,"byteLength":36},{"buffer":0,"byteOffset":36,"byteLength":6}],
+      "accessors":[{"bufferView":0,"componentType":5126,"count":3,"type":"VEC3","min":[0,0,0],"max":[1,1,0]},
+                   {"bufferView":1,"componentType":5123,"count":3,"type":"SCALAR"}]}"#;
+    glb(json, &bin)
+}
+
+const OK_TRI: [[f32; 3]; 3] = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]];
+
+#[test]
+fn readme_quick_start_bakes_the_fixture_and_prints_a_summary() {
+    let dir = tempfile::tempdir().unwrap();
+    let input = repo().join("fixtures/capsule.obj");
+    let o = run(&["bake", input.to_str().unwrap(), "-o", "capsule.sphb"], dir.path());
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let out = String::from_utf8_lossy(&o.stdout);
+    assert!(out.contains("spheres"), "{out}");
+    let bytes = std::fs::read(dir.path().join("capsule.sphb")).unwrap();
+    let file = spherebake_format::read(&bytes).expect("the reader accepts what bake wrote");
+    assert!(!file.spheres.is_empty());
+}
+
+#[test]
+fn inspect_json_has_the_contract_keys() {
+    let dir = tempfile::tempdir().unwrap();
+    let input = repo().join("fixtures/capsule.obj");
+    assert_eq!(run(&["bake", input.to_str().unwrap(), "-o", "c.sphb"], dir.path()).status.code(), Some(0));
+    let o = run(&["inspect", "c.sphb", "--json"], dir.path());
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    for k in ["format_version", "spheres", "hierarchy", "samples", "albedo_sh", "skin", "bones", "metadata", "sections"]
+    {
+        assert!(v.get(k).is_some(), "missing key {k}");
+    }
+    let s = &v["spheres"][0];
+    assert_eq!(s["center"].as_array().unwrap().len(), 3);
+    assert!(s["radius"].as_f64().unwrap() > 0.0);
+    assert_eq!(v["format_version"], "1.0");
+
+    let o = run(&["inspect", input.to_str().unwrap(), "--json"], dir.path());
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(v["topology"]["closed"], true);
+}
+
+#[test]
+fn bake_is_deterministic() {
+    let dir = tempfile::tempdir().unwrap();
+    let input = repo().join("fixtures/capsule.obj");
+    for name in ["a.sphb", "b.sphb"] {
+        assert_eq!(run(&["bake", input.to_str().unwrap(), "-o", name], dir.path()).status.code(), Some(0));
+    }
+    assert_eq!(std::fs::read(dir.path().join("a.sphb")).unwrap(), std::fs::read(dir.path().join("b.sphb")).unwrap());
+}
+
+#[test]
+fn missing_file() {
+    let dir = tempfile::tempdir().unwrap();
+    assert_bake_fails(dir.path(), "nope.glb", "nope.glb", "not found");
+}
+
+#[test]
+fn truncated_glb() {
+    let dir = tempfile::tempdir().unwrap();
+    let full = triangle_glb(OK_TRI, [0, 1, 2]);
+    std::fs::write(dir.path().join("cut.glb"), &full[..full.len() - 20]).unwrap();
+    assert_bake_fails(dir.path(), "cut.glb", "cut.glb", "truncated");
+}
+
+#[test]
+fn wrong_magic() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut full = triangle_glb(OK_TRI, [0, 1, 2]);
+    full[0..4].copy_from_slice(b"gLTF");
+    std::fs::write(dir.path().join("magic.glb"), &full).unwrap();
+    assert_bake_fails(dir.path(), "magic.glb", "magic.glb", "magic");
+}
+
+#[test]
+fn index_out_of_range() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("idx.glb"), triangle_glb(OK_TRI, [0, 1, 7])).unwrap();
+    assert_bake_fails(dir.path(), "idx.glb", "idx.glb", "index");
+}
+
+#[test]
+fn nan_positions() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut p = OK_TRI;
+    p[1][1] = f32::NAN;
+    std::fs::write(dir.path().join("nan.glb"), triangle_glb(p, [0, 1, 2])).unwrap();
+    assert_bake_fails(dir.path(), "nan.glb", "nan.glb", "nan");
+    std::fs::write(dir.path().join("nan.obj"), "v 0 0 0\nv 1 nan 0\nv 0 1 0\nf 1 2 3\n").unwrap();
+    assert_bake_fails(dir.path(), "nan.obj", "nan.obj", "nan");
+}
+
+#[test]
+fn empty_mesh() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("empty.obj"), "# nothing\nv 0 0 0\n").unwrap();
+    assert_bake_fails(dir.path(), "empty.obj", "empty.obj", "no triangles");
+}
+
+#[test]
+fn missing_texture_warns_and_bakes() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(
+        dir.path().join("t.obj"),
+        "mtllib t.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nusemtl m\nf 1 3 2\nf 1 2 4\nf 1 4 3\nf 2 3 4\n",
+    )
+    .unwrap();
+    std::fs::write(dir.path().join("t.mtl"), "newmtl m\nKd 0.5 0.25 1\nmap_Kd gone.png\n").unwrap();
+    let o = run(&["bake", "t.obj", "-o", "t.sphb"], dir.path());
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let out = String::from_utf8_lossy(&o.stdout);
+    assert!(out.contains("gone.png"), "the warning must name the missing texture: {out}");
+    assert!(dir.path().join("t.sphb").exists());
+}
+
+#[test]
+fn unknown_major_version_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let input = repo().join("fixtures/capsule.obj");
+    assert_eq!(run(&["bake", input.to_str().unwrap(), "-o", "v.sphb"], dir.path()).status.code(), Some(0));
+    let mut bytes = std::fs::read(dir.path().join("v.sphb")).unwrap();
+    bytes[8..10].copy_from_slice(&2u16.to_le_bytes()); // major version field follows the 8-byte magic
+    spherebake_format::repair_checksums(&mut bytes);
+    std::fs::write(dir.path().join("v2.sphb"), &bytes).unwrap();
+    let o = run(&["inspect", "v2.sphb"], dir.path());
+    let err = stderr(&o);
+    assert_eq!(o.status.code(), Some(1), "{err}");
+    assert!(err.contains("v2.sphb") && err.contains("version"), "{err}");
+}
+
+#[test]
+fn usage_errors_exit_2() {
+    let dir = tempfile::tempdir().unwrap();
+    assert_eq!(run(&["bake"], dir.path()).status.code(), Some(2));
+    assert_eq!(run(&["frobnicate"], dir.path()).status.code(), Some(2));
+    let input = repo().join("fixtures/capsule.obj");
+    let o = run(&["bake", input.to_str().unwrap(), "-o", "x.sphb", "--spheres", "0"], dir.path());
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(!dir.path().join("x.sphb").exists());
+}
