@@ -94,6 +94,9 @@ pub struct Proxy {
 /// # Performance
 ///
 /// One pass over the bytes plus one copy of the data: linear in the file size.
+/// Measured (`examples/load_timing.rs`, release build, 2-core machine shared with other jobs):
+/// a 6.6 MB file with 4096 spheres, 40 samples per sphere, order-4 SH and 4 skin slots per sphere
+/// loads in 5.3 ms (minimum) to 17 ms (median) of 21 runs.
 pub fn load(bytes: &[u8]) -> Result<Proxy, Error> {
     spherebake_format::read(bytes).map(|file| Proxy { file })
 }
