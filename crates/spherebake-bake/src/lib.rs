@@ -8,8 +8,10 @@
 //! Units: lengths in the input's units (glTF: metres), model (scene) space; see
 //! `docs/ARCHITECTURE.md` for the conventions of every stage.
 
+pub mod export;
 mod incremental;
 mod placeholder;
+pub mod render;
 mod settings;
 
 pub use incremental::{inputs_value, is_up_to_date, recorded_inputs, INPUTS_KEY};

@@ -7,6 +7,7 @@ mod atomic;
 mod cmd_bake;
 mod cmd_eval;
 mod cmd_inspect;
+mod cmd_view;
 mod config;
 mod json;
 
@@ -30,6 +31,10 @@ enum Command {
     Inspect(cmd_inspect::InspectArgs),
     /// Measure a baked sphere set against its model: outside-volume ratio E, coverage, radii.
     Eval(cmd_eval::EvalArgs),
+    /// Write the proxy as glTF (.glb) for any viewer: icospheres per hierarchy level, sample markers.
+    Export(cmd_view::ExportArgs),
+    /// Draw the mesh with its sphere set from three views into a PNG, headless.
+    Render(cmd_view::RenderArgs),
 }
 
 fn main() -> ExitCode {
@@ -46,6 +51,8 @@ fn main() -> ExitCode {
         Command::Bake(a) => cmd_bake::run(a),
         Command::Inspect(a) => cmd_inspect::run(a),
         Command::Eval(a) => cmd_eval::run(a),
+        Command::Export(a) => cmd_view::run_export(a),
+        Command::Render(a) => cmd_view::run_render(a),
     };
     match result {
         Ok(code) => code,

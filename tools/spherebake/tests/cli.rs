@@ -220,3 +220,103 @@ fn usage_errors_exit_2() {
     assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
     assert!(!dir.path().join("x.sphb").exists());
 }
+
+#[test]
+fn export_reimports_with_the_right_nodes_and_render_writes_a_nonblank_png() {
+    let dir = tempfile::tempdir().unwrap();
+    let input = repo().join("fixtures/capsule.obj");
+    assert_eq!(run(&["bake", input.to_str().unwrap(), "-o", "c.sphb"], dir.path()).status.code(), Some(0));
+    let file = spherebake_format::read(&std::fs::read(dir.path().join("c.sphb")).unwrap()).unwrap();
+    let o = run(&["export", "c.sphb", "-o", "c.glb"], dir.path());
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let g = gltf::Gltf::from_slice(&std::fs::read(dir.path().join("c.glb")).unwrap()).expect("valid glb");
+    let levels = spherebake_bake::export::hierarchy_levels(&file).len();
+    let has_samples = file.samples.as_ref().is_some_and(|s| s.total() > 0);
+    assert_eq!(g.nodes().count(), 1 + levels + usize::from(has_samples));
+    // The leaf level holds one icosphere (42 vertices) per sphere.
+    let leaf = g.meshes().find(|m| m.name() == Some("level 0 (leaves)")).expect("leaf level mesh");
+    let count = leaf.primitives().next().unwrap().get(&gltf::Semantic::Positions).unwrap().count();
+    assert_eq!(count, 42 * file.spheres.len());
+
+    let o =
+        run(&["render", "c.sphb", "--model", input.to_str().unwrap(), "-o", "c.png", "--size", "240x90"], dir.path());
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let img = image::open(dir.path().join("c.png")).unwrap().to_rgb8();
+    assert_eq!((img.width(), img.height()), (240, 90));
+    let distinct: std::collections::BTreeSet<[u8; 3]> = img.pixels().map(|p| p.0).collect();
+    assert!(distinct.len() > 10, "picture looks blank: {} colours", distinct.len());
+    assert_eq!(
+        run(&["render", "c.sphb", "--model", "x.obj", "-o", "d.png", "--size", "12"], dir.path()).status.code(),
+        Some(2)
+    );
+}
+
+#[test]
+fn batch_keeps_going_skips_up_to_date_and_writes_depfiles() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    // Two good assets (one textured, with a texture beside it) and one broken one.
+    std::fs::write(d.join("tet.obj"), "mtllib tet.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nvt 0 0\nvt 1 0\nvt 0 1\nusemtl m\nf 1/1 3/3 2/2\nf 1/1 2/2 4/3\nf 1/1 4/3 3/2\nf 2/1 3/2 4/3\n").unwrap();
+    std::fs::write(d.join("tet.mtl"), "newmtl m\nKd 1 1 1\nmap_Kd tex.png\n").unwrap();
+    image::RgbImage::from_pixel(2, 2, image::Rgb([200, 10, 10])).save(d.join("tex.png")).unwrap();
+    std::fs::copy(repo().join("fixtures/capsule.obj"), d.join("capsule.obj")).unwrap();
+    let _ = std::fs::copy(repo().join("fixtures/capsule.mtl"), d.join("capsule.mtl"));
+    std::fs::write(d.join("broken.obj"), "v 0 0 0\nf 1 2 3\n").unwrap();
+
+    let o = run(&["bake", "tet.obj", "capsule.obj", "broken.obj", "--out-dir", "out", "--depfile", "--json"], d);
+    assert_eq!(o.status.code(), Some(1), "one asset failed: exit 1");
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(v["baked"], 2);
+    assert_eq!(v["failed"], 1);
+    assert!(d.join("out/tet.sphb").exists() && d.join("out/capsule.sphb").exists());
+    assert!(!d.join("out/broken.sphb").exists());
+    let dep = std::fs::read_to_string(d.join("out/tet.sphb.d")).unwrap();
+    assert!(dep.starts_with("out/tet.sphb:"), "{dep}");
+    for f in ["tet.obj", "tet.mtl", "tex.png"] {
+        assert!(dep.contains(f), "depfile lists {f}: {dep}");
+    }
+
+    // Second run: nothing to bake.
+    let o = run(&["bake", "tet.obj", "capsule.obj", "--out-dir", "out", "--json"], d);
+    assert_eq!(o.status.code(), Some(0));
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!((v["baked"].as_u64(), v["up_to_date"].as_u64()), (Some(0), Some(2)), "{v}");
+
+    // Touching (changing) the texture re-bakes that asset only; other settings re-bake too.
+    image::RgbImage::from_pixel(2, 2, image::Rgb([10, 200, 10])).save(d.join("tex.png")).unwrap();
+    let o = run(&["bake", "tet.obj", "capsule.obj", "--out-dir", "out", "--json"], d);
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!((v["baked"].as_u64(), v["up_to_date"].as_u64()), (Some(1), Some(1)), "{v}");
+    assert_eq!(v["assets"][0]["status"], "baked");
+    let o = run(&["bake", "capsule.obj", "--out-dir", "out", "--json", "--spheres", "9"], d);
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(v["baked"], 1, "changed settings re-bake");
+    let o = run(&["bake", "capsule.obj", "--out-dir", "out", "--json", "--spheres", "9", "--force"], d);
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(v["baked"], 1, "--force re-bakes");
+}
+
+#[test]
+fn config_file_sets_per_asset_settings_and_flags_override() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    std::fs::copy(repo().join("fixtures/capsule.obj"), d.join("capsule.obj")).unwrap();
+    let _ = std::fs::copy(repo().join("fixtures/capsule.mtl"), d.join("capsule.mtl"));
+    std::fs::write(d.join("spherebake.toml"), "[defaults]\nspheres = 5\n[[asset]]\nglob = \"caps*.obj\"\nseed = 7\n")
+        .unwrap();
+    let settings = |args: &[&str]| {
+        let o = run(args, d);
+        assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+        let o = run(&["inspect", "c.sphb", "--json"], d);
+        let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+        v["metadata"]["settings"].clone()
+    };
+    let s = settings(&["bake", "capsule.obj", "-o", "c.sphb"]);
+    assert_eq!((s["spheres"].as_u64(), s["seed"].as_u64()), (Some(5), Some(7)), "{s}");
+    let s = settings(&["bake", "capsule.obj", "-o", "c.sphb", "--spheres", "6"]);
+    assert_eq!((s["spheres"].as_u64(), s["seed"].as_u64()), (Some(6), Some(7)), "{s}");
+    std::fs::write(d.join("spherebake.toml"), "[defaults]\nsphers = 5\n").unwrap();
+    let o = run(&["bake", "capsule.obj", "-o", "c.sphb"], d);
+    assert_eq!(o.status.code(), Some(2), "a typo in the config is a usage error");
+    assert!(stderr(&o).contains("spherebake.toml"), "{}", stderr(&o));
+}
