@@ -184,15 +184,42 @@ pub(crate) fn import(ctx: &mut Ctx, bytes: &[u8], glb: bool) -> Result<(Mesh, Ve
     }
     // Checked above; the gltf crate would otherwise refuse extensions it has no feature for.
     root.extensions_required.clear();
-    let doc = gltf::Document::from_json(root).map_err(|e| {
-        let message = match e {
-            gltf::Error::Validation(errs) => {
-                errs.iter().take(5).map(|(p, e)| format!("{}: {e}", p.as_str())).collect::<Vec<_>>().join("; ")
+    // gltf-json's validation indexes `accessors[POSITION]` unchecked: check those indices first.
+    for (mi, mesh) in root.meshes.iter().enumerate() {
+        for (pi, prim) in mesh.primitives.iter().enumerate() {
+            for (sem, acc) in &prim.attributes {
+                if acc.value() >= root.accessors.len() {
+                    return Err(IoError::Invalid {
+                        path,
+                        message: format!(
+                            "meshes[{mi}].primitives[{pi}].attributes[{sem:?}]: accessor {} does not exist ({} accessors)",
+                            acc.value(),
+                            root.accessors.len()
+                        ),
+                    });
+                }
             }
-            e => e.to_string(),
-        };
-        IoError::Invalid { path: path.clone(), message }
-    })?;
+        }
+    }
+    let doc = gltf::Document::from_json_without_validation(root.clone());
+    let mut errors = Vec::new();
+    // Last line of defence: the gltf crate's validation must not take the process down.
+    let validated = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+        use gltf::json::validation::Validate;
+        root.validate(&root, gltf::json::Path::new, &mut |p, e| errors.push((p(), e)));
+    }));
+    if validated.is_err() {
+        return Err(IoError::Invalid { path, message: "glTF validation failed on malformed data".into() });
+    }
+    // POSITION accessors without min / max break the letter of the spec but are harmless here.
+    errors.retain(|(p, e)| {
+        let s = p.as_str();
+        !(matches!(e, gltf::json::validation::Error::Missing) && (s.ends_with(".min") || s.ends_with(".max")))
+    });
+    if !errors.is_empty() {
+        let message = errors.iter().take(5).map(|(p, e)| format!("{}: {e}", p.as_str())).collect::<Vec<_>>().join("; ");
+        return Err(IoError::Invalid { path, message });
+    }
 
     let mut buffers = Vec::new();
     for buffer in doc.buffers() {

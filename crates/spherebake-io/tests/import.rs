@@ -1,0 +1,341 @@
+//! Importer behaviour on the repository fixtures, a few shared models (skipped when absent) and
+//! small byte strings built here for every error case.
+
+use std::path::{Path, PathBuf};
+
+use spherebake_geom::glam::Vec3;
+use spherebake_geom::topology::TopologyReport;
+use spherebake_geom::{FilterMode, WrapMode};
+use spherebake_io::{load_mesh, load_mesh_from_bytes, IoError};
+
+fn fixture(p: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../../fixtures").join(p)
+}
+
+fn models_dir() -> Option<PathBuf> {
+    let d = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/models");
+    if d.join("README.md").is_file() {
+        Some(d)
+    } else {
+        println!("skipping: {} not found", d.display());
+        None
+    }
+}
+
+fn b64(data: &[u8]) -> String {
+    const A: &[u8] = b"ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+    let mut s = String::new();
+    for c in data.chunks(3) {
+        let n =
+            (u32::from(c[0]) << 16) | (u32::from(*c.get(1).unwrap_or(&0)) << 8) | u32::from(*c.get(2).unwrap_or(&0));
+        for k in 0..4 {
+            if k <= c.len() {
+                s.push(A[(n >> (18 - 6 * k)) as usize & 63] as char);
+            } else {
+                s.push('=');
+            }
+        }
+    }
+    s
+}
+
+/// A one-primitive glTF: positions (+ optional u16 indices) in one buffer, embedded as a data URI
+/// (`bin_uri = None`) or referenced as GLB BIN (`Some("")`). `extra` is spliced into the root.
+fn gltf_json(positions: &[[f32; 3]], indices: Option<&[u16]>, glb: bool, extra: &str) -> (String, Vec<u8>) {
+    let mut bin: Vec<u8> = positions.iter().flatten().flat_map(|x| x.to_le_bytes()).collect();
+    let pos_len = bin.len();
+    if let Some(ix) = indices {
+        bin.extend(ix.iter().flat_map(|i| i.to_le_bytes()));
+    }
+    while bin.len() % 4 != 0 {
+        bin.push(0);
+    }
+    let uri =
+        if glb { String::new() } else { format!(r#","uri":"data:application/octet-stream;base64,{}""#, b64(&bin)) };
+    let (idx_attr, idx_view, idx_acc) = match indices {
+        Some(ix) => (
+            r#","indices":1"#.to_string(),
+            format!(r#",{{"buffer":0,"byteOffset":{pos_len},"byteLength":{}}}"#, ix.len() * 2),
+            format!(r#",{{"bufferView":1,"componentType":5123,"count":{},"type":"SCALAR"}}"#, ix.len()),
+        ),
+        None => Default::default(),
+    };
+    let json = format!(
+        r#"{{"asset":{{"version":"2.0"}},"scene":0,"scenes":[{{"nodes":[0]}}],"nodes":[{{"mesh":0}}],
+"meshes":[{{"name":"m","primitives":[{{"attributes":{{"POSITION":0}}{idx_attr}}}]}}],
+"buffers":[{{"byteLength":{}{uri}}}],
+"bufferViews":[{{"buffer":0,"byteOffset":0,"byteLength":{pos_len}}}{idx_view}],
+"accessors":[{{"bufferView":0,"componentType":5126,"count":{},"type":"VEC3"}}{idx_acc}]{extra}}}"#,
+        bin.len(),
+        positions.len()
+    );
+    (json, bin)
+}
+
+fn glb(json: &str, bin: &[u8]) -> Vec<u8> {
+    let mut j = json.as_bytes().to_vec();
+    while j.len() % 4 != 0 {
+        j.push(b' ');
+    }
+    let total = 12 + 8 + j.len() + 8 + bin.len();
+    let mut out = Vec::new();
+    out.extend(b"glTF");
+    out.extend(2u32.to_le_bytes());
+    out.extend((total as u32).to_le_bytes());
+    out.extend((j.len() as u32).to_le_bytes());
+    out.extend(0x4E4F_534Au32.to_le_bytes());
+    out.extend(&j);
+    out.extend((bin.len() as u32).to_le_bytes());
+    out.extend(0x004E_4942u32.to_le_bytes());
+    out.extend(bin);
+    out
+}
+
+const TRI: [[f32; 3]; 3] = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]];
+
+#[test]
+fn built_gltf_and_glb_import() {
+    let (json, _) = gltf_json(&TRI, Some(&[0, 1, 2]), false, "");
+    let imp = load_mesh_from_bytes(Path::new("mem/tri.gltf"), json.as_bytes()).unwrap();
+    assert_eq!(imp.mesh.triangles, vec![[0, 1, 2]]);
+    assert_eq!(imp.mesh.normals, vec![Vec3::Z; 3], "computed normals of a CCW triangle in z = 0");
+    assert!(imp.mesh.skin.is_none());
+    let (json, bin) = gltf_json(&TRI, None, true, "");
+    let imp = load_mesh_from_bytes(Path::new("mem/tri.glb"), &glb(&json, &bin)).unwrap();
+    assert_eq!(imp.mesh.triangles, vec![[0, 1, 2]]);
+    assert_eq!(imp.mesh.positions[1], Vec3::X);
+}
+
+#[test]
+fn textured_cube_fixture_external_bin_and_srgb_texels() {
+    let imp = load_mesh(&fixture("textured-cube/textured-cube.gltf")).unwrap();
+    let names: Vec<_> = imp.inputs.iter().map(|p| p.file_name().unwrap().to_str().unwrap().to_owned()).collect();
+    assert_eq!(names, ["textured-cube.gltf", "textured-cube.bin", "textured-cube.png"]);
+    assert!(imp.warnings.is_empty(), "{:?}", imp.warnings);
+    let m = &imp.mesh;
+    assert_eq!((m.positions.len(), m.triangles.len(), m.uvs.len(), m.uvs[0].len()), (24, 12, 1, 24));
+    let r = TopologyReport::compute(m);
+    assert!(r.closed && r.consistently_oriented && (r.signed_volume - 1.0).abs() < 1e-9, "{r:?}");
+    let tr = m.materials[0].base_color_texture.as_ref().unwrap();
+    assert_eq!(
+        (tr.wrap_s, tr.wrap_t, tr.mag_filter, tr.uv_set),
+        (WrapMode::Repeat, WrapMode::Repeat, FilterMode::Nearest, 0)
+    );
+    let t = &m.textures[tr.texture];
+    assert_eq!((t.width, t.height), (4, 4));
+    // Generator: texel (x, y) = [red, green, blue, grey 188][(x + 2y) % 4], row 0 = top.
+    assert_eq!(t.texels_linear[0], [1.0, 0.0, 0.0, 1.0]);
+    assert_eq!(t.texels_linear[1], [0.0, 1.0, 0.0, 1.0]);
+    // (3, 0) = sRGB 188 → linear 0.50289 (sRGB EOTF tables); (1, 1) = index 3 as well.
+    for i in [3, 5] {
+        let g = t.texels_linear[i];
+        assert!((g[0] - 0.502_886).abs() < 2e-5 && g[0] == g[1] && g[1] == g[2] && g[3] == 1.0, "{g:?}");
+    }
+    // (0, 1) = index 2: blue.
+    assert_eq!(t.texels_linear[4], [0.0, 0.0, 1.0, 1.0]);
+}
+
+#[test]
+fn capsule_obj_with_mtl() {
+    let imp = load_mesh(&fixture("capsule.obj")).unwrap();
+    assert_eq!(imp.inputs.len(), 2, "{:?}", imp.inputs);
+    let m = &imp.mesh;
+    // 32 cap triangles + 176 quads triangulated.
+    assert_eq!(m.triangles.len(), 384);
+    let r = TopologyReport::compute(m);
+    assert_eq!(r.welded_vertex_count, 194);
+    assert!(r.closed && r.consistently_oriented && r.component_count == 1);
+    // Euler characteristic 2 (genus 0): V − E + F.
+    assert_eq!(194 - r.edge_count as i64 + 384, 2);
+    assert!(r.signed_volume > 0.0, "outward winding");
+    // Inscribed polyhedron: below the analytic capsule volume π r² 2h + 4/3 π r³ = 1.309.
+    let analytic = std::f64::consts::PI * 0.25 + 4.0 / 3.0 * std::f64::consts::PI * 0.125;
+    assert!(r.signed_volume < analytic && r.signed_volume > 0.9 * analytic, "{}", r.signed_volume);
+    assert_eq!(m.materials.len(), 1);
+    assert_eq!(m.materials[0].base_color_factor_linear, [0.8, 0.3, 0.2, 1.0]);
+    assert!(m.uvs.is_empty());
+}
+
+#[test]
+fn obj_uv_flip_and_missing_mtl_and_texture_warn() {
+    let dir = tempfile::tempdir().unwrap();
+    let obj = "mtllib missing.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0.25 0.125\nvt 1 0\nvt 0 1\nf 1/1 2/2 3/3\n";
+    std::fs::write(dir.path().join("a.obj"), obj).unwrap();
+    let imp = load_mesh(&dir.path().join("a.obj")).unwrap();
+    assert_eq!(imp.mesh.uvs[0][0], [0.25, 0.875], "v' = 1 − v");
+    assert!(imp.warnings.iter().any(|w| w.0.contains("missing.mtl")), "{:?}", imp.warnings);
+    // MTL present, its texture missing: a warning, Kd used.
+    std::fs::write(dir.path().join("b.mtl"), "newmtl m\nKd 0.5 0.25 1\nmap_Kd nothere.png\n").unwrap();
+    std::fs::write(dir.path().join("b.obj"), format!("mtllib b.mtl\nusemtl m\n{obj}")).unwrap();
+    let imp = load_mesh(&dir.path().join("b.obj")).unwrap();
+    assert!(imp.warnings.iter().any(|w| w.0.contains("nothere.png")), "{:?}", imp.warnings);
+    let mat = &imp.mesh.materials[imp.mesh.triangle_materials[0] as usize];
+    assert_eq!(mat.base_color_factor_linear, [0.5, 0.25, 1.0, 1.0]);
+    assert!(mat.base_color_texture.is_none());
+}
+
+#[test]
+fn gltf_missing_or_bad_texture_warns_and_uses_factor() {
+    let dir = tempfile::tempdir().unwrap();
+    let extra = r#","materials":[{"pbrMetallicRoughness":{"baseColorFactor":[0.5,0.5,0.5,1],"baseColorTexture":{"index":0}}},{"pbrMetallicRoughness":{"baseColorTexture":{"index":1}}}],"textures":[{"source":0},{"source":1}],"images":[{"uri":"gone.png"},{"uri":"data:image/png;base64,AAAA"}]"#;
+    let (json, _) = gltf_json(&TRI, Some(&[0, 1, 2]), false, extra);
+    let json = json.replace(
+        r#""indices":1}"#,
+        r#""indices":1,"material":0},{"attributes":{"POSITION":0},"indices":1,"material":1}"#,
+    );
+    let p = dir.path().join("t.gltf");
+    std::fs::write(&p, json).unwrap();
+    let imp = load_mesh(&p).unwrap();
+    assert_eq!(imp.mesh.materials.len(), 2);
+    assert!(imp.mesh.materials.iter().all(|m| m.base_color_texture.is_none()));
+    assert_eq!(imp.mesh.materials[0].base_color_factor_linear, [0.5, 0.5, 0.5, 1.0]);
+    assert!(imp.warnings.iter().any(|w| w.0.contains("gone.png")), "{:?}", imp.warnings);
+    assert!(imp.warnings.iter().any(|w| w.0.contains("decode")), "{:?}", imp.warnings);
+}
+
+#[test]
+fn error_cases_name_the_file() {
+    let p = Path::new("mem/x.glb");
+    let check = |bytes: &[u8], path: &Path, ok: &dyn Fn(&IoError) -> bool| {
+        let e = load_mesh_from_bytes(path, bytes).unwrap_err();
+        assert!(ok(&e), "unexpected error {e:?}");
+        assert!(e.to_string().contains(path.to_str().unwrap()), "{e}");
+    };
+    // Missing file.
+    let e = load_mesh(Path::new("/nonexistent/spherebake/missing.gltf")).unwrap_err();
+    assert!(matches!(e, IoError::NotFound { .. }) && e.to_string().contains("missing.gltf"));
+    // Wrong magic, truncated header, truncated chunk.
+    check(b"GLTF\x02\0\0\0\x0c\0\0\0", p, &|e| matches!(e, IoError::WrongMagic { .. }));
+    check(b"glTF\x02\0", p, &|e| matches!(e, IoError::Truncated { .. }));
+    let (json, bin) = gltf_json(&TRI, None, true, "");
+    let full = glb(&json, &bin);
+    check(&full[..full.len() - 5], p, &|e| matches!(e, IoError::Truncated { .. }));
+    let mut short = full.clone();
+    let n = short.len() - 5;
+    short[8..12].copy_from_slice(&(n as u32).to_le_bytes());
+    short.truncate(n);
+    check(&short, p, &|e| matches!(e, IoError::Truncated { what, .. } if what.contains("chunk")));
+    let g = Path::new("mem/x.gltf");
+    // Index out of range.
+    let (json, _) = gltf_json(&TRI, Some(&[0, 1, 3]), false, "");
+    check(json.as_bytes(), g, &|e| matches!(e, IoError::IndexOutOfRange { index: 3, vertex_count: 3, .. }));
+    // NaN position, named by mesh, primitive and vertex.
+    let (json, _) = gltf_json(&[[0.0; 3], [1.0, f32::NAN, 0.0], [0.0, 1.0, 0.0]], None, false, "");
+    check(json.as_bytes(), g, &|e| matches!(e, IoError::NonFinitePosition { vertex: 1, primitive: 0, mesh: 0, .. }));
+    // Empty mesh: a point primitive only (skipped with a warning), so no triangles.
+    let (json, _) = gltf_json(&TRI, None, false, "");
+    let json = json.replace(r#""attributes":{"POSITION":0}"#, r#""attributes":{"POSITION":0},"mode":0"#);
+    check(json.as_bytes(), g, &|e| matches!(e, IoError::EmptyMesh { .. }));
+    // Required extension we do not implement.
+    let (json, _) = gltf_json(
+        &TRI,
+        None,
+        false,
+        r#","extensionsUsed":["KHR_mesh_quantization"],"extensionsRequired":["KHR_mesh_quantization"]"#,
+    );
+    check(
+        json.as_bytes(),
+        g,
+        &|e| matches!(e, IoError::UnsupportedExtension { extension, .. } if extension == "KHR_mesh_quantization"),
+    );
+    // Bad JSON; schema violation (accessor index that does not exist).
+    check(b"{\"asset\": ", g, &|e| matches!(e, IoError::Json { .. }));
+    let (json, _) = gltf_json(&TRI, None, false, "");
+    check(json.replace(r#""POSITION":0"#, r#""POSITION":7"#).as_bytes(), g, &|e| matches!(e, IoError::Invalid { .. }));
+    // Accessor larger than its buffer view.
+    let (json, _) = gltf_json(&TRI, None, false, "");
+    check(json.replace(r#""count":3,"type":"VEC3""#, r#""count":4,"type":"VEC3""#).as_bytes(), g, &|e| {
+        matches!(e, IoError::Accessor { accessor: 0, .. })
+    });
+    // Unknown file type; OBJ with a face past the vertex list.
+    check(b"", Path::new("mem/x.fbx"), &|e| matches!(e, IoError::UnknownFileType { .. }));
+    check(b"v 0 0 0\nv 1 0 0\nf 1 2 3\n", Path::new("mem/x.obj"), &|e| {
+        matches!(e, IoError::Obj { .. } | IoError::IndexOutOfRange { .. })
+    });
+}
+
+#[test]
+fn arbitrary_bytes_never_panic() {
+    // Mutations of a valid GLB: every outcome must be Ok or Err.
+    let (json, bin) = gltf_json(&TRI, Some(&[0, 1, 2]), true, "");
+    let base = glb(&json, &bin);
+    let p = Path::new("mem/f.glb");
+    for i in 0..base.len() {
+        for v in [0u8, 0xff, b'9', b'"'] {
+            let mut b = base.clone();
+            b[i] = v;
+            let _ = load_mesh_from_bytes(p, &b);
+        }
+        let _ = load_mesh_from_bytes(p, &base[..i]);
+    }
+}
+
+#[test]
+fn fox_is_non_indexed() {
+    let Some(d) = models_dir() else { return };
+    let imp = load_mesh(&d.join("gltf/Fox.glb")).unwrap();
+    assert_eq!(imp.parts.len(), 1);
+    assert_eq!((imp.parts[0].file_vertex_count, imp.mesh.triangles.len()), (1728, 576));
+    // Non-indexed: triangle t uses vertices 3t, 3t+1, 3t+2.
+    assert!(imp
+        .mesh
+        .triangles
+        .iter()
+        .enumerate()
+        .all(|(t, tri)| *tri == [3 * t as u32, 3 * t as u32 + 1, 3 * t as u32 + 2]));
+    let skin = imp.mesh.skin.as_ref().unwrap();
+    let names: Vec<&str> = skin.skeleton.animations.iter().map(|a| a.name.as_str()).collect();
+    assert_eq!(names, ["Survey", "Walk", "Run"]);
+}
+
+#[test]
+fn texture_transform_values() {
+    let Some(d) = models_dir() else { return };
+    let imp = load_mesh(&d.join("gltf/TextureTransformTest/TextureTransformTest.gltf")).unwrap();
+    let by_name = |n: &str| {
+        let m = imp.mesh.materials.iter().find(|m| m.name == n).unwrap();
+        m.base_color_texture.clone().unwrap()
+    };
+    // Values from the file's KHR_texture_transform objects.
+    assert_eq!(by_name("Offset U").transform.offset, [0.5, 0.0]);
+    assert_eq!(by_name("Offset V").transform.offset, [0.0, 0.5]);
+    assert_eq!(by_name("Offset UV").transform.offset, [0.5, 0.5]);
+    // The file stores 0.39269908169872414 = π/8.
+    assert!((by_name("Rotation").transform.rotation_rad - std::f32::consts::FRAC_PI_8).abs() < 1e-7);
+    assert_eq!(by_name("Scale").transform.scale, [1.5, 1.5]);
+    let all = by_name("All").transform;
+    assert_eq!((all.offset, all.rotation_rad, all.scale), ([-0.2, -0.1], 0.3, [1.5, 1.5]));
+    let c = by_name("Correct");
+    assert_eq!((c.transform.offset, c.transform.scale), ([0.0, 0.0], [1.0, 1.0]));
+    // Sampler 0: CLAMP_TO_EDGE both ways, LINEAR magnification.
+    let o = by_name("Offset U");
+    assert_eq!((o.wrap_s, o.wrap_t, o.mag_filter), (WrapMode::ClampToEdge, WrapMode::ClampToEdge, FilterMode::Linear));
+    assert_eq!(imp.mesh.textures[o.texture].name, "UV.png");
+}
+
+#[test]
+fn spot_obj_finds_its_texture_through_the_mtl() {
+    let Some(d) = models_dir() else { return };
+    let imp = load_mesh(&d.join("obj/spot/spot.obj")).unwrap();
+    assert!(imp.warnings.is_empty(), "{:?}", imp.warnings);
+    let tr = imp.mesh.materials[0].base_color_texture.as_ref().unwrap();
+    let t = &imp.mesh.textures[tr.texture];
+    assert_eq!((t.name.as_str(), t.width, t.height), ("spot_texture.png", 1024, 1024));
+    let names: Vec<_> = imp.inputs.iter().map(|p| p.file_name().unwrap().to_str().unwrap().to_owned()).collect();
+    assert_eq!(names, ["spot.obj", "spot.mtl", "spot_texture.png"]);
+    assert_eq!(imp.mesh.uvs.len(), 1);
+    // The published spot_triangulated.obj has the same geometry and UVs but no material.
+    let plain = load_mesh(&d.join("obj/spot/spot_triangulated.obj")).unwrap();
+    assert_eq!(plain.mesh.positions, imp.mesh.positions);
+    assert_eq!(plain.mesh.uvs, imp.mesh.uvs);
+    assert!(plain.mesh.textures.is_empty());
+    assert_ne!(plain.content_hash, imp.content_hash);
+}
+
+#[test]
+fn box_vertex_colors_are_read() {
+    let Some(d) = models_dir() else { return };
+    let imp = load_mesh(&d.join("gltf/BoxVertexColors.glb")).unwrap();
+    assert_eq!(imp.mesh.colors_linear.len(), 24);
+    assert!(imp.mesh.colors_linear.iter().any(|c| c[0] != c[1] || c[1] != c[2]), "coloured");
+}
