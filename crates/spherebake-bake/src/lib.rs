@@ -11,6 +11,7 @@
 pub mod export;
 mod incremental;
 mod placeholder;
+pub mod samples;
 pub mod render;
 mod settings;
 

@@ -1,0 +1,272 @@
+//! Surface sample points per sphere (Guerrero et al. 2008 §4.2; math reference §8).
+//!
+//! Each sphere i = (cᵢ, rᵢ) of the set owns the *segment* Pᵢ: the surface points p whose scaled
+//! distance d(p, Sⱼ) = |p − cⱼ| / rⱼ is smallest for j = i (ties to the lowest index, decided in
+//! f64 on the stored f32 values of p, c and r). For each of the 92 geodesic directions ω
+//! ([`spherebake_sh::GEODESIC_DIRECTIONS`], §5 order) the ray cᵢ + tω, t > 0, is cast through the
+//! triangle BVH and classified with the *outward* normal of each hit triangle (the
+//! counter-clockwise geometric normal, negated where [`spherebake_geom::orient`] says so): a hit is
+//! back-side when n·ω > 0 (the ray leaves the object), front-side when n·ω < 0.
+//!
+//! 1. There are back-side hits and at least one lies in Pᵢ: the sample is the farthest such hit.
+//! 2. There are back-side hits, none in Pᵢ: no sample (another sphere covers that part).
+//! 3. There is no back-side hit (for a closed mesh: no hit at all, cᵢ is outside the object):
+//!    cast cᵢ − tω and take the nearest front-side hit (n·(−ω) < 0) that lies in Pᵢ; no sample
+//!    when there is none. Front-side hits along +ω are ignored throughout (for an open mesh a
+//!    ray with only front-side hits along +ω falls under rule 3).
+//!
+//! Stored per sample ([`spherebake_format::SamplePoint`]): the hit position (barycentric
+//! interpolation of the triangle's corners, model space, f32), the outward unit normal (the
+//! vertex shading normals interpolated at the hit and renormalised, negated when it points
+//! against the oriented geometric normal; the geometric normal when the mesh has no usable
+//! vertex normals there), the direction index and the rule (1 or 3). Samples are in increasing
+//! direction order.
+//!
+//! Ties: hits at equal t are ordered by triangle index (a ray through a shared edge reports both
+//! triangles); rule 1 takes the last of the farthest, rule 3 the first of the nearest.
+//! Input tolerance: spheres with a non-finite centre or a radius that is not finite and > 0 own
+//! no segment and get no samples; `flip` and `mesh.normals` entries that are missing count as
+//! "not flipped" and "no shading normal". Nothing here panics on input data.
+//!
+//! Cost: 92 rays per sphere (plus 92 reverse rays for rule 3), each O(log T + hits); every hit
+//! tested for segment membership costs O(S) (early exit on the first sphere that beats i).
+//! Parallel over spheres with rayon, ordered collect: identical output for any thread count.
+
+use glam::{DVec3, Vec3};
+use rayon::prelude::*;
+use serde::Serialize;
+use spherebake_format::{SamplePoint, Samples};
+use spherebake_geom::bvh::{Hit, TriangleBvh};
+use spherebake_geom::Mesh;
+use spherebake_sh::{GEODESIC_DIRECTIONS, GEODESIC_DIRECTION_COUNT};
+use std::time::Instant;
+
+/// What happened for one (sphere, direction) pair.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize)]
+pub struct RuleCounts {
+    /// Rule 1: farthest back-side hit in the segment (a sample).
+    pub rule1: u32,
+    /// Rule 2: back-side hits, all outside the segment (no sample).
+    pub rule2_empty: u32,
+    /// Rule 3 with a front-side hit in the segment along −ω (a sample).
+    pub rule3: u32,
+    /// Rule 3 without such a hit (no sample).
+    pub rule3_empty: u32,
+}
+
+impl RuleCounts {
+    fn add(&mut self, o: &RuleCounts) {
+        self.rule1 += o.rule1;
+        self.rule2_empty += o.rule2_empty;
+        self.rule3 += o.rule3;
+        self.rule3_empty += o.rule3_empty;
+    }
+
+    /// Directions accounted for (92 per sphere).
+    pub fn total(&self) -> u32 {
+        self.rule1 + self.rule2_empty + self.rule3 + self.rule3_empty
+    }
+}
+
+/// Statistics of one [`place_samples`] run.
+#[derive(Clone, Debug, Default, PartialEq, Serialize)]
+pub struct SampleStats {
+    /// Mean number of samples per sphere (0 without spheres).
+    pub samples_per_sphere_mean: f64,
+    /// Fewest samples of any sphere (0 without spheres).
+    pub samples_per_sphere_min: u32,
+    /// Share of all (sphere, direction) pairs left empty by rule 2, in [0, 1].
+    pub share_rule2_empty: f64,
+    /// Share of all (sphere, direction) pairs left empty by rule 3, in [0, 1].
+    pub share_rule3_empty: f64,
+    /// Totals over all spheres.
+    pub counts: RuleCounts,
+    /// Per sphere, in sphere order.
+    pub per_sphere: Vec<RuleCounts>,
+    /// Wall time of the stage, seconds.
+    pub seconds: f64,
+}
+
+/// Places the surface samples of every sphere (see the module docs).
+///
+/// `bvh` must be built on `mesh.positions` / `mesh.triangles` (the unwelded vertices, so the hit
+/// barycentrics index the vertex normals). `flip[t]` is true when triangle t's counter-clockwise
+/// normal points inward ([`spherebake_geom::orient::outward_orientation`]). `spheres` are
+/// `[x, y, z, r]`, model space, the stored f32 values.
+pub fn place_samples(mesh: &Mesh, bvh: &TriangleBvh, flip: &[bool], spheres: &[[f32; 4]]) -> (Samples, SampleStats) {
+    let start = Instant::now();
+    let ctx = Ctx::new(mesh, flip, spheres);
+    let per: Vec<(Vec<SamplePoint>, RuleCounts)> =
+        (0..spheres.len()).into_par_iter().map_init(Vec::new, |hits, i| ctx.sphere_samples(bvh, i, hits)).collect();
+    let mut stats = SampleStats::default();
+    let mut samples = Samples { per_sphere: Vec::with_capacity(per.len()) };
+    let mut min = u32::MAX;
+    for (s, c) in per {
+        min = min.min(s.len() as u32);
+        stats.counts.add(&c);
+        stats.per_sphere.push(c);
+        samples.per_sphere.push(s);
+    }
+    let n = spheres.len();
+    if n > 0 {
+        let pairs = (n * GEODESIC_DIRECTION_COUNT) as f64;
+        stats.samples_per_sphere_mean = samples.total() as f64 / n as f64;
+        stats.samples_per_sphere_min = min;
+        stats.share_rule2_empty = stats.counts.rule2_empty as f64 / pairs;
+        stats.share_rule3_empty = stats.counts.rule3_empty as f64 / pairs;
+    }
+    stats.seconds = start.elapsed().as_secs_f64();
+    (samples, stats)
+}
+
+/// Index of the sphere whose segment contains `p`: argmin |p − cⱼ| / rⱼ, ties to the lowest
+/// index, f64. `None` when no sphere is valid (see the module docs).
+pub fn segment_of(p: Vec3, spheres: &[[f32; 4]]) -> Option<usize> {
+    let p = p.as_dvec3();
+    let mut best: Option<(usize, f64)> = None;
+    for (j, s) in spheres.iter().enumerate() {
+        let Some((c, r)) = valid_sphere(s) else { continue };
+        let d = (p - c).length() / r;
+        if best.is_none_or(|(_, bd)| d < bd) {
+            best = Some((j, d));
+        }
+    }
+    best.map(|(j, _)| j)
+}
+
+fn valid_sphere(s: &[f32; 4]) -> Option<(DVec3, f64)> {
+    let c = DVec3::new(s[0] as f64, s[1] as f64, s[2] as f64);
+    let r = s[3] as f64;
+    (c.is_finite() && r.is_finite() && r > 0.0).then_some((c, r))
+}
+
+struct Ctx<'a> {
+    mesh: &'a Mesh,
+    flip: &'a [bool],
+    /// Valid spheres as (centre, radius, index); invalid ones are left out.
+    spheres: Vec<(DVec3, f64, usize)>,
+    raw: &'a [[f32; 4]],
+    has_normals: bool,
+}
+
+impl<'a> Ctx<'a> {
+    fn new(mesh: &'a Mesh, flip: &'a [bool], spheres: &'a [[f32; 4]]) -> Self {
+        let valid = spheres.iter().enumerate().filter_map(|(j, s)| valid_sphere(s).map(|(c, r)| (c, r, j))).collect();
+        Ctx { mesh, flip, spheres: valid, raw: spheres, has_normals: mesh.normals.len() == mesh.positions.len() }
+    }
+
+    /// True when `p` lies in sphere `i`'s segment: no sphere j has a smaller scaled distance
+    /// (j < i: not larger).
+    fn in_segment(&self, p: DVec3, i: usize, ci: DVec3, ri: f64) -> bool {
+        let di = (p - ci).length() / ri;
+        for &(c, r, j) in &self.spheres {
+            if j == i {
+                continue;
+            }
+            let dj = (p - c).length() / r;
+            if dj < di || (dj == di && j < i) {
+                return false;
+            }
+        }
+        true
+    }
+
+    fn corners(&self, t: u32) -> Option<[DVec3; 3]> {
+        let tri = self.mesh.triangles.get(t as usize)?;
+        let mut out = [DVec3::ZERO; 3];
+        for (o, &v) in out.iter_mut().zip(tri) {
+            *o = self.mesh.positions.get(v as usize)?.as_dvec3();
+        }
+        Some(out)
+    }
+
+    /// Outward geometric unit normal of triangle t.
+    fn outward(&self, t: u32, corners: &[DVec3; 3]) -> Option<DVec3> {
+        let flip = self.flip.get(t as usize).copied().unwrap_or(false);
+        spherebake_geom::orient::oriented_normal(*corners, flip)
+    }
+
+    /// The stored position (f32) and normal of a hit.
+    fn sample_at(&self, h: &Hit, corners: &[DVec3; 3], n_geo: DVec3) -> (Vec3, Vec3) {
+        let (u, v) = (h.u as f64, h.v as f64);
+        let w = [1.0 - u - v, u, v];
+        let p = corners[0] * w[0] + corners[1] * w[1] + corners[2] * w[2];
+        let mut n = n_geo;
+        if self.has_normals {
+            let tri = self.mesh.triangles[h.triangle as usize];
+            let s: DVec3 = (0..3).map(|k| self.mesh.normals[tri[k] as usize].as_dvec3() * w[k]).sum();
+            if let Some(s) = s.try_normalize() {
+                n = if s.dot(n_geo) < 0.0 { -s } else { s };
+            }
+        }
+        (p.as_vec3(), n.as_vec3())
+    }
+
+    fn sphere_samples(&self, bvh: &TriangleBvh, i: usize, hits: &mut Vec<Hit>) -> (Vec<SamplePoint>, RuleCounts) {
+        let mut counts = RuleCounts::default();
+        let mut out = Vec::new();
+        let Some((ci, ri)) = valid_sphere(&self.raw[i]) else {
+            counts.rule3_empty = GEODESIC_DIRECTION_COUNT as u32;
+            return (out, counts);
+        };
+        let origin = Vec3::new(self.raw[i][0], self.raw[i][1], self.raw[i][2]);
+        for (k, d) in GEODESIC_DIRECTIONS.iter().enumerate() {
+            let omega = Vec3::from_array(*d);
+            let od = omega.as_dvec3();
+            bvh.ray_hits(origin, omega, 0.0, f32::INFINITY, hits);
+            let mut any_back = false;
+            let mut found = None;
+            // Farthest first: the first back-side hit in the segment is the sample.
+            for h in hits.iter().rev() {
+                let Some(corners) = self.corners(h.triangle) else { continue };
+                let Some(n) = self.outward(h.triangle, &corners) else { continue };
+                if n.dot(od) <= 0.0 {
+                    continue;
+                }
+                any_back = true;
+                let (p, normal) = self.sample_at(h, &corners, n);
+                if self.in_segment(p.as_dvec3(), i, ci, ri) {
+                    found = Some((p, normal));
+                    break;
+                }
+            }
+            let rule = if let Some(s) = found {
+                counts.rule1 += 1;
+                Some((s, 1))
+            } else if any_back {
+                counts.rule2_empty += 1;
+                None
+            } else {
+                bvh.ray_hits(origin, -omega, 0.0, f32::INFINITY, hits);
+                let mut found = None;
+                for h in hits.iter() {
+                    let Some(corners) = self.corners(h.triangle) else { continue };
+                    let Some(n) = self.outward(h.triangle, &corners) else { continue };
+                    // Front-side along −ω: n·(−ω) < 0.
+                    if n.dot(-od) >= 0.0 {
+                        continue;
+                    }
+                    let (p, normal) = self.sample_at(h, &corners, n);
+                    if self.in_segment(p.as_dvec3(), i, ci, ri) {
+                        found = Some((p, normal));
+                        break;
+                    }
+                }
+                match found {
+                    Some(s) => {
+                        counts.rule3 += 1;
+                        Some((s, 3))
+                    }
+                    None => {
+                        counts.rule3_empty += 1;
+                        None
+                    }
+                }
+            };
+            if let Some(((p, n), rule)) = rule {
+                out.push(SamplePoint { position: p.to_array(), normal: n.to_array(), direction: k as u8, rule });
+            }
+        }
+        (out, counts)
+    }
+}
