@@ -14,19 +14,24 @@
 //!   the one case |w| cannot fix (no orientation-free definition can, without repairing the mesh);
 //! - **open sheets** (a single plane) enclose nothing: only their surface cells are solid.
 //!
-//! Evaluating w at every cell centre would cost ~µs per cell, so the interior is classified by
-//! axis-aligned rays first: for each row of cell centres along x, y and z, one watertight ray cast
-//! records the signed crossings (+1 leaving through the front side, −1 entering). For a point on
-//! the line, the crossings ahead of it and behind it give two estimates of w (exact integers for
-//! any closed mesh, whatever the direction). A non-surface cell whose estimates from all three
-//! axes (6 votes; at least 2 axes, rows with an edge/vertex hit abstain) agree takes that integer;
-//! otherwise — near holes, open sheets, grazing rows — the hierarchical winding number decides.
-//! Rows through a hole disagree with each other, so a wrong unanimous vote needs all three axis
-//! rows of a cell to be fooled at once.
+//! Evaluating w at every cell centre would cost ~5–10 µs per cell, so the interior is classified
+//! by axis-aligned rays first: for each row of cell centres along x, y and z, one watertight ray
+//! cast records the signed crossings (+1 leaving through the front side, −1 entering). A row whose
+//! crossings sum to zero (it enters as often as it leaves: it misses every hole) gives each of its
+//! points the integer w = Σ crossings ahead of the point, which equals the winding number for any
+//! closed mesh whatever the direction. Rows that pass through a hole (non-zero sum) or touch an
+//! edge or vertex exactly (a crossing could count twice) abstain. A non-surface cell whose
+//! non-abstaining rows number at least 2 and agree takes their value; otherwise — near holes, open
+//! sheets, grazing rows, or when rows disagree — the hierarchical winding number decides.
+//! So w is evaluated only in the "shadow" of holes; a wrong unanimous vote needs two rows of a
+//! cell to pass through two holes each without a net crossing. Cells deep inside a holed mesh
+//! therefore stay solid even where the generalized winding number of a large hole would dip
+//! under the threshold (the rows see a closed object around them).
 //!
 //! Cost model (T triangles, n cells per axis, n³ cells): BVH + expansions O(T log T); surface
 //! cells O(T · cells per triangle) SAT tests; 3n² ray casts of O(log T + hits); votes O(n³ · hits
-//! per row); winding evaluations O(log T)-ish each, only for undecided cells. Parallel over
+//! per row); winding evaluations O(log T)-ish each, only for undecided cells (bunny, res 128: 3.9k
+//! of 1.6M cells; res 256: 38k of 12.9M). Parallel over
 //! z-slabs with rayon; every cell's result depends only on shared read-only data, so the output is
 //! identical for any thread count.
 
@@ -162,26 +167,20 @@ impl VoxelGrid {
 struct Row {
     /// (coordinate, +1 leaving / −1 entering).
     hits: Vec<(f64, i32)>,
-    /// The ray touched an edge or a vertex: crossings may be double-counted, so it abstains.
-    ambiguous: bool,
+    /// The row abstains: its ray touched an edge or a vertex (crossings may be double-counted)
+    /// or its crossings do not sum to zero (it passes through a hole, so the counts ahead of and
+    /// behind a point disagree).
+    abstains: bool,
 }
 
 impl Row {
-    /// (w ahead, w behind) at coordinate `x`; hits exactly at `x` are ignored.
-    fn votes(&self, x: f64) -> Option<(i32, i32)> {
-        if self.ambiguous {
+    /// The winding estimate at coordinate `x` (hits exactly at `x` ignored), `None` if the row
+    /// abstains.
+    fn vote(&self, x: f64) -> Option<i32> {
+        if self.abstains {
             return None;
         }
-        let mut ahead = 0;
-        let mut behind = 0;
-        for &(h, s) in &self.hits {
-            if h > x {
-                ahead += s;
-            } else if h < x {
-                behind -= s;
-            }
-        }
-        Some((ahead, behind))
+        Some(self.hits.iter().filter(|h| h.0 > x).map(|h| h.1).sum())
     }
 }
 
@@ -235,12 +234,13 @@ fn voxelize_bvh(bvh: &TriangleBvh, settings: &VoxelSettings) -> VoxelGrid {
         let mut row = Row::default();
         bvh.traverse_ray(o, dir, 0.0, f64::INFINITY, |h| {
             if h.bary.contains(&0.0) {
-                row.ambiguous = true;
+                row.abstains = true;
             }
             row.hits.push((o[axis] + h.t, if h.exiting { 1 } else { -1 }));
             None
         });
         row.hits.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+        row.abstains |= row.hits.iter().map(|h| h.1).sum::<i32>() != 0;
         row
     };
     let rows_x: Vec<Row> = (0..ny as usize * nz as usize)
@@ -314,14 +314,12 @@ fn voxelize_bvh(bvh: &TriangleBvh, settings: &VoxelSettings) -> VoxelGrid {
                 let mut voters = 0;
                 let mut conflict = false;
                 for (row, x) in rows {
-                    if let Some((a, b)) = row.votes(x) {
+                    if let Some(w) = row.vote(x) {
                         voters += 1;
-                        for w in [a, b] {
-                            match agreed {
-                                None => agreed = Some(w),
-                                Some(v) if v != w => conflict = true,
-                                _ => {}
-                            }
+                        match agreed {
+                            None => agreed = Some(w),
+                            Some(v) if v != w => conflict = true,
+                            _ => {}
                         }
                     }
                 }

@@ -177,11 +177,6 @@ fn fibonacci(n: usize) -> Vec<DVec3> {
         .collect()
 }
 
-/// max_j (|c − c_j| + r_j), the objective the minimal enclosing ball minimises.
-fn objective(balls: &[(DVec3, f64)], c: DVec3) -> f64 {
-    balls.iter().map(|(cj, rj)| c.distance(*cj) + rj).fold(0.0, f64::max)
-}
-
 /// Distance from the origin to the convex hull of `u` (brute force over subsets of ≤ 4 vectors:
 /// min-norm point of each affine hull, kept when its barycentric weights are ≥ 0).
 fn hull_distance_to_origin(u: &[DVec3]) -> f64 {
