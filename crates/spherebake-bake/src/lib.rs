@@ -8,13 +8,19 @@
 //! Units: lengths in the input's units (glTF: metres), model (scene) space; see
 //! `docs/ARCHITECTURE.md` for the conventions of every stage.
 
+mod albedo;
 pub mod export;
 mod incremental;
 mod placeholder;
+mod raster;
 pub mod samples;
 pub mod render;
 mod settings;
 
+pub use albedo::{
+    bake_albedo, project_cubemaps, render_albedo_cubemaps, segment_triangles, write_debug_cubemaps, AlbedoError,
+    AlbedoSettings, AlbedoStats, CubeMap, TextureLod,
+};
 pub use incremental::{inputs_value, is_up_to_date, recorded_inputs, INPUTS_KEY};
 
 pub use settings::{BakeSettings, Method};

@@ -1,0 +1,1028 @@
+//! Albedo cube maps per sphere, projected to spherical harmonics (Guerrero et al. 2008 §4.2,
+//! seed 003 §6.2; issue 7).
+//!
+//! For each sphere S_i = (c_i, r_i):
+//!
+//! 1. **Segment triangles.** A surface point p belongs to segment P_i when i minimises
+//!    |p − c_i| / r_i (math reference §8). A triangle is rendered for sphere i unless some other
+//!    sphere j beats i on *every* point of the triangle; so a triangle partly closer to another
+//!    sphere goes to both. The test per pair is exact: f(p) = |p−c_j|²/r_j² − |p−c_i|²/r_i² is
+//!    an isotropic quadratic, whose maximum over the triangle is at a corner (convex or linear
+//!    case, r_j ≤ r_i) or at the triangle point closest to its apex (concave case). It is
+//!    conservative only where three or more segments meet inside one triangle (no single j
+//!    dominates although the pieces all belong to others).
+//! 2. **Rendering** into a cube map centred at c_i (`raster`, one sample per texel centre,
+//!    OpenGL/Vulkan faces), with the sample-point rules of §8 per texel direction ω and outward
+//!    normals (CCW, or reversed where `flip` says so):
+//!    - rule 1: the farthest back-facing (n·ω > 0) surface among the segment's triangles;
+//!    - rule 2: if back-facing surface exists along ω (any triangle) but none of the segment,
+//!      the texel is 0 (another sphere covers that direction);
+//!    - rule 3: if there is no back-facing surface along ω at all (centre outside the object),
+//!      the nearest front-facing segment triangle along −ω (seen *through* the centre; no near
+//!      clip).
+//!
+//!    Texels with nothing hold 0 (the sphere emits nothing there).
+//! 3. **Colour** = base colour factor × base-colour texture × COLOR_0, linear RGB (alpha is
+//!    ignored). The texture is sampled at the true (perspective-correct) barycentric point,
+//!    with the material's UV set, KHR_texture_transform and wrap modes, trilinearly from a box-
+//!    filtered mip chain; the level is log2 of the texel footprint's side in texture texels:
+//!    footprint = Ω_nominal · t² / |n·ω| (world area) × UV area per world area of the triangle
+//!    × texture size, Ω_nominal = (2/N)²/(1+u²+v²)^{3/2} (see [`TextureLod`]).
+//! 4. **Projection** onto real orthonormal SH with the Condon–Shortley phase, index
+//!    i = l(l+1)+m (math reference §1), with exact texel solid angles (§4):
+//!    f_i = (4π/Σw) Σ_t w_t f(d_t) y_i(d_t).
+//!
+//! Spheres are independent and run in parallel (rayon, ordered collect): the coefficients are
+//! bit-identical for any thread count.
+
+use crate::raster::{CubeGrid, Fragment};
+use glam::DVec3;
+use rayon::prelude::*;
+use spherebake_format::{AlbedoSh, ColourSpace, ShBasis};
+use spherebake_geom::{Mesh, WrapMode};
+use spherebake_sh::{coeff_count, cube_texel_solid_angle, eval_sh_f64, CubeFace, CubeProjector, ShError};
+use std::path::{Path, PathBuf};
+
+/// How the texture level of detail is chosen per cube-map texel.
+#[non_exhaustive]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum TextureLod {
+    /// Trilinear from a box-filtered mip chain; level = ½·log2(footprint in texture texels)
+    /// of the cube-map texel seen on the surface (isotropic, area-preserving). Default.
+    #[default]
+    Footprint,
+    /// Bilinear from the full-resolution texture only (aliases when a cube-map texel covers
+    /// many texture texels; kept for measurement).
+    Base,
+}
+
+/// Settings of the albedo stage.
+#[derive(Clone, Debug, PartialEq)]
+pub struct AlbedoSettings {
+    /// SH order n (bands 0..n−1, n² coefficients per sphere). Default 4, range 1..=8.
+    pub sh_order: usize,
+    /// Cube-map face size in texels. Default 32, range 1..=1024.
+    pub cubemap_size: usize,
+    /// When set, [`bake_albedo`] writes each sphere's cube map and its SH reconstruction as PNG
+    /// crosses into this directory (see [`write_debug_cubemaps`]).
+    pub debug_dir: Option<PathBuf>,
+    /// Texture level-of-detail choice. Default [`TextureLod::Footprint`].
+    pub texture_lod: TextureLod,
+}
+
+impl Default for AlbedoSettings {
+    fn default() -> Self {
+        Self { sh_order: 4, cubemap_size: 32, debug_dir: None, texture_lod: TextureLod::Footprint }
+    }
+}
+
+/// What the albedo stage did (texel counts are summed over all spheres).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct AlbedoStats {
+    pub spheres: usize,
+    pub face_size: usize,
+    pub sh_order: usize,
+    /// Texels coloured by rule 1 (farthest back-facing segment surface).
+    pub texels_rule1: u64,
+    /// Texels left 0 by rule 2 (back-facing surface exists, none of the segment).
+    pub texels_rule2: u64,
+    /// Texels coloured by rule 3 (no back-facing surface; nearest front-facing segment surface
+    /// through the centre).
+    pub texels_rule3: u64,
+    /// Texels left 0 because no allowed surface covers them under rule 3.
+    pub texels_empty: u64,
+    /// Σ over spheres of the number of triangles rendered for it.
+    pub triangle_assignments: u64,
+    /// Triangles rendered for two or more spheres.
+    pub shared_triangles: usize,
+    /// Triangles whose material has a texture but whose vertices lack that UV set (rendered
+    /// with the factor and vertex colour only).
+    pub textured_triangles_without_uvs: usize,
+    /// Debug PNGs written.
+    pub debug_files: Vec<PathBuf>,
+}
+
+/// One sphere's albedo cube map: linear RGB, `6·face_size²` texels, face-major (OpenGL/Vulkan
+/// layer order), then row j, then column i.
+#[derive(Clone, Debug, PartialEq)]
+pub struct CubeMap {
+    pub face_size: usize,
+    pub texels_linear: Vec<[f32; 3]>,
+}
+
+/// Everything that can stop the albedo stage.
+#[non_exhaustive]
+#[derive(Debug, thiserror::Error)]
+pub enum AlbedoError {
+    #[error("setting {name} = {value} is out of range (expected {expected})")]
+    InvalidSetting { name: &'static str, value: usize, expected: &'static str },
+    #[error("flip has {actual} entries, expected one per triangle ({expected})")]
+    FlipLength { expected: usize, actual: usize },
+    #[error("sphere {index} is invalid (centre and radius must be finite, radius > 0): {sphere:?}")]
+    InvalidSphere { index: usize, sphere: [f32; 4] },
+    #[error("triangle {triangle} references vertex {index}, but there are {vertex_count} vertices")]
+    VertexOutOfRange { triangle: usize, index: u32, vertex_count: usize },
+    #[error("triangle_materials has {actual} entries, expected {expected} (one per triangle) or 0")]
+    MaterialListLength { expected: usize, actual: usize },
+    #[error("triangle {triangle} uses material {material}, but there are {material_count} materials")]
+    MaterialOutOfRange { triangle: usize, material: u32, material_count: usize },
+    #[error("material {material} uses texture {texture}, but there are {texture_count} textures")]
+    TextureOutOfRange { material: usize, texture: usize, texture_count: usize },
+    #[error("texture {texture} is {width}x{height} but holds {actual} texels")]
+    TextureSize { texture: usize, width: u32, height: u32, actual: usize },
+    #[error("vertex attribute {attribute} has {actual} entries, expected {expected} (one per vertex) or 0")]
+    AttributeLength { attribute: &'static str, expected: usize, actual: usize },
+    #[error("cube map {index} has {actual} texels, expected {expected}")]
+    CubeMapSize { index: usize, expected: usize, actual: usize },
+    #[error("SH projection: {0}")]
+    Sh(#[from] ShError),
+    #[error("writing debug cube maps to {path}: {source}")]
+    DebugWrite { path: PathBuf, source: std::io::Error },
+}
+
+/// Renders the albedo cube maps and projects them to SH (see the module docs).
+///
+/// `flip[t]` reverses triangle t's CCW normal to make it outward (one entry per triangle of
+/// `mesh.triangles`); `spheres` are `[x, y, z, r]`, model space. When `settings.debug_dir` is
+/// set, the debug PNGs are written there too ([`write_debug_cubemaps`]).
+///
+/// # Errors
+/// Invalid settings, spheres, or mesh indices/lengths; failure to write the debug images.
+pub fn bake_albedo(
+    mesh: &Mesh,
+    flip: &[bool],
+    spheres: &[[f32; 4]],
+    settings: &AlbedoSettings,
+) -> Result<(AlbedoSh, AlbedoStats), AlbedoError> {
+    let ctx = Context::new(mesh, flip, spheres, settings)?;
+    let projector = Projector::new(settings.sh_order, settings.cubemap_size)?;
+    let keep = settings.debug_dir.is_some();
+    let per_sphere: Vec<(Vec<[f32; 3]>, Option<CubeMap>, SphereCounts)> = (0..spheres.len())
+        .into_par_iter()
+        .map(|s| {
+            let (texels, counts) = ctx.render_sphere(s);
+            let coeffs = projector.project(&texels);
+            let map =
+                if keep { Some(CubeMap { face_size: settings.cubemap_size, texels_linear: texels }) } else { None };
+            (coeffs, map, counts)
+        })
+        .collect();
+    let mut stats = ctx.base_stats();
+    let mut coefficients = Vec::with_capacity(spheres.len() * coeff_count(settings.sh_order));
+    let mut maps = Vec::new();
+    for (c, m, counts) in per_sphere {
+        coefficients.extend_from_slice(&c);
+        counts.add_to(&mut stats);
+        maps.extend(m);
+    }
+    let sh = AlbedoSh {
+        order: settings.sh_order as u8,
+        colour_space: ColourSpace::LinearRgb,
+        basis: ShBasis::RealOrthonormalCs,
+        coefficients,
+    };
+    if let Some(dir) = &settings.debug_dir {
+        stats.debug_files = write_debug_cubemaps(dir, &maps, &sh)
+            .map_err(|source| AlbedoError::DebugWrite { path: dir.clone(), source })?;
+    }
+    Ok((sh, stats))
+}
+
+/// Renders every sphere's albedo cube map (no projection); see [`bake_albedo`].
+///
+/// # Errors
+/// As [`bake_albedo`], without the IO.
+pub fn render_albedo_cubemaps(
+    mesh: &Mesh,
+    flip: &[bool],
+    spheres: &[[f32; 4]],
+    settings: &AlbedoSettings,
+) -> Result<(Vec<CubeMap>, AlbedoStats), AlbedoError> {
+    let ctx = Context::new(mesh, flip, spheres, settings)?;
+    let per_sphere: Vec<(Vec<[f32; 3]>, SphereCounts)> =
+        (0..spheres.len()).into_par_iter().map(|s| ctx.render_sphere(s)).collect();
+    let mut stats = ctx.base_stats();
+    let mut maps = Vec::with_capacity(spheres.len());
+    for (texels, counts) in per_sphere {
+        counts.add_to(&mut stats);
+        maps.push(CubeMap { face_size: settings.cubemap_size, texels_linear: texels });
+    }
+    Ok((maps, stats))
+}
+
+/// Projects cube maps (all of one face size) onto SH of `sh_order` with exact texel solid angles.
+///
+/// # Errors
+/// Order outside 1..=8, face size 0 or mixed sizes.
+pub fn project_cubemaps(maps: &[CubeMap], sh_order: usize) -> Result<AlbedoSh, AlbedoError> {
+    check_setting("sh_order", sh_order, 1, 8, "1..=8")?;
+    let n = maps.first().map_or(1, |m| m.face_size);
+    check_setting("cubemap_size", n, 1, 1024, "1..=1024")?;
+    for (index, m) in maps.iter().enumerate() {
+        if m.face_size != n || m.texels_linear.len() != 6 * n * n {
+            return Err(AlbedoError::CubeMapSize { index, expected: 6 * n * n, actual: m.texels_linear.len() });
+        }
+    }
+    let projector = Projector::new(sh_order, n)?;
+    let per: Vec<Vec<[f32; 3]>> = maps.par_iter().map(|m| projector.project(&m.texels_linear)).collect();
+    Ok(AlbedoSh {
+        order: sh_order as u8,
+        colour_space: ColourSpace::LinearRgb,
+        basis: ShBasis::RealOrthonormalCs,
+        coefficients: per.concat(),
+    })
+}
+
+/// For each sphere, the triangles (indices into `mesh.triangles`, increasing) rendered for it:
+/// those not entirely beaten by a single other sphere under d(p, S) = |p − c|/r (module docs).
+///
+/// # Errors
+/// Invalid spheres or vertex indices.
+pub fn segment_triangles(mesh: &Mesh, spheres: &[[f32; 4]]) -> Result<Vec<Vec<u32>>, AlbedoError> {
+    check_spheres(spheres)?;
+    check_vertices(mesh)?;
+    let pos: Vec<DVec3> = mesh.positions.iter().map(|p| p.as_dvec3()).collect();
+    let sph = spheres_f64(spheres);
+    Ok(assign(&pos, &mesh.triangles, &sph))
+}
+
+// ---------------------------------------------------------------------------------------------
+// Validation
+
+fn check_setting(
+    name: &'static str,
+    value: usize,
+    lo: usize,
+    hi: usize,
+    expected: &'static str,
+) -> Result<(), AlbedoError> {
+    if value < lo || value > hi {
+        return Err(AlbedoError::InvalidSetting { name, value, expected });
+    }
+    Ok(())
+}
+
+fn check_spheres(spheres: &[[f32; 4]]) -> Result<(), AlbedoError> {
+    for (index, s) in spheres.iter().enumerate() {
+        if !(s.iter().all(|v| v.is_finite()) && s[3] > 0.0) {
+            return Err(AlbedoError::InvalidSphere { index, sphere: *s });
+        }
+    }
+    Ok(())
+}
+
+fn check_vertices(mesh: &Mesh) -> Result<(), AlbedoError> {
+    let vertex_count = mesh.positions.len();
+    for (triangle, t) in mesh.triangles.iter().enumerate() {
+        for &index in t {
+            if index as usize >= vertex_count {
+                return Err(AlbedoError::VertexOutOfRange { triangle, index, vertex_count });
+            }
+        }
+    }
+    Ok(())
+}
+
+struct SphereF64 {
+    c: DVec3,
+    inv_r2: f64,
+}
+
+fn spheres_f64(spheres: &[[f32; 4]]) -> Vec<SphereF64> {
+    spheres
+        .iter()
+        .map(|s| {
+            let r = f64::from(s[3]);
+            SphereF64 { c: DVec3::new(f64::from(s[0]), f64::from(s[1]), f64::from(s[2])), inv_r2: 1.0 / (r * r) }
+        })
+        .collect()
+}
+
+// ---------------------------------------------------------------------------------------------
+// Segment assignment
+
+impl SphereF64 {
+    /// Squared normalised distance |p − c|²/r².
+    fn d2(&self, p: DVec3) -> f64 {
+        (p - self.c).length_squared() * self.inv_r2
+    }
+}
+
+/// Whether sphere j beats sphere i on every point of triangle `t` (strictly).
+fn dominates(j: &SphereF64, i: &SphereF64, t: &[DVec3; 3]) -> bool {
+    let f = |p: DVec3| j.d2(p) - i.d2(p);
+    let alpha = j.inv_r2 - i.inv_r2;
+    let corners = t.iter().all(|&p| f(p) < 0.0);
+    if !corners {
+        return false;
+    }
+    if alpha >= 0.0 {
+        // Convex (or linear) in p: the maximum over the triangle is at a corner.
+        return true;
+    }
+    // Concave isotropic quadratic: f = α|p − q|² + const, maximal at the point of the
+    // triangle nearest q = (c_j/r_j² − c_i/r_i²)/α (computed relative to corner 0).
+    let o = t[0];
+    let q = o + ((j.c - o) * j.inv_r2 - (i.c - o) * i.inv_r2) / alpha;
+    f(closest_point_on_triangle(q, t)) < 0.0
+}
+
+/// Closest point of triangle `t` to `p` (Ericson, Real-Time Collision Detection §5.1.5).
+fn closest_point_on_triangle(p: DVec3, t: &[DVec3; 3]) -> DVec3 {
+    let [a, b, c] = *t;
+    let ab = b - a;
+    let ac = c - a;
+    let ap = p - a;
+    let d1 = ab.dot(ap);
+    let d2 = ac.dot(ap);
+    if d1 <= 0.0 && d2 <= 0.0 {
+        return a;
+    }
+    let bp = p - b;
+    let d3 = ab.dot(bp);
+    let d4 = ac.dot(bp);
+    if d3 >= 0.0 && d4 <= d3 {
+        return b;
+    }
+    let vc = d1 * d4 - d3 * d2;
+    if vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0 {
+        return a + ab * (d1 / (d1 - d3));
+    }
+    let cp = p - c;
+    let d5 = ab.dot(cp);
+    let d6 = ac.dot(cp);
+    if d6 >= 0.0 && d5 <= d6 {
+        return c;
+    }
+    let vb = d5 * d2 - d1 * d6;
+    if vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0 {
+        return a + ac * (d2 / (d2 - d6));
+    }
+    let va = d3 * d6 - d5 * d4;
+    if va <= 0.0 && (d4 - d3) >= 0.0 && (d5 - d6) >= 0.0 {
+        return b + (c - b) * ((d4 - d3) / ((d4 - d3) + (d5 - d6)));
+    }
+    let denom = va + vb + vc;
+    if denom == 0.0 || !denom.is_finite() {
+        // Degenerate triangle: the nearest corner is as good as any point.
+        return [a, b, c]
+            .into_iter()
+            .fold(a, |m, x| if (x - p).length_squared() < (m - p).length_squared() { x } else { m });
+    }
+    let v = vb / denom;
+    let w = vc / denom;
+    a + ab * v + ac * w
+}
+
+/// Per sphere, the increasing list of triangles rendered for it.
+fn assign(pos: &[DVec3], triangles: &[[u32; 3]], spheres: &[SphereF64]) -> Vec<Vec<u32>> {
+    let per_tri: Vec<Vec<u32>> = triangles
+        .par_iter()
+        .map(|tri| {
+            let t = tri.map(|v| pos[v as usize]);
+            if !t.iter().all(|p| p.is_finite()) {
+                return Vec::new();
+            }
+            // Owners of the corners (ties → lowest index): certainly in their segments.
+            let mut owners = [0usize; 3];
+            for (k, p) in t.iter().enumerate() {
+                let mut best = f64::INFINITY;
+                for (s, sp) in spheres.iter().enumerate() {
+                    let d = sp.d2(*p);
+                    if d < best {
+                        best = d;
+                        owners[k] = s;
+                    }
+                }
+            }
+            let mut out = Vec::new();
+            for (i, si) in spheres.iter().enumerate() {
+                if owners.contains(&i) {
+                    out.push(i as u32);
+                    continue;
+                }
+                if owners.iter().any(|&o| dominates(&spheres[o], si, &t)) {
+                    continue;
+                }
+                if !spheres.iter().enumerate().any(|(j, sj)| j != i && dominates(sj, si, &t)) {
+                    out.push(i as u32);
+                }
+            }
+            out
+        })
+        .collect();
+    let mut per_sphere = vec![Vec::new(); spheres.len()];
+    for (t, list) in per_tri.iter().enumerate() {
+        for &s in list {
+            per_sphere[s as usize].push(t as u32);
+        }
+    }
+    per_sphere
+}
+
+// ---------------------------------------------------------------------------------------------
+// Textures
+
+/// A texture as a mip chain of linear RGB levels (box filter, 2×2 → 1).
+struct MipChain {
+    levels: Vec<(usize, usize, Vec<[f32; 3]>)>,
+}
+
+impl MipChain {
+    fn new(width: usize, height: usize, texels: &[[f32; 4]]) -> Self {
+        let mut levels = vec![(width, height, texels.iter().map(|t| [t[0], t[1], t[2]]).collect::<Vec<_>>())];
+        loop {
+            let (w, h, ref src) = levels[levels.len() - 1];
+            if w == 1 && h == 1 {
+                break;
+            }
+            let (nw, nh) = ((w / 2).max(1), (h / 2).max(1));
+            let mut dst = Vec::with_capacity(nw * nh);
+            for y in 0..nh {
+                let (y0, y1) = ((2 * y).min(h - 1), (2 * y + 1).min(h - 1));
+                for x in 0..nw {
+                    let (x0, x1) = ((2 * x).min(w - 1), (2 * x + 1).min(w - 1));
+                    let mut acc = [0.0f32; 3];
+                    for &(xx, yy) in &[(x0, y0), (x1, y0), (x0, y1), (x1, y1)] {
+                        let t = src[yy * w + xx];
+                        for c in 0..3 {
+                            acc[c] += 0.25 * t[c];
+                        }
+                    }
+                    dst.push(acc);
+                }
+            }
+            levels.push((nw, nh, dst));
+        }
+        Self { levels }
+    }
+
+    fn bilinear(&self, level: usize, uv: [f64; 2], wrap: [WrapMode; 2]) -> [f64; 3] {
+        let (w, h, ref tex) = self.levels[level];
+        let x = uv[0] * w as f64 - 0.5;
+        let y = uv[1] * h as f64 - 0.5;
+        let (xf, yf) = (x.floor(), y.floor());
+        let (fx, fy) = (x - xf, y - yf);
+        let (xi, yi) = (xf as i64, yf as i64);
+        let xs = [wrap_index(xi, w, wrap[0]), wrap_index(xi + 1, w, wrap[0])];
+        let ys = [wrap_index(yi, h, wrap[1]), wrap_index(yi + 1, h, wrap[1])];
+        let mut out = [0.0f64; 3];
+        for (a, &yy) in ys.iter().enumerate() {
+            let wy = if a == 0 { 1.0 - fy } else { fy };
+            for (b, &xx) in xs.iter().enumerate() {
+                let wx = if b == 0 { 1.0 - fx } else { fx };
+                let t = tex[yy * w + xx];
+                for c in 0..3 {
+                    out[c] += wx * wy * f64::from(t[c]);
+                }
+            }
+        }
+        out
+    }
+
+    /// Trilinear sample at fractional `lod` (clamped to the chain).
+    fn sample(&self, uv: [f64; 2], lod: f64, wrap: [WrapMode; 2]) -> [f64; 3] {
+        let max = (self.levels.len() - 1) as f64;
+        let lod = if lod.is_finite() { lod.clamp(0.0, max) } else { 0.0 };
+        let l0 = lod.floor();
+        let f = lod - l0;
+        let a = self.bilinear(l0 as usize, uv, wrap);
+        if f == 0.0 {
+            return a;
+        }
+        let b = self.bilinear(l0 as usize + 1, uv, wrap);
+        [a[0] + f * (b[0] - a[0]), a[1] + f * (b[1] - a[1]), a[2] + f * (b[2] - a[2])]
+    }
+}
+
+/// Texel index `i` wrapped into `0..n` (glTF sampler semantics on texel indices).
+fn wrap_index(i: i64, n: usize, mode: WrapMode) -> usize {
+    let n = n as i64;
+    let r = match mode {
+        WrapMode::Repeat => i.rem_euclid(n),
+        WrapMode::ClampToEdge => i.clamp(0, n - 1),
+        WrapMode::MirroredRepeat => {
+            let m = i.rem_euclid(2 * n);
+            if m >= n {
+                2 * n - 1 - m
+            } else {
+                m
+            }
+        }
+    };
+    r as usize
+}
+
+// ---------------------------------------------------------------------------------------------
+// Rendering
+
+/// Per-triangle shading data.
+struct TriShade {
+    /// Unit outward normal.
+    normal: DVec3,
+    /// Texture texels per unit world area (UV area per world area × transform scale × size),
+    /// 0 without a usable texture.
+    texels_per_area: f64,
+}
+
+struct Context<'a> {
+    mesh: &'a Mesh,
+    pos: Vec<DVec3>,
+    /// ±1: outward = sign · CCW normal.
+    orient: Vec<f64>,
+    spheres: Vec<SphereF64>,
+    assigned: Vec<Vec<u32>>,
+    shade: Vec<TriShade>,
+    /// Per texture: its mip chain when a material references it.
+    chains: Vec<Option<MipChain>>,
+    grid: CubeGrid,
+    lod: TextureLod,
+    shared_triangles: usize,
+    textured_without_uvs: usize,
+    sh_order: usize,
+}
+
+#[derive(Default, Clone, Copy)]
+struct SphereCounts {
+    rule1: u64,
+    rule2: u64,
+    rule3: u64,
+    empty: u64,
+    triangles: u64,
+}
+
+impl SphereCounts {
+    fn add_to(&self, s: &mut AlbedoStats) {
+        s.texels_rule1 += self.rule1;
+        s.texels_rule2 += self.rule2;
+        s.texels_rule3 += self.rule3;
+        s.texels_empty += self.empty;
+        s.triangle_assignments += self.triangles;
+    }
+}
+
+/// A stored candidate surface for one texel.
+#[derive(Clone, Copy)]
+struct Hit {
+    dist: f64,
+    tri: u32,
+    bary: [f64; 3],
+}
+
+impl<'a> Context<'a> {
+    fn new(
+        mesh: &'a Mesh,
+        flip: &[bool],
+        spheres: &[[f32; 4]],
+        settings: &AlbedoSettings,
+    ) -> Result<Self, AlbedoError> {
+        check_setting("sh_order", settings.sh_order, 1, 8, "1..=8")?;
+        check_setting("cubemap_size", settings.cubemap_size, 1, 1024, "1..=1024")?;
+        let tcount = mesh.triangles.len();
+        if flip.len() != tcount {
+            return Err(AlbedoError::FlipLength { expected: tcount, actual: flip.len() });
+        }
+        check_spheres(spheres)?;
+        check_vertices(mesh)?;
+        let vcount = mesh.positions.len();
+        if !mesh.triangle_materials.is_empty() && mesh.triangle_materials.len() != tcount {
+            return Err(AlbedoError::MaterialListLength { expected: tcount, actual: mesh.triangle_materials.len() });
+        }
+        for (triangle, &m) in mesh.triangle_materials.iter().enumerate() {
+            if m as usize >= mesh.materials.len() {
+                return Err(AlbedoError::MaterialOutOfRange {
+                    triangle,
+                    material: m,
+                    material_count: mesh.materials.len(),
+                });
+            }
+        }
+        if !mesh.colors_linear.is_empty() && mesh.colors_linear.len() != vcount {
+            return Err(AlbedoError::AttributeLength {
+                attribute: "COLOR_0",
+                expected: vcount,
+                actual: mesh.colors_linear.len(),
+            });
+        }
+        let mut referenced = vec![false; mesh.textures.len()];
+        for (mi, m) in mesh.materials.iter().enumerate() {
+            let Some(tr) = &m.base_color_texture else { continue };
+            let Some(tex) = mesh.textures.get(tr.texture) else {
+                return Err(AlbedoError::TextureOutOfRange {
+                    material: mi,
+                    texture: tr.texture,
+                    texture_count: mesh.textures.len(),
+                });
+            };
+            let (w, h) = (tex.width as usize, tex.height as usize);
+            if w == 0 || h == 0 || tex.texels_linear.len() != w * h {
+                return Err(AlbedoError::TextureSize {
+                    texture: tr.texture,
+                    width: tex.width,
+                    height: tex.height,
+                    actual: tex.texels_linear.len(),
+                });
+            }
+            referenced[tr.texture] = true;
+        }
+        // One mip chain per referenced texture, built in parallel (ordered collect).
+        let chains: Vec<Option<MipChain>> = mesh
+            .textures
+            .par_iter()
+            .zip(referenced.par_iter())
+            .map(|(t, &r)| r.then(|| MipChain::new(t.width as usize, t.height as usize, &t.texels_linear)))
+            .collect();
+        let texture_of_material: Vec<Option<usize>> =
+            mesh.materials.iter().map(|m| m.base_color_texture.as_ref().map(|t| t.texture)).collect();
+
+        let pos: Vec<DVec3> = mesh.positions.iter().map(|p| p.as_dvec3()).collect();
+        let orient: Vec<f64> = flip.iter().map(|&f| if f { -1.0 } else { 1.0 }).collect();
+        let sph = spheres_f64(spheres);
+        let assigned = assign(&pos, &mesh.triangles, &sph);
+        let mut count = vec![0u32; tcount];
+        for list in &assigned {
+            for &t in list {
+                count[t as usize] += 1;
+            }
+        }
+        let shared_triangles = count.iter().filter(|&&c| c >= 2).count();
+
+        let mut textured_without_uvs = 0;
+        let shade: Vec<TriShade> = mesh
+            .triangles
+            .iter()
+            .enumerate()
+            .map(|(t, tri)| {
+                let [a, b, c] = tri.map(|v| pos[v as usize]);
+                let n = (b - a).cross(c - a);
+                let area2 = n.length();
+                let normal = if area2 > 0.0 { n / area2 * orient[t] } else { DVec3::ZERO };
+                let mut texels_per_area = 0.0;
+                let mi = mesh.triangle_materials.get(t).map_or(usize::MAX, |&m| m as usize);
+                if let (Some(m), Some(Some(ti))) = (mesh.materials.get(mi), texture_of_material.get(mi)) {
+                    let tr = m.base_color_texture.as_ref().expect("texture_of_material is Some");
+                    match mesh.uvs.get(tr.uv_set as usize).filter(|u| u.len() == vcount) {
+                        Some(uvs) => {
+                            let [ua, ub, uc] = tri.map(|v| uvs[v as usize]);
+                            let uv_area2 = ((f64::from(ub[0]) - f64::from(ua[0]))
+                                * (f64::from(uc[1]) - f64::from(ua[1]))
+                                - (f64::from(ub[1]) - f64::from(ua[1])) * (f64::from(uc[0]) - f64::from(ua[0])))
+                            .abs();
+                            let tex = &mesh.textures[*ti];
+                            let scale = (f64::from(tr.transform.scale[0]) * f64::from(tr.transform.scale[1])).abs();
+                            if area2 > 0.0 {
+                                texels_per_area =
+                                    uv_area2 / area2 * scale * f64::from(tex.width) * f64::from(tex.height);
+                            }
+                        }
+                        None => textured_without_uvs += 1,
+                    }
+                }
+                TriShade { normal, texels_per_area }
+            })
+            .collect();
+        Ok(Self {
+            mesh,
+            pos,
+            orient,
+            spheres: sph,
+            assigned,
+            shade,
+            chains,
+            grid: CubeGrid::new(settings.cubemap_size),
+            lod: settings.texture_lod,
+            shared_triangles,
+            textured_without_uvs,
+            sh_order: settings.sh_order,
+        })
+    }
+
+    fn base_stats(&self) -> AlbedoStats {
+        AlbedoStats {
+            spheres: self.spheres.len(),
+            face_size: self.grid.face_size(),
+            sh_order: self.sh_order,
+            shared_triangles: self.shared_triangles,
+            textured_triangles_without_uvs: self.textured_without_uvs,
+            ..Default::default()
+        }
+    }
+
+    /// Renders sphere `s`'s cube map (linear RGB, face-major).
+    fn render_sphere(&self, s: usize) -> (Vec<[f32; 3]>, SphereCounts) {
+        let centre = self.spheres[s].c;
+        let n_texels = self.grid.texel_count();
+        // Empty entries: back at distance −∞ (any hit is farther), front at +∞ (any is nearer).
+        let mut back = vec![Hit { dist: f64::NEG_INFINITY, tri: u32::MAX, bary: [0.0; 3] }; n_texels];
+        let mut front = vec![Hit { dist: f64::INFINITY, tri: u32::MAX, bary: [0.0; 3] }; n_texels];
+        let mut any_back = vec![false; n_texels];
+        let mut uncovered = n_texels;
+        let assigned = &self.assigned[s];
+        let mut next = 0usize;
+        for (t, tri) in self.mesh.triangles.iter().enumerate() {
+            let mine = assigned.get(next).is_some_and(|&a| a as usize == t);
+            if mine {
+                next += 1;
+            }
+            if !mine && uncovered == 0 {
+                continue;
+            }
+            let [a, b, c] = tri.map(|v| self.pos[v as usize] - centre);
+            // det(a, b, c) = CCW normal · (a − centre): > 0 when the CCW side faces away.
+            let det = a.dot(b.cross(c)) * self.orient[t];
+            if det > 0.0 {
+                // Back-facing from the centre: seen along +ω.
+                self.grid.rasterize(a, b, c, |f: Fragment| {
+                    if !any_back[f.texel] {
+                        any_back[f.texel] = true;
+                        uncovered -= 1;
+                    }
+                    if mine {
+                        let h = &mut back[f.texel];
+                        if f.dist > h.dist {
+                            *h = Hit { dist: f.dist, tri: t as u32, bary: f.bary };
+                        }
+                    }
+                });
+            } else if det < 0.0 && mine {
+                // Front-facing: seen through the centre (direction −(p − c)).
+                self.grid.rasterize(-a, -b, -c, |f: Fragment| {
+                    let h = &mut front[f.texel];
+                    if f.dist < h.dist {
+                        *h = Hit { dist: f.dist, tri: t as u32, bary: f.bary };
+                    }
+                });
+            }
+        }
+        let mut counts = SphereCounts { triangles: assigned.len() as u64, ..Default::default() };
+        let mut out = vec![[0.0f32; 3]; n_texels];
+        for (texel, o) in out.iter_mut().enumerate() {
+            let hit = if back[texel].tri != u32::MAX {
+                counts.rule1 += 1;
+                Some((back[texel], 1.0))
+            } else if any_back[texel] {
+                counts.rule2 += 1;
+                None
+            } else if front[texel].tri != u32::MAX {
+                counts.rule3 += 1;
+                Some((front[texel], -1.0))
+            } else {
+                counts.empty += 1;
+                None
+            };
+            if let Some((h, sgn)) = hit {
+                let c = self.shade(texel, h, sgn);
+                *o = [c[0] as f32, c[1] as f32, c[2] as f32];
+            }
+        }
+        (out, counts)
+    }
+
+    /// Colour of the surface point `h` seen in texel `texel` (`sgn` −1 when seen through the
+    /// centre).
+    fn shade(&self, texel: usize, h: Hit, sgn: f64) -> [f64; 3] {
+        let t = h.tri as usize;
+        let tri = self.mesh.triangles[t];
+        let mi = self.mesh.triangle_materials.get(t).map_or(usize::MAX, |&m| m as usize);
+        let material = self.mesh.materials.get(mi);
+        let factor = material.map_or([1.0f32; 4], |m| m.base_color_factor_linear);
+        let mut col = [f64::from(factor[0]), f64::from(factor[1]), f64::from(factor[2])];
+        let interp = |v: [[f32; 4]; 3], k: usize| -> f64 {
+            h.bary[0] * f64::from(v[0][k]) + h.bary[1] * f64::from(v[1][k]) + h.bary[2] * f64::from(v[2][k])
+        };
+        if !self.mesh.colors_linear.is_empty() {
+            let vc = tri.map(|v| self.mesh.colors_linear[v as usize]);
+            for (k, c) in col.iter_mut().enumerate() {
+                *c *= interp(vc, k);
+            }
+        }
+        if let Some(tr) = material.and_then(|m| m.base_color_texture.as_ref()) {
+            let vcount = self.mesh.positions.len();
+            if let (Some(uvs), Some(chain)) = (
+                self.mesh.uvs.get(tr.uv_set as usize).filter(|u| u.len() == vcount),
+                self.chains.get(tr.texture).and_then(Option::as_ref),
+            ) {
+                let uv3 = tri.map(|v| {
+                    let u = uvs[v as usize];
+                    [u[0], u[1], 0.0, 0.0]
+                });
+                let uv = [interp(uv3, 0), interp(uv3, 1)];
+                let uv = apply_transform(&tr.transform, uv);
+                let lod = match self.lod {
+                    TextureLod::Base => 0.0,
+                    TextureLod::Footprint => {
+                        let d = self.grid.direction(texel) * sgn;
+                        let cos = self.shade[t].normal.dot(d).abs().max(1e-3);
+                        let area = self.grid.nominal_solid_angle(texel) * h.dist * h.dist / cos;
+                        let texels = area * self.shade[t].texels_per_area;
+                        if texels > 1.0 {
+                            0.5 * texels.log2()
+                        } else {
+                            0.0
+                        }
+                    }
+                };
+                let s = chain.sample(uv, lod, [tr.wrap_s, tr.wrap_t]);
+                for k in 0..3 {
+                    col[k] *= s[k];
+                }
+            }
+        }
+        col
+    }
+}
+
+/// KHR_texture_transform in f64 (same formula as `UvTransform::apply`).
+fn apply_transform(t: &spherebake_geom::UvTransform, uv: [f64; 2]) -> [f64; 2] {
+    let r = f64::from(t.rotation_rad);
+    let (s, c) = r.sin_cos();
+    let x = uv[0] * f64::from(t.scale[0]);
+    let y = uv[1] * f64::from(t.scale[1]);
+    let out = [c * x + s * y + f64::from(t.offset[0]), -s * x + c * y + f64::from(t.offset[1])];
+    if out[0].is_finite() && out[1].is_finite() {
+        out
+    } else {
+        [0.0, 0.0]
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Projection
+
+/// SH projection with exact texel solid angles: a precomputed table when it is small
+/// (≤ 2²³ entries), otherwise evaluated per texel (same formula, for reference resolutions).
+enum Projector {
+    Table(CubeProjector),
+    Stream { order: usize, n: usize, norm: f64 },
+}
+
+impl Projector {
+    fn new(order: usize, n: usize) -> Result<Self, AlbedoError> {
+        let entries = 6 * n * n * coeff_count(order);
+        if entries <= 1 << 23 {
+            return Ok(Projector::Table(CubeProjector::new(order, n)?));
+        }
+        let mut total = 0.0;
+        for _ in 0..6 {
+            for j in 0..n {
+                for i in 0..n {
+                    total += cube_texel_solid_angle(i, j, n);
+                }
+            }
+        }
+        Ok(Projector::Stream { order, n, norm: 4.0 * std::f64::consts::PI / total })
+    }
+
+    fn project(&self, texels: &[[f32; 3]]) -> Vec<[f32; 3]> {
+        match self {
+            Projector::Table(p) => {
+                let mut out = vec![[0.0f32; 3]; coeff_count(p.order())];
+                // Lengths match by construction (6n² texels, order² outputs).
+                if p.project(texels, &mut out).is_err() {
+                    out.fill([f32::NAN; 3]);
+                }
+                out
+            }
+            Projector::Stream { order, n, norm } => {
+                let nc = coeff_count(*order);
+                let mut acc = vec![[0.0f64; 3]; nc];
+                let mut y = vec![0.0f64; nc];
+                for face in CubeFace::ALL {
+                    for j in 0..*n {
+                        for i in 0..*n {
+                            let v = texels[(face.index() * n + j) * n + i];
+                            if v == [0.0; 3] {
+                                continue;
+                            }
+                            let d = spherebake_sh::cube_texel_direction(face, i, j, *n);
+                            let w = cube_texel_solid_angle(i, j, *n) * norm;
+                            if eval_sh_f64(*order, d, &mut y).is_err() {
+                                continue;
+                            }
+                            for (a, &yi) in acc.iter_mut().zip(&y) {
+                                for c in 0..3 {
+                                    a[c] += w * yi * f64::from(v[c]);
+                                }
+                            }
+                        }
+                    }
+                }
+                acc.iter().map(|a| [a[0] as f32, a[1] as f32, a[2] as f32]).collect()
+            }
+        }
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Debug images
+
+/// Writes, per sphere, `sphere_NNNN.png`: the cube map as a horizontal cross (+Y on top; −X, +Z,
+/// +X, −Z across; −Y below; faces as stored, column i → right, row j → down) and, to its right,
+/// the same cross of the SH reconstruction evaluated at the texel centres. Linear colour is
+/// clamped to [0, 1] and sRGB-encoded; the area outside the crosses is grey. Faces smaller than
+/// 64 texels are enlarged by an integer factor. Returns the files written.
+///
+/// # Errors
+/// Directory creation or PNG encoding/writing failures.
+pub fn write_debug_cubemaps(dir: &Path, maps: &[CubeMap], sh: &AlbedoSh) -> std::io::Result<Vec<PathBuf>> {
+    std::fs::create_dir_all(dir)?;
+    let order = usize::from(sh.order);
+    let nc = order * order;
+    let mut files = Vec::with_capacity(maps.len());
+    for (s, map) in maps.iter().enumerate() {
+        let n = map.face_size;
+        if n == 0 || map.texels_linear.len() != 6 * n * n {
+            return Err(std::io::Error::other(format!("cube map {s} has the wrong texel count")));
+        }
+        let coeffs = sh.of(s).unwrap_or(&[]);
+        let mut recon = vec![[0.0f32; 3]; 6 * n * n];
+        if coeffs.len() == nc && nc > 0 {
+            let mut y = vec![0.0f64; nc];
+            for face in CubeFace::ALL {
+                for j in 0..n {
+                    for i in 0..n {
+                        let d = spherebake_sh::cube_texel_direction(face, i, j, n);
+                        if eval_sh_f64(order, d, &mut y).is_ok() {
+                            let mut c = [0.0f64; 3];
+                            for (yi, k) in y.iter().zip(coeffs) {
+                                for ch in 0..3 {
+                                    c[ch] += yi * f64::from(k[ch]);
+                                }
+                            }
+                            recon[(face.index() * n + j) * n + i] = [c[0] as f32, c[1] as f32, c[2] as f32];
+                        }
+                    }
+                }
+            }
+        }
+        let scale = (64 / n).max(1);
+        let fw = n * scale;
+        let gap = fw / 4;
+        let (w, h) = (8 * fw + gap, 3 * fw);
+        let mut img = image::RgbImage::from_pixel(w as u32, h as u32, image::Rgb([96, 96, 96]));
+        // (face, cross column, cross row)
+        const LAYOUT: [(usize, usize, usize); 6] = [(2, 1, 0), (1, 0, 1), (4, 1, 1), (0, 2, 1), (5, 3, 1), (3, 1, 2)];
+        for (k, texels) in [&map.texels_linear, &recon].into_iter().enumerate() {
+            let x0 = k * (4 * fw + gap);
+            for &(face, cx, cy) in &LAYOUT {
+                for y in 0..fw {
+                    for x in 0..fw {
+                        let t = texels[(face * n + y / scale) * n + x / scale];
+                        let px = image::Rgb(t.map(linear_to_srgb8));
+                        img.put_pixel((x0 + cx * fw + x) as u32, (cy * fw + y) as u32, px);
+                    }
+                }
+            }
+        }
+        let path = dir.join(format!("sphere_{s:04}.png"));
+        img.save(&path).map_err(std::io::Error::other)?;
+        files.push(path);
+    }
+    Ok(files)
+}
+
+fn linear_to_srgb8(c: f32) -> u8 {
+    let c = f64::from(c);
+    let c = if c.is_finite() { c.clamp(0.0, 1.0) } else { 0.0 };
+    let s = if c <= 0.0031308 { 12.92 * c } else { 1.055 * c.powf(1.0 / 2.4) - 0.055 };
+    (s * 255.0 + 0.5).floor().clamp(0.0, 255.0) as u8
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn wrap_modes_follow_gltf() {
+        let n = 4;
+        let r: Vec<usize> = (-5..9).map(|i| wrap_index(i, n, WrapMode::Repeat)).collect();
+        assert_eq!(r, [3, 0, 1, 2, 3, 0, 1, 2, 3, 0, 1, 2, 3, 0]);
+        let m: Vec<usize> = (-5..9).map(|i| wrap_index(i, n, WrapMode::MirroredRepeat)).collect();
+        assert_eq!(m, [3, 3, 2, 1, 0, 0, 1, 2, 3, 3, 2, 1, 0, 0]);
+        let c: Vec<usize> = (-2..6).map(|i| wrap_index(i, n, WrapMode::ClampToEdge)).collect();
+        assert_eq!(c, [0, 0, 0, 1, 2, 3, 3, 3]);
+    }
+
+    #[test]
+    fn closest_point_matches_dense_sampling() {
+        let t = [DVec3::new(0.0, 0.0, 0.0), DVec3::new(2.0, 0.1, 0.0), DVec3::new(0.3, 1.5, 0.4)];
+        for p in [
+            DVec3::new(1.0, 0.5, 2.0),
+            DVec3::new(-1.0, -1.0, 0.0),
+            DVec3::new(3.0, 0.0, 0.0),
+            DVec3::new(1.5, 1.5, -0.5),
+        ] {
+            let q = closest_point_on_triangle(p, &t);
+            let mut best = f64::INFINITY;
+            let m = 400;
+            for i in 0..=m {
+                for j in 0..=(m - i) {
+                    let (u, v) = (i as f64 / m as f64, j as f64 / m as f64);
+                    let x = t[0] + (t[1] - t[0]) * u + (t[2] - t[0]) * v;
+                    best = best.min((x - p).length());
+                }
+            }
+            assert!((q - p).length() <= best + 1e-12 && (q - p).length() > best - 5e-3, "{p}");
+        }
+    }
+}
