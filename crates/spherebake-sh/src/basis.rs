@@ -51,7 +51,7 @@ impl Scalar for f32 {
 }
 
 /// Square root usable in const context (Newton iteration, within 1 ulp for the inputs used here).
-const fn const_sqrt(x: f64) -> f64 {
+pub(crate) const fn const_sqrt(x: f64) -> f64 {
     if x <= 0.0 {
         return 0.0;
     }
