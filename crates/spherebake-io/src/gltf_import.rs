@@ -32,6 +32,9 @@ const SUPPORTED_REQUIRED: &[&str] = &[
     "KHR_lights_punctual",
 ];
 
+/// Largest accessor (in components) accepted without a buffer view (zeros + sparse values).
+const MAX_VIEWLESS_VALUES: usize = 1 << 26;
+
 const GLB_JSON: u32 = 0x4E4F_534A;
 const GLB_BIN: u32 = 0x004E_4942;
 
@@ -199,6 +202,41 @@ pub(crate) fn import(ctx: &mut Ctx, bytes: &[u8], glb: bool) -> Result<(Mesh, Ve
                     });
                 }
             }
+        }
+    }
+    // gltf-json does not validate animation channel targets; the gltf crate unwraps them.
+    for (ai, anim) in root.animations.iter().enumerate() {
+        for (ci, ch) in anim.channels.iter().enumerate() {
+            if ch.target.node.value() >= root.nodes.len() {
+                return Err(IoError::Animation {
+                    path,
+                    animation: ai,
+                    channel: ci,
+                    reason: format!(
+                        "target node {} does not exist ({} nodes)",
+                        ch.target.node.value(),
+                        root.nodes.len()
+                    ),
+                });
+            }
+            if matches!(ch.target.path, gltf::json::validation::Checked::Invalid) {
+                return Err(IoError::Animation {
+                    path,
+                    animation: ai,
+                    channel: ci,
+                    reason: "invalid target path".into(),
+                });
+            }
+        }
+    }
+    // The gltf crate unwraps an image's source: it needs a uri or a bufferView with a MIME type.
+    for (ii, img) in root.images.iter_mut().enumerate() {
+        if img.buffer_view.is_none() && img.uri.is_none() {
+            return Err(IoError::Invalid { path, message: format!("images[{ii}]: neither uri nor bufferView") });
+        }
+        if img.buffer_view.is_some() && img.mime_type.is_none() {
+            // The decoder sniffs the format from the bytes; the MIME type is not needed.
+            img.mime_type = Some(gltf::json::image::MimeType("application/octet-stream".into()));
         }
     }
     let doc = gltf::Document::from_json_without_validation(root.clone());
@@ -394,7 +432,7 @@ impl Source<'_> {
         let elem = csize * comps;
         let count = acc.count();
         let norm = acc.normalized();
-        let mut values = Vec::with_capacity(count.saturating_mul(comps).min(1 << 28));
+        let mut values = Vec::new();
         match acc.view() {
             Some(view) => {
                 let bytes = self.view_bytes(&view, ai)?;
@@ -406,13 +444,26 @@ impl Source<'_> {
                         reason: format!("byte stride {stride} is smaller than the element size {elem}"),
                     });
                 }
-                for e in self.strided(ai, bytes, acc.offset(), stride, elem, count)? {
+                // `strided` checks the range first, so the allocation is bounded by the buffer.
+                let items = self.strided(ai, bytes, acc.offset(), stride, elem, count)?;
+                values.reserve_exact(count * comps);
+                for e in items {
                     for k in 0..comps {
                         values.push(read_component(&e[k * csize..], t, norm));
                     }
                 }
             }
-            None => values.resize(count.saturating_mul(comps), 0.0),
+            None => {
+                // No buffer bounds the size of an all-zeros accessor: refuse absurd counts.
+                if count.saturating_mul(comps) > MAX_VIEWLESS_VALUES {
+                    return Err(IoError::Accessor {
+                        path: self.path(),
+                        accessor: ai,
+                        reason: format!("{count} elements without a buffer view (limit {MAX_VIEWLESS_VALUES} values)"),
+                    });
+                }
+                values.resize(count * comps, 0.0)
+            }
         }
         if let Some(sparse) = acc.sparse() {
             let n = sparse.count();

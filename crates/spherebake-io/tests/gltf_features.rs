@@ -1,0 +1,204 @@
+//! glTF features checked on variants of the repository fixtures and small built documents:
+//! negative-determinant node transforms, strips / fans, sparse accessors, rigid meshes under
+//! joints, the content hash, and no panics on mutated documents.
+
+use std::path::{Path, PathBuf};
+
+use spherebake_geom::anim::{joint_matrices, sample_local, skin_vertices, world_matrices};
+use spherebake_geom::glam::Vec3;
+use spherebake_geom::topology::TopologyReport;
+use spherebake_io::{load_mesh, load_mesh_from_bytes, Fnv1a64};
+
+fn fixture(p: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../../fixtures").join(p)
+}
+
+fn read(p: &Path) -> String {
+    std::fs::read_to_string(p).unwrap()
+}
+
+#[test]
+fn mirrored_node_keeps_triangles_outward() {
+    let path = fixture("textured-cube/textured-cube.gltf");
+    let json = read(&path).replace(r#""mesh": 0"#, r#""mesh": 0, "scale": [-1.0, 2.0, 1.0]"#);
+    assert!(json.contains("scale"));
+    // Same directory, so the external .bin and .png resolve.
+    let imp = load_mesh_from_bytes(&path.with_file_name("mirrored.gltf"), json.as_bytes()).unwrap();
+    let r = TopologyReport::compute(&imp.mesh);
+    assert!(r.consistently_oriented);
+    assert!((r.signed_volume - 2.0).abs() < 1e-9, "volume {} (|det| = 2, winding flipped back)", r.signed_volume);
+    // Normals follow the mirror: the +X face's normal becomes −X.
+    let i = imp.mesh.positions.iter().position(|p| p.x > 0.49).unwrap();
+    assert!(imp
+        .mesh
+        .normals
+        .iter()
+        .zip(&imp.mesh.positions)
+        .all(|(n, p)| n.x.abs() < 0.5 || n.x.signum() == p.x.signum()));
+    assert!(imp.mesh.normals[i].is_normalized());
+}
+
+/// One quad (0,0)-(1,1) in z = 0 as 4 vertices, with `mode` and the given u16 indices.
+fn quad_json(mode: u32, indices: &[u16]) -> String {
+    let pos: [[f32; 3]; 4] = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [1.0, 1.0, 0.0]];
+    let mut bin: Vec<u8> = pos.iter().flatten().flat_map(|x| x.to_le_bytes()).collect();
+    bin.extend(indices.iter().flat_map(|i| i.to_le_bytes()));
+    while bin.len() % 4 != 0 {
+        bin.push(0);
+    }
+    let b64 = {
+        const A: &[u8] = b"ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+        let mut s = String::new();
+        for c in bin.chunks(3) {
+            let n = (u32::from(c[0]) << 16)
+                | (u32::from(*c.get(1).unwrap_or(&0)) << 8)
+                | u32::from(*c.get(2).unwrap_or(&0));
+            for k in 0..4 {
+                s.push(if k <= c.len() { A[(n >> (18 - 6 * k)) as usize & 63] as char } else { '=' });
+            }
+        }
+        s
+    };
+    format!(
+        r#"{{"asset":{{"version":"2.0"}},"scenes":[{{"nodes":[0]}}],"nodes":[{{"mesh":0}}],
+"meshes":[{{"primitives":[{{"attributes":{{"POSITION":0}},"indices":1,"mode":{mode}}}]}}],
+"buffers":[{{"byteLength":{},"uri":"data:application/octet-stream;base64,{b64}"}}],
+"bufferViews":[{{"buffer":0,"byteOffset":0,"byteLength":48}},{{"buffer":0,"byteOffset":48,"byteLength":{}}}],
+"accessors":[{{"bufferView":0,"componentType":5126,"count":4,"type":"VEC3","min":[0,0,0],"max":[1,1,0]}},
+{{"bufferView":1,"componentType":5123,"count":{},"type":"SCALAR"}}]}}"#,
+        bin.len(),
+        indices.len() * 2,
+        indices.len()
+    )
+}
+
+#[test]
+fn strips_and_fans_become_ccw_triangles() {
+    // Strip 0,1,2,3 and fan 0,1,3,2 both cover the quad with two +Z-facing triangles.
+    for (mode, idx) in [(5, [0u16, 1, 2, 3]), (6, [0, 1, 3, 2])] {
+        let imp = load_mesh_from_bytes(Path::new("mem/q.gltf"), quad_json(mode, &idx).as_bytes()).unwrap();
+        let m = &imp.mesh;
+        assert_eq!(m.triangles.len(), 2, "mode {mode}");
+        for t in 0..2 {
+            let [a, b, c] = m.triangle(t);
+            assert!((b - a).cross(c - a).z > 0.0, "mode {mode} triangle {t} faces +Z");
+        }
+        let r = TopologyReport::compute(m);
+        assert_eq!((r.boundary_edge_count, r.surface_area), (4, 1.0), "mode {mode}");
+    }
+    // Lines are skipped with a warning; with nothing else the mesh is empty (an error).
+    let e = load_mesh_from_bytes(Path::new("mem/q.gltf"), quad_json(1, &[0, 1]).as_bytes()).unwrap_err();
+    assert!(e.to_string().contains("no triangles"), "{e}");
+}
+
+#[test]
+fn sparse_accessor_overrides_base_values() {
+    // Positions: base view of 3 vertices, sparse override of vertex 2 with (0, 5, 0).
+    let mut bin: Vec<u8> =
+        [[0.0f32, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]].iter().flatten().flat_map(|x| x.to_le_bytes()).collect();
+    bin.extend(2u16.to_le_bytes());
+    bin.extend([0, 0]);
+    bin.extend([0.0f32, 5.0, 0.0].iter().flat_map(|x| x.to_le_bytes()));
+    let b64: String = {
+        const A: &[u8] = b"ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+        let mut s = String::new();
+        for c in bin.chunks(3) {
+            let n = (u32::from(c[0]) << 16)
+                | (u32::from(*c.get(1).unwrap_or(&0)) << 8)
+                | u32::from(*c.get(2).unwrap_or(&0));
+            for k in 0..4 {
+                s.push(if k <= c.len() { A[(n >> (18 - 6 * k)) as usize & 63] as char } else { '=' });
+            }
+        }
+        s
+    };
+    let json = format!(
+        r#"{{"asset":{{"version":"2.0"}},"scenes":[{{"nodes":[0]}}],"nodes":[{{"mesh":0}}],
+"meshes":[{{"primitives":[{{"attributes":{{"POSITION":0}}}}]}}],
+"buffers":[{{"byteLength":{},"uri":"data:application/octet-stream;base64,{b64}"}}],
+"bufferViews":[{{"buffer":0,"byteOffset":0,"byteLength":36}},{{"buffer":0,"byteOffset":36,"byteLength":2}},{{"buffer":0,"byteOffset":40,"byteLength":12}}],
+"accessors":[{{"bufferView":0,"componentType":5126,"count":3,"type":"VEC3","min":[0,0,0],"max":[1,5,0],
+"sparse":{{"count":1,"indices":{{"bufferView":1,"componentType":5123}},"values":{{"bufferView":2}}}}}}]}}"#,
+        bin.len()
+    );
+    let imp = load_mesh_from_bytes(Path::new("mem/s.gltf"), json.as_bytes()).unwrap();
+    assert_eq!(imp.mesh.positions, vec![Vec3::ZERO, Vec3::X, Vec3::new(0.0, 5.0, 0.0)]);
+}
+
+#[test]
+fn rigid_mesh_under_a_joint_follows_it_and_one_outside_stays() {
+    let path = fixture("skinned-arm.gltf");
+    let mut doc: serde_json::Value = serde_json::from_str(&read(&path)).unwrap();
+    // Mesh 1: unskinned, reusing the arm's POSITION and index accessors. Node 4 ("hand", child of
+    // the wrist, 0.5 up) and node 5 ("prop", a scene root at x = 3) instance it.
+    let arm_prim = doc["meshes"][0]["primitives"][0].clone();
+    let rigid = serde_json::json!({"name": "rigid", "primitives": [{
+        "attributes": {"POSITION": arm_prim["attributes"]["POSITION"]}, "indices": arm_prim["indices"]}]});
+    doc["meshes"].as_array_mut().unwrap().push(rigid);
+    let nodes = doc["nodes"].as_array_mut().unwrap();
+    assert_eq!(nodes[3]["name"], "wrist");
+    nodes[3]["children"] = serde_json::json!([4]);
+    nodes.push(serde_json::json!({"name": "hand", "mesh": 1, "translation": [0.0, 0.5, 0.0]}));
+    nodes.push(serde_json::json!({"name": "prop", "mesh": 1, "translation": [3.0, 0.0, 0.0]}));
+    doc["scenes"][0]["nodes"].as_array_mut().unwrap().push(5.into());
+    let json = serde_json::to_string(&doc).unwrap();
+
+    let imp = load_mesh_from_bytes(&path, json.as_bytes()).unwrap();
+    let m = &imp.mesh;
+    let skin = m.skin.as_ref().unwrap();
+    assert_eq!(imp.parts.len(), 3);
+    assert!(imp.warnings.iter().any(|w| w.0.contains("not under any joint")), "{:?}", imp.warnings);
+    let hand = imp.parts.iter().find(|p| p.node == Some(4)).unwrap();
+    let prop = imp.parts.iter().find(|p| p.node == Some(5)).unwrap();
+    let wrist_bone = skin.skeleton.bones.iter().position(|b| b.name == "wrist").unwrap() as u32;
+    for v in hand.vertices.clone() {
+        let inf = skin.influences[v as usize];
+        assert_eq!((inf.joints[0], inf.weights[0], inf.weights[1]), (wrist_bone, 1.0, 0.0));
+    }
+    for v in prop.vertices.clone() {
+        assert!(skin.influences[v as usize].weights.iter().all(|&w| w == 0.0));
+    }
+    // Hand origin at wrist (0,2,0) + (0,0.5,0); its top cap centre (local (0,2,0)) is at (0,4.5,0).
+    let top =
+        hand.vertices.clone().find(|&v| m.positions[v as usize].distance(Vec3::new(0.0, 4.5, 0.0)) < 1e-6).unwrap();
+    let pose = |t: f32| {
+        let w = world_matrices(&skin.skeleton, &sample_local(&skin.skeleton, Some(0), t));
+        skin_vertices(skin, &joint_matrices(&skin.skeleton, &w))
+    };
+    assert!(pose(0.0).iter().zip(&m.positions).all(|(a, b)| a.distance(*b) < 1e-5));
+    // Elbow at 90° about Z: the point 3.5 above the elbow goes to (0,1,0) + R_z(90°)(0,3.5,0).
+    let p = pose(1.0);
+    assert!(p[top as usize].distance(Vec3::new(-3.5, 1.0, 0.0)) < 1e-5, "{}", p[top as usize]);
+    for v in prop.vertices.clone() {
+        assert_eq!(p[v as usize], m.positions[v as usize]);
+    }
+}
+
+#[test]
+fn content_hash_is_fnv_of_all_inputs_in_order() {
+    let imp = load_mesh(&fixture("textured-cube/textured-cube.gltf")).unwrap();
+    let mut h = Fnv1a64::new();
+    for p in &imp.inputs {
+        h.write(&std::fs::read(p).unwrap());
+    }
+    assert_eq!(h.finish(), imp.content_hash);
+    assert_eq!(imp.inputs.len(), 3);
+}
+
+#[test]
+fn mutated_documents_never_panic() {
+    let p = fixture("skinned-arm.gltf");
+    let text = read(&p);
+    let bytes = text.as_bytes();
+    // Every 5th byte replaced by a few structural characters, then every 97th prefix.
+    for i in (0..bytes.len()).step_by(5) {
+        for v in [b'9', b'-', b'"', b'0'] {
+            let mut b = bytes.to_vec();
+            b[i] = v;
+            let _ = load_mesh_from_bytes(&p, &b);
+        }
+    }
+    for n in (0..bytes.len()).step_by(97) {
+        let _ = load_mesh_from_bytes(&p, &bytes[..n]);
+    }
+}
