@@ -1,1 +1,664 @@
-//! spherebake-fit
+//! spherebake-fit: bounding sphere sets with minimal outside volume (Ren et al. 2006 §6.2,
+//! after Wang et al. 2006), plus two baselines, an exactness pass, and an evaluator.
+//!
+//! Quality is E = Σ_i V(S_i − T) / V(T) (Ren eq. 35 normalised by the object volume), computed
+//! exactly with [`spherebake_geom::volume`]. The optimiser works on a voxel proxy of T (see
+//! [`solid`]); the final result is then made *exactly* bounding in its stored f32 form by
+//! [`bound`] (surface triangles, interior lattice points, and power-diagram pockets).
+//!
+//! **Solid.** A mesh whose every directed edge has exactly one reverse partner is closed; T is
+//! then the mesh itself (flipped if inward-oriented). Otherwise T is the voxel solid
+//! (majority of x/y/z ray parity at cell centres, `voxel_resolution` cells along the longest
+//! axis), E uses its closed boundary mesh, and bounding covers the original triangles plus the
+//! points whose generalised winding number is ≥ ½. Accuracy of V(T) and E for open meshes is
+//! then set by the voxel size (≈ surface area × cell size relative error).
+//!
+//! Determinism: all randomness comes from [`rng::SplitMix64`] seeded by `seed`; parallel work
+//! uses ordered collects, so results are bit-identical for any rayon thread count.
+
+pub mod baselines;
+pub mod bound;
+mod cover;
+mod lloyd;
+mod points;
+pub mod powell;
+pub mod rng;
+pub mod solid;
+
+use glam::{DVec3, Vec3};
+use rayon::prelude::*;
+use solid::Solid;
+use spherebake_geom::volume;
+use std::f64::consts::PI;
+use std::time::Instant;
+
+pub use bound::{BoundReport, Sphere32};
+
+/// Which fitting algorithm to run.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+#[non_exhaustive]
+pub enum Method {
+    /// Lloyd clustering + Powell + teleportation minimising outside volume (the product).
+    #[default]
+    Variational,
+    /// k-means of surface points, each sphere bounding its cluster (weak baseline).
+    Kmeans,
+    /// Leaf-cube circumspheres of an adaptive octree (Ren Fig. 4 baseline).
+    Octree,
+}
+
+/// Fit settings. Lengths are model units (the input's own), volumes units³.
+#[derive(Clone, Debug, PartialEq)]
+pub struct FitSettings {
+    pub method: Method,
+    /// Number of spheres (default 64, range 1..=4096). Octree may overshoot by up to 6.
+    pub spheres: usize,
+    /// Target mode: find the smallest sphere count (≤ 1024) whose E is at most this ratio
+    /// (variational only; `spheres` is then ignored). Default `None`.
+    pub max_outside_ratio: Option<f64>,
+    /// Cells along the longest bounding-box axis of the voxel solid / energy proxy
+    /// (default 128, range 16..=1024).
+    pub voxel_resolution: u32,
+    /// Interior lattice points and surface-sample spacing: points along the longest axis
+    /// (default 40, range 8..=256).
+    pub point_resolution: u32,
+    /// Seed of the random start (default 1).
+    pub seed: u64,
+    /// Maximum Lloyd iterations, teleportation trials included (default 24, range 1..=1000).
+    pub max_iterations: usize,
+    /// Maximum teleportation trials (default 6).
+    pub teleport_attempts: usize,
+    /// Powell direction-set sweeps per centre update (default 2, range 1..=20).
+    pub powell_sweeps: usize,
+}
+
+impl Default for FitSettings {
+    fn default() -> Self {
+        Self {
+            method: Method::Variational,
+            spheres: 64,
+            max_outside_ratio: None,
+            voxel_resolution: 128,
+            point_resolution: 40,
+            seed: 1,
+            max_iterations: 24,
+            teleport_attempts: 6,
+            powell_sweeps: 2,
+        }
+    }
+}
+
+/// What T (the solid being bounded) is.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[non_exhaustive]
+pub enum SolidSource {
+    /// The input mesh is closed and oriented; E is exact on it.
+    ClosedMesh,
+    /// The input is open; T is the voxel solid at `voxel_resolution`.
+    VoxelSolid,
+}
+
+#[derive(Clone, Debug, PartialEq)]
+pub struct FitStats {
+    /// E = Σ V(S_i − T) / V(T), exact for the stored f32 spheres.
+    pub outside_ratio_e: f64,
+    /// V(∪S − T) / V(T), estimated on the voxel grid (cell centres; error of the order of the
+    /// boundary layer of one cell).
+    pub union_outside_ratio: f64,
+    /// V(T), units³.
+    pub object_volume: f64,
+    pub solid_source: SolidSource,
+    /// E of the optimiser's voxel proxy before the exactness pass.
+    pub proxy_e: f64,
+    pub iterations: usize,
+    pub teleports_accepted: usize,
+    pub teleports_tried: usize,
+    /// Each teleportation trial: (proxy E before, proxy E of the trial, accepted). A trial is
+    /// accepted exactly when it lowers E.
+    pub teleport_history: Vec<(f64, f64, bool)>,
+    pub bound: BoundReport,
+    /// (stage, seconds).
+    pub timings: Vec<(&'static str, f64)>,
+    pub sphere_count: usize,
+}
+
+#[derive(Clone, Debug, PartialEq)]
+pub struct FitResult {
+    /// Centre xyz and radius, model space, f32 — the values to store; guaranteed bounding.
+    pub spheres: Vec<Sphere32>,
+    pub stats: FitStats,
+    pub warnings: Vec<String>,
+}
+
+#[derive(Debug, thiserror::Error, PartialEq)]
+#[non_exhaustive]
+pub enum FitError {
+    #[error("mesh has no triangles")]
+    NoTriangles,
+    #[error("triangle {triangle} references vertex {index}, but there are {vertex_count} vertices")]
+    IndexOutOfRange { triangle: usize, index: u32, vertex_count: usize },
+    #[error("vertex {index} has a non-finite position")]
+    NonFinitePosition { index: usize },
+    #[error("setting {name} = {value} is out of range ({expected})")]
+    InvalidSetting { name: &'static str, value: String, expected: &'static str },
+    #[error("the mesh encloses no volume (voxel solid is empty at resolution {resolution})")]
+    EmptySolid { resolution: u32 },
+    #[error("sphere {index} is not finite or has a negative radius")]
+    InvalidSphere { index: usize },
+}
+
+/// Exact T for the energy.
+enum ExactT {
+    Closed { pos: Vec<DVec3>, tris: Vec<[u32; 3]> },
+    Voxel { pos: Vec<DVec3>, tris: Vec<[u32; 3]>, cells: Vec<u32> },
+}
+
+struct Prepared {
+    pos: Vec<DVec3>,
+    tris: Vec<[u32; 3]>,
+    solid: Solid,
+    lo: DVec3,
+    hi: DVec3,
+    object_volume: f64,
+    source: SolidSource,
+    exact: ExactT,
+    warnings: Vec<String>,
+}
+
+fn check_range<T: PartialOrd + std::fmt::Display>(
+    name: &'static str,
+    v: T,
+    lo: T,
+    hi: T,
+    expected: &'static str,
+) -> Result<(), FitError> {
+    if v < lo || v > hi {
+        return Err(FitError::InvalidSetting { name, value: v.to_string(), expected });
+    }
+    Ok(())
+}
+
+fn prepare(positions: &[Vec3], triangles: &[[u32; 3]], voxel_resolution: u32) -> Result<Prepared, FitError> {
+    if triangles.is_empty() {
+        return Err(FitError::NoTriangles);
+    }
+    for (ti, t) in triangles.iter().enumerate() {
+        for &v in t {
+            if v as usize >= positions.len() {
+                return Err(FitError::IndexOutOfRange { triangle: ti, index: v, vertex_count: positions.len() });
+            }
+        }
+    }
+    let mut used = vec![false; positions.len()];
+    for t in triangles {
+        for &v in t {
+            used[v as usize] = true;
+        }
+    }
+    for (i, p) in positions.iter().enumerate() {
+        if used[i] && !p.is_finite() {
+            return Err(FitError::NonFinitePosition { index: i });
+        }
+    }
+    let pos: Vec<DVec3> = positions.iter().map(|p| p.as_dvec3()).collect();
+    let mut tris = triangles.to_vec();
+    let mut warnings = Vec::new();
+    let (mut lo, mut hi) = (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY));
+    for t in &tris {
+        for &v in t {
+            lo = lo.min(pos[v as usize]);
+            hi = hi.max(pos[v as usize]);
+        }
+    }
+    // Closed and oriented: every directed edge has exactly one reverse partner.
+    let mut edges: Vec<(u32, u32)> = Vec::with_capacity(tris.len() * 3);
+    let mut degenerate = false;
+    for t in &tris {
+        if t[0] == t[1] || t[1] == t[2] || t[2] == t[0] {
+            degenerate = true;
+        }
+        edges.extend([(t[0], t[1]), (t[1], t[2]), (t[2], t[0])]);
+    }
+    edges.sort_unstable();
+    let dup = edges.windows(2).any(|w| w[0] == w[1]);
+    let boundary = edges.iter().filter(|&&(a, b)| edges.binary_search(&(b, a)).is_err()).count();
+    let mut closed = !degenerate && !dup && boundary == 0;
+    let mut vol = if closed { volume::mesh_signed_volume(&pos, &tris) } else { 0.0 };
+    if closed && vol < 0.0 {
+        warnings.push("closed mesh is inward-oriented: flipped for the fit".to_string());
+        for t in &mut tris {
+            t.swap(1, 2);
+        }
+        vol = -vol;
+    }
+    if closed && vol <= 0.0 {
+        closed = false;
+    }
+    if !closed {
+        warnings.push(format!(
+            "mesh not closed ({boundary} boundary edges{}): the solid is the voxel solid at resolution {voxel_resolution}",
+            if dup { ", non-manifold or inconsistently oriented edges" } else { "" }
+        ));
+    }
+    let solid = solid::voxelize(&pos, &tris, voxel_resolution, closed);
+    if solid.solid_count == 0 {
+        return Err(FitError::EmptySolid { resolution: voxel_resolution });
+    }
+    let (source, exact, object_volume) = if closed {
+        (SolidSource::ClosedMesh, ExactT::Closed { pos: pos.clone(), tris: tris.clone() }, vol)
+    } else {
+        let (p, t, cells) = solid.boundary_mesh();
+        let v = solid.volume();
+        (SolidSource::VoxelSolid, ExactT::Voxel { pos: p, tris: t, cells }, v)
+    };
+    Ok(Prepared { pos, tris, solid, lo, hi, object_volume, source, exact, warnings })
+}
+
+/// Exact V(S − T) per sphere, units³ (parallel over spheres, ordered).
+fn exact_outside(prep: &Prepared, spheres: &[Sphere32]) -> Vec<f64> {
+    spheres
+        .par_iter()
+        .map(|s| {
+            let c = DVec3::new(s[0] as f64, s[1] as f64, s[2] as f64);
+            let r = s[3] as f64;
+            let inter = match &prep.exact {
+                ExactT::Closed { pos, tris } => volume::ball_mesh_intersection_volume(c, r, pos, tris),
+                ExactT::Voxel { pos, tris, cells } => {
+                    let sd = &prep.solid;
+                    let mut near = Vec::new();
+                    let u0 = ((c - r - sd.origin) / sd.h).floor() - 1.0;
+                    let u1 = ((c + r - sd.origin) / sd.h).floor() + 1.0;
+                    let clamp = |x: f64, a: usize| x.clamp(0.0, sd.dims[a] as f64 - 1.0) as usize;
+                    let (i0, i1) = (clamp(u0.x, 0), clamp(u1.x, 0));
+                    for k in clamp(u0.z, 2)..=clamp(u1.z, 2) {
+                        for j in clamp(u0.y, 1)..=clamp(u1.y, 1) {
+                            let a = sd.index(i0, j, k) as u32;
+                            let b = sd.index(i1, j, k) as u32;
+                            let s0 = cells.partition_point(|&x| x < a);
+                            let s1 = cells.partition_point(|&x| x <= b);
+                            near.extend(s0 as u32..s1 as u32);
+                        }
+                    }
+                    let w = if sd.is_solid_at(c) { 1.0 } else { 0.0 };
+                    volume::ball_mesh_intersection_volume_near(c, r, pos, tris, &near, w)
+                }
+            };
+            (volume::ball_volume_f64(r) - inter).max(0.0)
+        })
+        .collect()
+}
+
+/// V(∪S − T) estimated on the voxel grid: cells whose centre is in the union but not solid.
+fn union_outside(solid: &Solid, spheres: &[Sphere32]) -> f64 {
+    let [nx, ny, nz] = solid.dims;
+    let mut mark = vec![false; nx * ny * nz];
+    let mut extra = 0.0;
+    // Spheres reaching outside the grid: count those parts analytically-free by sampling the
+    // same lattice extended (cells outside the grid are never solid).
+    for s in spheres {
+        let c = DVec3::new(s[0] as f64, s[1] as f64, s[2] as f64);
+        let r = s[3] as f64;
+        let u0 = ((c - r - solid.origin) / solid.h - 0.5).ceil();
+        let u1 = ((c + r - solid.origin) / solid.h - 0.5).floor();
+        for k in u0.z as i64..=u1.z as i64 {
+            for j in u0.y as i64..=u1.y as i64 {
+                for i in u0.x as i64..=u1.x as i64 {
+                    let p = solid.origin + (DVec3::new(i as f64, j as f64, k as f64) + 0.5) * solid.h;
+                    if p.distance_squared(c) > r * r {
+                        continue;
+                    }
+                    let inside_grid =
+                        i >= 0 && j >= 0 && k >= 0 && (i as usize) < nx && (j as usize) < ny && (k as usize) < nz;
+                    if inside_grid {
+                        let idx = solid.index(i as usize, j as usize, k as usize);
+                        mark[idx] = true;
+                    } else if !spheres_before_contain(spheres, s, p) {
+                        extra += 1.0;
+                    }
+                }
+            }
+        }
+    }
+    let cnt = mark.iter().zip(&solid.solid).filter(|(m, s)| **m && !**s).count() as f64;
+    (cnt + extra) * solid.h.powi(3)
+}
+
+fn spheres_before_contain(spheres: &[Sphere32], me: &Sphere32, p: DVec3) -> bool {
+    for s in spheres {
+        if std::ptr::eq(s, me) {
+            return false;
+        }
+        let c = DVec3::new(s[0] as f64, s[1] as f64, s[2] as f64);
+        if p.distance_squared(c) <= (s[3] as f64).powi(2) {
+            return true;
+        }
+    }
+    false
+}
+
+/// Inside test for pocket vertices: deep in the voxel solid (cell and its 26 neighbours solid)
+/// or far from it (none solid) is decided by the voxel solid; the layer in between by the
+/// generalised winding number of the input triangles (≥ ½).
+fn winding_inside(prep: &Prepared, v: DVec3) -> bool {
+    match prep.solid.neighbourhood(v) {
+        solid::Neighbourhood::AllSolid => true,
+        solid::Neighbourhood::NoneSolid => false,
+        solid::Neighbourhood::Mixed => volume::winding_number_brute(v, &prep.pos, &prep.tris) >= 0.5,
+    }
+}
+
+struct Run {
+    spheres: Vec<Sphere32>,
+    outside: Vec<f64>,
+    proxy_e: f64,
+    iterations: usize,
+    teleports: (usize, usize),
+    history: Vec<(f64, f64, bool)>,
+    bound: BoundReport,
+}
+
+fn run_once(
+    prep: &Prepared,
+    pts: &points::PointSet,
+    settings: &FitSettings,
+    k: usize,
+    timings: &mut Vec<(&'static str, f64)>,
+) -> Run {
+    let t = Instant::now();
+    let ctx = lloyd::Ctx { solid: &prep.solid, pts, powell_sweeps: settings.powell_sweeps };
+    let mut history = Vec::new();
+    let (raw, iterations, teleports): (Vec<(DVec3, f64)>, usize, (usize, usize)) = match settings.method {
+        Method::Variational => {
+            let out = lloyd::run(&ctx, k, settings.seed, settings.max_iterations, settings.teleport_attempts);
+            history = out.history.iter().map(|h| (h.e_before, h.e_trial, h.accepted)).collect();
+            let sp: Vec<(DVec3, f64)> = out.state.centres.iter().zip(&out.state.radii).map(|(c, r)| (*c, *r)).collect();
+            let t1 = Instant::now();
+            let sp = lloyd::polish(&ctx, &sp, &prep.pos, 6);
+            timings.push(("polish", t1.elapsed().as_secs_f64()));
+            (sp, out.iterations, (out.teleports_accepted, out.teleports_tried))
+        }
+        Method::Kmeans => {
+            let sp = baselines::kmeans(&pts.points[..pts.surface_count], k, settings.seed, 50);
+            (sp, 0, (0, 0))
+        }
+        Method::Octree => (baselines::octree(&prep.pos, &prep.tris, &prep.solid, k), 0, (0, 0)),
+    };
+    let proxy_e = raw.iter().map(|(c, r)| lloyd::outside(&prep.solid, *c, *r)).sum::<f64>() / prep.solid.volume();
+    timings.push(("optimise", t.elapsed().as_secs_f64()));
+    let t = Instant::now();
+    let delta = 1.01 * 3f64.sqrt() * (pts.h + prep.solid.h);
+    let inside = |v: DVec3| winding_inside(prep, v);
+    let input = bound::BoundInput {
+        positions: &prep.pos,
+        triangles: &prep.tris,
+        interior: &pts.points[pts.surface_count..],
+        delta,
+        inside: &inside,
+    };
+    let (spheres, bound) = bound::make_bounding(&raw, &input);
+    timings.push(("bound", t.elapsed().as_secs_f64()));
+    let t = Instant::now();
+    let outside = exact_outside(prep, &spheres);
+    timings.push(("exact_e", t.elapsed().as_secs_f64()));
+    if std::env::var_os("SPHEREBAKE_DEBUG").is_some() {
+        let pe: f64 = spheres
+            .iter()
+            .map(|s| lloyd::outside(&prep.solid, DVec3::new(s[0] as f64, s[1] as f64, s[2] as f64), s[3] as f64))
+            .sum::<f64>()
+            / prep.solid.volume();
+        let ex: f64 = outside.iter().sum::<f64>() / prep.object_volume;
+        let before: f64 =
+            raw.iter().map(|(c, r)| lloyd::outside(&prep.solid, *c, *r)).sum::<f64>() / prep.solid.volume();
+        eprintln!("  proxy E before bound {before:.4}, after bound {pe:.4}, exact {ex:.4}");
+    }
+    Run { spheres, outside, proxy_e, iterations, teleports, history, bound }
+}
+
+/// Fits a bounding sphere set to the welded mesh (`Mesh::welded_positions`,
+/// `Mesh::welded_triangles()`). `progress` receives values in [0, 1].
+pub fn fit(
+    positions: &[Vec3],
+    triangles: &[[u32; 3]],
+    settings: &FitSettings,
+    progress: &(dyn Fn(f32) + Sync),
+) -> Result<FitResult, FitError> {
+    check_range("spheres", settings.spheres, 1, 4096, "1..=4096")?;
+    check_range("voxel_resolution", settings.voxel_resolution, 16, 1024, "16..=1024")?;
+    check_range("point_resolution", settings.point_resolution, 8, 256, "8..=256")?;
+    check_range("max_iterations", settings.max_iterations, 1, 1000, "1..=1000")?;
+    check_range("powell_sweeps", settings.powell_sweeps, 1, 20, "1..=20")?;
+    if let Some(t) = settings.max_outside_ratio {
+        if !(t.is_finite() && t > 0.0) {
+            return Err(FitError::InvalidSetting {
+                name: "max_outside_ratio",
+                value: t.to_string(),
+                expected: "finite and > 0",
+            });
+        }
+    }
+    let mut timings = Vec::new();
+    let t = Instant::now();
+    progress(0.0);
+    let prep = prepare(positions, triangles, settings.voxel_resolution)?;
+    timings.push(("voxelize", t.elapsed().as_secs_f64()));
+    let t = Instant::now();
+    let h_pts = (prep.hi - prep.lo).max_element() / settings.point_resolution as f64;
+    let pts = points::build(&prep.pos, &prep.tris, &prep.solid, prep.lo, prep.hi, h_pts);
+    timings.push(("points", t.elapsed().as_secs_f64()));
+    progress(0.1);
+    let mut warnings = prep.warnings.clone();
+    let e_of = |r: &Run| r.outside.iter().sum::<f64>() / prep.object_volume;
+    let run = match settings.max_outside_ratio {
+        Some(target) if settings.method == Method::Variational => {
+            // Doubling then bisection on the sphere count.
+            let mut tried: Vec<(usize, Run)> = Vec::new();
+            let mut k = 8usize;
+            let mut hi_k = None;
+            loop {
+                let mut tm = Vec::new();
+                let r = run_once(&prep, &pts, settings, k, &mut tm);
+                let e = e_of(&r);
+                tried.push((k, r));
+                if e <= target {
+                    hi_k = Some(k);
+                    break;
+                }
+                if k >= 1024 {
+                    break;
+                }
+                k = (k * 2).min(1024);
+                progress(0.1 + 0.4 * (k as f32 / 1024.0));
+            }
+            match hi_k {
+                None => {
+                    warnings.push(format!("target E ≤ {target} not reached with 1024 spheres"));
+                }
+                Some(hk) => {
+                    let mut lo_k = hk / 2;
+                    let mut hk = hk;
+                    while hk - lo_k > 1.max(hk / 16) {
+                        let mid = (lo_k + hk) / 2;
+                        let mut tm = Vec::new();
+                        let r = run_once(&prep, &pts, settings, mid, &mut tm);
+                        let ok = e_of(&r) <= target;
+                        tried.push((mid, r));
+                        if ok {
+                            hk = mid;
+                        } else {
+                            lo_k = mid;
+                        }
+                    }
+                }
+            }
+            // Smallest count reaching the target, else the best E.
+            let best = tried
+                .iter()
+                .enumerate()
+                .filter(|(_, (_, r))| e_of(r) <= target)
+                .min_by_key(|(_, (k, _))| *k)
+                .map(|(i, _)| i)
+                .unwrap_or_else(|| {
+                    (0..tried.len()).min_by(|&a, &b| e_of(&tried[a].1).total_cmp(&e_of(&tried[b].1))).unwrap_or(0)
+                });
+            let (k, r) = tried.swap_remove(best);
+            warnings.push(format!("target mode: {k} spheres give E = {:.4} (target {target})", e_of(&r)));
+            r
+        }
+        Some(_) => {
+            warnings.push("max_outside_ratio applies to the variational method only; using `spheres`".into());
+            run_once(&prep, &pts, settings, settings.spheres, &mut timings)
+        }
+        None => run_once(&prep, &pts, settings, settings.spheres, &mut timings),
+    };
+    progress(0.9);
+    let t = Instant::now();
+    let union = union_outside(&prep.solid, &run.spheres) / prep.solid.volume();
+    timings.push(("union_estimate", t.elapsed().as_secs_f64()));
+    if run.bound.pockets_closed > 0 {
+        warnings.push(format!("closed {} interior pockets between spheres", run.bound.pockets_closed));
+    }
+    let stats = FitStats {
+        outside_ratio_e: e_of(&run),
+        union_outside_ratio: union,
+        object_volume: prep.object_volume,
+        solid_source: prep.source,
+        proxy_e: run.proxy_e,
+        iterations: run.iterations,
+        teleports_accepted: run.teleports.0,
+        teleports_tried: run.teleports.1,
+        teleport_history: run.history,
+        bound: run.bound,
+        timings,
+        sphere_count: run.spheres.len(),
+    };
+    progress(1.0);
+    Ok(FitResult { spheres: run.spheres, stats, warnings })
+}
+
+/// Settings of [`evaluate`].
+#[derive(Clone, Debug, PartialEq)]
+pub struct EvalSettings {
+    /// Voxel resolution for the solid of open meshes and the union estimate (default 128).
+    pub voxel_resolution: u32,
+    /// Random surface points for the coverage check (default 1,000,000).
+    pub surface_samples: usize,
+    pub seed: u64,
+}
+
+impl Default for EvalSettings {
+    fn default() -> Self {
+        Self { voxel_resolution: 128, surface_samples: 1_000_000, seed: 7 }
+    }
+}
+
+#[derive(Clone, Debug, PartialEq)]
+pub struct Evaluation {
+    pub outside_ratio_e: f64,
+    pub union_outside_ratio: f64,
+    /// Share of the random surface points inside the union (1 = all).
+    pub surface_coverage: f64,
+    /// Largest distance of a sampled surface point outside the union, model units (0 = none).
+    pub max_gap: f64,
+    /// `max_gap` divided by the bounding-box diagonal.
+    pub max_gap_relative: f64,
+    pub sphere_count: usize,
+    pub radius_min: f64,
+    pub radius_mean: f64,
+    pub radius_max: f64,
+    pub object_volume: f64,
+    pub solid_source: SolidSource,
+}
+
+/// Area-weighted seeded random surface points (deterministic for any thread count).
+pub fn surface_samples(positions: &[DVec3], triangles: &[[u32; 3]], n: usize, seed: u64) -> Vec<DVec3> {
+    let mut cum = Vec::with_capacity(triangles.len());
+    let mut acc = 0.0;
+    for t in triangles {
+        let (a, b, c) = (positions[t[0] as usize], positions[t[1] as usize], positions[t[2] as usize]);
+        acc += 0.5 * (b - a).cross(c - a).length();
+        cum.push(acc);
+    }
+    if acc <= 0.0 {
+        return Vec::new();
+    }
+    const CHUNK: usize = 16384;
+    (0..n.div_ceil(CHUNK))
+        .into_par_iter()
+        .flat_map_iter(|ci| {
+            let mut rng = rng::SplitMix64::new(seed ^ (ci as u64).wrapping_mul(0xA24B_AED4_963E_E407));
+            let m = CHUNK.min(n - ci * CHUNK);
+            let cum = &cum;
+            (0..m)
+                .map(move |_| {
+                    let x = rng.next_f64() * acc;
+                    let ti = cum.partition_point(|&v| v <= x).min(triangles.len() - 1);
+                    let t = triangles[ti];
+                    let (a, b, c) = (positions[t[0] as usize], positions[t[1] as usize], positions[t[2] as usize]);
+                    let (mut u, mut v) = (rng.next_f64(), rng.next_f64());
+                    if u + v > 1.0 {
+                        u = 1.0 - u;
+                        v = 1.0 - v;
+                    }
+                    a + (b - a) * u + (c - a) * v
+                })
+                .collect::<Vec<_>>()
+        })
+        .collect()
+}
+
+/// Evaluates a stored sphere set against a mesh (for `spherebake eval`).
+pub fn evaluate(
+    positions: &[Vec3],
+    triangles: &[[u32; 3]],
+    spheres: &[Sphere32],
+    settings: &EvalSettings,
+) -> Result<Evaluation, FitError> {
+    check_range("voxel_resolution", settings.voxel_resolution, 16, 1024, "16..=1024")?;
+    for (i, s) in spheres.iter().enumerate() {
+        if !s.iter().all(|x| x.is_finite()) || s[3] < 0.0 {
+            return Err(FitError::InvalidSphere { index: i });
+        }
+    }
+    let prep = prepare(positions, triangles, settings.voxel_resolution)?;
+    let outside = exact_outside(&prep, spheres);
+    let e = outside.iter().sum::<f64>() / prep.object_volume;
+    let union = union_outside(&prep.solid, spheres) / prep.solid.volume();
+    let samples = surface_samples(&prep.pos, &prep.tris, settings.surface_samples, settings.seed);
+    let gaps: Vec<f64> = samples
+        .par_iter()
+        .map(|p| {
+            let mut best = f64::INFINITY;
+            for s in spheres {
+                if bound::contains(s, *p) {
+                    return 0.0;
+                }
+                let c = DVec3::new(s[0] as f64, s[1] as f64, s[2] as f64);
+                best = best.min(p.distance(c) - s[3] as f64);
+            }
+            best.max(f64::MIN_POSITIVE)
+        })
+        .collect();
+    let inside = gaps.iter().filter(|&&g| g == 0.0).count();
+    let max_gap = gaps.iter().cloned().fold(0.0, f64::max);
+    let diag = (prep.hi - prep.lo).length();
+    let radii: Vec<f64> = spheres.iter().map(|s| s[3] as f64).collect();
+    let n = radii.len().max(1) as f64;
+    Ok(Evaluation {
+        outside_ratio_e: e,
+        union_outside_ratio: union,
+        surface_coverage: if samples.is_empty() { 1.0 } else { inside as f64 / samples.len() as f64 },
+        max_gap,
+        max_gap_relative: if diag > 0.0 { max_gap / diag } else { 0.0 },
+        sphere_count: spheres.len(),
+        radius_min: radii.iter().cloned().fold(f64::INFINITY, f64::min),
+        radius_mean: radii.iter().sum::<f64>() / n,
+        radius_max: radii.iter().cloned().fold(0.0, f64::max),
+        object_volume: prep.object_volume,
+        solid_source: prep.source,
+    })
+}
+
+#[allow(dead_code)]
+fn ball_volume(r: f64) -> f64 {
+    4.0 / 3.0 * PI * r * r * r
+}

@@ -1,0 +1,80 @@
+//! Usage: `cargo run --release -p spherebake-fit --example fit_bench -- MODEL.obj [counts] [methods] [runs]`
+//! e.g. `... -- bunny.obj 16,32,64,128,256 variational,kmeans,octree 3`.
+//! Prints E (exact), the union outside ratio, and wall time (median of `runs`) per stage.
+
+use glam::Vec3;
+use spherebake_fit::{fit, FitSettings, Method};
+use std::time::Instant;
+
+fn load_obj(path: &str) -> (Vec<Vec3>, Vec<[u32; 3]>) {
+    let text = std::fs::read_to_string(path).expect("read OBJ");
+    let mut p = Vec::new();
+    let mut t = Vec::new();
+    for line in text.lines() {
+        let mut it = line.split_whitespace();
+        match it.next() {
+            Some("v") => {
+                let v: Vec<f32> = it.take(3).map(|x| x.parse().expect("float")).collect();
+                p.push(Vec3::new(v[0], v[1], v[2]));
+            }
+            Some("f") => {
+                let v: Vec<u32> = it.map(|x| x.split('/').next().unwrap().parse::<u32>().expect("index") - 1).collect();
+                for i in 1..v.len() - 1 {
+                    t.push([v[0], v[i], v[i + 1]]);
+                }
+            }
+            _ => {}
+        }
+    }
+    (p, t)
+}
+
+fn main() {
+    let args: Vec<String> = std::env::args().collect();
+    let path = args.get(1).expect("usage: fit_bench MODEL.obj [counts] [methods] [runs]");
+    let counts: Vec<usize> =
+        args.get(2).map(|s| s.split(',').map(|x| x.parse().unwrap()).collect()).unwrap_or(vec![16, 32, 64, 128, 256]);
+    let methods: Vec<String> = args.get(3).map(|s| s.split(',').map(|x| x.to_string()).collect()).unwrap_or(vec![
+        "variational".into(),
+        "kmeans".into(),
+        "octree".into(),
+    ]);
+    let runs: usize = args.get(4).map(|s| s.parse().unwrap()).unwrap_or(1);
+    let (p, t) = load_obj(path);
+    println!("{path}: {} vertices, {} triangles, {} threads", p.len(), t.len(), rayon::current_num_threads());
+    println!("method       k  spheres        E   union    proxyE   iters  wall_s  stages");
+    for m in &methods {
+        let method = match m.as_str() {
+            "variational" => Method::Variational,
+            "kmeans" => Method::Kmeans,
+            "octree" => Method::Octree,
+            other => panic!("unknown method {other}"),
+        };
+        for &k in &counts {
+            let settings = FitSettings { method, spheres: k, ..Default::default() };
+            let mut times = Vec::new();
+            let mut last = None;
+            for _ in 0..runs {
+                let t0 = Instant::now();
+                let r = fit(&p, &t, &settings, &|_| {}).expect("fit");
+                times.push(t0.elapsed().as_secs_f64());
+                last = Some(r);
+            }
+            times.sort_by(f64::total_cmp);
+            let r = last.unwrap();
+            let s = &r.stats;
+            let stages: Vec<String> = s.timings.iter().map(|(n, t)| format!("{n}={t:.3}")).collect();
+            println!(
+                "{m:<11} {k:>4} {:>6} {:>9.4} {:>7.4} {:>9.4} {:>6} {:>7.3}  {}  {:?}",
+                s.sphere_count,
+                s.outside_ratio_e,
+                s.union_outside_ratio,
+                s.proxy_e,
+                s.iterations,
+                times[times.len() / 2],
+                stages.join(" "),
+                s.bound
+            );
+        }
+    }
+}

@@ -1,0 +1,154 @@
+//! Start for the variational fit: a greedy set cover of the surface samples by dilated inner
+//! balls (centre at an interior lattice point p, radius ρ(p) + t where ρ(p) is the distance to
+//! the nearest surface sample), with the dilation t bisected so the cover needs at most k
+//! balls. Random choices enter through the seeded tie order, so `seed` still varies the start.
+
+use glam::DVec3;
+use rayon::prelude::*;
+use std::collections::BinaryHeap;
+
+/// Cap on surface samples and on interior candidates used by the start.
+const MAX_SAMPLES: usize = 3000;
+
+struct Grid {
+    origin: DVec3,
+    h: f64,
+    /// Sorted (cell key, point index).
+    entries: Vec<((i64, i64, i64), u32)>,
+}
+
+impl Grid {
+    fn new(pts: &[DVec3], h: f64) -> Self {
+        let mut origin = DVec3::splat(f64::INFINITY);
+        for p in pts {
+            origin = origin.min(*p);
+        }
+        let mut entries: Vec<_> =
+            pts.iter().enumerate().map(|(i, p)| (Self::key_of(origin, h, *p), i as u32)).collect();
+        entries.sort_unstable();
+        Self { origin, h, entries }
+    }
+    fn key_of(o: DVec3, h: f64, p: DVec3) -> (i64, i64, i64) {
+        let u = (p - o) / h;
+        (u.x.floor() as i64, u.y.floor() as i64, u.z.floor() as i64)
+    }
+    /// Indices of points within `r` of `c` (appended to `out`).
+    fn within(&self, pts: &[DVec3], c: DVec3, r: f64, out: &mut Vec<u32>) {
+        let lo = Self::key_of(self.origin, self.h, c - DVec3::splat(r));
+        let hi = Self::key_of(self.origin, self.h, c + DVec3::splat(r));
+        let r2 = r * r;
+        for x in lo.0..=hi.0 {
+            for y in lo.1..=hi.1 {
+                let s = self.entries.partition_point(|e| e.0 < (x, y, lo.2));
+                for e in &self.entries[s..] {
+                    if e.0 > (x, y, hi.2) {
+                        break;
+                    }
+                    if pts[e.1 as usize].distance_squared(c) <= r2 {
+                        out.push(e.1);
+                    }
+                }
+            }
+        }
+    }
+}
+
+/// Greedy cover; returns chosen (candidate index) in pick order, or None if more than `limit`.
+fn greedy(cover: &[Vec<u32>], n_samples: usize, limit: usize, order: &[u32]) -> Option<Vec<usize>> {
+    let mut covered = vec![false; n_samples];
+    let mut left = n_samples;
+    let mut heap: BinaryHeap<(usize, u32, usize)> =
+        cover.iter().enumerate().map(|(i, c)| (c.len(), order[i], i)).collect();
+    let mut picks = Vec::new();
+    while left > 0 {
+        let (cnt, o, i) = heap.pop()?;
+        let real = cover[i].iter().filter(|&&s| !covered[s as usize]).count();
+        if real == 0 {
+            continue;
+        }
+        if real < cnt {
+            heap.push((real, o, i));
+            continue;
+        }
+        for &s in &cover[i] {
+            if !covered[s as usize] {
+                covered[s as usize] = true;
+                left -= 1;
+            }
+        }
+        picks.push(i);
+        if picks.len() > limit {
+            return None;
+        }
+    }
+    Some(picks)
+}
+
+/// Returns up to `k` start spheres (centre, radius).
+pub fn start(surface_all: &[DVec3], interior_all: &[DVec3], k: usize, h: f64, seed: u64) -> Vec<(DVec3, f64)> {
+    if surface_all.is_empty() {
+        return Vec::new();
+    }
+    // The start only needs to be roughly right: cap both sets (strided, so spatially even).
+    let cap = |v: &[DVec3], n: usize| -> Vec<DVec3> {
+        let stride = v.len().div_ceil(n).max(1);
+        v.iter().step_by(stride).copied().collect()
+    };
+    let surface = &cap(surface_all, MAX_SAMPLES)[..];
+    let interior = &cap(interior_all, MAX_SAMPLES)[..];
+    let grid = Grid::new(surface, h);
+    // Candidates: interior points, then surface samples (ρ = 0) as a fallback.
+    let cand: Vec<DVec3> = interior.iter().chain(surface.iter()).copied().collect();
+    let rho: Vec<f64> = cand
+        .par_iter()
+        .map(|p| {
+            let mut r = h;
+            let mut out = Vec::new();
+            loop {
+                out.clear();
+                grid.within(surface, *p, r, &mut out);
+                if !out.is_empty() {
+                    return out.iter().map(|&i| surface[i as usize].distance(*p)).fold(f64::INFINITY, f64::min);
+                }
+                r *= 2.0;
+            }
+        })
+        .collect();
+    let mut rng = crate::rng::SplitMix64::new(seed ^ 0x5EED_C0DE);
+    let order: Vec<u32> = (0..cand.len()).map(|_| rng.next_u64() as u32).collect();
+    let covers = |t: f64| -> Vec<Vec<u32>> {
+        cand.par_iter()
+            .zip(rho.par_iter())
+            .map(|(p, r)| {
+                let mut out = Vec::new();
+                grid.within(surface, *p, r + t, &mut out);
+                out
+            })
+            .collect()
+    };
+    let mut lo_t = 0.0;
+    let mut hi_t = h;
+    // Grow hi_t until feasible.
+    let mut best: Option<(f64, Vec<usize>)> = None;
+    for _ in 0..40 {
+        if let Some(p) = greedy(&covers(hi_t), surface.len(), k, &order) {
+            best = Some((hi_t, p));
+            break;
+        }
+        lo_t = hi_t;
+        hi_t *= 2.0;
+    }
+    let Some((mut t_best, mut picks)) = best else { return Vec::new() };
+    for _ in 0..7 {
+        let mid = 0.5 * (lo_t + hi_t);
+        match greedy(&covers(mid), surface.len(), k, &order) {
+            Some(p) => {
+                hi_t = mid;
+                t_best = mid;
+                picks = p;
+            }
+            None => lo_t = mid,
+        }
+    }
+    picks.iter().map(|&i| (cand[i], rho[i] + t_best)).collect()
+}

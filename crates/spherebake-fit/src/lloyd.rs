@@ -1,0 +1,489 @@
+//! The variational sphere-set fit (Ren et al. 2006 §6.2 after Wang et al. 2006): flood-fill
+//! clustering, per-cluster Powell centre update, cluster teleportation. Energies here use the
+//! voxel proxy of [`crate::solid::Solid::ball_volume`]; the exact energy is computed once on
+//! the final, exactly bounding result.
+
+use crate::points::PointSet;
+use crate::powell::powell;
+use crate::rng::SplitMix64;
+use crate::solid::Solid;
+use glam::DVec3;
+use rayon::prelude::*;
+use std::cmp::Ordering;
+use std::collections::BinaryHeap;
+use std::f64::consts::PI;
+
+pub struct Ctx<'a> {
+    pub solid: &'a Solid,
+    pub pts: &'a PointSet,
+    pub powell_sweeps: usize,
+}
+
+/// Proxy outside volume of ball(c, r), units³.
+pub fn outside(solid: &Solid, c: DVec3, r: f64) -> f64 {
+    (4.0 / 3.0 * PI * r * r * r - solid.ball_volume(c, r)).max(0.0)
+}
+
+#[derive(Clone)]
+pub struct State {
+    pub centres: Vec<DVec3>,
+    pub radii: Vec<f64>,
+    pub assign: Vec<u32>,
+    pub outside: Vec<f64>,
+}
+
+impl State {
+    pub fn energy(&self) -> f64 {
+        self.outside.iter().sum()
+    }
+}
+
+/// Outside volume as a function of radius for a fixed centre, tabulated lazily.
+struct Radial {
+    c: DVec3,
+    step: f64,
+    vals: Vec<f64>,
+}
+
+impl Radial {
+    fn get(&mut self, solid: &Solid, r: f64) -> f64 {
+        let m = r / self.step;
+        let i = m.floor() as usize;
+        while self.vals.len() <= i + 1 {
+            let rr = self.vals.len() as f64 * self.step;
+            self.vals.push(outside(solid, self.c, rr));
+        }
+        let f = m - i as f64;
+        self.vals[i] * (1.0 - f) + self.vals[i + 1] * f
+    }
+}
+
+#[derive(PartialEq)]
+struct Item {
+    cost: f64,
+    tie: f64,
+    point: u32,
+}
+impl Eq for Item {}
+impl Ord for Item {
+    fn cmp(&self, o: &Self) -> Ordering {
+        // Min-heap on (cost, point).
+        o.cost.total_cmp(&self.cost).then(o.tie.total_cmp(&self.tie)).then(o.point.cmp(&self.point))
+    }
+}
+impl PartialOrd for Item {
+    fn partial_cmp(&self, o: &Self) -> Option<Ordering> {
+        Some(self.cmp(o))
+    }
+}
+
+/// Flood-fill clustering from the current centres: each point, in order of least error, joins
+/// the cluster (among those of its already clustered neighbours) whose sphere — centre fixed,
+/// radius extended to the point — grows least in outside volume (ties: nearer centre).
+/// Keys are re-checked when popped (lazy priority queue). Returns assignment and radii.
+pub fn cluster(ctx: &Ctx, centres: &[DVec3], init_radii: Option<&[f64]>) -> (Vec<u32>, Vec<f64>) {
+    let pts = &ctx.pts.points;
+    let n = pts.len();
+    let k = centres.len();
+    let mut assign = vec![u32::MAX; n];
+    let r0: Vec<f64> = init_radii.map(|r| r.to_vec()).unwrap_or(vec![0.0; k]);
+    let mut radii = r0.clone();
+    let mut tables: Vec<Radial> = centres.iter().map(|&c| Radial { c, step: ctx.solid.h, vals: Vec::new() }).collect();
+    let mut heap = BinaryHeap::new();
+    let mut remaining = n;
+    // Seeds: the nearest not-yet-seeded point to each centre.
+    for (ci, &c) in centres.iter().enumerate() {
+        let mut best = None;
+        let mut bd = f64::INFINITY;
+        for (i, p) in pts.iter().enumerate() {
+            if assign[i] != u32::MAX {
+                continue;
+            }
+            let d = p.distance_squared(c);
+            if d < bd {
+                bd = d;
+                best = Some(i);
+            }
+        }
+        if let Some(i) = best {
+            assign[i] = ci as u32;
+            radii[ci] = radii[ci].max(bd.sqrt());
+            remaining -= 1;
+        }
+    }
+    // (Δ outside volume, power w.r.t. the starting sphere, distance)
+    let cost_of = |ci: usize, q: usize, radii: &[f64], tables: &mut [Radial]| -> (f64, f64, f64) {
+        let d2 = pts[q].distance_squared(centres[ci]);
+        let d = d2.sqrt();
+        let tie = d2 - r0[ci] * r0[ci];
+        if d <= radii[ci] {
+            (0.0, tie, d)
+        } else {
+            let t = &mut tables[ci];
+            ((t.get(ctx.solid, d) - t.get(ctx.solid, radii[ci])).max(0.0), tie, d)
+        }
+    };
+    for i in 0..n {
+        if assign[i] != u32::MAX {
+            for &q in ctx.pts.neighbours(i) {
+                if assign[q as usize] == u32::MAX {
+                    let (c, tie, _) = cost_of(assign[i] as usize, q as usize, &radii, &mut tables);
+                    heap.push(Item { cost: c, tie, point: q });
+                }
+            }
+        }
+    }
+    let mut cands: Vec<u32> = Vec::with_capacity(16);
+    loop {
+        while let Some(it) = heap.pop() {
+            let p = it.point as usize;
+            if assign[p] != u32::MAX {
+                continue;
+            }
+            cands.clear();
+            for &q in ctx.pts.neighbours(p) {
+                let a = assign[q as usize];
+                if a != u32::MAX && !cands.contains(&a) {
+                    cands.push(a);
+                }
+            }
+            let mut best = (f64::INFINITY, f64::INFINITY, f64::INFINITY, u32::MAX);
+            for &ci in &cands {
+                let (c, tie, d) = cost_of(ci as usize, p, &radii, &mut tables);
+                if (c, tie, d, ci) < best {
+                    best = (c, tie, d, ci);
+                }
+            }
+            if best.3 == u32::MAX {
+                continue;
+            }
+            if (best.0, best.1) < (it.cost, it.tie) {
+                heap.push(Item { cost: best.0, tie: best.1, point: it.point });
+                continue;
+            }
+            let ci = best.3 as usize;
+            assign[p] = best.3;
+            remaining -= 1;
+            if best.2 > radii[ci] {
+                radii[ci] = best.2;
+            }
+            for &q in ctx.pts.neighbours(p) {
+                if assign[q as usize] == u32::MAX {
+                    let (c, tie, _) = cost_of(ci, q as usize, &radii, &mut tables);
+                    heap.push(Item { cost: c, tie, point: q });
+                }
+            }
+        }
+        if remaining == 0 {
+            break;
+        }
+        // Unreached components: attach the first unassigned point to the cheapest cluster.
+        let p = assign.iter().position(|&a| a == u32::MAX).unwrap_or(0);
+        let mut best = (f64::INFINITY, f64::INFINITY, f64::INFINITY, 0usize);
+        for ci in 0..k {
+            let (c, tie, d) = cost_of(ci, p, &radii, &mut tables);
+            if (c, tie, d) < (best.0, best.1, best.2) {
+                best = (c, tie, d, ci);
+            }
+        }
+        assign[p] = best.3 as u32;
+        remaining -= 1;
+        radii[best.3] = radii[best.3].max(best.2);
+        for &q in ctx.pts.neighbours(p) {
+            if assign[q as usize] == u32::MAX {
+                let (c, tie, _) = cost_of(best.3, q as usize, &radii, &mut tables);
+                heap.push(Item { cost: c, tie, point: q });
+            }
+        }
+    }
+    (assign, radii)
+}
+
+/// Power assignment: each point joins the containing sphere in which it lies deepest
+/// (least power d² − r²), or else the sphere whose volume grows least to reach it. With the
+/// spheres of the previous update every point is contained, so no cluster's bounding radius at
+/// its old centre grows and the following centre update cannot increase E.
+pub fn power_assign(pts: &[DVec3], centres: &[DVec3], radii: &[f64]) -> Vec<u32> {
+    pts.par_iter()
+        .map(|p| {
+            let mut best_in = (f64::INFINITY, u32::MAX);
+            let mut best_out = (f64::INFINITY, u32::MAX);
+            for (i, (c, r)) in centres.iter().zip(radii).enumerate() {
+                let d2 = p.distance_squared(*c);
+                let pw = d2 - r * r;
+                if pw <= 0.0 {
+                    if pw < best_in.0 {
+                        best_in = (pw, i as u32);
+                    }
+                } else {
+                    let g = d2 * d2.sqrt() - r * r * r;
+                    if g < best_out.0 {
+                        best_out = (g, i as u32);
+                    }
+                }
+            }
+            if best_in.1 != u32::MAX {
+                best_in.1
+            } else {
+                best_out.1
+            }
+        })
+        .collect()
+}
+
+/// Per-cluster members, in point order.
+pub fn members(assign: &[u32], k: usize) -> Vec<Vec<u32>> {
+    let mut m = vec![Vec::new(); k];
+    for (i, &a) in assign.iter().enumerate() {
+        if (a as usize) < k {
+            m[a as usize].push(i as u32);
+        }
+    }
+    m
+}
+
+fn max_dist(pts: &[DVec3], mem: &[u32], c: DVec3) -> f64 {
+    let mut m = 0.0f64;
+    for &i in mem {
+        m = m.max(pts[i as usize].distance_squared(c));
+    }
+    m.sqrt()
+}
+
+/// Moves each centre (Powell) to minimise the proxy outside volume of the smallest sphere at
+/// that centre bounding the cluster. Parallel over clusters, deterministic.
+pub fn update(ctx: &Ctx, centres: &[DVec3], assign: &[u32]) -> State {
+    let k = centres.len();
+    let mem = members(assign, k);
+    let pts = &ctx.pts.points;
+    let res: Vec<(DVec3, f64, f64)> = (0..k)
+        .into_par_iter()
+        .map(|ci| {
+            let m = &mem[ci];
+            if m.is_empty() {
+                return (centres[ci], 0.0, 0.0);
+            }
+            let mut f = |x: [f64; 3]| {
+                let c = DVec3::from_array(x);
+                outside(ctx.solid, c, max_dist(pts, m, c))
+            };
+            let r0 = max_dist(pts, m, centres[ci]);
+            let step = 0.25 * r0 + ctx.pts.h;
+            let res = powell(&mut f, centres[ci].to_array(), step, ctx.powell_sweeps, 1e-3);
+            let c = DVec3::from_array(res.x);
+            (c, max_dist(pts, m, c), res.f)
+        })
+        .collect();
+    State {
+        centres: res.iter().map(|x| x.0).collect(),
+        radii: res.iter().map(|x| x.1).collect(),
+        assign: assign.to_vec(),
+        outside: res.iter().map(|x| x.2).collect(),
+    }
+}
+
+fn lens(c1: DVec3, r1: f64, c2: DVec3, r2: f64) -> f64 {
+    let d = c1.distance(c2);
+    if d >= r1 + r2 {
+        return 0.0;
+    }
+    if d <= (r1 - r2).abs() {
+        let r = r1.min(r2);
+        return 4.0 / 3.0 * PI * r * r * r;
+    }
+    PI * (r1 + r2 - d).powi(2) * (d * d + 2.0 * d * (r1 + r2) - 3.0 * (r1 - r2).powi(2)) / (12.0 * d)
+}
+
+/// Teleportation proposal: split the cluster of maximal outside volume at its farthest pair,
+/// delete the cluster of maximal relative overlap. Returns the new centres or `None`.
+pub fn teleport(ctx: &Ctx, st: &State) -> Option<(Vec<DVec3>, Vec<f64>)> {
+    let k = st.centres.len();
+    if k < 2 {
+        return None;
+    }
+    let pts = &ctx.pts.points;
+    let mem = members(&st.assign, k);
+    let worst = (0..k)
+        .filter(|&i| mem[i].len() >= 2)
+        .max_by(|&a, &b| st.outside[a].total_cmp(&st.outside[b]).then(b.cmp(&a)))?;
+    let overlap = |j: usize| -> f64 {
+        let vj = 4.0 / 3.0 * PI * st.radii[j].powi(3);
+        if vj <= 0.0 {
+            return f64::INFINITY;
+        }
+        (0..k).filter(|&l| l != j).map(|l| lens(st.centres[j], st.radii[j], st.centres[l], st.radii[l])).sum::<f64>()
+            / vj
+    };
+    let del = (0..k).filter(|&j| j != worst).max_by(|&a, &b| overlap(a).total_cmp(&overlap(b)).then(b.cmp(&a)))?;
+    let m = &mem[worst];
+    let far = |from: DVec3| -> DVec3 {
+        let mut best = pts[m[0] as usize];
+        let mut bd = -1.0;
+        for &i in m {
+            let d = pts[i as usize].distance_squared(from);
+            if d > bd {
+                bd = d;
+                best = pts[i as usize];
+            }
+        }
+        best
+    };
+    let a = far(st.centres[worst]);
+    let b = far(a);
+    if a == b {
+        return None;
+    }
+    let mut c = st.centres.clone();
+    let mut r = st.radii.clone();
+    // Seeds a quarter of the way in from the farthest pair, starting at radius 0: the other
+    // spheres keep their radii, so only the orphaned points move.
+    c[worst] = a + (b - a) * 0.25;
+    c[del] = b + (a - b) * 0.25;
+    r[worst] = 0.0;
+    r[del] = 0.0;
+    Some((c, r))
+}
+
+/// One teleportation trial as recorded: E before, E of the trial, accepted.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TeleportRecord {
+    pub e_before: f64,
+    pub e_trial: f64,
+    pub accepted: bool,
+}
+
+pub struct LloydOutcome {
+    pub state: State,
+    pub history: Vec<TeleportRecord>,
+    pub iterations: usize,
+    pub teleports_accepted: usize,
+    pub teleports_tried: usize,
+}
+
+/// Runs the variational fit with `k` spheres from a seeded random start.
+pub fn run(ctx: &Ctx, k: usize, seed: u64, max_iterations: usize, teleports: usize) -> LloydOutcome {
+    let pts = &ctx.pts.points;
+    let mut rng = SplitMix64::new(seed);
+    let k = k.min(pts.len()).max(1);
+    let t_cover = std::time::Instant::now();
+    let start = crate::cover::start(&pts[..ctx.pts.surface_count], &pts[ctx.pts.surface_count..], k, ctx.pts.h, seed);
+    let mut centres: Vec<DVec3> = start.iter().map(|x| x.0).collect();
+    let mut radii0: Vec<f64> = start.iter().map(|x| x.1).collect();
+    while centres.len() < k {
+        let i = rng.below(pts.len() as u64) as usize;
+        if !centres.contains(&pts[i]) {
+            centres.push(pts[i]);
+            radii0.push(0.0);
+        }
+    }
+    let debug = std::env::var_os("SPHEREBAKE_DEBUG").is_some();
+    if debug {
+        eprintln!(
+            "  points: {} surface + {} interior, {} adjacency entries; cover start {} spheres in {:.3}s",
+            ctx.pts.surface_count,
+            pts.len() - ctx.pts.surface_count,
+            ctx.pts.adj.len(),
+            start.len(),
+            t_cover.elapsed().as_secs_f64()
+        );
+    }
+    let step = |centres: &[DVec3], radii: Option<&[f64]>| -> State {
+        let t0 = std::time::Instant::now();
+        let assign = match radii {
+            Some(r) => power_assign(pts, centres, r),
+            None => cluster(ctx, centres, None).0,
+        };
+        let t1 = t0.elapsed().as_secs_f64();
+        let st = update(ctx, centres, &assign);
+        if debug {
+            eprintln!(
+                "  cluster {:.3}s update {:.3}s E_proxy {:.4}",
+                t1,
+                t0.elapsed().as_secs_f64() - t1,
+                st.energy() / ctx.solid.volume()
+            );
+        }
+        st
+    };
+    let mut st = step(&centres, Some(&radii0));
+    let mut iterations = 1;
+    let mut tried = 0;
+    let mut accepted = 0;
+    let mut fails = 0;
+    let mut history = Vec::new();
+    while iterations < max_iterations {
+        centres.clone_from(&st.centres);
+        let next = step(&centres, Some(&st.radii));
+        iterations += 1;
+        let (e0, e1) = (st.energy(), next.energy());
+        if e1 < e0 {
+            st = next;
+        }
+        if e1 < e0 * (1.0 - 5e-3) {
+            continue;
+        }
+        // Converged: try teleportation.
+        if tried >= teleports || fails >= 3 {
+            break;
+        }
+        let Some((tc, tr)) = teleport(ctx, &st) else { break };
+        tried += 1;
+        let mut trial = step(&tc, Some(&tr));
+        iterations += 1;
+        for _ in 0..2 {
+            if iterations >= max_iterations {
+                break;
+            }
+            let t2 = step(&trial.centres, Some(&trial.radii));
+            iterations += 1;
+            if t2.energy() < trial.energy() {
+                trial = t2;
+            } else {
+                break;
+            }
+        }
+        let ok = trial.energy() < st.energy();
+        history.push(TeleportRecord { e_before: st.energy(), e_trial: trial.energy(), accepted: ok });
+        if ok {
+            st = trial;
+            accepted += 1;
+            fails = 0;
+        } else {
+            fails += 1;
+        }
+    }
+    LloydOutcome { state: st, history, iterations, teleports_accepted: accepted, teleports_tried: tried }
+}
+
+/// Final polish on the full point set (every mesh vertex plus the clustering points):
+/// `rounds` of power assignment + Powell centre update, so the sphere set bounds the real
+/// vertices and the exactness pass only has to cover triangle interiors.
+pub fn polish(ctx: &Ctx, spheres: &[(DVec3, f64)], vertices: &[DVec3], rounds: usize) -> Vec<(DVec3, f64)> {
+    let all: Vec<DVec3> = vertices.iter().chain(ctx.pts.points.iter()).copied().collect();
+    let mut cur = spheres.to_vec();
+    for _ in 0..rounds {
+        let centres: Vec<DVec3> = cur.iter().map(|x| x.0).collect();
+        let radii: Vec<f64> = cur.iter().map(|x| x.1).collect();
+        let assign = power_assign(&all, &centres, &radii);
+        let mem = members(&assign, cur.len());
+        cur = (0..cur.len())
+            .into_par_iter()
+            .map(|ci| {
+                let m = &mem[ci];
+                if m.is_empty() {
+                    return (cur[ci].0, 0.0);
+                }
+                let mut f = |x: [f64; 3]| {
+                    let c = DVec3::from_array(x);
+                    outside(ctx.solid, c, max_dist(&all, m, c))
+                };
+                let c0 = cur[ci].0;
+                let r0 = max_dist(&all, m, c0);
+                let res = powell(&mut f, c0.to_array(), 0.1 * r0 + ctx.solid.h, ctx.powell_sweeps, 1e-4);
+                let c = DVec3::from_array(res.x);
+                (c, max_dist(&all, m, c))
+            })
+            .collect();
+    }
+    cur
+}

@@ -1,0 +1,290 @@
+//! Bounding exactness, determinism and quality checks of the fit. Every check here is made
+//! by code independent of the library's own containment logic: plain f64 distance tests on
+//! the stored f32 values, recursive triangle subdivision, seeded random points.
+
+use glam::{DVec3, Vec3};
+use spherebake_fit::{evaluate, fit, powell::powell, EvalSettings, FitError, FitSettings, Method, SolidSource};
+
+fn models_dir() -> std::path::PathBuf {
+    std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/models/obj")
+}
+
+fn load_obj(name: &str) -> Option<(Vec<Vec3>, Vec<[u32; 3]>)> {
+    let path = models_dir().join(name);
+    let Ok(text) = std::fs::read_to_string(&path) else {
+        println!("skipping: {} not found", path.display());
+        return None;
+    };
+    let mut p = Vec::new();
+    let mut t = Vec::new();
+    for line in text.lines() {
+        let mut it = line.split_whitespace();
+        match it.next() {
+            Some("v") => {
+                let v: Vec<f32> = it.take(3).map(|x| x.parse().unwrap()).collect();
+                p.push(Vec3::new(v[0], v[1], v[2]));
+            }
+            Some("f") => {
+                let v: Vec<u32> = it.map(|x| x.split('/').next().unwrap().parse::<u32>().unwrap() - 1).collect();
+                for i in 1..v.len() - 1 {
+                    t.push([v[0], v[i], v[i + 1]]);
+                }
+            }
+            _ => {}
+        }
+    }
+    Some((p, t))
+}
+
+/// Closed outward boundary of a union of unit voxels scaled by `s`, each face split into
+/// `n`×`n` quads (so the fixtures have enough vertices to cluster).
+fn voxel_union(cells: &[[i32; 3]], s: f32, n: u32) -> (Vec<Vec3>, Vec<[u32; 3]>) {
+    let mut pos: Vec<Vec3> = Vec::new();
+    let mut tris = Vec::new();
+    let mut index = std::collections::BTreeMap::new();
+    let mut vid = |p: [i64; 3], pos: &mut Vec<Vec3>| -> u32 {
+        *index.entry(p).or_insert_with(|| {
+            pos.push(Vec3::new(p[0] as f32, p[1] as f32, p[2] as f32) * (s / n as f32));
+            pos.len() as u32 - 1
+        })
+    };
+    let has = |c: [i32; 3]| cells.contains(&c);
+    for &c in cells {
+        for axis in 0..3 {
+            for dir in [-1i32, 1] {
+                let mut nb = c;
+                nb[axis] += dir;
+                if has(nb) {
+                    continue;
+                }
+                let u = (axis + 1) % 3;
+                let v = (axis + 2) % 3;
+                for a in 0..n as i64 {
+                    for b in 0..n as i64 {
+                        let mut q = [[0i64; 3]; 4];
+                        for (qi, (du, dv)) in [(0, 0), (1, 0), (1, 1), (0, 1)].iter().enumerate() {
+                            let mut x = [c[0] as i64 * n as i64, c[1] as i64 * n as i64, c[2] as i64 * n as i64];
+                            if dir > 0 {
+                                x[axis] += n as i64;
+                            }
+                            x[u] += a + du;
+                            x[v] += b + dv;
+                            q[qi] = x;
+                        }
+                        let ids: Vec<u32> = q.iter().map(|x| vid(*x, &mut pos)).collect();
+                        if dir > 0 {
+                            tris.push([ids[0], ids[1], ids[2]]);
+                            tris.push([ids[0], ids[2], ids[3]]);
+                        } else {
+                            tris.push([ids[0], ids[2], ids[1]]);
+                            tris.push([ids[0], ids[3], ids[2]]);
+                        }
+                    }
+                }
+            }
+        }
+    }
+    (pos, tris)
+}
+
+fn in_some(spheres: &[[f32; 4]], p: DVec3) -> bool {
+    spheres.iter().any(|s| {
+        let c = DVec3::new(s[0] as f64, s[1] as f64, s[2] as f64);
+        p.distance_squared(c) <= (s[3] as f64) * (s[3] as f64)
+    })
+}
+
+/// Every triangle is partitioned (recursive 4-splits, depth ≤ 12) into pieces each inside one
+/// sphere (three corners inside ⇒ piece inside, by convexity).
+fn assert_triangles_covered(p: &[Vec3], t: &[[u32; 3]], spheres: &[[f32; 4]]) {
+    fn piece_ok(spheres: &[[f32; 4]], tri: [DVec3; 3], depth: u32) -> bool {
+        let one = spheres.iter().any(|s| {
+            let c = DVec3::new(s[0] as f64, s[1] as f64, s[2] as f64);
+            let r2 = (s[3] as f64) * (s[3] as f64);
+            tri.iter().all(|q| q.distance_squared(c) <= r2)
+        });
+        if one {
+            return true;
+        }
+        if depth >= 12 {
+            return false;
+        }
+        let m01 = (tri[0] + tri[1]) * 0.5;
+        let m12 = (tri[1] + tri[2]) * 0.5;
+        let m20 = (tri[2] + tri[0]) * 0.5;
+        [[tri[0], m01, m20], [m01, tri[1], m12], [m20, m12, tri[2]], [m01, m12, m20]]
+            .into_iter()
+            .all(|q| piece_ok(spheres, q, depth + 1))
+    }
+    for (i, tri) in t.iter().enumerate() {
+        let c = [p[tri[0] as usize].as_dvec3(), p[tri[1] as usize].as_dvec3(), p[tri[2] as usize].as_dvec3()];
+        assert!(piece_ok(spheres, c, 0), "triangle {i} not covered by the sphere set");
+    }
+}
+
+/// A million seeded area-weighted random surface points, all inside the union.
+fn assert_random_surface_points_covered(p: &[Vec3], t: &[[u32; 3]], spheres: &[[f32; 4]], n: usize) {
+    let mut cum = Vec::new();
+    let mut acc = 0.0f64;
+    for tri in t {
+        let (a, b, c) = (p[tri[0] as usize].as_dvec3(), p[tri[1] as usize].as_dvec3(), p[tri[2] as usize].as_dvec3());
+        acc += 0.5 * (b - a).cross(c - a).length();
+        cum.push(acc);
+    }
+    let mut state = 0xDEAD_BEEF_u64;
+    let mut next = || {
+        state ^= state << 13;
+        state ^= state >> 7;
+        state ^= state << 17;
+        (state >> 11) as f64 / (1u64 << 53) as f64
+    };
+    let mut missed = 0;
+    for _ in 0..n {
+        let x = next() * acc;
+        let ti = cum.partition_point(|&v| v <= x).min(t.len() - 1);
+        let tri = t[ti];
+        let (a, b, c) = (p[tri[0] as usize].as_dvec3(), p[tri[1] as usize].as_dvec3(), p[tri[2] as usize].as_dvec3());
+        let (mut u, mut v) = (next(), next());
+        if u + v > 1.0 {
+            u = 1.0 - u;
+            v = 1.0 - v;
+        }
+        if !in_some(spheres, a + (b - a) * u + (c - a) * v) {
+            missed += 1;
+        }
+    }
+    assert_eq!(missed, 0, "{missed} of {n} random surface points outside the union");
+}
+
+#[test]
+fn l_shape_bounds_surface_and_interior_for_all_methods() {
+    let (p, t) = voxel_union(&[[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]], 1.0, 4);
+    for method in [Method::Variational, Method::Kmeans, Method::Octree] {
+        let s = FitSettings { method, spheres: 12, voxel_resolution: 48, ..Default::default() };
+        let r = fit(&p, &t, &s, &|_| {}).unwrap();
+        assert_eq!(r.stats.solid_source, SolidSource::ClosedMesh);
+        assert!(r.spheres.len() >= 12 && r.spheres.len() <= 18, "{method:?}: {}", r.spheres.len());
+        assert_triangles_covered(&p, &t, &r.spheres);
+        assert_random_surface_points_covered(&p, &t, &r.spheres, 100_000);
+        // Interior: a dense lattice of points inside the four unit cubes.
+        for i in 0..40 {
+            for j in 0..40 {
+                for k in 0..40 {
+                    let q = DVec3::new(i as f64 + 0.5, j as f64 + 0.5, k as f64 + 0.5) / 20.0;
+                    let cell = [q.x.floor() as i32, q.y.floor() as i32, q.z.floor() as i32];
+                    let inside = [[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]].contains(&cell);
+                    if inside {
+                        assert!(in_some(&r.spheres, q), "{method:?}: interior point {q} not covered");
+                    }
+                }
+            }
+        }
+        // E is non-negative and consistent with the evaluator.
+        let ev = evaluate(&p, &t, &r.spheres, &EvalSettings { surface_samples: 10_000, ..Default::default() }).unwrap();
+        assert!((ev.outside_ratio_e - r.stats.outside_ratio_e).abs() < 1e-9);
+        assert_eq!(ev.surface_coverage, 1.0);
+        assert!((r.stats.object_volume - 4.0).abs() < 1e-5);
+    }
+}
+
+#[test]
+fn variational_beats_kmeans_on_same_count() {
+    let (p, t) = voxel_union(&[[0, 0, 0], [1, 0, 0], [2, 0, 0], [2, 1, 0], [2, 2, 0], [0, 0, 1]], 1.0, 4);
+    let e = |method| {
+        let s = FitSettings { method, spheres: 16, voxel_resolution: 64, ..Default::default() };
+        fit(&p, &t, &s, &|_| {}).unwrap().stats.outside_ratio_e
+    };
+    let (ev, ek) = (e(Method::Variational), e(Method::Kmeans));
+    assert!(ev < ek, "variational E {ev} should beat k-means E {ek}");
+}
+
+#[test]
+fn deterministic_across_thread_counts() {
+    let (p, t) = voxel_union(&[[0, 0, 0], [1, 0, 0], [0, 1, 0], [1, 1, 1]], 0.7, 3);
+    let s = FitSettings { spheres: 10, voxel_resolution: 48, ..Default::default() };
+    let run = |threads| {
+        let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+        pool.install(|| fit(&p, &t, &s, &|_| {}).unwrap())
+    };
+    let a = run(1);
+    let b = run(4);
+    let bits =
+        |r: &spherebake_fit::FitResult| -> Vec<u32> { r.spheres.iter().flatten().map(|x| x.to_bits()).collect() };
+    assert_eq!(bits(&a), bits(&b));
+    assert_eq!(a.stats.outside_ratio_e.to_bits(), b.stats.outside_ratio_e.to_bits());
+    // A different seed changes the random start.
+    let c = fit(&p, &t, &FitSettings { seed: 99, ..s.clone() }, &|_| {}).unwrap();
+    assert_eq!(c.spheres.len(), a.spheres.len());
+}
+
+#[test]
+fn teleportation_accepted_only_when_e_drops() {
+    let (p, t) = voxel_union(&[[0, 0, 0], [1, 0, 0], [2, 0, 0], [2, 1, 0], [0, 0, 1], [0, 0, 2]], 1.0, 3);
+    let mut trials = 0;
+    for seed in 0..4 {
+        let s = FitSettings { spheres: 12, voxel_resolution: 48, seed, teleport_attempts: 8, ..Default::default() };
+        let r = fit(&p, &t, &s, &|_| {}).unwrap();
+        for &(before, trial, accepted) in &r.stats.teleport_history {
+            assert_eq!(accepted, trial < before, "trial {trial} vs before {before}");
+            trials += 1;
+        }
+        assert_eq!(r.stats.teleports_accepted, r.stats.teleport_history.iter().filter(|h| h.2).count());
+    }
+    assert!(trials > 0, "no teleportation was tried");
+}
+
+#[test]
+fn powell_finds_known_minimum() {
+    // Rotated anisotropic quadratic with minimum 3 at (1, −2, 0.5).
+    let mut f = |x: [f64; 3]| {
+        let (a, b, c) = (x[0] - 1.0, x[1] + 2.0, x[2] - 0.5);
+        let (u, v) = (a + b, a - b);
+        3.0 + u * u + 10.0 * v * v + 4.0 * c * c + u * c
+    };
+    let r = powell(&mut f, [5.0, 5.0, 5.0], 1.0, 30, 1e-12);
+    assert!((r.x[0] - 1.0).abs() < 1e-3 && (r.x[1] + 2.0).abs() < 1e-3 && (r.x[2] - 0.5).abs() < 1e-3, "{:?}", r.x);
+    assert!((r.f - 3.0).abs() < 1e-6);
+    // Rosenbrock-like valley in 3-D: minimum 0 at (1, 1, 1).
+    let mut g = |x: [f64; 3]| {
+        100.0 * (x[1] - x[0] * x[0]).powi(2)
+            + (1.0 - x[0]).powi(2)
+            + 100.0 * (x[2] - x[1] * x[1]).powi(2)
+            + (1.0 - x[1]).powi(2)
+    };
+    let r = powell(&mut g, [-1.0, 1.5, 0.0], 0.5, 200, 1e-14);
+    assert!(r.f < 1e-4, "{:?}", r);
+}
+
+#[test]
+fn typed_errors() {
+    let p = vec![Vec3::ZERO, Vec3::X, Vec3::Y];
+    assert_eq!(fit(&p, &[], &FitSettings::default(), &|_| {}).unwrap_err(), FitError::NoTriangles);
+    assert!(matches!(
+        fit(&p, &[[0, 1, 7]], &FitSettings::default(), &|_| {}),
+        Err(FitError::IndexOutOfRange { triangle: 0, index: 7, vertex_count: 3 })
+    ));
+    let q = vec![Vec3::ZERO, Vec3::X, Vec3::new(f32::NAN, 0.0, 0.0)];
+    assert!(matches!(
+        fit(&q, &[[0, 1, 2]], &FitSettings::default(), &|_| {}),
+        Err(FitError::NonFinitePosition { index: 2 })
+    ));
+    let s = FitSettings { spheres: 0, ..Default::default() };
+    assert!(matches!(fit(&p, &[[0, 1, 2]], &s, &|_| {}), Err(FitError::InvalidSetting { name: "spheres", .. })));
+}
+
+#[test]
+fn real_models_are_bounded() {
+    for (name, closed) in [("armadillo.obj", true), ("stanford-bunny.obj", false)] {
+        let Some((p, t)) = load_obj(name) else { continue };
+        let s = FitSettings { spheres: 24, ..Default::default() };
+        let r = fit(&p, &t, &s, &|_| {}).unwrap();
+        assert_eq!(r.stats.solid_source == SolidSource::ClosedMesh, closed, "{name}");
+        assert_triangles_covered(&p, &t, &r.spheres);
+        assert_random_surface_points_covered(&p, &t, &r.spheres, 1_000_000);
+        println!("{name}: E = {:.4} with {} spheres", r.stats.outside_ratio_e, r.spheres.len());
+        if closed {
+            // Independent check of V(T): the reference volume of the model README.
+            assert!((r.stats.object_volume - 237843.1).abs() / 237843.1 < 1e-6);
+        }
+    }
+}
