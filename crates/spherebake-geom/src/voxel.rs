@@ -36,10 +36,11 @@
 //! identical for any thread count.
 
 use crate::bvh::TriangleBvh;
-use crate::winding::WindingNumber;
+use crate::winding::Expansions;
 use glam::{DVec3, Vec3};
 use rayon::prelude::*;
 use std::collections::HashMap;
+use std::sync::OnceLock;
 
 /// Voxelization settings.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -165,8 +166,10 @@ impl VoxelGrid {
 /// Signed crossings of one row of cell centres, sorted by coordinate along the row's axis.
 #[derive(Default)]
 struct Row {
-    /// (coordinate, +1 leaving / −1 entering).
-    hits: Vec<(f64, i32)>,
+    /// Crossing coordinates along the row's axis, ascending.
+    coords: Vec<f64>,
+    /// `ahead[m]` = Σ signs of crossings m.. (+1 leaving, −1 entering); one extra 0 at the end.
+    ahead: Vec<i32>,
     /// The row abstains: its ray touched an edge or a vertex (crossings may be double-counted)
     /// or its crossings do not sum to zero (it passes through a hole, so the counts ahead of and
     /// behind a point disagree).
@@ -174,13 +177,24 @@ struct Row {
 }
 
 impl Row {
-    /// The winding estimate at coordinate `x` (hits exactly at `x` ignored), `None` if the row
-    /// abstains.
+    fn new(mut hits: Vec<(f64, i32)>, touched_edge: bool) -> Row {
+        hits.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+        let mut ahead = vec![0; hits.len() + 1];
+        for m in (0..hits.len()).rev() {
+            ahead[m] = ahead[m + 1] + hits[m].1;
+        }
+        let abstains = touched_edge || ahead[0] != 0;
+        Row { coords: hits.iter().map(|h| h.0).collect(), ahead, abstains }
+    }
+
+    /// The winding estimate at coordinate `x` (crossings exactly at `x` ignored), `None` if the
+    /// row abstains.
+    #[inline]
     fn vote(&self, x: f64) -> Option<i32> {
         if self.abstains {
             return None;
         }
-        Some(self.hits.iter().filter(|h| h.0 > x).map(|h| h.1).sum())
+        Some(self.ahead[self.coords.partition_point(|&c| c <= x)])
     }
 }
 
@@ -231,17 +245,14 @@ fn voxelize_bvh(bvh: &TriangleBvh, settings: &VoxelSettings) -> VoxelGrid {
         o[axis] = origin[axis] - cell;
         let mut dir = DVec3::ZERO;
         dir[axis] = 1.0;
-        let mut row = Row::default();
+        let mut hits = Vec::new();
+        let mut touched_edge = false;
         bvh.traverse_ray(o, dir, 0.0, f64::INFINITY, |h| {
-            if h.bary.contains(&0.0) {
-                row.abstains = true;
-            }
-            row.hits.push((o[axis] + h.t, if h.exiting { 1 } else { -1 }));
+            touched_edge |= h.bary.contains(&0.0);
+            hits.push((o[axis] + h.t, if h.exiting { 1 } else { -1 }));
             None
         });
-        row.hits.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
-        row.abstains |= row.hits.iter().map(|h| h.1).sum::<i32>() != 0;
-        row
+        Row::new(hits, touched_edge)
     };
     let rows_x: Vec<Row> = (0..ny as usize * nz as usize)
         .into_par_iter()
@@ -274,7 +285,8 @@ fn voxelize_bvh(bvh: &TriangleBvh, settings: &VoxelSettings) -> VoxelGrid {
         }
     }
 
-    let winding = WindingNumber::from_bvh(bvh.clone());
+    // Built on first use only: closed meshes never need it.
+    let winding: OnceLock<Expansions> = OnceLock::new();
     let threshold = settings.winding_threshold;
     let slab = nx as usize * ny as usize;
     let mut solid = vec![false; cell_count];
@@ -325,7 +337,7 @@ fn voxelize_bvh(bvh: &TriangleBvh, settings: &VoxelSettings) -> VoxelGrid {
                 }
                 let w = match agreed {
                     Some(v) if !conflict && voters >= 2 => v as f64,
-                    _ => winding.eval(c),
+                    _ => winding.get_or_init(|| Expansions::build(bvh)).eval(bvh, c),
                 };
                 sol[idx] = w.abs() >= threshold;
             }

@@ -111,22 +111,19 @@ impl Raw {
 #[derive(Clone, Debug, Default)]
 pub struct WindingNumber {
     bvh: TriangleBvh,
-    /// One expansion per BVH node; centres are absolute (model space).
-    exps: Vec<Expansion>,
+    exps: Expansions,
 }
 
-impl WindingNumber {
-    /// Builds the BVH and the per-node expansions. Invalid triangles (index out of range,
-    /// non-finite corner) are ignored.
-    pub fn new(positions: &[Vec3], triangles: &[[u32; 3]]) -> Self {
-        Self::from_bvh(TriangleBvh::new(positions, triangles))
-    }
+/// One expansion per BVH node; centres are absolute (model space).
+#[derive(Clone, Debug, Default)]
+pub(crate) struct Expansions(Vec<Expansion>);
 
-    /// Uses an existing BVH (avoids a second build).
-    pub fn from_bvh(bvh: TriangleBvh) -> Self {
+impl Expansions {
+    /// Sums the moments bottom-up (children have larger indices than parents).
+    pub(crate) fn build(bvh: &TriangleBvh) -> Self {
         let nodes = &bvh.nodes;
         if nodes.is_empty() {
-            return WindingNumber { bvh, exps: Vec::new() };
+            return Expansions(Vec::new());
         }
         let g = (nodes[0].min + nodes[0].max) * 0.5;
         let mut raws = vec![Raw::default(); nodes.len()];
@@ -156,6 +153,49 @@ impl WindingNumber {
                 e
             })
             .collect();
+        Expansions(exps)
+    }
+
+    /// Hierarchical evaluation; `bvh` must be the tree these expansions were built from.
+    pub(crate) fn eval(&self, bvh: &TriangleBvh, p: DVec3) -> f64 {
+        if self.0.is_empty() || !p.is_finite() {
+            return 0.0;
+        }
+        let mut sum = 0.0;
+        let mut stack: Vec<u32> = Vec::with_capacity(64);
+        stack.push(0);
+        while let Some(i) = stack.pop() {
+            let e = &self.0[i as usize];
+            let r = e.center - p;
+            let d2 = r.length_squared();
+            if d2 > e.open_radius2 {
+                sum += eval_expansion(e, r, d2);
+                continue;
+            }
+            let n = bvh.nodes[i as usize];
+            if n.is_leaf() {
+                for &t in &bvh.prims[n.first as usize..(n.first + n.count) as usize] {
+                    sum += solid_angle(&bvh.tris[t as usize], p);
+                }
+            } else {
+                stack.push(n.first);
+                stack.push(n.first + 1);
+            }
+        }
+        sum / (4.0 * PI)
+    }
+}
+
+impl WindingNumber {
+    /// Builds the BVH and the per-node expansions. Invalid triangles (index out of range,
+    /// non-finite corner) are ignored.
+    pub fn new(positions: &[Vec3], triangles: &[[u32; 3]]) -> Self {
+        Self::from_bvh(TriangleBvh::new(positions, triangles))
+    }
+
+    /// Uses an existing BVH (avoids a second build).
+    pub fn from_bvh(bvh: TriangleBvh) -> Self {
+        let exps = Expansions::build(&bvh);
         WindingNumber { bvh, exps }
     }
 
@@ -166,31 +206,7 @@ impl WindingNumber {
 
     /// Fast hierarchical winding number at `p` (model space): ≈1 inside, ≈0 outside.
     pub fn eval(&self, p: DVec3) -> f64 {
-        if self.exps.is_empty() || !p.is_finite() {
-            return 0.0;
-        }
-        let mut sum = 0.0;
-        let mut stack: Vec<u32> = Vec::with_capacity(64);
-        stack.push(0);
-        while let Some(i) = stack.pop() {
-            let e = &self.exps[i as usize];
-            let r = e.center - p;
-            let d2 = r.length_squared();
-            if d2 > e.open_radius2 {
-                sum += eval_expansion(e, r, d2);
-                continue;
-            }
-            let n = self.bvh.nodes[i as usize];
-            if n.is_leaf() {
-                for &t in &self.bvh.prims[n.first as usize..(n.first + n.count) as usize] {
-                    sum += solid_angle(&self.bvh.tris[t as usize], p);
-                }
-            } else {
-                stack.push(n.first);
-                stack.push(n.first + 1);
-            }
-        }
-        sum / (4.0 * PI)
+        self.exps.eval(&self.bvh, p)
     }
 
     /// Brute-force reference: sum of all triangles' solid angles / 4π, in triangle order.

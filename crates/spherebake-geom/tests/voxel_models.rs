@@ -36,22 +36,49 @@ fn check_against_exact(v: &[glam::Vec3], f: &[[u32; 3]], res: u32, samples: usiz
     wrong
 }
 
+/// Process CPU time (user + system) from /proc/self/stat, 0 where unavailable. Timings are
+/// printed only (no assertions): the machine may be shared.
+fn cpu_seconds() -> f64 {
+    let Ok(stat) = std::fs::read_to_string("/proc/self/stat") else { return 0.0 };
+    let after = stat.rsplit(')').next().unwrap_or("");
+    let f: Vec<&str> = after.split_whitespace().collect();
+    let ticks = |i: usize| f.get(i).and_then(|s| s.parse::<f64>().ok()).unwrap_or(0.0);
+    (ticks(11) + ticks(12)) / 100.0
+}
+
 #[test]
 fn bunny_timings_and_classification() {
     let Some(path) = model_path("obj/stanford-bunny.obj") else { return };
     let (v, f) = load_obj(&path);
     assert_eq!(f.len(), 69451);
+    let (c0, t0) = (cpu_seconds(), Instant::now());
+    let bvh = spherebake_geom::bvh::TriangleBvh::new(&v, &f);
+    println!(
+        "bunny BVH build: {:.1} ms wall, {:.0} ms cpu",
+        t0.elapsed().as_secs_f64() * 1e3,
+        (cpu_seconds() - c0) * 1e3
+    );
+    let (c0, t0) = (cpu_seconds(), Instant::now());
+    let w = WindingNumber::from_bvh(bvh);
+    println!(
+        "bunny winding expansions: {:.1} ms wall, {:.0} ms cpu",
+        t0.elapsed().as_secs_f64() * 1e3,
+        (cpu_seconds() - c0) * 1e3
+    );
+    drop(w);
     for res in [64, 128, 256] {
-        let t0 = Instant::now();
+        let (c0, t0) = (cpu_seconds(), Instant::now());
         let grid = voxelize(&v, &f, &VoxelSettings { resolution: res, ..Default::default() });
         let dt = t0.elapsed();
+        let cpu = cpu_seconds() - c0;
         let surf = grid.surface.iter().filter(|&&s| s).count();
         println!(
-            "bunny res {res}: dims {:?}, {} solid, {surf} surface, volume {:.6e}, {:.1} ms ({} threads)",
+            "bunny res {res}: dims {:?}, {} solid, {surf} surface, volume {:.6e}, {:.1} ms wall, {:.0} ms cpu ({} threads)",
             grid.dims,
             grid.solid_count(),
             grid.volume(),
             dt.as_secs_f64() * 1e3,
+            cpu * 1e3,
             rayon::current_num_threads()
         );
         assert_eq!(grid.dims.iter().copied().max(), Some(res));
