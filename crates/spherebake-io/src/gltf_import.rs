@@ -514,7 +514,8 @@ impl Source<'_> {
     fn build(&mut self) -> Result<(Mesh, Vec<ImportedPart>), IoError> {
         let path = self.path();
         let doc = self.doc.clone();
-        let node_count = doc.nodes().len();
+        let nodes: Vec<gltf::Node> = doc.nodes().collect();
+        let node_count = nodes.len();
 
         // Node hierarchy: parents, local and world matrices (f64).
         let mut parent: Vec<Option<usize>> = vec![None; node_count];
@@ -578,7 +579,7 @@ impl Source<'_> {
                 Some(p) => world[p].unwrap_or(DMat4::IDENTITY) * local[i],
                 None => local[i],
             });
-            let node = doc.nodes().nth(i).expect("validated index");
+            let node = nodes[i].clone();
             stack.extend(node.children().map(|c| c.index()).collect::<Vec<_>>().into_iter().rev());
         }
         if let Some(i) = world.iter().position(Option::is_none) {
@@ -597,7 +598,7 @@ impl Source<'_> {
         let mut instances = Vec::new();
         let mut stack: Vec<usize> = roots.into_iter().rev().collect();
         while let Some(i) = stack.pop() {
-            let node = doc.nodes().nth(i).expect("validated index");
+            let node = nodes[i].clone();
             if node.mesh().is_some() {
                 instances.push(i);
             }
@@ -610,7 +611,7 @@ impl Source<'_> {
         let mut skin_joint_bones: HashMap<usize, (Vec<u32>, Vec<DMat4>)> = HashMap::new();
         let mut node_bone: Vec<Option<u32>> = vec![None; node_count];
         for &i in &instances {
-            let node = doc.nodes().nth(i).expect("validated index");
+            let node = nodes[i].clone();
             let Some(skin) = node.skin() else { continue };
             if skin_joint_bones.contains_key(&skin.index()) {
                 continue;
@@ -635,7 +636,7 @@ impl Source<'_> {
             for (&j, ibm) in joints.iter().zip(&ibms) {
                 let key = (j, ibm.to_cols_array().map(f32::to_bits));
                 let b = *bone_of_key.entry(key).or_insert_with(|| {
-                    let jn = doc.nodes().nth(j).expect("validated index");
+                    let jn = nodes[j].clone();
                     bones.push(Bone {
                         name: jn.name().map(str::to_owned).unwrap_or_else(|| format!("node{j}")),
                         node: j,
@@ -677,7 +678,7 @@ impl Source<'_> {
         let mut image_map: HashMap<usize, Option<usize>> = HashMap::new();
         let mut warned_unattached = false;
         for &ni in &instances {
-            let node = doc.nodes().nth(ni).expect("validated index");
+            let node = nodes[ni].clone();
             let mesh = node.mesh().expect("instances have meshes");
             let mi = mesh.index();
             for prim in mesh.primitives() {
@@ -977,6 +978,7 @@ impl Source<'_> {
                     source_mesh: mi,
                     primitive: pi,
                     node: Some(ni),
+                    node_world: world[ni].as_mat4(),
                     file_vertex_count: n,
                     vertices: v0..b.mesh.positions.len() as u32,
                     triangles: t0..b.mesh.triangles.len() as u32,
@@ -985,6 +987,16 @@ impl Source<'_> {
         }
 
         let mut mesh = b.finish();
+        for m in &mesh.materials {
+            if let Some(t) = &m.base_color_texture {
+                if mesh.uvs.get(t.uv_set as usize).is_none_or(Vec::is_empty) {
+                    self.ctx.warn(format!(
+                        "material {:?}: base colour texture reads TEXCOORD_{}, which no primitive has",
+                        m.name, t.uv_set
+                    ));
+                }
+            }
+        }
         if has_skin {
             let animations = self.animations(&doc)?;
             mesh.skin = Some(Skin {

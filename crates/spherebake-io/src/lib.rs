@@ -24,7 +24,7 @@ pub use spherebake_geom::{Mesh, Warning};
 pub use texture::srgb_to_linear;
 
 /// Where one primitive (glTF) or model (OBJ) landed in the imported [`Mesh`].
-#[derive(Clone, Debug, PartialEq, Eq)]
+#[derive(Clone, Debug, PartialEq)]
 pub struct ImportedPart {
     /// glTF mesh index, or the OBJ model index (object / group / material run).
     pub source_mesh: usize,
@@ -32,6 +32,10 @@ pub struct ImportedPart {
     pub primitive: usize,
     /// glTF node that instances the mesh (`None` for OBJ).
     pub node: Option<usize>,
+    /// World matrix of that node at rest (scene space ← mesh space; identity for OBJ). Rigid parts
+    /// were placed with it; skinned parts are placed by their joints instead (glTF ignores the
+    /// skinned node's own transform).
+    pub node_world: glam::Mat4,
     /// Vertices stored in the file for this part (glTF `POSITION` count; OBJ: vertices tobj
     /// kept for this model, i.e. unique position/uv/normal corners).
     pub file_vertex_count: usize,

@@ -126,6 +126,7 @@ pub(crate) fn import(ctx: &mut Ctx, bytes: &[u8]) -> Result<(Mesh, Vec<ImportedP
             source_mesh: mi,
             primitive: 0,
             node: None,
+            node_world: glam::Mat4::IDENTITY,
             file_vertex_count: n,
             vertices: v0..mesh.positions.len() as u32,
             triangles: t0..mesh.triangles.len() as u32,

@@ -288,3 +288,81 @@ fn duck_node_scale_applied() {
         assert!((hi - Vec3::new(0.961799, 1.6397, 0.539252)).abs().max_element() < 1e-5, "{hi}");
     }
 }
+
+/// (path, instances, distinct meshes, triangles of the distinct meshes, volume as printed,
+/// whether the volume is a closed one, AABB).
+type MeshSpaceRow = (&'static str, usize, usize, usize, &'static str, bool, ([f64; 3], [f64; 3]));
+
+/// README second table (glTF in mesh space: raw POSITION of each distinct mesh once, no
+/// transform): recovered from the import as skin bind positions (skinned files) or as scene
+/// positions mapped back through the inverse of the instancing node's world matrix.
+#[test]
+fn gltf_mesh_space_table() {
+    let Some(dir) = models_dir() else { return };
+    // (path, instances, distinct meshes, triangles of the distinct meshes, volume as printed,
+    //  whether the volume is a closed one, AABB)
+    #[rustfmt::skip]
+    let rows: [MeshSpaceRow; 11] = [
+        ("gltf/CesiumMan.glb", 1, 1, 4672, "0.05371326", true, ([-0.131, -0.569137, 0.0], [0.180954, 0.569137, 1.50655])),
+        ("gltf/Fox.glb", 1, 1, 576, "66487.75", true, ([-12.5927, -0.121745, -88.095], [12.5927, 78.9072, 66.6249])),
+        ("gltf/RiggedFigure.glb", 1, 1, 256, "0.06071122", true, ([-0.589461, -0.194977, 0.0], [0.589461, 0.130918, 1.44992])),
+        ("gltf/RiggedSimple.glb", 1, 1, 188, "11.38286", true, ([-1.0, -1.0, -4.57508], [1.0, 1.0, 4.57508])),
+        ("gltf/Duck.glb", 1, 1, 4212, "1195799", true, ([-69.2985, 9.92937, -61.3282], [96.1799, 163.97, 53.9252])),
+        ("gltf/Duck/Duck.gltf", 1, 1, 4212, "1195799", true, ([-69.2985, 9.92937, -61.3282], [96.1799, 163.97, 53.9252])),
+        ("gltf/BoxTextured.glb", 1, 1, 12, "1", true, ([-0.5; 3], [0.5; 3])),
+        ("gltf/BoxVertexColors.glb", 1, 1, 12, "1", true, ([0.0; 3], [1.0; 3])),
+        ("gltf/CesiumMilkTruck.glb", 3, 2, 2856, "18.98", false, ([-2.43091, -1.396, -2.58437], [2.438, 1.396, 0.4278])),
+        ("gltf/GlassHurricaneCandleHolder.glb", 2, 2, 4126, "0.002465", false,
+         ([-0.0951675, -0.0951675, -0.306576], [0.0951675, 0.272126, 0.0707887])),
+        ("gltf/TextureTransformTest/TextureTransformTest.gltf", 12, 9, 18, "0", false, ([-0.5, -0.5, 0.0], [0.5, 0.5, 0.0])),
+    ];
+    let mut failures = Vec::new();
+    for (path, instances, distinct, tris, volume, closed, (elo, ehi)) in rows {
+        let imp = load_mesh(&dir.join(path)).unwrap();
+        let nodes: HashSet<Option<usize>> = imp.parts.iter().map(|p| p.node).collect();
+        let mut first_node: BTreeMap<usize, Option<usize>> = BTreeMap::new();
+        for p in &imp.parts {
+            first_node.entry(p.source_mesh).or_insert(p.node);
+        }
+        let mut vol = 0.0f64;
+        let mut n_tris = 0;
+        let (mut lo, mut hi) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
+        for p in imp.parts.iter().filter(|p| first_node[&p.source_mesh] == p.node) {
+            let back = p.node_world.inverse();
+            let mesh_space = |v: u32| match &imp.mesh.skin {
+                Some(s) => s.bind_positions[v as usize],
+                None => back.transform_point3(imp.mesh.positions[v as usize]),
+            };
+            for t in p.triangles.start..p.triangles.end {
+                let [a, b, c] = imp.mesh.triangles[t as usize].map(mesh_space);
+                for q in [a, b, c] {
+                    lo = lo.min(q);
+                    hi = hi.max(q);
+                }
+                let [a, b, c] = [a, b, c].map(Vec3::as_dvec3);
+                vol += a.dot(b.cross(c)) / 6.0;
+                n_tris += 1;
+            }
+        }
+        let (v, half_digit) = printed(volume);
+        // A printed 0 (flat TextureTransformTest) only holds up to the f32 round trip through the inverse.
+        let tol = if closed {
+            1e-5 * v.abs()
+        } else if v == 0.0 {
+            1e-7
+        } else {
+            half_digit
+        };
+        let (elo, ehi) = (Vec3::from(elo.map(|x| x as f32)), Vec3::from(ehi.map(|x| x as f32)));
+        let box_tol = 1e-5 * (ehi - elo).length();
+        let got = (nodes.len(), first_node.len(), n_tris);
+        if got != (instances, distinct, tris)
+            || (vol - v).abs() > tol
+            || (lo - elo).abs().max_element() > box_tol
+            || (hi - ehi).abs().max_element() > box_tol
+        {
+            failures.push(format!("{path}: instances/distinct/tris {got:?}, volume {vol}, box {lo} {hi}"));
+        }
+    }
+    assert!(failures.is_empty(), "{}", failures.join("\n"));
+}
