@@ -46,23 +46,11 @@ fn quad_json(mode: u32, indices: &[u16]) -> String {
     while bin.len() % 4 != 0 {
         bin.push(0);
     }
-    let b64 = {
-        const A: &[u8] = b"ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
-        let mut s = String::new();
-        for c in bin.chunks(3) {
-            let n = (u32::from(c[0]) << 16)
-                | (u32::from(*c.get(1).unwrap_or(&0)) << 8)
-                | u32::from(*c.get(2).unwrap_or(&0));
-            for k in 0..4 {
-                s.push(if k <= c.len() { A[(n >> (18 - 6 * k)) as usize & 63] as char } else { '=' });
-            }
-        }
-        s
-    };
+    let encoded = b64(&bin);
     format!(
         r#"{{"asset":{{"version":"2.0"}},"scenes":[{{"nodes":[0]}}],"nodes":[{{"mesh":0}}],
 "meshes":[{{"primitives":[{{"attributes":{{"POSITION":0}},"indices":1,"mode":{mode}}}]}}],
-"buffers":[{{"byteLength":{},"uri":"data:application/octet-stream;base64,{b64}"}}],
+"buffers":[{{"byteLength":{},"uri":"data:application/octet-stream;base64,{encoded}"}}],
 "bufferViews":[{{"buffer":0,"byteOffset":0,"byteLength":48}},{{"buffer":0,"byteOffset":48,"byteLength":{}}}],
 "accessors":[{{"bufferView":0,"componentType":5126,"count":4,"type":"VEC3","min":[0,0,0],"max":[1,1,0]}},
 {{"bufferView":1,"componentType":5123,"count":{},"type":"SCALAR"}}]}}"#,
@@ -99,23 +87,11 @@ fn sparse_accessor_overrides_base_values() {
     bin.extend(2u16.to_le_bytes());
     bin.extend([0, 0]);
     bin.extend([0.0f32, 5.0, 0.0].iter().flat_map(|x| x.to_le_bytes()));
-    let b64: String = {
-        const A: &[u8] = b"ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
-        let mut s = String::new();
-        for c in bin.chunks(3) {
-            let n = (u32::from(c[0]) << 16)
-                | (u32::from(*c.get(1).unwrap_or(&0)) << 8)
-                | u32::from(*c.get(2).unwrap_or(&0));
-            for k in 0..4 {
-                s.push(if k <= c.len() { A[(n >> (18 - 6 * k)) as usize & 63] as char } else { '=' });
-            }
-        }
-        s
-    };
+    let encoded = b64(&bin);
     let json = format!(
         r#"{{"asset":{{"version":"2.0"}},"scenes":[{{"nodes":[0]}}],"nodes":[{{"mesh":0}}],
 "meshes":[{{"primitives":[{{"attributes":{{"POSITION":0}}}}]}}],
-"buffers":[{{"byteLength":{},"uri":"data:application/octet-stream;base64,{b64}"}}],
+"buffers":[{{"byteLength":{},"uri":"data:application/octet-stream;base64,{encoded}"}}],
 "bufferViews":[{{"buffer":0,"byteOffset":0,"byteLength":36}},{{"buffer":0,"byteOffset":36,"byteLength":2}},{{"buffer":0,"byteOffset":40,"byteLength":12}}],
 "accessors":[{{"bufferView":0,"componentType":5126,"count":3,"type":"VEC3","min":[0,0,0],"max":[1,5,0],
 "sparse":{{"count":1,"indices":{{"bufferView":1,"componentType":5123}},"values":{{"bufferView":2}}}}}}]}}"#,
@@ -201,4 +177,60 @@ fn mutated_documents_never_panic() {
     for n in (0..bytes.len()).step_by(97) {
         let _ = load_mesh_from_bytes(&p, &bytes[..n]);
     }
+}
+
+#[test]
+fn texture_transform_texcoord_override_and_missing_set_warns() {
+    let path = fixture("textured-cube/textured-cube.gltf");
+    let json = read(&path).replace(
+        r#""baseColorTexture": {
+     "index": 0
+    }"#,
+        r#""baseColorTexture": {"index": 0, "extensions": {"KHR_texture_transform":
+            {"texCoord": 1, "offset": [0.25, 0.5], "rotation": 1.5, "scale": [2.0, 3.0]}}}"#,
+    );
+    assert!(json.contains("KHR_texture_transform"), "fixture layout changed");
+    let json = json.replacen(
+        r#""asset": {"#,
+        r#""extensionsUsed": ["KHR_texture_transform"], "extensionsRequired": ["KHR_texture_transform"], "asset": {"#,
+        1,
+    );
+    let imp = load_mesh_from_bytes(&path.with_file_name("tt.gltf"), json.as_bytes()).unwrap();
+    let t = imp.mesh.materials[0].base_color_texture.as_ref().unwrap();
+    assert_eq!(t.uv_set, 1);
+    assert_eq!((t.transform.offset, t.transform.rotation_rad, t.transform.scale), ([0.25, 0.5], 1.5, [2.0, 3.0]));
+    assert!(imp.warnings.iter().any(|w| w.0.contains("TEXCOORD_1")), "{:?}", imp.warnings);
+}
+
+#[test]
+fn normalized_u8_vertex_colours_are_read_as_linear_values() {
+    // COLOR_0 as normalized unsigned bytes, VEC4: 255 → 1.0, 51 → 0.2 (glTF: c / 255, no sRGB).
+    let mut bin: Vec<u8> =
+        [[0.0f32, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]].iter().flatten().flat_map(|x| x.to_le_bytes()).collect();
+    bin.extend([255, 51, 0, 255, 0, 255, 51, 102, 51, 51, 51, 0]);
+    let json = format!(
+        r#"{{"asset":{{"version":"2.0"}},"scenes":[{{"nodes":[0]}}],"nodes":[{{"mesh":0}}],
+"meshes":[{{"primitives":[{{"attributes":{{"POSITION":0,"COLOR_0":1}}}}]}}],
+"buffers":[{{"byteLength":{},"uri":"data:application/octet-stream;base64,{}"}}],
+"bufferViews":[{{"buffer":0,"byteOffset":0,"byteLength":36}},{{"buffer":0,"byteOffset":36,"byteLength":12}}],
+"accessors":[{{"bufferView":0,"componentType":5126,"count":3,"type":"VEC3","min":[0,0,0],"max":[1,1,0]}},
+{{"bufferView":1,"componentType":5121,"normalized":true,"count":3,"type":"VEC4"}}]}}"#,
+        bin.len(),
+        b64(&bin)
+    );
+    let imp = load_mesh_from_bytes(Path::new("mem/c.gltf"), json.as_bytes()).unwrap();
+    assert_eq!(imp.mesh.colors_linear, vec![[1.0, 0.2, 0.0, 1.0], [0.0, 1.0, 0.2, 0.4], [0.2, 0.2, 0.2, 0.0]]);
+}
+
+fn b64(data: &[u8]) -> String {
+    const A: &[u8] = b"ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+    let mut s = String::new();
+    for c in data.chunks(3) {
+        let n =
+            (u32::from(c[0]) << 16) | (u32::from(*c.get(1).unwrap_or(&0)) << 8) | u32::from(*c.get(2).unwrap_or(&0));
+        for k in 0..4 {
+            s.push(if k <= c.len() { A[(n >> (18 - 6 * k)) as usize & 63] as char } else { '=' });
+        }
+    }
+    s
 }
