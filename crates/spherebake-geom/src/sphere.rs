@@ -73,9 +73,9 @@ fn circumsphere(support: &[DVec3]) -> Option<(DVec3, f64)> {
     Some((c, support.iter().map(|p| p.distance(c)).fold(0.0, f64::max)))
 }
 
-#[allow(clippy::needless_range_loop)]
 /// Gaussian elimination with partial pivoting on an augmented k×(k+1) system (k ≤ 3, the
 /// right-hand side in column 3). `None` when the matrix is numerically singular.
+#[allow(clippy::needless_range_loop)]
 fn solve_small(m: &mut [[f64; 4]; 3], k: usize) -> Option<[f64; 3]> {
     let scale = (0..k).flat_map(|i| (0..k).map(move |j| (i, j))).map(|(i, j)| m[i][j].abs()).fold(0.0, f64::max);
     if scale.is_nan() || scale <= 0.0 || !scale.is_finite() {

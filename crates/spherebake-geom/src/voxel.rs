@@ -48,7 +48,8 @@ pub struct VoxelSettings {
     /// Cells along the longest axis of the mesh bounding box. Default 128, valid 1..=2048
     /// (clamped); memory is 2 bytes per cell.
     pub resolution: u32,
-    /// A cell centre is inside when |winding number| ≥ this. Default 0.5, valid (0, 1].
+    /// A cell centre is inside when |winding number| ≥ this. Default 0.5, valid (0, 1] (values
+    /// above 1 keep only multiply-covered regions; non-positive or non-finite values mean 0.5).
     pub winding_threshold: f64,
 }
 
@@ -205,7 +206,8 @@ pub fn voxelize(positions: &[Vec3], triangles: &[[u32; 3]], settings: &VoxelSett
     voxelize_bvh(&bvh, settings)
 }
 
-fn voxelize_bvh(bvh: &TriangleBvh, settings: &VoxelSettings) -> VoxelGrid {
+/// [`voxelize`] with a prebuilt BVH (reuse one tree for voxelization and ray casts).
+pub fn voxelize_bvh(bvh: &TriangleBvh, settings: &VoxelSettings) -> VoxelGrid {
     let Some(root) = bvh.nodes.first() else {
         return VoxelGrid::default();
     };
@@ -288,6 +290,7 @@ fn voxelize_bvh(bvh: &TriangleBvh, settings: &VoxelSettings) -> VoxelGrid {
     // Built on first use only: closed meshes never need it.
     let winding: OnceLock<Expansions> = OnceLock::new();
     let threshold = settings.winding_threshold;
+    let threshold = if threshold.is_finite() && threshold > 0.0 { threshold } else { 0.5 };
     let slab = nx as usize * ny as usize;
     let mut solid = vec![false; cell_count];
     let mut surface = vec![false; cell_count];

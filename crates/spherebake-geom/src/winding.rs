@@ -215,16 +215,11 @@ impl WindingNumber {
             return 0.0;
         }
         let mut sum = 0.0;
-        for &t in self.sorted_prims().iter() {
-            sum += solid_angle(&self.bvh.tris[t as usize], p);
+        // Invalid triangles are stored as three zero corners: their solid angle is 0.
+        for t in &self.bvh.tris {
+            sum += solid_angle(t, p);
         }
         sum / (4.0 * PI)
-    }
-
-    fn sorted_prims(&self) -> Vec<u32> {
-        let mut v = self.bvh.prims.clone();
-        v.sort_unstable();
-        v
     }
 }
 

@@ -18,6 +18,18 @@ fn cube_inside_is_one_outside_zero() {
         let q = rng.dvec3(1.01, 3.0) * if rng.f64() < 0.5 { 1.0 } else { -1.0 };
         assert!(w.eval_exact(q).abs() < 1e-12, "{q}");
     }
+    // Invalid triangles (index out of range, NaN corner) are ignored.
+    let mut bad_v = v.clone();
+    bad_v.push(Vec3::new(f32::NAN, 0.0, 0.0));
+    let mut bad_f = f.clone();
+    bad_f.push([0, 1, 99]);
+    bad_f.push([0, 1, 8]);
+    let wb = WindingNumber::new(&bad_v, &bad_f);
+    for p in [DVec3::splat(0.5), DVec3::splat(2.0), DVec3::ZERO] {
+        assert_eq!(wb.eval_exact(p), w.eval_exact(p));
+        assert_eq!(wb.eval(p), w.eval(p));
+    }
+    assert_eq!(WindingNumber::new(&[], &[]).eval(DVec3::ZERO), 0.0);
     // Reversed faces: −1 inside.
     let flipped: Vec<[u32; 3]> = f.iter().map(|t| [t[0], t[2], t[1]]).collect();
     let wf = WindingNumber::new(&v, &flipped);
