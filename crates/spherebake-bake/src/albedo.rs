@@ -118,7 +118,7 @@ pub enum AlbedoError {
     InvalidSetting { name: &'static str, value: usize, expected: &'static str },
     #[error("flip has {actual} entries, expected one per triangle ({expected})")]
     FlipLength { expected: usize, actual: usize },
-    #[error("sphere {index} is invalid (centre and radius must be finite, radius > 0): {sphere:?}")]
+    #[error("sphere {index} is invalid (centre and radius must be finite, radius ≥ 0): {sphere:?}")]
     InvalidSphere { index: usize, sphere: [f32; 4] },
     #[error("triangle {triangle} references vertex {index}, but there are {vertex_count} vertices")]
     VertexOutOfRange { triangle: usize, index: u32, vertex_count: usize },
@@ -147,7 +147,8 @@ pub enum AlbedoError {
 /// set, the debug PNGs are written there too ([`write_debug_cubemaps`]).
 ///
 /// # Errors
-/// Invalid settings, spheres, or mesh indices/lengths; failure to write the debug images.
+/// Invalid settings, spheres (non-finite, negative radius; radius 0 is accepted and owns no
+/// surface, so its cube map is 0), or mesh indices/lengths; failure to write the debug images.
 pub fn bake_albedo(
     mesh: &Mesh,
     flip: &[bool],
@@ -264,7 +265,7 @@ fn check_setting(
 
 fn check_spheres(spheres: &[[f32; 4]]) -> Result<(), AlbedoError> {
     for (index, s) in spheres.iter().enumerate() {
-        if !(s.iter().all(|v| v.is_finite()) && s[3] > 0.0) {
+        if !(s.iter().all(|v| v.is_finite()) && s[3] >= 0.0) {
             return Err(AlbedoError::InvalidSphere { index, sphere: *s });
         }
     }
@@ -387,7 +388,7 @@ fn assign(pos: &[DVec3], triangles: &[[u32; 3]], spheres: &[SphereF64]) -> Vec<V
             let mut owners = [0usize; 3];
             for (k, p) in t.iter().enumerate() {
                 let mut best = f64::INFINITY;
-                for (s, sp) in spheres.iter().enumerate() {
+                for (s, sp) in spheres.iter().enumerate().filter(|(_, sp)| sp.inv_r2.is_finite()) {
                     let d = sp.d2(*p);
                     if d < best {
                         best = d;
@@ -397,6 +398,10 @@ fn assign(pos: &[DVec3], triangles: &[[u32; 3]], spheres: &[SphereF64]) -> Vec<V
             }
             let mut out = Vec::new();
             for (i, si) in spheres.iter().enumerate() {
+                if si.inv_r2.is_infinite() {
+                    // Radius 0: |p − c|/r is infinite, the segment is empty.
+                    continue;
+                }
                 if owners.contains(&i) {
                     out.push(i as u32);
                     continue;
@@ -404,7 +409,7 @@ fn assign(pos: &[DVec3], triangles: &[[u32; 3]], spheres: &[SphereF64]) -> Vec<V
                 if owners.iter().any(|&o| dominates(&spheres[o], si, &t)) {
                     continue;
                 }
-                if !spheres.iter().enumerate().any(|(j, sj)| j != i && dominates(sj, si, &t)) {
+                if !spheres.iter().enumerate().any(|(j, sj)| j != i && sj.inv_r2.is_finite() && dominates(sj, si, &t)) {
                     out.push(i as u32);
                 }
             }

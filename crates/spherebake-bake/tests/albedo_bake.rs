@@ -621,7 +621,7 @@ fn invalid_input_is_reported() {
     assert!(matches!(e, spherebake_bake::AlbedoError::FlipLength { expected: 12, actual: 11 }), "{e}");
     let e = bake_albedo(&mesh, &flip, &ok, &settings(9, 8)).unwrap_err();
     assert!(matches!(e, spherebake_bake::AlbedoError::InvalidSetting { name: "sh_order", value: 9, .. }), "{e}");
-    let e = bake_albedo(&mesh, &flip, &[[0.0, 0.0, 0.0, 0.0]], &settings(4, 8)).unwrap_err();
+    let e = bake_albedo(&mesh, &flip, &[[0.0, 0.0, 0.0, -1.0]], &settings(4, 8)).unwrap_err();
     assert!(matches!(e, spherebake_bake::AlbedoError::InvalidSphere { index: 0, .. }), "{e}");
     let mut bad = mesh.clone();
     bad.triangle_materials[3] = 40;
