@@ -60,6 +60,10 @@ fn arm_fixture_bends_at_the_elbow() {
     assert_eq!(skin.skeleton.bones.iter().map(|b| b.parent).collect::<Vec<_>>(), [None, Some(0), Some(1)]);
     // Data URI buffer: the .gltf is the only input.
     assert_eq!(imp.inputs.len(), 1);
+    // Closed 12-gon prism, r = 0.25, h = 2: volume (12/2)·r²·sin 30°·h = 3·r²·h = 0.375.
+    let r = spherebake_geom::topology::TopologyReport::compute(m);
+    assert!(r.closed && r.consistently_oriented && (r.signed_volume - 0.375).abs() < 1e-6, "{r:?}");
+    assert_eq!((r.triangle_count, r.welded_vertex_count), (216, 110));
     let find = |p: Vec3| m.positions.iter().position(|q| q.distance(p) < 1e-6).unwrap();
     let top = find(Vec3::new(0.0, 2.0, 0.0));
     let bottom = find(Vec3::new(0.0, 0.0, 0.0));
