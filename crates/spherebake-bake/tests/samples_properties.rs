@@ -135,3 +135,25 @@ fn identical_for_one_and_four_threads() {
     assert_eq!(sa.per_sphere, sb.per_sphere);
     assert!(a.total() > 0);
 }
+
+/// A flipped patch larger than the rest of the surface (the +x cap and most of the cylinder).
+#[test]
+fn large_flipped_patch_is_oriented_back() {
+    let mesh = capsule_mesh(1.0, 0.5, 48, 12);
+    let spheres = capsule_spheres();
+    let (reference, _, _) = run(&mesh, &spheres);
+    let mut bad = mesh.clone();
+    let mut expect = vec![false; bad.triangles.len()];
+    for (t, tri) in bad.triangles.iter_mut().enumerate() {
+        let cx: f32 = tri.iter().map(|&v| mesh.positions[v as usize].x).sum::<f32>() / 3.0;
+        if cx > -1.25 {
+            *tri = [tri[0], tri[2], tri[1]];
+            expect[t] = true;
+        }
+    }
+    let share = expect.iter().filter(|f| **f).count() as f64 / expect.len() as f64;
+    assert!(share > 0.55, "{share}");
+    let (got, _, flip) = run(&bad, &spheres);
+    assert_eq!(flip, expect);
+    assert_close(&got, &reference, 1e-6);
+}

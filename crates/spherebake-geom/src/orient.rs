@@ -5,43 +5,57 @@
 //! front side test, Guerrero et al. 2008 §4.2) ask this module instead of trusting the
 //! counter-clockwise normal.
 //!
-//! **Method.** The solid is the one the voxelizer uses: points where the generalized winding
-//! number w has |w| ≥ ½ (see [`crate::winding`] and [`crate::voxel`]). For triangle t with
-//! centroid c, counter-clockwise unit normal n and scale s = √(2·area), evaluate the winding
-//! number of *all other triangles*, w′(q) = w(q) − Ω_t(q)/4π (fast hierarchical w minus t's exact
-//! solid angle), at q± = c ± δn. Leaving t itself out is what makes the test independent of t's
-//! own winding: the full w always jumps by +1 across t towards the back of its normal, whichever
-//! way t is wound. For a closed mesh w′(q−) = w(q−) − a and w′(q+) = w(q+) + a with a = Ω_t(q−)/4π,
-//! so the normalised score
+//! **Method**, in two steps.
 //!
-//! r = (|w′(q−)| − |w′(q+)|) / (1 − 2a)
+//! 1. *Consistent patches (topology).* Triangles are joined across every manifold edge (an
+//!    undirected edge of exactly two triangles, vertices compared by index, so pass welded
+//!    positions); a breadth-first walk from the lowest triangle index of each connected patch
+//!    records, per triangle, whether it is wound like the patch's first triangle or against it
+//!    (two neighbours agree when they traverse the shared edge in opposite directions).
+//!    Non-manifold edges (three or more triangles) and boundary edges do not join. A patch that
+//!    cannot be wound consistently (Möbius-like, or a conflict through a cycle) keeps the walk's
+//!    answer; the conflicting edges are counted in [`Orientation::inconsistent_edges`].
+//! 2. *Which side is outside (the solid).* The solid is the one the voxelizer uses: points
+//!    where the generalized winding number w has |w| ≥ ½ (see [`crate::winding`] and
+//!    [`crate::voxel`]), of the mesh with every patch wound like its root (when the file's
+//!    winding disagrees with step 1 anywhere, the winding number is rebuilt over the rewound
+//!    triangles; otherwise the caller's is used). For up to 64 triangles t of each patch (evenly
+//!    spread over its triangle list), with centroid c, counter-clockwise unit normal n and scale s = √(2·area), evaluate
+//!    the winding number of *all other triangles*, w′(q) = w(q) − Ω_t(q)/4π (fast hierarchical w
+//!    minus t's exact solid angle), at q± = c ± δn. Leaving t itself out makes the test
+//!    independent of t's own winding: the full w always jumps by +1 across t towards the back of
+//!    its normal, whichever way t is wound. For a closed mesh w′(q−) = w(q−) − a and
+//!    w′(q+) = w(q+) + a with a = Ω_t(q−)/4π, so the normalised score
 //!
-//! is +1 when n points out of the solid, −1 when it points in. The triangle is flipped when
-//! r ≤ −½, kept when r ≥ ½; otherwise the test is repeated with a smaller offset (δ = s/2, then
-//! s/16) and, if still undecided, the file's winding is kept and the triangle counted as
-//! [`Orientation::ambiguous`].
+//!    r = (|w′(q−)| − |w′(q+)|) / (1 − 2a)
+//!
+//!    is +1 when n points out of the solid and −1 when it points in; |r| ≥ ½ decides the sample
+//!    (δ = s/2, retried with s/16 when undecided). Each decided sample votes for the patch's
+//!    winding; the patch is turned outward when at least a quarter of its samples decided and
+//!    at least three quarters of those agree. Otherwise the patch keeps the file's winding and
+//!    its triangles are counted in [`Orientation::ambiguous`].
 //!
 //! **By defect:**
-//! - *whole mesh or whole part flipped*: w = −1 inside, |w| sees the same solid: every triangle
-//!   of the part is flipped back;
-//! - *isolated flipped triangles* (no flipped neighbour within about one triangle size): w′ does
-//!   not depend on them, so each is decided by the correctly wound surface around it;
-//! - *flipped patches* (several adjacent flipped triangles): the patch's own contribution to w′
-//!   points the wrong way; small patches are still decided right, a patch that fills much of
-//!   what q± sees is decided by the patch (wrongly) or left ambiguous;
+//! - *whole mesh or whole part flipped*: w = −1 inside, |w| sees the same solid: the part is
+//!   flipped back;
+//! - *flipped triangles or flipped patches inside a connected surface*: step 1 makes them agree
+//!   with their neighbours, step 2 decides the whole surface, so a flipped patch of any size is
+//!   repaired (even a patch larger than the rest: only the patch's root winding is voted on);
 //! - *overlapping parts / duplicated triangles*: w = 2 in the overlap; a triangle of one part
-//!   inside another still sees |w| 2 behind and 1 in front, and keeps pointing away from its
-//!   own part's interior;
-//! - *holes*: w falls off smoothly near a hole, the score shrinks but keeps its sign;
+//!   inside another still sees |w| 2 behind and 1 in front, and its part points away from its
+//!   own interior;
+//! - *holes*: w falls off smoothly near a hole, scores shrink but keep their sign;
 //! - *open sheets* (a single plane, a flat pane, both sides outside): |w′| is the same on both
-//!   sides, the triangle keeps the file's winding and is counted as ambiguous;
-//! - *thin parts thinner than δ*: the smaller second offset usually decides them;
-//! - *degenerate triangles* (zero area, non-finite or out-of-range corners): kept, counted in
-//!   [`Orientation::degenerate`].
+//!   sides, no sample decides, the patch keeps the file's winding and is counted as ambiguous;
+//! - *thin parts thinner than δ*: the second, smaller offset usually decides them;
+//! - *non-manifold edges*: the surfaces meeting there are separate patches, each voted on;
+//! - *degenerate triangles* (zero area, non-finite or out-of-range corners): not joined, kept,
+//!   counted in [`Orientation::degenerate`].
 //!
-//! Cost: two fast winding evaluations per triangle (four for the undecided ones), parallel over
-//! triangles with rayon; each triangle's answer depends only on shared read-only data, so the
-//! result is identical for any thread count.
+//! Cost: O(T log T) for sorting the edges, O(T) for the walk, one winding-number build when the
+//! file's winding is inconsistent, and at most 64 × 4 fast winding evaluations per patch
+//! (parallel with rayon). Every decision depends only on the input and the fixed sample choice,
+//! so the result is identical for any thread count.
 
 use crate::winding::{solid_angle, WindingNumber};
 use glam::{DVec3, Vec3};
@@ -50,8 +64,10 @@ use std::f64::consts::PI;
 
 /// Offsets tried along the normal, as fractions of the triangle scale √(2·area).
 const OFFSETS: [f64; 2] = [0.5, 1.0 / 16.0];
-/// |score| at or above this decides.
+/// |score| at or above this decides a sample.
 const DECISIVE: f64 = 0.5;
+/// Samples per patch.
+const SAMPLES_PER_PATCH: usize = 64;
 
 /// Per-triangle outward orientation (see the module docs).
 #[derive(Clone, Debug, Default, PartialEq, Eq)]
@@ -61,79 +77,200 @@ pub struct Orientation {
     pub flip: Vec<bool>,
     /// Number of `true` entries in `flip`.
     pub flipped: usize,
-    /// Triangles the solid could not decide (open sheets, both sides outside): file winding kept.
+    /// Triangles of patches the solid could not decide (open sheets): file winding kept.
     pub ambiguous: usize,
     /// Triangles without a normal (zero area, non-finite or out-of-range corners): kept.
     pub degenerate: usize,
+    /// Number of consistently wound patches (connected through manifold edges).
+    pub patches: usize,
+    /// Manifold edges whose two triangles disagree after the walk (non-orientable patches).
+    pub inconsistent_edges: usize,
 }
 
 /// Decides, for every triangle, whether its counter-clockwise normal must be flipped to point
 /// away from the interior (see the module docs).
 ///
-/// `winding` must be built over the same triangles in the same order (its own positions may be
-/// the welded ones: only the geometry matters). Triangles beyond what `winding` knows are still
-/// decided, just with their own contribution not removed exactly.
+/// `positions` / `triangles` should be welded (`Mesh::welded_positions`,
+/// `Mesh::welded_triangles()`): patches are joined through shared vertex indices. `winding` must
+/// be built over the same triangles in the same order; if it is not, the answer is still
+/// computed (never a panic), just from the other geometry's solid.
 pub fn outward_orientation(positions: &[Vec3], triangles: &[[u32; 3]], winding: &WindingNumber) -> Orientation {
-    let decisions: Vec<Decision> = triangles.par_iter().map(|tri| decide(positions, tri, winding)).collect();
-    let mut out = Orientation { flip: Vec::with_capacity(decisions.len()), ..Default::default() };
-    for d in decisions {
-        out.flip.push(d == Decision::Flip);
-        match d {
-            Decision::Flip => out.flipped += 1,
-            Decision::Ambiguous => out.ambiguous += 1,
-            Decision::Degenerate => out.degenerate += 1,
-            Decision::Keep => {}
+    let n = triangles.len();
+    let geo: Vec<Option<Tri>> = triangles.par_iter().map(|t| Tri::new(positions, t)).collect();
+
+    // Directed edges (lo, hi, forward, triangle), sorted: runs of equal (lo, hi) are one edge.
+    let mut edges: Vec<(u32, u32, bool, u32)> = Vec::with_capacity(3 * n);
+    for (t, tri) in triangles.iter().enumerate() {
+        if geo[t].is_none() {
+            continue;
+        }
+        for k in 0..3 {
+            let (a, b) = (tri[k], tri[(k + 1) % 3]);
+            edges.push((a.min(b), a.max(b), a < b, t as u32));
+        }
+    }
+    edges.sort_unstable();
+    // Adjacency through manifold edges: (neighbour, same_direction).
+    let mut adj: Vec<Vec<(u32, bool)>> = vec![Vec::new(); n];
+    let mut i = 0;
+    while i < edges.len() {
+        let mut j = i + 1;
+        while j < edges.len() && edges[j].0 == edges[i].0 && edges[j].1 == edges[i].1 {
+            j += 1;
+        }
+        if j - i == 2 && edges[i].3 != edges[i + 1].3 {
+            let (e, f) = (edges[i], edges[i + 1]);
+            let same = e.2 == f.2;
+            adj[e.3 as usize].push((f.3, same));
+            adj[f.3 as usize].push((e.3, same));
+        }
+        i = j;
+    }
+
+    // Breadth-first walk: patch id and "wound against the patch root" per triangle.
+    let mut patch = vec![u32::MAX; n];
+    let mut against = vec![false; n];
+    let mut patches: Vec<Vec<u32>> = Vec::new();
+    let mut inconsistent = 0usize;
+    let mut queue = std::collections::VecDeque::new();
+    for root in 0..n {
+        if patch[root] != u32::MAX || geo[root].is_none() {
+            continue;
+        }
+        let id = patches.len() as u32;
+        let mut members = vec![root as u32];
+        patch[root] = id;
+        queue.push_back(root as u32);
+        while let Some(t) = queue.pop_front() {
+            for &(u, same) in &adj[t as usize] {
+                // Neighbours agree when they traverse the shared edge in opposite directions.
+                let want = against[t as usize] ^ same;
+                if patch[u as usize] == u32::MAX {
+                    patch[u as usize] = id;
+                    against[u as usize] = want;
+                    members.push(u);
+                    queue.push_back(u);
+                } else if against[u as usize] != want && t < u {
+                    inconsistent += 1;
+                }
+            }
+        }
+        members.sort_unstable();
+        patches.push(members);
+    }
+
+    // Step 2 looks at the patches wound consistently (like their roots): when the file
+    // disagrees anywhere, the winding number is rebuilt over the rewound triangles, so a flipped
+    // patch does not corrupt the solid it is judged against.
+    let rewound: Vec<[u32; 3]> =
+        triangles.iter().zip(&against).map(|(t, &a)| if a { [t[0], t[2], t[1]] } else { *t }).collect();
+    let rebuilt;
+    let solid = if against.iter().any(|&a| a) {
+        rebuilt = WindingNumber::new(positions, &rewound);
+        &rebuilt
+    } else {
+        winding
+    };
+    // Samples: up to SAMPLES_PER_PATCH per patch, evenly spread over its sorted triangle list.
+    let samples: Vec<(usize, u32)> = patches
+        .iter()
+        .enumerate()
+        .flat_map(|(p, m)| {
+            let k = m.len().min(SAMPLES_PER_PATCH);
+            (0..k).map(move |s| (p, m[s * m.len() / k]))
+        })
+        .collect();
+    // Some(true): the rewound triangle (= the patch root's winding) points outward.
+    let scores: Vec<Option<bool>> = samples
+        .par_iter()
+        .map(|&(_, t)| Tri::new(positions, &rewound[t as usize]).and_then(|g| g.outward(solid)))
+        .collect();
+    // Per patch: (samples, decided, votes for "the root's winding is outward").
+    let mut tally = vec![(0i64, 0i64, 0i64); patches.len()];
+    for (&(p, _), s) in samples.iter().zip(&scores) {
+        tally[p].0 += 1;
+        if let Some(root_out) = s {
+            tally[p].1 += 1;
+            tally[p].2 += if *root_out { 1 } else { -1 };
+        }
+    }
+
+    let mut out = Orientation {
+        flip: vec![false; n],
+        patches: patches.len(),
+        inconsistent_edges: inconsistent,
+        ..Default::default()
+    };
+    out.degenerate = geo.iter().filter(|g| g.is_none()).count();
+    for (p, members) in patches.iter().enumerate() {
+        let (total, decided, votes) = tally[p];
+        // At least a quarter decided, and at least three quarters of those agree.
+        let decisive = 4 * decided >= total && decided > 0 && 2 * votes.abs() >= decided;
+        if !decisive {
+            out.ambiguous += members.len();
+            continue;
+        }
+        let root_out = votes > 0;
+        for &t in members {
+            let f = against[t as usize] == root_out;
+            out.flip[t as usize] = f;
+            out.flipped += usize::from(f);
         }
     }
     out
 }
 
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-enum Decision {
-    Keep,
-    Flip,
-    Ambiguous,
-    Degenerate,
+/// A non-degenerate triangle's geometry, f64.
+struct Tri {
+    corners: [DVec3; 3],
+    normal: DVec3,
+    centroid: DVec3,
+    scale: f64,
 }
 
-fn decide(positions: &[Vec3], tri: &[u32; 3], winding: &WindingNumber) -> Decision {
-    let corners = tri.map(|i| positions.get(i as usize).copied());
-    let [Some(a), Some(b), Some(c)] = corners else { return Decision::Degenerate };
-    if !(a.is_finite() && b.is_finite() && c.is_finite()) {
-        return Decision::Degenerate;
-    }
-    let t = [a.as_dvec3(), b.as_dvec3(), c.as_dvec3()];
-    let cross = (t[1] - t[0]).cross(t[2] - t[0]);
-    let len = cross.length();
-    if !(len > 0.0 && len.is_finite()) {
-        return Decision::Degenerate;
-    }
-    let n = cross / len;
-    let scale = len.sqrt(); // √(2·area)
-    let centroid = (t[0] + t[1] + t[2]) / 3.0;
-    for f in OFFSETS {
-        let delta = f * scale;
-        let behind = centroid - delta * n;
-        let front = centroid + delta * n;
-        // Own contribution, exact: +a behind the normal, −a in front (a < ½).
-        let own_behind = solid_angle(&t, behind) / (4.0 * PI);
-        let own_front = solid_angle(&t, front) / (4.0 * PI);
-        let rest_behind = winding.eval(behind) - own_behind;
-        let rest_front = winding.eval(front) - own_front;
-        let norm = (1.0 - (own_behind - own_front)).max(1e-3);
-        let score = (rest_behind.abs() - rest_front.abs()) / norm;
-        if score >= DECISIVE {
-            return Decision::Keep;
+impl Tri {
+    fn new(positions: &[Vec3], tri: &[u32; 3]) -> Option<Tri> {
+        let corners = tri.map(|i| positions.get(i as usize).copied());
+        let [Some(a), Some(b), Some(c)] = corners else { return None };
+        if !(a.is_finite() && b.is_finite() && c.is_finite()) {
+            return None;
         }
-        if score <= -DECISIVE {
-            return Decision::Flip;
+        let t = [a.as_dvec3(), b.as_dvec3(), c.as_dvec3()];
+        let cross = (t[1] - t[0]).cross(t[2] - t[0]);
+        let len = cross.length();
+        if !(len > 0.0 && len.is_finite()) {
+            return None;
         }
+        Some(Tri { corners: t, normal: cross / len, centroid: (t[0] + t[1] + t[2]) / 3.0, scale: len.sqrt() })
     }
-    Decision::Ambiguous
+
+    /// `Some(true)` when the counter-clockwise normal points out of the solid, `Some(false)` when
+    /// it points in, `None` when undecided (see the module docs).
+    fn outward(&self, winding: &WindingNumber) -> Option<bool> {
+        for f in OFFSETS {
+            let delta = f * self.scale;
+            let behind = self.centroid - delta * self.normal;
+            let front = self.centroid + delta * self.normal;
+            // Own contribution, exact: +a behind the normal, −a in front (a < ½).
+            let own_behind = solid_angle(&self.corners, behind) / (4.0 * PI);
+            let own_front = solid_angle(&self.corners, front) / (4.0 * PI);
+            let rest_behind = winding.eval(behind) - own_behind;
+            let rest_front = winding.eval(front) - own_front;
+            let norm = (1.0 - (own_behind - own_front)).max(1e-3);
+            let score = (rest_behind.abs() - rest_front.abs()) / norm;
+            if score >= DECISIVE {
+                return Some(true);
+            }
+            if score <= -DECISIVE {
+                return Some(false);
+            }
+        }
+        None
+    }
 }
 
-/// Geometric outward normal helper: the unit counter-clockwise normal of `tri`, negated when
-/// `flip` is set; `None` for degenerate triangles.
+/// The unit counter-clockwise normal of `tri`, negated when `flip` is set; `None` for
+/// degenerate triangles.
 pub fn oriented_normal(tri: [DVec3; 3], flip: bool) -> Option<DVec3> {
     let n = (tri[1] - tri[0]).cross(tri[2] - tri[0]).try_normalize()?;
     Some(if flip { -n } else { n })
@@ -184,6 +321,19 @@ mod tests {
             assert_eq!(o.flip, expect, "face {k}");
             t[k] = orig;
         }
+    }
+
+    #[test]
+    fn flipped_patch_of_three_faces_is_repaired() {
+        let (p, t) = octahedron();
+        let patch = [0usize, 1, 4];
+        let bad: Vec<[u32; 3]> =
+            t.iter().enumerate().map(|(i, f)| if patch.contains(&i) { [f[0], f[2], f[1]] } else { *f }).collect();
+        let w = WindingNumber::new(&p, &bad);
+        let o = outward_orientation(&p, &bad, &w);
+        let expect: Vec<bool> = (0..8).map(|i| patch.contains(&i)).collect();
+        assert_eq!(o.flip, expect);
+        assert_eq!((o.patches, o.inconsistent_edges), (1, 0));
     }
 
     #[test]
