@@ -17,6 +17,7 @@
 use crate::basis::{MAX_COEFFS, MAX_ORDER};
 use crate::tables_data::{OL_2, OL_3, OL_4, OL_5, OL_6, OL_7, OL_8, OL_MAX_NORM};
 use crate::{check_len, check_order, coeff_count, ShError, TripleProduct};
+use core::f64::consts::PI;
 
 /// √(4π): the DC coefficient of the SH unit **1**.
 const SQRT_4PI: f64 = 3.544_907_701_811_032;
@@ -193,7 +194,14 @@ fn ol_coeffs(order: usize, norm: f64) -> (f64, f64) {
     let k = (u as usize).min(OL_SAMPLES - 2);
     let w = u - k as f64;
     let (r0, r1) = (t[k], t[k + 1]);
-    (r0[0] as f64 + w * (r1[0] - r0[0]) as f64, r0[1] as f64 + w * (r1[1] - r0[1]) as f64)
+    // a(x) = 1 + x²/(8π) + O(x³) (the DC of f̂∗f̂/2 is ‖f̂‖²/(2√(4π))): interpolate a − x²/(8π) and add the quadratic
+    // back, so the coarse first interval does not turn the exact second-order term into an O(h·x) error.
+    let step = max as f64 / (OL_SAMPLES - 1) as f64;
+    let q = |x: f64| x * x / (8.0 * PI);
+    let (x0, x1) = (k as f64 * step, (k + 1) as f64 * step);
+    let x = u * step;
+    let a = (r0[0] as f64 - q(x0)) + w * ((r1[0] as f64 - q(x1)) - (r0[0] as f64 - q(x0))) + q(x);
+    (a, r0[1] as f64 + w * (r1[1] - r0[1]) as f64)
 }
 
 /// Largest ‖f̂‖ (the norm of f without its DC coefficient) covered by the OL table of `order` (0 for order < 2).
