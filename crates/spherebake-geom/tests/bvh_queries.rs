@@ -226,3 +226,34 @@ fn invalid_input_never_panics() {
     empty.triangles_near_sphere(Vec3::ZERO, 1.0, &mut out);
     assert!(out.is_empty());
 }
+
+#[test]
+fn closest_hit_ties_after_f32_rounding() {
+    // Triangle 0 lies one f32 ulp behind triangle 1; seen from z = −5 both hits round to t = 6.0
+    // in f32, so the lower index (0, the farther one in f64) must win. Filler triangles, among
+    // them more near-ties, put the candidates in different parts of the tree.
+    let z_far = f32::from_bits(1.0f32.to_bits() + 1);
+    let quad =
+        |z: f32, dx: f32| vec![Vec3::new(-1.0 + dx, -1.0, z), Vec3::new(1.0 + dx, -1.0, z), Vec3::new(dx, 1.0, z)];
+    for seed in 0..40 {
+        let mut rng = Rng(seed);
+        let mut v = quad(z_far, 0.05 * (seed % 10) as f32 - 0.2);
+        let mut f = vec![[0, 1, 2]];
+        for _ in 0..300 {
+            let c = rng.dvec3(-3.0, 3.0).as_vec3();
+            let base = v.len() as u32;
+            v.extend([c, c + Vec3::new(0.1, 0.0, 0.0), c + Vec3::new(0.0, 0.1, 0.05)]);
+            f.push([base, base + 1, base + 2]);
+        }
+        for k in 0..40 {
+            let base = v.len() as u32;
+            v.extend(quad(1.0, 0.02 * k as f32 - 0.4));
+            f.push([base, base + 1, base + 2]);
+        }
+        let o = Vec3::new(0.01, 0.02, -5.0);
+        let want = brute_hits(&v, &f, o, Vec3::Z, 0.0, f32::INFINITY);
+        assert_eq!((want[0].t, want[0].triangle), (6.0, 0));
+        let bvh = TriangleBvh::new(&v, &f);
+        assert_eq!(bvh.closest_hit(o, Vec3::Z, 0.0, f32::INFINITY), Some(want[0]), "seed {seed}");
+    }
+}

@@ -122,3 +122,21 @@ fn armadillo_volume_bracketed() {
     let vol = voxel_support::signed_volume_f64(&bv, &bf);
     assert!((vol - grid.volume()).abs() < 1e-9 * grid.volume(), "{vol} vs {}", grid.volume());
 }
+
+#[test]
+fn teapot_open_patches() {
+    // Open surface patches (420 boundary edges, 3 parts): many rows pass through gaps, so the
+    // winding-number fallback does real work here.
+    let Some(path) = model_path("obj/teapot.obj") else { return };
+    let (v, f) = load_obj(&path);
+    let (c0, t0) = (cpu_seconds(), Instant::now());
+    let grid = voxelize(&v, &f, &VoxelSettings::default());
+    println!(
+        "teapot res 128: {:?}, {} solid, {:.1} ms wall, {:.0} ms cpu",
+        grid.dims,
+        grid.solid_count(),
+        t0.elapsed().as_secs_f64() * 1e3,
+        (cpu_seconds() - c0) * 1e3
+    );
+    assert_eq!(check_against_exact(&v, &f, 48, 300), 0);
+}
