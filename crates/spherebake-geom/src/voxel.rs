@@ -2,7 +2,8 @@
 //!
 //! A cell is **surface** when its closed box overlaps a triangle (exact separating-axis test of
 //! Akenine-Möller, in f64) and **solid** when it is surface or its centre is inside, i.e.
-//! `|w(centre)| ≥ winding_threshold` for the generalized winding number w (see [`crate::winding`]).
+//! `|w(centre)| ≥ winding_threshold` for the winding number w: the exact integer from ray votes
+//! where they are conclusive (below), else the generalized winding number ([`crate::winding`]).
 //!
 //! Why |w| and not w: a mesh whose triangles are all flipped (a common export error) gives w = −1
 //! inside; with |w| it voxelizes like the correctly oriented mesh. Consequences, by damage type:
@@ -31,9 +32,11 @@
 //! Cost model (T triangles, n cells per axis, n³ cells): BVH + expansions O(T log T); surface
 //! cells O(T · cells per triangle) SAT tests; 3n² ray casts of O(log T + hits); votes O(n³ · hits
 //! per row); winding evaluations O(log T)-ish each, only for undecided cells (bunny, res 128: 3.9k
-//! of 1.6M cells; res 256: 38k of 12.9M). Parallel over
-//! z-slabs with rayon; every cell's result depends only on shared read-only data, so the output is
-//! identical for any thread count.
+//! of 1.6M cells; res 256: 38k of 12.9M). Parallel over z-slabs with rayon; memory 2 bytes per cell plus the BVH (~120 B per triangle) and, only if
+//! some cell needs it, the winding expansions (~220 B per triangle). Measured (2 cores, shared
+//! machine, release): bunny 69k triangles at 64 / 128 / 256 cells: 80 / 160 / 650 ms CPU,
+//! 1.3M-triangle icosphere with a hole at 128: ~3 s wall. Every cell's result depends only on
+//! shared read-only data, so the output is identical for any thread count.
 
 use crate::bvh::TriangleBvh;
 use crate::winding::Expansions;
