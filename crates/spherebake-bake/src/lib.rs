@@ -11,11 +11,11 @@
 mod albedo;
 pub mod export;
 mod incremental;
-mod placeholder;
 mod raster;
-pub mod samples;
 pub mod render;
+pub mod samples;
 mod settings;
+pub mod skin;
 
 pub use albedo::{
     bake_albedo, project_cubemaps, render_albedo_cubemaps, segment_triangles, write_debug_cubemaps, AlbedoError,
@@ -24,9 +24,14 @@ pub use albedo::{
 pub use incremental::{inputs_value, is_up_to_date, recorded_inputs, INPUTS_KEY};
 
 pub use settings::{BakeSettings, Method};
+pub use skin::{bake_skin, grow_for_animations, MarginResult, PoseMargin, SkinError, SkinSettings, SkinStats};
 
 use serde::Serialize;
+use spherebake_fit::{FitSettings, Method as FitMethod};
 use spherebake_format::{Metadata, SphbFile, Sphere};
+use spherebake_geom::bvh::TriangleBvh;
+use spherebake_geom::orient::outward_orientation;
+use spherebake_geom::winding::WindingNumber;
 use spherebake_geom::TopologyReport;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -44,9 +49,9 @@ pub enum BakeError {
     /// The mesh has no usable triangles.
     #[error("{path}: mesh has no triangles")]
     EmptyMesh { path: PathBuf },
-    /// The fitter failed.
-    #[error("{path}: sphere fit failed: {message}")]
-    Fit { path: PathBuf, message: String },
+    /// A pipeline stage failed.
+    #[error("{path}: {stage} stage failed: {message}")]
+    Stage { path: PathBuf, stage: &'static str, message: String },
 }
 
 /// Wall time of one stage.
@@ -73,12 +78,27 @@ pub struct BakeReport {
     pub outside_ratio_e: Option<f64>,
     /// V(∪S − T) / V(T), when measured.
     pub union_outside_ratio: Option<f64>,
-    /// Per-stage wall times, in pipeline order.
+    /// Surface sample statistics.
+    pub samples: SampleSummary,
+    /// Per-stage wall times, in pipeline order (fit sub-stages are prefixed by the fitter).
     pub timings: Vec<StageTime>,
+    /// The fitter's own sub-stages (they add up to the `fit` stage, roughly).
+    pub fit_stages: Vec<StageTime>,
     /// Things the pipeline coped with (open mesh, missing texture, ...).
     pub warnings: Vec<String>,
     /// Size of the written file in bytes.
     pub file_bytes: usize,
+}
+
+/// Surface sample statistics of a bake (Guerrero et al. 2008 §4.2, 92 directions per sphere).
+#[derive(Clone, Debug, Serialize)]
+pub struct SampleSummary {
+    pub per_sphere_mean: f64,
+    pub per_sphere_min: u32,
+    /// Share of (sphere, direction) pairs left empty by rule 2 (another sphere's segment covers it).
+    pub share_rule2_empty: f64,
+    /// Share left empty by rule 3 (no hit, and nothing in the segment along −ω).
+    pub share_rule3_empty: f64,
 }
 
 /// The result of a bake: the file (as data and as bytes) and the report.
@@ -137,11 +157,51 @@ pub fn bake_imported(
     let t = Instant::now();
     let fitted = fit_spheres(path, positions, &triangles, settings, progress)?;
     timings.push(StageTime { stage: "fit", seconds: t.elapsed().as_secs_f64() });
+    let fit_stages: Vec<StageTime> =
+        fitted.stage_timings.iter().map(|(stage, seconds)| StageTime { stage, seconds: *seconds }).collect();
     warnings.extend(fitted.warnings);
+    let spheres = &fitted.spheres;
+
+    // Outward orientation by the solid (real meshes are not always consistently oriented),
+    // shared by the sample-point and albedo stages.
+    let t = Instant::now();
+    let winding = WindingNumber::new(&mesh.positions, &mesh.triangles);
+    let orientation = outward_orientation(&mesh.positions, &mesh.triangles, &winding);
+    if orientation.flipped > 0 {
+        warnings.push(format!("{} triangles face inward; oriented outward by the solid", orientation.flipped));
+    }
+    let bvh = TriangleBvh::new(&mesh.positions, &mesh.triangles);
+    timings.push(StageTime { stage: "orient+bvh", seconds: t.elapsed().as_secs_f64() });
+    progress(0.85);
+
+    let t = Instant::now();
+    let (samples, sample_stats) = samples::place_samples(mesh, &bvh, &orientation.flip, spheres);
+    timings.push(StageTime { stage: "samples", seconds: t.elapsed().as_secs_f64() });
+    progress(0.9);
+
+    let t = Instant::now();
+    let albedo_settings = AlbedoSettings {
+        sh_order: settings.sh_order,
+        cubemap_size: settings.cubemap_size,
+        debug_dir: settings.debug_cubemaps.clone(),
+        ..Default::default()
+    };
+    let (albedo_sh, albedo_stats) = bake_albedo(mesh, &orientation.flip, spheres, &albedo_settings)
+        .map_err(|e| BakeError::Stage { path: path.to_path_buf(), stage: "albedo", message: e.to_string() })?;
+    timings.push(StageTime { stage: "albedo", seconds: t.elapsed().as_secs_f64() });
+    if albedo_stats.textured_triangles_without_uvs > 0 {
+        warnings.push(format!(
+            "{} textured triangles have no UVs: their base colour factor is used",
+            albedo_stats.textured_triangles_without_uvs
+        ));
+    }
+    progress(0.95);
 
     let input_hash = format!("{:016x}", imported.content_hash);
     let file = SphbFile {
-        spheres: fitted.spheres.iter().map(|s| Sphere { center: [s[0], s[1], s[2]], radius: s[3] }).collect(),
+        spheres: spheres.iter().map(|s| Sphere { center: [s[0], s[1], s[2]], radius: s[3] }).collect(),
+        samples: Some(samples),
+        albedo_sh: Some(albedo_sh),
         metadata: Some(Metadata {
             tool_version: TOOL_VERSION.to_string(),
             settings: settings.to_json(),
@@ -156,6 +216,15 @@ pub fn bake_imported(
     };
     let t = Instant::now();
     let bytes = file.to_bytes();
+    // Never hand out a file the reader would refuse: a violated rule here is a bug in a stage,
+    // reported as an error rather than written.
+    if let Err(e) = spherebake_format::read(&bytes) {
+        return Err(BakeError::Stage {
+            path: path.to_path_buf(),
+            stage: "write",
+            message: format!("internal error, invalid output: {e}"),
+        });
+    }
     timings.push(StageTime { stage: "write", seconds: t.elapsed().as_secs_f64() });
     progress(1.0);
 
@@ -169,7 +238,14 @@ pub fn bake_imported(
         sphere_count: file.spheres.len(),
         outside_ratio_e: fitted.outside_ratio_e,
         union_outside_ratio: fitted.union_outside_ratio,
+        samples: SampleSummary {
+            per_sphere_mean: sample_stats.samples_per_sphere_mean,
+            per_sphere_min: sample_stats.samples_per_sphere_min,
+            share_rule2_empty: sample_stats.share_rule2_empty,
+            share_rule3_empty: sample_stats.share_rule3_empty,
+        },
         timings,
+        fit_stages,
         warnings,
         file_bytes: bytes.len(),
     };
@@ -180,23 +256,50 @@ struct Fitted {
     spheres: Vec<[f32; 4]>,
     outside_ratio_e: Option<f64>,
     union_outside_ratio: Option<f64>,
+    stage_timings: Vec<(&'static str, f64)>,
     warnings: Vec<String>,
 }
 
 fn fit_spheres(
-    _path: &Path,
+    path: &Path,
     positions: &[glam::Vec3],
     triangles: &[[u32; 3]],
     settings: &BakeSettings,
     progress: &(dyn Fn(f32) + Sync),
 ) -> Result<Fitted, BakeError> {
-    let spheres = placeholder::grid_bounding_spheres(positions, triangles, settings.spheres);
-    progress(0.9);
+    let fit_settings = FitSettings {
+        method: match settings.method {
+            Method::Variational => FitMethod::Variational,
+            Method::Kmeans => FitMethod::Kmeans,
+            Method::Octree => FitMethod::Octree,
+        },
+        spheres: settings.spheres,
+        max_outside_ratio: settings.max_outside_ratio,
+        voxel_resolution: settings.voxels,
+        seed: settings.seed,
+        ..FitSettings::default()
+    };
+    let fit_progress = |f: f32| progress(0.8 * f);
+    let r = spherebake_fit::fit(positions, triangles, &fit_settings, &fit_progress).map_err(|e| BakeError::Stage {
+        path: path.to_path_buf(),
+        stage: "fit",
+        message: e.to_string(),
+    })?;
+    let mut warnings = r.warnings;
+    if settings.max_outside_ratio.is_some() {
+        warnings
+            .push(format!("target mode: {} spheres reach E = {:.4}", r.stats.sphere_count, r.stats.outside_ratio_e));
+    }
+    // A sphere of radius 0 bounds a single point; store the smallest positive radius instead so
+    // the file stays valid (rule 3004) and the point stays inside.
+    let spheres =
+        r.spheres.iter().map(|s| if s[3] > 0.0 { *s } else { [s[0], s[1], s[2], f32::MIN_POSITIVE] }).collect();
     Ok(Fitted {
         spheres,
-        outside_ratio_e: None,
-        union_outside_ratio: None,
-        warnings: vec!["placeholder fit: grid clusters, not the variational fit".to_string()],
+        outside_ratio_e: Some(r.stats.outside_ratio_e),
+        union_outside_ratio: Some(r.stats.union_outside_ratio),
+        stage_timings: r.stats.timings.iter().map(|(s, t)| (*s, *t)).collect(),
+        warnings,
     })
 }
 

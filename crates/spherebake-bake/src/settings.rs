@@ -29,11 +29,28 @@ pub struct BakeSettings {
     pub voxels: u32,
     /// Seed of the random start. Default 1. Same seed + input + settings → byte-identical output.
     pub seed: u64,
+    /// SH order n of the albedo (bands 0..n−1, n² coefficients per sphere). Default 4, range 1..=8.
+    pub sh_order: usize,
+    /// Albedo cube-map face size in texels. Default 32, range 4..=512.
+    pub cubemap_size: usize,
+    /// When set, each sphere's albedo cube map and its SH reconstruction are written here as PNG
+    /// crosses. Not part of the recorded settings (it does not change the file).
+    #[serde(skip)]
+    pub debug_cubemaps: Option<std::path::PathBuf>,
 }
 
 impl Default for BakeSettings {
     fn default() -> Self {
-        Self { spheres: 64, method: Method::Variational, max_outside_ratio: None, voxels: 128, seed: 1 }
+        Self {
+            spheres: 64,
+            method: Method::Variational,
+            max_outside_ratio: None,
+            voxels: 128,
+            seed: 1,
+            sh_order: 4,
+            cubemap_size: 32,
+            debug_cubemaps: None,
+        }
     }
 }
 
@@ -50,6 +67,12 @@ impl BakeSettings {
         }
         if !(16..=1024).contains(&self.voxels) {
             return Err(format!("--voxels must be in 16..=1024, got {}", self.voxels));
+        }
+        if !(1..=8).contains(&self.sh_order) {
+            return Err(format!("--sh-order must be in 1..=8, got {}", self.sh_order));
+        }
+        if !(4..=512).contains(&self.cubemap_size) {
+            return Err(format!("--cubemap-size must be in 4..=512, got {}", self.cubemap_size));
         }
         if let Some(e) = self.max_outside_ratio {
             if !(e.is_finite() && e > 0.0) {

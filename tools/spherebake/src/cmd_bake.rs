@@ -50,6 +50,15 @@ pub struct BakeArgs {
     /// Seed of the random start; same seed + input + settings give byte-identical files [default: 1]
     #[arg(long)]
     pub seed: Option<u64>,
+    /// SH order of the albedo per sphere (n² coefficients) [default: 4, range 1..=8]
+    #[arg(long)]
+    pub sh_order: Option<usize>,
+    /// Albedo cube-map face size in texels [default: 32, range 4..=512]
+    #[arg(long)]
+    pub cubemap_size: Option<usize>,
+    /// Write each sphere's albedo cube map and SH reconstruction as PNG crosses into DIR
+    #[arg(long, value_name = "DIR")]
+    pub debug_cubemaps: Option<PathBuf>,
     /// Per-asset settings file [default: ./spherebake.toml when present]
     #[arg(long, value_name = "FILE")]
     pub config: Option<PathBuf>,
@@ -186,13 +195,19 @@ fn plan(a: &BakeArgs) -> std::result::Result<Vec<Job>, Usage> {
         max_outside_ratio: a.max_outside_ratio,
         voxels: a.voxels,
         seed: a.seed,
+        sh_order: a.sh_order,
+        cubemap_size: a.cubemap_size,
     };
+    let n_inputs = inputs.len();
     inputs
         .into_iter()
         .zip(outputs)
         .map(|(input, output)| {
             let o = config.for_input(&input).merged(&cli);
-            let settings = to_settings(&o).map_err(|m| Usage(format!("{}: {m}", input.display())))?;
+            let mut settings = to_settings(&o).map_err(|m| Usage(format!("{}: {m}", input.display())))?;
+            // Several assets: one sub-directory per asset.
+            settings.debug_cubemaps =
+                a.debug_cubemaps.as_ref().map(|d| if n_inputs > 1 { d.join(stem(&input)) } else { d.clone() });
             Ok(Job { input, output, settings })
         })
         .collect()
@@ -213,6 +228,9 @@ fn to_settings(o: &Overrides) -> std::result::Result<BakeSettings, String> {
         max_outside_ratio: o.max_outside_ratio.or(d.max_outside_ratio),
         voxels: o.voxels.unwrap_or(d.voxels),
         seed: o.seed.unwrap_or(d.seed),
+        sh_order: o.sh_order.unwrap_or(d.sh_order),
+        cubemap_size: o.cubemap_size.unwrap_or(d.cubemap_size),
+        debug_cubemaps: None,
     };
     s.validate()?;
     Ok(s)
@@ -377,6 +395,15 @@ fn print_single(output: &Path, r: &spherebake_bake::BakeReport) {
     }
     let stages: Vec<String> = r.timings.iter().map(|t| format!("{} {:.3}", t.stage, t.seconds)).collect();
     println!("  time      {total:.3} s ({})", stages.join(", "));
+    let fit: Vec<String> = r.fit_stages.iter().map(|t| format!("{} {:.3}", t.stage, t.seconds)).collect();
+    println!("  fit       {}", fit.join(", "));
+    println!(
+        "  samples   {:.1} per sphere (min {}), empty directions: rule 2 {:.1}%, rule 3 {:.1}%",
+        r.samples.per_sphere_mean,
+        r.samples.per_sphere_min,
+        100.0 * r.samples.share_rule2_empty,
+        100.0 * r.samples.share_rule3_empty
+    );
     println!("  file      {} bytes, input hash {}", r.file_bytes, r.input_hash);
     for w in &r.warnings {
         println!("  warning   {w}");

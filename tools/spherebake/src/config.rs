@@ -27,6 +27,8 @@ pub struct Overrides {
     pub max_outside_ratio: Option<f64>,
     pub voxels: Option<u32>,
     pub seed: Option<u64>,
+    pub sh_order: Option<usize>,
+    pub cubemap_size: Option<usize>,
 }
 
 impl Overrides {
@@ -38,6 +40,8 @@ impl Overrides {
             max_outside_ratio: over.max_outside_ratio.or(self.max_outside_ratio),
             voxels: over.voxels.or(self.voxels),
             seed: over.seed.or(self.seed),
+            sh_order: over.sh_order.or(self.sh_order),
+            cubemap_size: over.cubemap_size.or(self.cubemap_size),
         }
     }
 }
