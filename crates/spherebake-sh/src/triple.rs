@@ -83,6 +83,8 @@ pub struct TripleProductEntry {
 pub struct TripleProduct {
     order: usize,
     entries: Vec<TripleProductEntry>,
+    /// Entries of output row i are `entries[row_start[i]..row_start[i + 1]]` (entries are sorted by i).
+    row_start: [u32; MAX_COEFFS + 1],
 }
 
 impl TripleProduct {
@@ -117,7 +119,14 @@ impl TripleProduct {
                 }
             }
         }
-        Ok(TripleProduct { order, entries })
+        let mut row_start = [0u32; MAX_COEFFS + 1];
+        for e in &entries {
+            row_start[e.i as usize + 1] += 1;
+        }
+        for i in 0..MAX_COEFFS {
+            row_start[i + 1] += row_start[i];
+        }
+        Ok(TripleProduct { order, entries, row_start })
     }
 
     /// SH order (bands 0..order−1) of the tensor.
@@ -140,9 +149,30 @@ impl TripleProduct {
         check_len("f", nc, f.len())?;
         check_len("g", nc, g.len())?;
         check_len("out", nc, out.len())?;
+        // Fixed-size copies and masked indices (all < 64) let the hot loop run without bounds checks; each output row
+        // is summed with four independent partial sums (entries sorted by i), so the loop is not latency-bound.
+        let mut fa = [0.0; MAX_COEFFS];
+        let mut ga = [0.0; MAX_COEFFS];
+        fa[..nc].copy_from_slice(&f[..nc]);
+        ga[..nc].copy_from_slice(&g[..nc]);
+        let term = |e: &TripleProductEntry| {
+            e.value * fa[e.j as usize & (MAX_COEFFS - 1)] * ga[e.k as usize & (MAX_COEFFS - 1)]
+        };
         let mut acc = [0.0; MAX_COEFFS];
-        for e in &self.entries {
-            acc[e.i as usize] += e.value * f[e.j as usize] * g[e.k as usize];
+        for (i, a) in acc.iter_mut().enumerate().take(nc) {
+            let row = &self.entries[self.row_start[i] as usize..self.row_start[i + 1] as usize];
+            let mut s = [0.0; 4];
+            let mut chunks = row.chunks_exact(4);
+            for c in &mut chunks {
+                s[0] += term(&c[0]);
+                s[1] += term(&c[1]);
+                s[2] += term(&c[2]);
+                s[3] += term(&c[3]);
+            }
+            for e in chunks.remainder() {
+                s[0] += term(e);
+            }
+            *a = (s[0] + s[1]) + (s[2] + s[3]);
         }
         out[..nc].copy_from_slice(&acc[..nc]);
         Ok(())
