@@ -9,6 +9,7 @@
 //! Orientation: `spherebake_geom::orient::outward_orientation`.
 //!
 //! `cargo run --release -p spherebake-bake --example albedo_measure [-- MODEL...]`
+//! (`ALBEDO_ERROR_SIZES=0` skips the error table, `ALBEDO_DEBUG_DIR=DIR` writes debug crosses).
 
 use spherebake_bake::{bake_albedo, AlbedoSettings, TextureLod};
 use spherebake_geom::winding::WindingNumber;
@@ -67,6 +68,12 @@ fn main() {
             stats = Some(st);
         }
         let st = stats.unwrap();
+        if let Ok(dir) = std::env::var("ALBEDO_DEBUG_DIR") {
+            let stem = path.file_stem().unwrap().to_string_lossy().into_owned();
+            let s = AlbedoSettings { debug_dir: Some(PathBuf::from(dir).join(stem)), ..Default::default() };
+            let (_, st) = bake_albedo(&mesh, &flip, &spheres, &s).expect("albedo");
+            println!("  wrote {} debug images", st.debug_files.len());
+        }
         println!(
             "  albedo 32², order 4, {} threads: {:.3} s (best of 5); texels rule1 {} rule2 {} rule3 {} empty {}; \
              triangle assignments {} ({} shared)",

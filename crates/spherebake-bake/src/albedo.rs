@@ -464,8 +464,10 @@ impl MipChain {
 
     fn bilinear(&self, level: usize, uv: [f64; 2], wrap: [WrapMode; 2]) -> [f64; 3] {
         let (w, h, ref tex) = self.levels[level];
-        let x = uv[0] * w as f64 - 0.5;
-        let y = uv[1] * h as f64 - 0.5;
+        // Clamped so the integer texel coordinates below cannot overflow (far beyond any
+        // texture, wrapping is unaffected in practice).
+        let x = (uv[0] * w as f64 - 0.5).clamp(-1e15, 1e15);
+        let y = (uv[1] * h as f64 - 0.5).clamp(-1e15, 1e15);
         let (xf, yf) = (x.floor(), y.floor());
         let (fx, fy) = (x - xf, y - yf);
         let (xi, yi) = (xf as i64, yf as i64);
@@ -777,7 +779,8 @@ impl<'a> Context<'a> {
             };
             if let Some((h, sgn)) = hit {
                 let c = self.shade(texel, h, sgn);
-                *o = [c[0] as f32, c[1] as f32, c[2] as f32];
+                // Non-finite input colours (NaN vertex colours, texels) become 0, never NaN SH.
+                *o = c.map(|v| if v.is_finite() { v as f32 } else { 0.0 });
             }
         }
         (out, counts)

@@ -658,3 +658,29 @@ fn debug_cubemaps_are_written() {
     // +Y face (column 1, row 0) is blue.
     assert_eq!(img.get_pixel(64 + 32, 32).0, [0, 0, 255]);
 }
+
+#[test]
+fn hostile_values_do_not_panic_or_leak_nan() {
+    // Non-finite and huge positions, UVs and colours: the stage must finish with finite output.
+    let n = 8usize;
+    let mut mesh = quad_mesh(
+        |x, y| [x * 1e30, y * f32::MAX],
+        pattern(4, 4),
+        tref(WrapMode::Repeat, UvTransform::default()),
+        [1.0; 4],
+    );
+    mesh.colors_linear = vec![[f32::NAN, 1.0, f32::INFINITY, 1.0]; 4];
+    mesh.positions.push(Vec3::new(f32::NAN, 0.0, 1.0));
+    mesh.positions.push(Vec3::new(1e30, -1e30, 1.0));
+    mesh.colors_linear.extend([[1.0; 4]; 2]);
+    mesh.uvs[0].extend([[f32::NAN, 0.0], [0.0, f32::INFINITY]]);
+    mesh.triangles.push([0, 4, 5]);
+    mesh.triangles.push([4, 4, 4]);
+    mesh.triangle_materials.extend([0, 0]);
+    let flip = vec![false; mesh.triangles.len()];
+    for lod in [spherebake_bake::TextureLod::Footprint, spherebake_bake::TextureLod::Base] {
+        let s = AlbedoSettings { sh_order: 3, cubemap_size: n, texture_lod: lod, ..Default::default() };
+        let (sh, _) = bake_albedo(&mesh, &flip, &[[0.0, 0.0, 0.0, 1.0], [0.1, 0.0, 0.5, 0.0]], &s).unwrap();
+        assert!(sh.coefficients.iter().flatten().all(|v| v.is_finite()), "{:?}", sh.coefficients);
+    }
+}
