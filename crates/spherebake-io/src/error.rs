@@ -41,6 +41,10 @@ pub enum IoError {
     /// `extensionsRequired` names an extension this importer does not implement.
     #[error("{}: glTF requires extension {extension}, which is not supported", path.display())]
     UnsupportedExtension { path: PathBuf, extension: String },
+    /// A compressed buffer view (`EXT_meshopt_compression` / `KHR_meshopt_compression`) is
+    /// malformed or cannot be decoded.
+    #[error("{}: buffer view {view}: {extension}: {reason}", path.display())]
+    CompressedView { path: PathBuf, view: usize, extension: String, reason: String },
     /// A buffer could not be loaded (missing `.bin`, bad data URI, too short).
     #[error("{}: buffer {buffer}: {reason}", path.display())]
     Buffer { path: PathBuf, buffer: usize, reason: String },

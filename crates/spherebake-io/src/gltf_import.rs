@@ -14,23 +14,9 @@ use spherebake_geom::{
     SkinInfluences, TextureRef, UvTransform, WrapMode,
 };
 
+use crate::gltf_ext;
 use crate::texture::decode_srgb_texture;
 use crate::{Ctx, ImportedPart, IoError};
-
-/// Extensions that may appear in `extensionsRequired`: they either do not change geometry or base
-/// colour, or are implemented here (`KHR_texture_transform`).
-const SUPPORTED_REQUIRED: &[&str] = &[
-    "KHR_texture_transform",
-    "KHR_materials_unlit",
-    "KHR_materials_emissive_strength",
-    "KHR_materials_ior",
-    "KHR_materials_specular",
-    "KHR_materials_transmission",
-    "KHR_materials_volume",
-    "KHR_materials_clearcoat",
-    "KHR_materials_sheen",
-    "KHR_lights_punctual",
-];
 
 /// Largest accessor (in components) accepted without a buffer view (zeros + sparse values).
 const MAX_VIEWLESS_VALUES: usize = 1 << 26;
@@ -170,22 +156,21 @@ struct Source<'c> {
     ctx: &'c mut Ctx,
     doc: gltf::Document,
     buffers: Vec<Vec<u8>>,
+    /// Decoded meshopt buffer views by index (they replace the view's range of its buffer).
+    decoded: HashMap<usize, Vec<u8>>,
+    /// Images only an undecodable texture extension provides, with that extension's name.
+    undecodable_images: HashMap<usize, &'static str>,
 }
 
 pub(crate) fn import(ctx: &mut Ctx, bytes: &[u8], glb: bool) -> Result<(Mesh, Vec<ImportedPart>), IoError> {
     let path = ctx.path.clone();
     let (json, bin) = if glb { parse_glb(&path, bytes)? } else { (bytes, None) };
-    let gltf::Gltf { document, .. } = gltf::Gltf::from_slice_without_validation(json).map_err(|e| match e {
-        gltf::Error::Deserialize(e) => IoError::Json { path: path.clone(), message: e.to_string() },
-        e => IoError::Invalid { path: path.clone(), message: e.to_string() },
-    })?;
-    let mut root = document.into_json();
-    for ext in &root.extensions_required {
-        if !SUPPORTED_REQUIRED.contains(&ext.as_str()) {
-            return Err(IoError::UnsupportedExtension { path, extension: ext.clone() });
-        }
-    }
-    // Checked above; the gltf crate would otherwise refuse extensions it has no feature for.
+    let mut value: serde_json::Value =
+        serde_json::from_slice(json).map_err(|e| IoError::Json { path: path.clone(), message: e.to_string() })?;
+    let prep = gltf_ext::prepare(&path, &mut value)?;
+    let mut root: gltf::json::Root =
+        serde_json::from_value(value).map_err(|e| IoError::Json { path: path.clone(), message: e.to_string() })?;
+    // Checked and removed by `prepare`; the gltf crate would refuse extensions it has no feature for.
     root.extensions_required.clear();
     // gltf-json's validation indexes `accessors[POSITION]` unchecked: check those indices first.
     for (mi, mesh) in root.meshes.iter().enumerate() {
@@ -262,6 +247,11 @@ pub(crate) fn import(ctx: &mut Ctx, bytes: &[u8], glb: bool) -> Result<(Mesh, Ve
     let mut buffers = Vec::new();
     for buffer in doc.buffers() {
         let i = buffer.index();
+        if prep.fallback.get(i).copied().unwrap_or(false) {
+            // Meshopt fallback: its views are decoded from their compressed data instead.
+            buffers.push(Vec::new());
+            continue;
+        }
         let berr = |reason: String| IoError::Buffer { path: path.clone(), buffer: i, reason };
         let data = match buffer.source() {
             gltf::buffer::Source::Bin => match bin {
@@ -278,7 +268,18 @@ pub(crate) fn import(ctx: &mut Ctx, bytes: &[u8], glb: bool) -> Result<(Mesh, Ve
         }
         buffers.push(data);
     }
-    let mut src = Source { ctx, doc, buffers };
+    let views: Vec<(usize, usize)> = doc.views().map(|v| (v.length(), v.buffer().index())).collect();
+    let decoded = gltf_ext::decode_views(&path, &prep, &views, &buffers)?;
+    for (vi, &(_, bi)) in views.iter().enumerate() {
+        if prep.fallback.get(bi).copied().unwrap_or(false) && !decoded.contains_key(&vi) {
+            return Err(IoError::Buffer {
+                path,
+                buffer: bi,
+                reason: format!("fallback buffer (no data) is read by buffer view {vi}, which is not compressed"),
+            });
+        }
+    }
+    let mut src = Source { ctx, doc, buffers, decoded, undecodable_images: prep.undecodable_images };
     src.build()
 }
 
@@ -368,6 +369,9 @@ impl Source<'_> {
 
     /// The bytes of a buffer view, bounds-checked.
     fn view_bytes(&self, view: &gltf::buffer::View, accessor: usize) -> Result<&[u8], IoError> {
+        if let Some(d) = self.decoded.get(&view.index()) {
+            return Ok(d);
+        }
         let buf = &self.buffers[view.buffer().index()];
         let end = view.offset().checked_add(view.length());
         match end {
@@ -1075,6 +1079,17 @@ impl Source<'_> {
     /// Loads and decodes an image; on failure warns and returns `None` (base colour factor used).
     fn load_image(&mut self, img: &gltf::Image, material: &str) -> Option<spherebake_geom::Texture> {
         let ii = img.index();
+        if let Some(ext) = self.undecodable_images.get(&ii) {
+            let what = match *ext {
+                "KHR_texture_basisu" => "KTX2 / Basis Universal",
+                "EXT_texture_webp" => "WebP",
+                _ => "AVIF",
+            };
+            self.ctx.warn(format!(
+                "material {material:?}: image {ii} is a {what} texture ({ext}), which spherebake cannot decode; using the base colour factor"
+            ));
+            return None;
+        }
         let (name, bytes) = match img.source() {
             gltf::image::Source::View { view, .. } => {
                 let name = format!("image[{ii}]{}", img.name().map(|n| format!(" {n}")).unwrap_or_default());

@@ -10,8 +10,10 @@
 //! to the path).
 
 mod error;
+mod gltf_ext;
 mod gltf_import;
 mod hash;
+pub mod meshopt;
 mod obj_import;
 mod texture;
 

@@ -231,12 +231,12 @@ fn error_cases_name_the_file() {
         &TRI,
         None,
         false,
-        r#","extensionsUsed":["KHR_mesh_quantization"],"extensionsRequired":["KHR_mesh_quantization"]"#,
+        r#","extensionsUsed":["KHR_draco_mesh_compression"],"extensionsRequired":["KHR_draco_mesh_compression"]"#,
     );
     check(
         json.as_bytes(),
         g,
-        &|e| matches!(e, IoError::UnsupportedExtension { extension, .. } if extension == "KHR_mesh_quantization"),
+        &|e| matches!(e, IoError::UnsupportedExtension { extension, .. } if extension == "KHR_draco_mesh_compression"),
     );
     // Bad JSON; schema violation (accessor index that does not exist).
     check(b"{\"asset\": ", g, &|e| matches!(e, IoError::Json { .. }));

@@ -1,0 +1,257 @@
+//! glTF extensions handled on the JSON before the `gltf` crate sees the document:
+//! `extensionsRequired` (checked and stripped: the crate knows neither `KHR_mesh_quantization`
+//! nor the meshopt extensions), `EXT_meshopt_compression` / `KHR_meshopt_compression` buffer
+//! views (collected here, decoded in [`decode_views`]) and textures whose only image comes
+//! through `KHR_texture_basisu` / `EXT_texture_webp` / `EXT_texture_avif` (their `source` is
+//! filled in so that the crate accepts them; the image is then skipped with a warning naming the
+//! extension and the material keeps its base colour factor).
+
+use std::collections::HashMap;
+use std::path::Path;
+
+use serde_json::Value;
+
+use crate::meshopt::{self, Filter};
+use crate::IoError;
+
+/// Extensions that may appear in `extensionsRequired`: they either do not change geometry or base
+/// colour, or are implemented here.
+pub(crate) const SUPPORTED_REQUIRED: &[&str] = &[
+    "KHR_mesh_quantization",
+    "EXT_meshopt_compression",
+    "KHR_meshopt_compression",
+    "KHR_texture_transform",
+    "KHR_materials_unlit",
+    "KHR_materials_emissive_strength",
+    "KHR_materials_ior",
+    "KHR_materials_specular",
+    "KHR_materials_transmission",
+    "KHR_materials_volume",
+    "KHR_materials_clearcoat",
+    "KHR_materials_sheen",
+    "KHR_lights_punctual",
+    // Texture formats the importer cannot decode: the material falls back to its base colour
+    // factor with a warning naming the extension.
+    "KHR_texture_basisu",
+    "EXT_texture_webp",
+    "EXT_texture_avif",
+];
+
+const MESHOPT: [&str; 2] = ["EXT_meshopt_compression", "KHR_meshopt_compression"];
+const TEXTURE_SOURCES: [&str; 3] = ["KHR_texture_basisu", "EXT_texture_webp", "EXT_texture_avif"];
+
+/// Compression mode of a meshopt buffer view.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum Mode {
+    Attributes,
+    Triangles,
+    Indices,
+}
+
+/// One compressed buffer view as declared by its extension object.
+#[derive(Clone, Debug)]
+pub(crate) struct CompressedView {
+    pub view: usize,
+    pub extension: &'static str,
+    pub buffer: usize,
+    pub offset: usize,
+    pub length: usize,
+    pub stride: usize,
+    pub count: usize,
+    pub mode: Mode,
+    pub filter: Filter,
+}
+
+/// What [`prepare`] learnt from the JSON.
+#[derive(Debug, Default)]
+pub(crate) struct Prepared {
+    /// `extensionsRequired` as written in the file (removed from the JSON).
+    pub required: Vec<String>,
+    pub compressed: Vec<CompressedView>,
+    /// Per buffer: marked `fallback` by a meshopt extension (never loaded; no view may read it
+    /// except through its compressed data).
+    pub fallback: Vec<bool>,
+    /// Images reachable only through a texture extension the importer cannot decode.
+    pub undecodable_images: HashMap<usize, &'static str>,
+}
+
+fn as_index(v: &Value) -> Option<usize> {
+    v.as_u64().and_then(|x| usize::try_from(x).ok())
+}
+
+/// Checks and strips `extensionsRequired`, collects meshopt views and fallback buffers, and fills
+/// in texture sources that only an extension provides.
+pub(crate) fn prepare(path: &Path, root: &mut Value) -> Result<Prepared, IoError> {
+    let mut prep = Prepared::default();
+    let Some(obj) = root.as_object_mut() else {
+        return Err(IoError::Json { path: path.to_path_buf(), message: "top level is not a JSON object".into() });
+    };
+    if let Some(req) = obj.remove("extensionsRequired") {
+        let list = req.as_array().ok_or_else(|| IoError::Invalid {
+            path: path.to_path_buf(),
+            message: "extensionsRequired is not an array".into(),
+        })?;
+        for ext in list {
+            let ext = ext.as_str().ok_or_else(|| IoError::Invalid {
+                path: path.to_path_buf(),
+                message: "extensionsRequired holds a non-string".into(),
+            })?;
+            if !SUPPORTED_REQUIRED.contains(&ext) {
+                return Err(IoError::UnsupportedExtension { path: path.to_path_buf(), extension: ext.to_owned() });
+            }
+            prep.required.push(ext.to_owned());
+        }
+    }
+    if let Some(buffers) = obj.get("buffers").and_then(Value::as_array) {
+        prep.fallback = buffers
+            .iter()
+            .map(|b| {
+                MESHOPT
+                    .iter()
+                    .any(|e| b.pointer(&format!("/extensions/{e}/fallback")).and_then(Value::as_bool) == Some(true))
+            })
+            .collect();
+    }
+    if let Some(views) = obj.get("bufferViews").and_then(Value::as_array) {
+        for (vi, v) in views.iter().enumerate() {
+            for ext in MESHOPT {
+                let Some(e) = v.pointer(&format!("/extensions/{ext}")) else { continue };
+                let err = |reason: String| IoError::CompressedView {
+                    path: path.to_path_buf(),
+                    view: vi,
+                    extension: ext.to_owned(),
+                    reason,
+                };
+                let field = |name: &str, default: Option<usize>| -> Result<usize, IoError> {
+                    match e.get(name) {
+                        Some(x) => as_index(x).ok_or_else(|| err(format!("{name} is not a non-negative integer"))),
+                        None => default.ok_or_else(|| err(format!("{name} is missing"))),
+                    }
+                };
+                let mode = match e.get("mode").and_then(Value::as_str) {
+                    Some("ATTRIBUTES") => Mode::Attributes,
+                    Some("TRIANGLES") => Mode::Triangles,
+                    Some("INDICES") => Mode::Indices,
+                    Some(m) => return Err(err(format!("unknown mode {m:?}"))),
+                    None => return Err(err("mode is missing".into())),
+                };
+                let filter = match e.get("filter") {
+                    None => Filter::None,
+                    Some(f) => {
+                        let name = f.as_str().unwrap_or("");
+                        Filter::from_name(name).ok_or_else(|| err(format!("unknown filter {f}")))?
+                    }
+                };
+                if mode != Mode::Attributes && filter != Filter::None {
+                    return Err(err(format!("filter {filter:?} is only allowed with mode ATTRIBUTES")));
+                }
+                prep.compressed.push(CompressedView {
+                    view: vi,
+                    extension: ext,
+                    buffer: field("buffer", None)?,
+                    offset: field("byteOffset", Some(0))?,
+                    length: field("byteLength", None)?,
+                    stride: field("byteStride", None)?,
+                    count: field("count", None)?,
+                    mode,
+                    filter,
+                });
+                break;
+            }
+        }
+    }
+    if let Some(textures) = obj.get_mut("textures").and_then(Value::as_array_mut) {
+        for t in textures.iter_mut() {
+            let Some(t) = t.as_object_mut() else { continue };
+            if t.contains_key("source") {
+                continue; // a fallback image the importer may be able to decode
+            }
+            for ext in TEXTURE_SOURCES {
+                let src = t.get("extensions").and_then(|e| e.get(ext)).and_then(|e| e.get("source")).and_then(as_index);
+                if let Some(src) = src {
+                    t.insert("source".into(), Value::from(src));
+                    prep.undecodable_images.insert(src, ext);
+                    break;
+                }
+            }
+        }
+    }
+    Ok(prep)
+}
+
+/// Decodes every compressed view from the loaded `buffers` (fallback buffers are empty).
+/// `views[i]` is the declared `(byteLength, buffer)` of buffer view `i`.
+pub(crate) fn decode_views(
+    path: &Path,
+    prep: &Prepared,
+    views: &[(usize, usize)],
+    buffers: &[Vec<u8>],
+) -> Result<HashMap<usize, Vec<u8>>, IoError> {
+    let mut out = HashMap::new();
+    for cv in &prep.compressed {
+        let err = |reason: String| IoError::CompressedView {
+            path: path.to_path_buf(),
+            view: cv.view,
+            extension: cv.extension.into(),
+            reason,
+        };
+        let Some(&(view_len, _)) = views.get(cv.view) else {
+            return Err(err("buffer view does not exist".into()));
+        };
+        if cv.stride.checked_mul(cv.count) != Some(view_len) {
+            return Err(err(format!(
+                "byteStride {} × count {} does not equal the buffer view's byteLength {view_len}",
+                cv.stride, cv.count
+            )));
+        }
+        if prep.fallback.get(cv.buffer).copied().unwrap_or(false) {
+            return Err(err(format!("compressed data in buffer {}, which is a fallback buffer", cv.buffer)));
+        }
+        let buf = buffers.get(cv.buffer).ok_or_else(|| err(format!("buffer {} does not exist", cv.buffer)))?;
+        let src = cv
+            .offset
+            .checked_add(cv.length)
+            .filter(|&end| end <= buf.len())
+            .map(|end| &buf[cv.offset..end])
+            .ok_or_else(|| {
+                err(format!(
+                    "compressed range {}..+{} exceeds buffer {} of {} bytes",
+                    cv.offset,
+                    cv.length,
+                    cv.buffer,
+                    buf.len()
+                ))
+            })?;
+        let what = |m: &str, e: meshopt::MeshoptError| err(format!("{m}: {e}"));
+        let data = match cv.mode {
+            Mode::Attributes => {
+                let mut d =
+                    meshopt::decode_vertex_buffer(cv.count, cv.stride, src).map_err(|e| what("ATTRIBUTES", e))?;
+                meshopt::apply_filter(cv.filter, cv.stride, &mut d).map_err(|e| what("filter", e))?;
+                d
+            }
+            Mode::Triangles | Mode::Indices => {
+                let indices = if cv.mode == Mode::Triangles {
+                    meshopt::decode_index_buffer(cv.count, src).map_err(|e| what("TRIANGLES", e))?
+                } else {
+                    meshopt::decode_index_sequence(cv.count, src).map_err(|e| what("INDICES", e))?
+                };
+                match cv.stride {
+                    2 => {
+                        let mut d = Vec::with_capacity(indices.len() * 2);
+                        for (k, &i) in indices.iter().enumerate() {
+                            let i = u16::try_from(i)
+                                .map_err(|_| err(format!("index {i} at position {k} does not fit byteStride 2")))?;
+                            d.extend_from_slice(&i.to_le_bytes());
+                        }
+                        d
+                    }
+                    4 => indices.iter().flat_map(|i| i.to_le_bytes()).collect(),
+                    s => return Err(err(format!("byteStride {s} for index data (expected 2 or 4)"))),
+                }
+            }
+        };
+        out.insert(cv.view, data);
+    }
+    Ok(out)
+}
