@@ -24,12 +24,15 @@
 //!
 //! Ties: hits at equal t are ordered by triangle index (a ray through a shared edge reports both
 //! triangles); rule 1 takes the last of the farthest, rule 3 the first of the nearest.
-//! Input tolerance: spheres with a non-finite centre or a radius that is not finite and > 0 own
-//! no segment and get no samples; `flip` and `mesh.normals` entries that are missing count as
+//! Input tolerance: spheres with a non-finite centre or a radius that is not finite and > 0
+//! (the fitter may emit radius-0 spheres) own no segment and get no samples (their directions
+//! are counted as [`RuleCounts::skipped`]); `flip` and `mesh.normals` entries that are missing count as
 //! "not flipped" and "no shading normal". Nothing here panics on input data.
 //!
 //! Cost: 92 rays per sphere (plus 92 reverse rays for rule 3), each O(log T + hits); every hit
-//! tested for segment membership costs O(S) (early exit on the first sphere that beats i).
+//! tested for segment membership walks a small bounding tree over the sphere centres (nodes
+//! farther than dᵢ · r_max are skipped; early exit on the first sphere that beats i), about
+//! O(log S) for well-spread sets, O(S) at worst.
 //! Parallel over spheres with rayon, ordered collect: identical output for any thread count.
 
 use glam::{DVec3, Vec3};
@@ -52,6 +55,8 @@ pub struct RuleCounts {
     pub rule3: u32,
     /// Rule 3 without such a hit (no sample).
     pub rule3_empty: u32,
+    /// Directions of spheres that own no segment (radius 0 or invalid): not cast, no sample.
+    pub skipped: u32,
 }
 
 impl RuleCounts {
@@ -60,11 +65,12 @@ impl RuleCounts {
         self.rule2_empty += o.rule2_empty;
         self.rule3 += o.rule3;
         self.rule3_empty += o.rule3_empty;
+        self.skipped += o.skipped;
     }
 
     /// Directions accounted for (92 per sphere).
     pub fn total(&self) -> u32 {
-        self.rule1 + self.rule2_empty + self.rule3 + self.rule3_empty
+        self.rule1 + self.rule2_empty + self.rule3 + self.rule3_empty + self.skipped
     }
 }
 
@@ -145,30 +151,24 @@ struct Ctx<'a> {
     flip: &'a [bool],
     /// Valid spheres as (centre, radius, index); invalid ones are left out.
     spheres: Vec<(DVec3, f64, usize)>,
+    tree: SphereTree,
     raw: &'a [[f32; 4]],
     has_normals: bool,
 }
 
 impl<'a> Ctx<'a> {
     fn new(mesh: &'a Mesh, flip: &'a [bool], spheres: &'a [[f32; 4]]) -> Self {
-        let valid = spheres.iter().enumerate().filter_map(|(j, s)| valid_sphere(s).map(|(c, r)| (c, r, j))).collect();
-        Ctx { mesh, flip, spheres: valid, raw: spheres, has_normals: mesh.normals.len() == mesh.positions.len() }
+        let mut valid: Vec<(DVec3, f64, usize)> =
+            spheres.iter().enumerate().filter_map(|(j, s)| valid_sphere(s).map(|(c, r)| (c, r, j))).collect();
+        let tree = SphereTree::build(&mut valid);
+        Ctx { mesh, flip, spheres: valid, tree, raw: spheres, has_normals: mesh.normals.len() == mesh.positions.len() }
     }
 
     /// True when `p` lies in sphere `i`'s segment: no sphere j has a smaller scaled distance
     /// (j < i: not larger).
     fn in_segment(&self, p: DVec3, i: usize, ci: DVec3, ri: f64) -> bool {
         let di = (p - ci).length() / ri;
-        for &(c, r, j) in &self.spheres {
-            if j == i {
-                continue;
-            }
-            let dj = (p - c).length() / r;
-            if dj < di || (dj == di && j < i) {
-                return false;
-            }
-        }
-        true
+        !self.tree.any_beats(&self.spheres, p, i, di)
     }
 
     fn corners(&self, t: u32) -> Option<[DVec3; 3]> {
@@ -206,7 +206,7 @@ impl<'a> Ctx<'a> {
         let mut counts = RuleCounts::default();
         let mut out = Vec::new();
         let Some((ci, ri)) = valid_sphere(&self.raw[i]) else {
-            counts.rule3_empty = GEODESIC_DIRECTION_COUNT as u32;
+            counts.skipped = GEODESIC_DIRECTION_COUNT as u32;
             return (out, counts);
         };
         let origin = Vec3::new(self.raw[i][0], self.raw[i][1], self.raw[i][2]);
@@ -268,5 +268,144 @@ impl<'a> Ctx<'a> {
             }
         }
         (out, counts)
+    }
+}
+
+/// Bounding tree over the sphere centres for the segment test: each node knows the box of its
+/// centres and its largest radius, so a whole node is skipped when even its largest sphere at
+/// the box's nearest point would be farther (scaled) than sphere i: dist(p, box) / r_max > dᵢ.
+/// The answer (does any sphere beat i) does not depend on the tree's shape.
+struct SphereTree {
+    nodes: Vec<SphereNode>,
+}
+
+#[derive(Clone, Copy)]
+struct SphereNode {
+    min: DVec3,
+    max: DVec3,
+    r_max: f64,
+    /// Leaf: range `start..end` of the reordered sphere list; inner: children at `start`, `end`.
+    start: u32,
+    end: u32,
+    leaf: bool,
+}
+
+const SPHERE_LEAF: usize = 8;
+
+impl SphereTree {
+    /// Reorders `spheres` (median splits along the longest axis of the centre box) and builds
+    /// the nodes; node 0 is the root.
+    fn build(spheres: &mut [(DVec3, f64, usize)]) -> SphereTree {
+        let mut tree = SphereTree { nodes: Vec::new() };
+        if !spheres.is_empty() {
+            tree.build_node(spheres, 0);
+        }
+        tree
+    }
+
+    fn build_node(&mut self, s: &mut [(DVec3, f64, usize)], offset: usize) -> u32 {
+        let (mut min, mut max, mut r_max) = (DVec3::INFINITY, DVec3::NEG_INFINITY, 0.0f64);
+        for (c, r, _) in s.iter() {
+            min = min.min(*c);
+            max = max.max(*c);
+            r_max = r_max.max(*r);
+        }
+        let id = self.nodes.len() as u32;
+        self.nodes.push(SphereNode {
+            min,
+            max,
+            r_max,
+            start: offset as u32,
+            end: (offset + s.len()) as u32,
+            leaf: true,
+        });
+        if s.len() > SPHERE_LEAF {
+            let ext = max - min;
+            let axis = if ext.x >= ext.y && ext.x >= ext.z {
+                0
+            } else if ext.y >= ext.z {
+                1
+            } else {
+                2
+            };
+            // Total order (coordinate, then index) keeps the build deterministic.
+            s.sort_unstable_by(|a, b| a.0[axis].total_cmp(&b.0[axis]).then(a.2.cmp(&b.2)));
+            let mid = s.len() / 2;
+            let (l, r) = s.split_at_mut(mid);
+            let left = self.build_node(l, offset);
+            let right = self.build_node(r, offset + mid);
+            let n = &mut self.nodes[id as usize];
+            n.leaf = false;
+            n.start = left;
+            n.end = right;
+        }
+        id
+    }
+
+    /// Whether a sphere j ≠ i has d_j < dᵢ, or d_j = dᵢ with j < i, at `p`.
+    fn any_beats(&self, spheres: &[(DVec3, f64, usize)], p: DVec3, i: usize, di: f64) -> bool {
+        if self.nodes.is_empty() {
+            return false;
+        }
+        let mut stack = [0u32; 64];
+        let mut top = 1;
+        while top > 0 {
+            top -= 1;
+            let n = self.nodes[stack[top] as usize];
+            let gap = (p - p.clamp(n.min, n.max)).length();
+            // A relative margin keeps rounding from pruning an exact tie.
+            if gap > di * n.r_max * (1.0 + 1e-9) {
+                continue;
+            }
+            if n.leaf {
+                for &(c, r, j) in &spheres[n.start as usize..n.end as usize] {
+                    if j == i {
+                        continue;
+                    }
+                    let dj = (p - c).length() / r;
+                    if dj < di || (dj == di && j < i) {
+                        return true;
+                    }
+                }
+            } else if top + 2 <= stack.len() {
+                stack[top] = n.start;
+                stack[top + 1] = n.end;
+                top += 2;
+            }
+        }
+        false
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The tree's "does any sphere beat i" equals the brute-force argmin, including exact ties.
+    #[test]
+    fn sphere_tree_matches_brute_force() {
+        let mut state = 0x9E37_79B9_7F4A_7C15u64;
+        let mut next = || {
+            state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            ((state >> 11) as f64 / (1u64 << 53) as f64) as f32
+        };
+        for &n in &[1usize, 5, 9, 40, 300] {
+            let mut spheres: Vec<[f32; 4]> =
+                (0..n).map(|_| [next() * 4.0 - 2.0, next() * 4.0 - 2.0, next() * 4.0 - 2.0, 0.05 + next()]).collect();
+            if n > 2 {
+                spheres[n - 1] = spheres[0]; // an exact duplicate: ties go to the lower index
+            }
+            let mesh = Mesh::default();
+            let ctx = Ctx::new(&mesh, &[], &spheres);
+            for _ in 0..2000 {
+                let p = Vec3::new(next() * 6.0 - 3.0, next() * 6.0 - 3.0, next() * 6.0 - 3.0).as_dvec3();
+                let owner = segment_of(p.as_vec3(), &spheres).expect("valid spheres");
+                let p32 = p.as_vec3().as_dvec3();
+                for (i, s) in spheres.iter().enumerate() {
+                    let (c, r) = valid_sphere(s).expect("valid");
+                    assert_eq!(ctx.in_segment(p32, i, c, r), i == owner, "n {n} sphere {i}");
+                }
+            }
+        }
     }
 }

@@ -65,7 +65,9 @@ fn worked_example_rule_counts_and_samples() {
     let (samples, _, _) = run(&mesh, &spheres);
     let find = |i: usize, k: u8| samples.of(i).iter().find(|s| s.direction == k).copied();
     let close = |a: [f32; 3], b: [f64; 3]| (v(a) - DVec3::from_array(b)).length() < 1e-6;
-    let cases: [(usize, u8, u8, [f64; 3], [f64; 3]); 5] = [
+    // (sphere, direction, rule, position, normal)
+    type Case = (usize, u8, u8, [f64; 3], [f64; 3]);
+    let cases: [Case; 5] = [
         (0, 0, 1, [-0.3562305899, 1.0, -0.05], [0.0, 1.0, 0.0]),
         (0, 9, 1, [1.0, 0.1, 0.444427191], [1.0, 0.0, 0.0]),
         (1, 10, 1, [-1.0, 0.1, 0.8583592135], [-1.0, 0.0, 0.0]),
@@ -135,8 +137,8 @@ fn capsule_two_spheres_rules_1_and_2() {
         (p, (p - e) / r)
     };
     let mut seen = [0u32; 2];
-    for i in 0..2 {
-        let c = DVec3::new(spheres[i][0] as f64, 0.0, 0.0);
+    for (i, sphere) in spheres.iter().enumerate() {
+        let c = DVec3::new(sphere[0] as f64, 0.0, 0.0);
         for (k, w) in directions().into_iter().enumerate() {
             let (p, n) = exit(c, w);
             let s = samples.of(i).iter().find(|s| s.direction as usize == k);
@@ -174,4 +176,20 @@ fn centre_outside_thin_shell_uses_rule_3() {
         assert!(t[2] > 10 && t[3] > 10, "rule 3 with and without a sample: {tables:?}");
         assert!(t[0] > 0, "{tables:?}");
     }
+}
+
+/// Radius-0 and non-finite spheres own no segment: they get no samples, are counted as skipped,
+/// and the valid sphere gets what it gets alone.
+#[test]
+fn degenerate_spheres_are_skipped() {
+    let mesh = box_mesh(Vec3::splat(-1.0), Vec3::splat(1.0));
+    let alone = [[0.2, 0.1, -0.05, 1.0]];
+    let with = [[0.5, 0.5, 0.5, 0.0], [0.2, 0.1, -0.05, 1.0], [f32::NAN, 0.0, 0.0, 1.0]];
+    let (a, _, _) = run(&mesh, &alone);
+    let (b, st, _) = run(&mesh, &with);
+    assert_eq!(b.per_sphere.len(), 3);
+    assert!(b.of(0).is_empty() && b.of(2).is_empty());
+    assert_eq!(b.of(1), a.of(0));
+    assert_eq!((st.per_sphere[0].skipped, st.per_sphere[2].skipped, st.per_sphere[1].skipped), (92, 92, 0));
+    assert_eq!(st.per_sphere[1].rule1, 92);
 }
