@@ -320,3 +320,48 @@ fn config_file_sets_per_asset_settings_and_flags_override() {
     assert_eq!(o.status.code(), Some(2), "a typo in the config is a usage error");
     assert!(stderr(&o).contains("spherebake.toml"), "{}", stderr(&o));
 }
+
+#[test]
+fn eval_matches_the_analytic_outside_volume_of_a_sphere_around_a_cube() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    std::fs::write(
+        d.join("cube.obj"),
+        "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nv 0 0 1\nv 1 0 1\nv 0 1 1\nv 1 1 1\n\
+         f 1 3 4\nf 1 4 2\nf 5 6 8\nf 5 8 7\nf 1 2 6\nf 1 6 5\nf 3 7 8\nf 3 8 4\nf 1 5 7\nf 1 7 3\nf 2 4 8\nf 2 8 6\n",
+    )
+    .unwrap();
+    let r = 0.9f32; // > √3/2: the cube is inside, so V(S ∩ T) = 1.
+    let file = spherebake_format::SphbFile {
+        spheres: vec![spherebake_format::Sphere { center: [0.5, 0.5, 0.5], radius: r }],
+        ..Default::default()
+    };
+    std::fs::write(d.join("one.sphb"), spherebake_format::write(&file)).unwrap();
+    let o = run(&["eval", "one.sphb", "cube.obj", "--json", "--surface-samples", "20000"], d);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    let expected = 4.0 / 3.0 * std::f64::consts::PI * (r as f64).powi(3) - 1.0;
+    let e = v["outside_ratio_e"].as_f64().unwrap();
+    assert!((e - expected).abs() < 1e-9 * expected, "E {e} vs analytic {expected}");
+    assert_eq!(v["surface_coverage"].as_f64(), Some(1.0));
+    assert_eq!(v["sphere_count"], 1);
+
+    // A sphere that misses a corner region leaves surface points uncovered.
+    let file = spherebake_format::SphbFile {
+        spheres: vec![spherebake_format::Sphere { center: [0.5, 0.5, 0.5], radius: 0.6 }],
+        ..Default::default()
+    };
+    std::fs::write(d.join("small.sphb"), spherebake_format::write(&file)).unwrap();
+    let o = run(&["eval", "small.sphb", "cube.obj", "--json", "--surface-samples", "20000"], d);
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    let cov = v["surface_coverage"].as_f64().unwrap();
+    assert!(cov < 0.9 && cov > 0.1, "coverage {cov}");
+    // Outside volume of the r = 0.6 ball: six caps of height r − 0.5 (math reference §6:
+    // 0.1068141502 at r = 0.6 exactly; here at the stored f32 radius).
+    let r = 0.6f32 as f64;
+    let h = r - 0.5;
+    let expected = 6.0 * std::f64::consts::PI * h * h * (3.0 * r - h) / 3.0;
+    assert!((expected - 0.1068141502).abs() < 1e-6);
+    let e = v["outside_ratio_e"].as_f64().unwrap();
+    assert!((e - expected).abs() < 1e-9 * expected, "E {e} vs {expected}");
+}
