@@ -1,6 +1,7 @@
 //! Usage: `cargo run --release -p spherebake-fit --example fit_bench -- MODEL.obj [counts] [methods] [runs]`
 //! e.g. `... -- bunny.obj 16,32,64,128,256 variational,kmeans,octree 3`.
 //! Prints E (exact), the union outside ratio, and wall time (median of `runs`) per stage.
+//! Environment overrides: SB_POINTS, SB_VOXEL, SB_ITERS, SB_POLISH, SB_SEED.
 
 use glam::Vec3;
 use spherebake_fit::{fit, FitSettings, Method};
@@ -51,7 +52,23 @@ fn main() {
             other => panic!("unknown method {other}"),
         };
         for &k in &counts {
-            let settings = FitSettings { method, spheres: k, ..Default::default() };
+            let env = |name: &str| std::env::var(name).ok().and_then(|v| v.parse::<usize>().ok());
+            let mut settings = FitSettings { method, spheres: k, ..Default::default() };
+            if let Some(v) = env("SB_POINTS") {
+                settings.point_resolution = v as u32;
+            }
+            if let Some(v) = env("SB_VOXEL") {
+                settings.voxel_resolution = v as u32;
+            }
+            if let Some(v) = env("SB_ITERS") {
+                settings.max_iterations = v;
+            }
+            if let Some(v) = env("SB_POLISH") {
+                settings.polish_rounds = v;
+            }
+            if let Some(v) = env("SB_SEED") {
+                settings.seed = v as u64;
+            }
             let mut times = Vec::new();
             let mut last = None;
             for _ in 0..runs {

@@ -250,10 +250,18 @@ fn pocket_vertices(s: &[Sphere32], input: &BoundInput, rep: &mut BoundReport) ->
                         if p <= 0.0 || p > pmax {
                             continue;
                         }
-                        if s.iter().any(|x| contains(x, v)) {
-                            continue;
+                        // Only genuine power-diagram vertices can be pocket maxima: no sphere
+                        // may have lower power at v than the four defining ones (with a
+                        // rounding allowance), and none may contain v.
+                        let tol = 1e-9 * (p + r[i] * r[i]);
+                        let genuine = s
+                            .iter()
+                            .zip(&c)
+                            .zip(&r)
+                            .all(|((x, cx), rx)| !contains(x, v) && v.distance_squared(*cx) - rx * rx >= p - tol);
+                        if genuine {
+                            found.push((v, p));
                         }
-                        found.push((v, p));
                     }
                 }
             }

@@ -8,7 +8,7 @@ use rayon::prelude::*;
 use std::collections::BinaryHeap;
 
 /// Cap on surface samples and on interior candidates used by the start.
-const MAX_SAMPLES: usize = 3000;
+const MAX_SAMPLES: usize = 8000;
 
 struct Grid {
     origin: DVec3,

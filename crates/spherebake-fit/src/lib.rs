@@ -1,6 +1,18 @@
 //! spherebake-fit: bounding sphere sets with minimal outside volume (Ren et al. 2006 §6.2,
 //! after Wang et al. 2006), plus two baselines, an exactness pass, and an evaluator.
 //!
+//! **Variational method as implemented** (`Method::Variational`): (1) start: a greedy set cover
+//! of surface samples by dilated inner balls, the dilation bisected so ≤ k balls suffice
+//! ([`cover`]-module; seeded tie order); (2) Lloyd iterations on a sparse point set (one surface
+//! sample per lattice cell + interior lattice corners): power assignment (each point to the
+//! containing sphere it lies deepest in — monotone, unlike the paper's flood fill, which
+//! measured worse here and is kept only as the fallback when the cover start is empty), then a
+//! per-cluster Powell update of the centre minimising the proxy outside volume with the radius
+//! bounding the cluster; (3) teleportation (split the worst cluster at its farthest pair,
+//! delete the cluster of maximal relative overlap, accept only if E drops) when progress
+//! stalls; (4) polish rounds of the same assignment + update on the dense set (every vertex
+//! and triangle centroid); (5) the exactness pass.
+//!
 //! Quality is E = Σ_i V(S_i − T) / V(T) (Ren eq. 35 normalised by the object volume), computed
 //! exactly with [`spherebake_geom::volume`]. The optimiser works on a voxel proxy of T (see
 //! [`solid`]); the final result is then made *exactly* bounding in its stored f32 form by
@@ -70,6 +82,9 @@ pub struct FitSettings {
     pub teleport_attempts: usize,
     /// Powell direction-set sweeps per centre update (default 2, range 1..=20).
     pub powell_sweeps: usize,
+    /// Final rounds of assignment + centre update on the dense point set (every vertex and
+    /// triangle centroid), variational only (default 6, range 0..=100).
+    pub polish_rounds: usize,
 }
 
 impl Default for FitSettings {
@@ -84,6 +99,7 @@ impl Default for FitSettings {
             max_iterations: 24,
             teleport_attempts: 6,
             powell_sweeps: 2,
+            polish_rounds: 6,
         }
     }
 }
@@ -365,7 +381,21 @@ fn run_once(
     timings: &mut Vec<(&'static str, f64)>,
 ) -> Run {
     let t = Instant::now();
-    let ctx = lloyd::Ctx { solid: &prep.solid, pts, powell_sweeps: settings.powell_sweeps };
+    let mut all: Vec<points::Rep> = Vec::with_capacity(prep.pos.len() + prep.tris.len() + pts.points.len());
+    let mut used = vec![false; prep.pos.len()];
+    for t in &prep.tris {
+        for &v in t {
+            if !used[v as usize] {
+                used[v as usize] = true;
+                all.push(points::Rep::point(prep.pos[v as usize]));
+            }
+        }
+        let c = (prep.pos[t[0] as usize] + prep.pos[t[1] as usize] + prep.pos[t[2] as usize]) / 3.0;
+        all.push(points::Rep::point(c));
+    }
+    all.extend(pts.points[pts.surface_count..].iter().map(|p| points::Rep::point(*p)));
+    let ctx = lloyd::Ctx { solid: &prep.solid, pts, all: &pts.reps, powell_sweeps: settings.powell_sweeps };
+    let dense = lloyd::Ctx { all: &all, ..ctx };
     let mut history = Vec::new();
     let (raw, iterations, teleports): (Vec<(DVec3, f64)>, usize, (usize, usize)) = match settings.method {
         Method::Variational => {
@@ -373,7 +403,7 @@ fn run_once(
             history = out.history.iter().map(|h| (h.e_before, h.e_trial, h.accepted)).collect();
             let sp: Vec<(DVec3, f64)> = out.state.centres.iter().zip(&out.state.radii).map(|(c, r)| (*c, *r)).collect();
             let t1 = Instant::now();
-            let sp = lloyd::polish(&ctx, &sp, &prep.pos, 6);
+            let sp = lloyd::polish(&dense, &sp, settings.polish_rounds);
             timings.push(("polish", t1.elapsed().as_secs_f64()));
             (sp, out.iterations, (out.teleports_accepted, out.teleports_tried))
         }
@@ -386,7 +416,7 @@ fn run_once(
     let proxy_e = raw.iter().map(|(c, r)| lloyd::outside(&prep.solid, *c, *r)).sum::<f64>() / prep.solid.volume();
     timings.push(("optimise", t.elapsed().as_secs_f64()));
     let t = Instant::now();
-    let delta = 1.01 * 3f64.sqrt() * (pts.h + prep.solid.h);
+    let delta = 1.01 * 3f64.sqrt() * (pts.h * points::INTERIOR_SPACING + prep.solid.h);
     let inside = |v: DVec3| winding_inside(prep, v);
     let input = bound::BoundInput {
         positions: &prep.pos,
@@ -427,6 +457,7 @@ pub fn fit(
     check_range("point_resolution", settings.point_resolution, 8, 256, "8..=256")?;
     check_range("max_iterations", settings.max_iterations, 1, 1000, "1..=1000")?;
     check_range("powell_sweeps", settings.powell_sweeps, 1, 20, "1..=20")?;
+    check_range("polish_rounds", settings.polish_rounds, 0, 100, "0..=100")?;
     if let Some(t) = settings.max_outside_ratio {
         if !(t.is_finite() && t > 0.0) {
             return Err(FitError::InvalidSetting {

@@ -3,7 +3,7 @@
 //! voxel proxy of [`crate::solid::Solid::ball_volume`]; the exact energy is computed once on
 //! the final, exactly bounding result.
 
-use crate::points::PointSet;
+use crate::points::{PointSet, Rep};
 use crate::powell::powell;
 use crate::rng::SplitMix64;
 use crate::solid::Solid;
@@ -13,9 +13,13 @@ use std::cmp::Ordering;
 use std::collections::BinaryHeap;
 use std::f64::consts::PI;
 
+#[derive(Clone, Copy)]
 pub struct Ctx<'a> {
     pub solid: &'a Solid,
     pub pts: &'a PointSet,
+    /// The dense point set the spheres must bound: every mesh vertex, every triangle
+    /// centroid, and the clustering points. Assignment and centre updates work on it.
+    pub all: &'a [Rep],
     pub powell_sweeps: usize,
 }
 
@@ -199,18 +203,20 @@ pub fn cluster(ctx: &Ctx, centres: &[DVec3], init_radii: Option<&[f64]>) -> (Vec
     (assign, radii)
 }
 
+const POWER_RULE_RELATIVE: bool = false;
+
 /// Power assignment: each point joins the containing sphere in which it lies deepest
 /// (least power d² − r²), or else the sphere whose volume grows least to reach it. With the
 /// spheres of the previous update every point is contained, so no cluster's bounding radius at
 /// its old centre grows and the following centre update cannot increase E.
-pub fn power_assign(pts: &[DVec3], centres: &[DVec3], radii: &[f64]) -> Vec<u32> {
+pub fn power_assign(pts: &[Rep], centres: &[DVec3], radii: &[f64]) -> Vec<u32> {
     pts.par_iter()
         .map(|p| {
             let mut best_in = (f64::INFINITY, u32::MAX);
             let mut best_out = (f64::INFINITY, u32::MAX);
             for (i, (c, r)) in centres.iter().zip(radii).enumerate() {
-                let d2 = p.distance_squared(*c);
-                let pw = d2 - r * r;
+                let d2 = p.far(*c).powi(2);
+                let pw = if POWER_RULE_RELATIVE { d2 / (r * r).max(1e-300) - 1.0 } else { d2 - r * r };
                 if pw <= 0.0 {
                     if pw < best_in.0 {
                         best_in = (pw, i as u32);
@@ -242,12 +248,40 @@ pub fn members(assign: &[u32], k: usize) -> Vec<Vec<u32>> {
     m
 }
 
-fn max_dist(pts: &[DVec3], mem: &[u32], c: DVec3) -> f64 {
+/// Members sorted by decreasing distance from a reference centre c0, for [`FarQuery`].
+struct FarQuery {
+    c0: DVec3,
+    /// (far distance from c0, rep), decreasing.
+    sorted: Vec<(f64, Rep)>,
+}
+
+impl FarQuery {
+    fn new(pts: &[Rep], mem: &[u32], c0: DVec3) -> Self {
+        let mut sorted: Vec<(f64, Rep)> = mem.iter().map(|&i| (pts[i as usize].far(c0), pts[i as usize])).collect();
+        sorted.sort_by(|a, b| b.0.total_cmp(&a.0));
+        Self { c0, sorted }
+    }
+    /// max |p − c| over the members, exact: |p − c| ≤ |p − c0| + |c − c0| prunes the scan.
+    fn max_dist(&self, c: DVec3) -> f64 {
+        let shift = c.distance(self.c0);
+        let mut best2 = 0.0f64;
+        for &(d0, p) in &self.sorted {
+            let ub = d0 + shift;
+            if ub * ub <= best2 {
+                break;
+            }
+            best2 = best2.max(p.far(c).powi(2));
+        }
+        best2.sqrt()
+    }
+}
+
+fn max_dist(pts: &[Rep], mem: &[u32], c: DVec3) -> f64 {
     let mut m = 0.0f64;
     for &i in mem {
-        m = m.max(pts[i as usize].distance_squared(c));
+        m = m.max(pts[i as usize].far(c));
     }
-    m.sqrt()
+    m
 }
 
 /// Moves each centre (Powell) to minimise the proxy outside volume of the smallest sphere at
@@ -255,7 +289,7 @@ fn max_dist(pts: &[DVec3], mem: &[u32], c: DVec3) -> f64 {
 pub fn update(ctx: &Ctx, centres: &[DVec3], assign: &[u32]) -> State {
     let k = centres.len();
     let mem = members(assign, k);
-    let pts = &ctx.pts.points;
+    let pts = ctx.all;
     let res: Vec<(DVec3, f64, f64)> = (0..k)
         .into_par_iter()
         .map(|ci| {
@@ -263,11 +297,12 @@ pub fn update(ctx: &Ctx, centres: &[DVec3], assign: &[u32]) -> State {
             if m.is_empty() {
                 return (centres[ci], 0.0, 0.0);
             }
+            let fq = FarQuery::new(pts, m, centres[ci]);
             let mut f = |x: [f64; 3]| {
                 let c = DVec3::from_array(x);
-                outside(ctx.solid, c, max_dist(pts, m, c))
+                outside(ctx.solid, c, fq.max_dist(c))
             };
-            let r0 = max_dist(pts, m, centres[ci]);
+            let r0 = fq.max_dist(centres[ci]);
             let step = 0.25 * r0 + ctx.pts.h;
             let res = powell(&mut f, centres[ci].to_array(), step, ctx.powell_sweeps, 1e-3);
             let c = DVec3::from_array(res.x);
@@ -301,7 +336,7 @@ pub fn teleport(ctx: &Ctx, st: &State) -> Option<(Vec<DVec3>, Vec<f64>)> {
     if k < 2 {
         return None;
     }
-    let pts = &ctx.pts.points;
+    let pts = ctx.all;
     let mem = members(&st.assign, k);
     let worst = (0..k)
         .filter(|&i| mem[i].len() >= 2)
@@ -317,13 +352,13 @@ pub fn teleport(ctx: &Ctx, st: &State) -> Option<(Vec<DVec3>, Vec<f64>)> {
     let del = (0..k).filter(|&j| j != worst).max_by(|&a, &b| overlap(a).total_cmp(&overlap(b)).then(b.cmp(&a)))?;
     let m = &mem[worst];
     let far = |from: DVec3| -> DVec3 {
-        let mut best = pts[m[0] as usize];
+        let mut best = pts[m[0] as usize].p;
         let mut bd = -1.0;
         for &i in m {
-            let d = pts[i as usize].distance_squared(from);
+            let d = pts[i as usize].p.distance_squared(from);
             if d > bd {
                 bd = d;
-                best = pts[i as usize];
+                best = pts[i as usize].p;
             }
         }
         best
@@ -376,6 +411,7 @@ pub fn run(ctx: &Ctx, k: usize, seed: u64, max_iterations: usize, teleports: usi
             radii0.push(0.0);
         }
     }
+    let from_cover = !start.is_empty();
     let debug = std::env::var_os("SPHEREBAKE_DEBUG").is_some();
     if debug {
         eprintln!(
@@ -390,8 +426,8 @@ pub fn run(ctx: &Ctx, k: usize, seed: u64, max_iterations: usize, teleports: usi
     let step = |centres: &[DVec3], radii: Option<&[f64]>| -> State {
         let t0 = std::time::Instant::now();
         let assign = match radii {
-            Some(r) => power_assign(pts, centres, r),
-            None => cluster(ctx, centres, None).0,
+            Some(r) => power_assign(ctx.all, centres, r),
+            None => power_assign(ctx.all, centres, &cluster(ctx, centres, None).1),
         };
         let t1 = t0.elapsed().as_secs_f64();
         let st = update(ctx, centres, &assign);
@@ -405,7 +441,7 @@ pub fn run(ctx: &Ctx, k: usize, seed: u64, max_iterations: usize, teleports: usi
         }
         st
     };
-    let mut st = step(&centres, Some(&radii0));
+    let mut st = if from_cover { step(&centres, Some(&radii0)) } else { step(&centres, None) };
     let mut iterations = 1;
     let mut tried = 0;
     let mut accepted = 0;
@@ -458,13 +494,13 @@ pub fn run(ctx: &Ctx, k: usize, seed: u64, max_iterations: usize, teleports: usi
 /// Final polish on the full point set (every mesh vertex plus the clustering points):
 /// `rounds` of power assignment + Powell centre update, so the sphere set bounds the real
 /// vertices and the exactness pass only has to cover triangle interiors.
-pub fn polish(ctx: &Ctx, spheres: &[(DVec3, f64)], vertices: &[DVec3], rounds: usize) -> Vec<(DVec3, f64)> {
-    let all: Vec<DVec3> = vertices.iter().chain(ctx.pts.points.iter()).copied().collect();
+pub fn polish(ctx: &Ctx, spheres: &[(DVec3, f64)], rounds: usize) -> Vec<(DVec3, f64)> {
+    let all = ctx.all;
     let mut cur = spheres.to_vec();
     for _ in 0..rounds {
         let centres: Vec<DVec3> = cur.iter().map(|x| x.0).collect();
         let radii: Vec<f64> = cur.iter().map(|x| x.1).collect();
-        let assign = power_assign(&all, &centres, &radii);
+        let assign = power_assign(all, &centres, &radii);
         let mem = members(&assign, cur.len());
         cur = (0..cur.len())
             .into_par_iter()
@@ -473,17 +509,22 @@ pub fn polish(ctx: &Ctx, spheres: &[(DVec3, f64)], vertices: &[DVec3], rounds: u
                 if m.is_empty() {
                     return (cur[ci].0, 0.0);
                 }
+                let c0 = cur[ci].0;
+                let fq = FarQuery::new(all, m, c0);
                 let mut f = |x: [f64; 3]| {
                     let c = DVec3::from_array(x);
-                    outside(ctx.solid, c, max_dist(&all, m, c))
+                    outside(ctx.solid, c, fq.max_dist(c))
                 };
-                let c0 = cur[ci].0;
-                let r0 = max_dist(&all, m, c0);
+                let r0 = fq.max_dist(c0);
                 let res = powell(&mut f, c0.to_array(), 0.1 * r0 + ctx.solid.h, ctx.powell_sweeps, 1e-4);
                 let c = DVec3::from_array(res.x);
-                (c, max_dist(&all, m, c))
+                (c, max_dist(all, m, c))
             })
             .collect();
+        if std::env::var_os("SPHEREBAKE_DEBUG").is_some() {
+            let e: f64 = cur.iter().map(|(c, r)| outside(ctx.solid, *c, *r)).sum::<f64>() / ctx.solid.volume();
+            eprintln!("  polish E_proxy {e:.4}");
+        }
     }
     cur
 }

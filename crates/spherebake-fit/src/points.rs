@@ -9,8 +9,44 @@ use glam::DVec3;
 /// Surface sample thinning cell, in lattice spacings.
 const SURFACE_SPACING: f64 = 1.0;
 
+/// Interior lattice spacing, in lattice spacings.
+pub const INTERIOR_SPACING: f64 = 1.0;
+
+/// A point, or a flat patch of surface samples bounded conservatively: every represented
+/// sample q = p + u + w n with |u| ≤ `s` (u ⊥ n) and |w| ≤ `t`. `n` is a unit normal or zero
+/// (then `s` bounds |q − p| and `t` = 0).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Rep {
+    pub p: DVec3,
+    pub n: DVec3,
+    pub s: f64,
+    pub t: f64,
+}
+
+impl Rep {
+    pub fn point(p: DVec3) -> Self {
+        Self { p, n: DVec3::ZERO, s: 0.0, t: 0.0 }
+    }
+
+    /// Upper bound (exact for the disc/slab) of the distance from `c` to any represented
+    /// sample; 1-Lipschitz in `c`.
+    #[inline]
+    pub fn far(&self, c: DVec3) -> f64 {
+        let a = self.p - c;
+        if self.s == 0.0 && self.t == 0.0 {
+            return a.length();
+        }
+        let an = a.dot(self.n);
+        let perp = (a.length_squared() - an * an).max(0.0).sqrt();
+        ((an.abs() + self.t).powi(2) + (perp + self.s).powi(2)).sqrt()
+    }
+}
+
 pub struct PointSet {
+    /// Representative positions (patch centres, interior lattice points).
     pub points: Vec<DVec3>,
+    /// Conservative representatives, parallel to `points`.
+    pub reps: Vec<Rep>,
     /// `points[..surface_count]` are surface samples, the rest interior lattice points.
     pub surface_count: usize,
     /// CSR neighbour lists.
@@ -52,10 +88,12 @@ pub fn lattice_points(solid: &Solid, lo: DVec3, hi: DVec3, h: f64) -> Vec<DVec3>
 pub fn build(positions: &[DVec3], triangles: &[[u32; 3]], solid: &Solid, lo: DVec3, hi: DVec3, h: f64) -> PointSet {
     let fine = h * SURFACE_SPACING;
     let mut samples: Vec<DVec3> = Vec::with_capacity(triangles.len() * 2);
+    let mut normals: Vec<DVec3> = Vec::with_capacity(triangles.len() * 2);
     for t in triangles {
         let a = positions[t[0] as usize];
         let b = positions[t[1] as usize];
         let c = positions[t[2] as usize];
+        let first = samples.len();
         let l = (b - a).length().max((c - b).length()).max((a - c).length());
         let m = (l / fine).ceil().clamp(1.0, 256.0) as usize;
         if m <= 1 {
@@ -71,21 +109,51 @@ pub fn build(positions: &[DVec3], triangles: &[[u32; 3]], solid: &Solid, lo: DVe
             }
             samples.push((a + b + c) / 3.0);
         }
+        let nrm = (b - a).cross(c - a);
+        normals.resize(samples.len(), nrm);
+        debug_assert!(normals.len() - first == samples.len() - first);
     }
-    // Thin: one sample per fine cell (the first in input order).
+    // One conservative patch representative per fine cell (cells in key order).
     let mut keyed: Vec<((i64, i64, i64), u32)> =
         samples.iter().enumerate().map(|(i, p)| (key(*p, lo, fine), i as u32)).collect();
     keyed.sort_unstable();
-    keyed.dedup_by(|a, b| a.0 == b.0);
-    let mut idx: Vec<u32> = keyed.iter().map(|x| x.1).collect();
-    idx.sort_unstable();
-    let mut points: Vec<DVec3> = idx.iter().map(|&i| samples[i as usize]).collect();
+    let mut reps: Vec<Rep> = Vec::new();
+    let mut s0 = 0;
+    while s0 < keyed.len() {
+        let mut e = s0;
+        while e < keyed.len() && keyed[e].0 == keyed[s0].0 {
+            e += 1;
+        }
+        let group = &keyed[s0..e];
+        let m = group.len() as f64;
+        let centre = group.iter().map(|x| samples[x.1 as usize]).sum::<DVec3>() / m;
+        let nsum: DVec3 = group.iter().map(|x| normals[x.1 as usize].normalize_or_zero()).sum();
+        let n = if nsum.length() > 0.5 * m { nsum.normalize() } else { DVec3::ZERO };
+        let mut sr = 0.0f64;
+        let mut tr = 0.0f64;
+        for x in group {
+            let d = samples[x.1 as usize] - centre;
+            let w = d.dot(n);
+            tr = tr.max(w.abs());
+            sr = sr.max((d.length_squared() - w * w).max(0.0).sqrt());
+        }
+        // Conservative patches (Rep { p: centre, n, s, t }) over-inflate spheres by about a
+        // sample cell; a plain sample point per cell measured better (the dense polish and the
+        // exactness pass restore full coverage), so the patch bound is kept for reference only.
+        let _patch = Rep { p: centre, n, s: sr, t: tr };
+        reps.push(Rep::point(samples[group[0].1 as usize]));
+        s0 = e;
+    }
+    let mut points: Vec<DVec3> = reps.iter().map(|r| r.p).collect();
     let surface_count = points.len();
-    points.extend(lattice_points(solid, lo, hi, h));
+    let interior = lattice_points(solid, lo, hi, h * INTERIOR_SPACING);
+    reps.extend(interior.iter().map(|p| Rep::point(*p)));
+    points.extend(interior);
     // Bins centred on lattice points.
-    let bin_origin = lo - DVec3::splat(0.5 * h);
+    let hb = h * INTERIOR_SPACING;
+    let bin_origin = lo - DVec3::splat(0.5 * hb);
     let mut binned: Vec<((i64, i64, i64), u32)> =
-        points.iter().enumerate().map(|(i, p)| (key(*p, bin_origin, h), i as u32)).collect();
+        points.iter().enumerate().map(|(i, p)| (key(*p, bin_origin, hb), i as u32)).collect();
     binned.sort_unstable();
     let find = |k: (i64, i64, i64)| -> &[((i64, i64, i64), u32)] {
         let s = binned.partition_point(|x| x.0 < k);
@@ -96,7 +164,7 @@ pub fn build(positions: &[DVec3], triangles: &[[u32; 3]], solid: &Solid, lo: DVe
     let mut adj = Vec::new();
     adj_offsets.push(0u32);
     for (i, p) in points.iter().enumerate() {
-        let k = key(*p, bin_origin, h);
+        let k = key(*p, bin_origin, hb);
         for d in [(0, 0, 0), (1, 0, 0), (-1, 0, 0), (0, 1, 0), (0, -1, 0), (0, 0, 1), (0, 0, -1)] {
             for x in find((k.0 + d.0, k.1 + d.1, k.2 + d.2)) {
                 if x.1 as usize != i {
@@ -106,5 +174,5 @@ pub fn build(positions: &[DVec3], triangles: &[[u32; 3]], solid: &Solid, lo: DVe
         }
         adj_offsets.push(adj.len() as u32);
     }
-    PointSet { points, surface_count, adj_offsets, adj, h }
+    PointSet { points, reps, surface_count, adj_offsets, adj, h }
 }
