@@ -34,6 +34,25 @@
 //!
 //! Spheres are independent and run in parallel (rayon, ordered collect): the coefficients are
 //! bit-identical for any thread count.
+//!
+//! **Cost.** Per sphere every triangle is set up once (back faces of other segments only for
+//! coverage, until every texel has a back-facing hit); memory ≈ 6N² × 90 bytes per thread.
+//!
+//! **Measured** (`examples/albedo_measure.rs`, 64 spheres from `spherebake_fit::fit`, order 4,
+//! release build): CesiumMan 0.09 s on 1 thread, 0.18–0.19 s with `RAYON_NUM_THREADS=2` on a
+//! loaded 2-core machine; spot 0.09 s / 0.14–0.18 s. RMS coefficient error against 512² faces
+//! (reference RMS 0.564 for CesiumMan, 0.311 for spot):
+//!
+//! | face size | 8 | 16 | 32 | 64 | 128 |
+//! |---|---|---|---|---|---|
+//! | CesiumMan | 0.0197 | 0.0065 | 0.0024 | 0.00093 | 0.00034 |
+//! | spot | 0.0145 | 0.0051 | 0.0020 | 0.00069 | 0.00026 |
+//!
+//! (about ×2.7 per doubling, between 1/N and 1/N²: segment boundaries and silhouettes are
+//! discontinuities, the smooth part falls like 1/N², §4). [`TextureLod::Base`] gives the same
+//! errors to 2 digits on these models: at order 4 the SH integral averages texture aliasing
+//! away; the footprint level matters for the cube maps themselves (debug images, a far textured
+//! surface shows its mean instead of aliased texels — see the tests).
 
 use crate::raster::{CubeGrid, Fragment};
 use glam::DVec3;

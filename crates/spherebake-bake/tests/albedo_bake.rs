@@ -239,13 +239,13 @@ fn six_coloured_faces_match_brute_force_projection() {
                 .fold(0.0, f64::max);
             errs.push(err);
         }
-        // The cube map is a texel-centre quadrature of a piecewise-constant function: texels cut
-        // by a colour edge carry an error up to Ω·|Δf|·max|y|, which shrinks like 1/n in total
-        // (edge texels ∝ n, Ω ∝ 1/n²). At n = 64 this bound-by-count is about 0.02 for the
-        // tilted case; the centred case has edges on texel boundaries and only the §4 smooth
-        // error (≈1e-3 at n = 32).
+        // The cube map is a texel-centre quadrature of a piecewise-constant function: a texel cut
+        // by a colour edge errs by up to Ω·|Δf|·max|y|; the number of cut texels grows like n
+        // and Ω falls like 1/n², so the error falls like 1/n (measured: 0.025 at n = 16, 0.0079
+        // at n = 64 for the tilted centre). With the centre at the cube's centre the colour edges
+        // lie on texel boundaries and only the smooth §4 error remains (measured 8.5e-4, 7e-5).
         assert!(errs[1] < 0.01, "centre {centre}: max coefficient error at n 64 = {}", errs[1]);
-        assert!(errs[1] < errs[0], "centre {centre}: error does not fall with n: {errs:?}");
+        assert!(errs[1] < 0.5 * errs[0], "centre {centre}: error does not fall like 1/n: {errs:?}");
     }
 }
 
