@@ -31,6 +31,7 @@
 pub mod baselines;
 pub mod bound;
 mod cover;
+pub mod hierarchy;
 mod lloyd;
 mod points;
 pub mod powell;

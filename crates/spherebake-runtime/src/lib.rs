@@ -42,6 +42,32 @@
 //! # Ok::<(), spherebake_runtime::Error>(())
 //! ```
 //!
+//! # Animation and cut queries
+//!
+//! [`HierarchyPlan`] (built once, [`Proxy::hierarchy_plan`]) drives [`refit`], which recomputes
+//! the hierarchy's node spheres from posed leaves without allocating, and [`cut`], which lists
+//! the nodes and leaves subtending less than θmax (radians) over a receiver ball (Ren 2006 eq. 36).
+//!
+//! ```
+//! # use spherebake_runtime::{Hierarchy, HierarchyNode, Sphere, HierarchyPlan, CutEntry};
+//! let leaves = [
+//!     Sphere { center: [-0.5, 0.0, 0.0], radius: 0.5 },
+//!     Sphere { center: [0.7, 0.2, 0.0], radius: 0.4 },
+//! ];
+//! let h = Hierarchy {
+//!     root: 0,
+//!     nodes: vec![HierarchyNode { center: [0.0; 3], radius: 1.5, children: vec![], leaf_children: vec![0, 1] }],
+//! };
+//! let plan = HierarchyPlan::new(&h)?;
+//! let mut nodes = spherebake_runtime::rest_node_spheres(&h);
+//! spherebake_runtime::refit(&plan, &leaves, &mut nodes)?; // after posing the leaves
+//! let mut cut = Vec::new();
+//! let theta_max_rad = spherebake_runtime::DEFAULT_THETA_MAX_RAD;
+//! spherebake_runtime::cut(&plan, &nodes, [0.0, 0.0, 2.0], 0.3, theta_max_rad, &mut cut)?;
+//! assert_eq!(cut.len(), 2); // the parent is too close: both leaves
+//! # Ok::<(), spherebake_runtime::QueryError>(())
+//! ```
+//!
 //! Errors name a stable rule ID of the specification (`formats/spherebake-v1.md`), the section,
 //! the byte offset and the expected and actual values; see [`ValidationError`].
 //!
@@ -58,7 +84,13 @@
 
 extern crate alloc;
 
+pub mod cut;
+pub mod refit;
+
 use alloc::vec::Vec;
+
+pub use cut::{cut, cut_accepts, cut_threshold, CutEntry, DEFAULT_THETA_MAX_RAD};
+pub use refit::{refit, rest_node_spheres, HierarchyPlan, QueryError};
 
 pub use spherebake_format::{
     AlbedoSh, BoneRecord, ColourSpace, Detail, Hierarchy, HierarchyNode, Metadata, Rule, SamplePoint, Samples,
@@ -135,6 +167,13 @@ impl Proxy {
     #[must_use]
     pub fn hierarchy(&self) -> Option<&Hierarchy> {
         self.file.hierarchy.as_ref()
+    }
+
+    /// The refit / cut plan of the hierarchy ([`HierarchyPlan::new`]), `None` without one.
+    /// Build it once after loading; it allocates.
+    #[must_use]
+    pub fn hierarchy_plan(&self) -> Option<HierarchyPlan> {
+        HierarchyPlan::new(self.file.hierarchy.as_ref()?).ok()
     }
 
     /// The samples section, if present.

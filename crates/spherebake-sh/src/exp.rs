@@ -73,6 +73,9 @@ fn check_args(tp: &TripleProduct, f: &[f64], out: &[f64]) -> Result<usize, ShErr
 /// Errors: `f` or `out` shorter than order².
 pub fn sh_exp_accurate(tp: &TripleProduct, f: &[f64], out: &mut [f64]) -> Result<(), ShError> {
     let nc = check_args(tp, f, out)?;
+    if nc == 0 {
+        return Ok(());
+    }
     let mut x = [0.0; MAX_COEFFS];
     let (scale, norm) = dc_isolate(f, nc, &mut x);
     let rho = norm * tp.order() as f64 / SQRT_4PI;
@@ -133,6 +136,9 @@ fn square_p(tp: &TripleProduct, r: &mut [f64; MAX_COEFFS], p: i32) -> Result<(),
 /// Errors: `f` or `out` shorter than order².
 pub fn sh_exp_ps_star(tp: &TripleProduct, f: &[f64], degree: usize, out: &mut [f64]) -> Result<(), ShError> {
     let nc = check_args(tp, f, out)?;
+    if nc == 0 {
+        return Ok(());
+    }
     let degree = degree.clamp(1, 20);
     let mut x = [0.0; MAX_COEFFS];
     let (scale, norm) = dc_isolate(f, nc, &mut x);
@@ -399,5 +405,11 @@ mod tests {
         assert!(sh_exp_accurate(&tp, &f, &mut out).is_ok());
         f[3] = f64::NAN;
         assert!(sh_exp_ol(4, &f, &mut out).is_ok());
+        // Order 0: nothing to write.
+        let tp0 = TripleProduct::new(0).unwrap();
+        assert!(sh_exp_accurate(&tp0, &[], &mut []).is_ok());
+        assert!(sh_exp_ps_star(&tp0, &[], 4, &mut []).is_ok());
+        assert!(sh_exp_hyb(&tp0, &[], 0.25, &mut []).is_ok());
+        assert!(sh_exp_ol(0, &[], &mut []).is_ok());
     }
 }

@@ -1,0 +1,600 @@
+//! Sphere hierarchy over a sphere set (Ren et al. 2006 §6.3, "Construction and Animation").
+//!
+//! The fitted spheres are the leaves. Levels are built bottom-up: Lloyd clustering of the
+//! level's spheres by centre distance (k-means++ start from `seed`), each cluster's parent the
+//! *exact* minimal ball enclosing its child spheres (where the paper runs Powell on the centre),
+//! the cluster count per level chosen so that the average branching ratio is
+//! [`HierarchySettings::branching`]; the last level is a single root.
+//!
+//! **Storage.** Parents are stored in f32 and still contain their children when those stored
+//! values are evaluated exactly: the centre is rounded to the f32 neighbour (of the 8) that needs
+//! the smallest radius, and the radius is rounded up. Children are the stored (f32) values of the
+//! level below, so containment holds level by level.
+//!
+//! **Node order.** Nodes are listed level by level from the leaves up; the root is the last node,
+//! and every child node has a smaller index than its parent (so a forward pass is a bottom-up
+//! refit). A node holds either child nodes (`children`) or leaves (`leaf_children`), never both.
+//!
+//! Determinism: randomness from [`SplitMix64`] seeded by (seed, level); parallel work collects in
+//! order, so the result does not depend on the rayon thread count.
+
+use crate::rng::SplitMix64;
+use glam::DVec3;
+use rayon::prelude::*;
+use spherebake_format::{Hierarchy, HierarchyNode};
+use spherebake_geom::sphere::min_enclosing_ball_of_balls;
+
+/// Hierarchy build settings.
+#[derive(Clone, Debug, PartialEq)]
+pub struct HierarchySettings {
+    /// Target average branching ratio: children per parent, averaged over all parents
+    /// (default 4, range 2..=16; Ren 2006 uses 4).
+    pub branching: f64,
+    /// Seed of the k-means++ starts (default 1).
+    pub seed: u64,
+}
+
+impl Default for HierarchySettings {
+    fn default() -> Self {
+        Self { branching: 4.0, seed: 1 }
+    }
+}
+
+/// Why a hierarchy could not be built.
+#[derive(Debug, thiserror::Error, PartialEq)]
+#[non_exhaustive]
+pub enum HierarchyError {
+    /// No leaf spheres.
+    #[error("no leaf spheres to build a hierarchy over")]
+    NoLeaves,
+    /// A leaf has a non-finite centre or radius, or a negative radius.
+    #[error("leaf sphere {index} is invalid: centre and radius must be finite, radius ≥ 0 (got {value:?})")]
+    InvalidLeaf {
+        /// Index into the leaves.
+        index: usize,
+        /// The offending (x, y, z, radius).
+        value: [f32; 4],
+    },
+    /// `branching` is outside 2..=16 (or not finite).
+    #[error("branching = {value} is out of range (expected 2..=16)")]
+    InvalidBranching {
+        /// The given value.
+        value: f64,
+    },
+    /// More leaves than u32 indices can address.
+    #[error("{count} leaves is more than the format's u32 indices can address")]
+    TooManyLeaves {
+        /// Leaf count.
+        count: usize,
+    },
+}
+
+/// Measured shape and quality of a hierarchy.
+#[derive(Clone, Debug, PartialEq)]
+pub struct HierarchyStats {
+    /// Number of node levels: 1 + the largest depth of a node below the root (leaves not counted).
+    pub levels: usize,
+    /// Average number of children (nodes + leaves) per node.
+    pub mean_branching: f64,
+    /// Mean over nodes of radius / radius of the minimal ball enclosing its children
+    /// ([`brute_force_min_ball_of_balls`]); 1 is perfectly tight.
+    pub tightness_mean: f64,
+    /// Maximum of that ratio.
+    pub tightness_max: f64,
+}
+
+/// A ball in f64, model units.
+type Ball = (DVec3, f64);
+
+fn leaf_ball(s: &[f32; 4]) -> Ball {
+    (DVec3::new(f64::from(s[0]), f64::from(s[1]), f64::from(s[2])), f64::from(s[3]))
+}
+
+fn node_ball(n: &HierarchyNode) -> Ball {
+    (DVec3::new(f64::from(n.center[0]), f64::from(n.center[1]), f64::from(n.center[2])), f64::from(n.radius))
+}
+
+/// Builds the hierarchy over `leaves` (x, y, z, radius; model space).
+///
+/// Every leaf is the `leaf_children` entry of exactly one node; see the module docs for the node
+/// order and the f32 containment guarantee.
+///
+/// # Errors
+///
+/// [`HierarchyError`] for empty input, an invalid leaf or an out-of-range setting.
+pub fn build_hierarchy(leaves: &[[f32; 4]], settings: &HierarchySettings) -> Result<Hierarchy, HierarchyError> {
+    let b = settings.branching;
+    if !b.is_finite() || !(2.0..=16.0).contains(&b) {
+        return Err(HierarchyError::InvalidBranching { value: b });
+    }
+    if leaves.is_empty() {
+        return Err(HierarchyError::NoLeaves);
+    }
+    if u32::try_from(leaves.len()).is_err() {
+        return Err(HierarchyError::TooManyLeaves { count: leaves.len() });
+    }
+    for (index, s) in leaves.iter().enumerate() {
+        if !s.iter().all(|v| v.is_finite()) || s[3] < 0.0 {
+            return Err(HierarchyError::InvalidLeaf { index, value: *s });
+        }
+    }
+    let plan = plan_levels(leaves.len(), b);
+    let mut nodes: Vec<HierarchyNode> = Vec::new();
+    // Current level: balls (stored f32 values as f64) and their ids (leaf or node index).
+    let mut level: Vec<Ball> = leaves.iter().map(leaf_ball).collect();
+    let mut level_is_leaf = true;
+    let mut level_first_id = 0u32;
+    for (depth, &k) in plan.iter().enumerate() {
+        let seed = settings.seed ^ (depth as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15);
+        let assignment = lloyd(&level, k, seed);
+        let mut members: Vec<Vec<u32>> = vec![Vec::new(); k];
+        for (i, &c) in assignment.iter().enumerate() {
+            members[c as usize].push(i as u32);
+        }
+        let parents: Vec<HierarchyNode> = members
+            .par_iter()
+            .map(|m| {
+                let balls: Vec<Ball> = m.iter().map(|&i| level[i as usize]).collect();
+                let (center, radius) = store_enclosing(&balls);
+                let ids: Vec<u32> = m.iter().map(|&i| level_first_id + i).collect();
+                let (children, leaf_children) = if level_is_leaf { (Vec::new(), ids) } else { (ids, Vec::new()) };
+                HierarchyNode { center, radius, children, leaf_children }
+            })
+            .collect();
+        level_first_id = nodes.len() as u32;
+        level = parents.iter().map(node_ball).collect();
+        level_is_leaf = false;
+        nodes.extend(parents);
+    }
+    let root = nodes.len().saturating_sub(1) as u32;
+    Ok(Hierarchy { root, nodes })
+}
+
+/// Node counts per level, bottom-up, ending with 1 (the root): repeated division by `b`
+/// (rounded), or cut short by sending a level straight to the root, whichever gives the mean
+/// branching closest to `b` (root fan-out at most 3b). One leaf → `[1]`.
+fn plan_levels(leaf_count: usize, b: f64) -> Vec<usize> {
+    let mut seq = Vec::new();
+    let mut n = leaf_count;
+    while n > 1 {
+        let k = ((n as f64 / b).round() as usize).clamp(1, n - 1);
+        seq.push(k);
+        n = k;
+    }
+    if seq.is_empty() {
+        return vec![1];
+    }
+    // Candidates: seq[..j] followed by the root, for every j whose level may feed the root.
+    let mut best: Option<(f64, Vec<usize>)> = None;
+    for j in 0..seq.len() {
+        let fan_in = if j == 0 { leaf_count } else { seq[j - 1] };
+        if j + 1 < seq.len() && fan_in as f64 > 3.0 * b {
+            continue;
+        }
+        let mut cand: Vec<usize> = seq[..j].to_vec();
+        cand.push(1);
+        let internal: usize = cand.iter().sum();
+        let mean = (leaf_count + internal - 1) as f64 / internal as f64;
+        let err = (mean - b).abs();
+        if best.as_ref().is_none_or(|(e, _)| err < *e - 1e-12) {
+            best = Some((err, cand));
+        }
+    }
+    best.map_or(seq, |(_, c)| c)
+}
+
+/// Lloyd clustering of `balls` into exactly `k` non-empty clusters by centre distance
+/// (Ren 2006 §6.3): assign each ball to the nearest cluster centre, then move each centre to its
+/// cluster's minimal enclosing ball centre; k-means++ start. Returns the assignment with the
+/// smallest total enclosing radius seen.
+fn lloyd(balls: &[Ball], k: usize, seed: u64) -> Vec<u32> {
+    let n = balls.len();
+    if k <= 1 || n <= 1 {
+        return vec![0; n];
+    }
+    let k = k.min(n);
+    let mut rng = SplitMix64::new(seed);
+    // k-means++ seeding on the centres.
+    let mut centres = vec![balls[rng.below(n as u64) as usize].0];
+    let mut d2: Vec<f64> = balls.iter().map(|b| b.0.distance_squared(centres[0])).collect();
+    while centres.len() < k {
+        let total: f64 = d2.iter().sum();
+        let pick = if total > 0.0 {
+            let mut t = rng.next_f64() * total;
+            let mut pick = (0..n).rev().find(|&i| d2[i] > 0.0).unwrap_or(n - 1);
+            for (i, &w) in d2.iter().enumerate() {
+                if t < w {
+                    pick = i;
+                    break;
+                }
+                t -= w;
+            }
+            pick
+        } else {
+            rng.below(n as u64) as usize
+        };
+        let c = balls[pick].0;
+        centres.push(c);
+        for (d, b) in d2.iter_mut().zip(balls) {
+            *d = d.min(b.0.distance_squared(c));
+        }
+    }
+    let mut best: Option<(f64, Vec<u32>)> = None;
+    let mut previous: Vec<u32> = Vec::new();
+    for _ in 0..40 {
+        let mut assign: Vec<u32> = balls
+            .par_iter()
+            .map(|b| {
+                let mut bi = 0u32;
+                let mut bd = f64::INFINITY;
+                for (j, c) in centres.iter().enumerate() {
+                    let d = b.0.distance_squared(*c);
+                    if d < bd {
+                        bd = d;
+                        bi = j as u32;
+                    }
+                }
+                bi
+            })
+            .collect();
+        fill_empty_clusters(balls, &centres, &mut assign, k);
+        let mut members: Vec<Vec<Ball>> = vec![Vec::new(); k];
+        for (i, &c) in assign.iter().enumerate() {
+            members[c as usize].push(balls[i]);
+        }
+        let enclosing: Vec<Ball> = members.par_iter().map(|m| min_enclosing_ball_of_balls(m)).collect();
+        let cost: f64 = enclosing.iter().map(|e| e.1).sum();
+        if best.as_ref().is_none_or(|(c, _)| cost < *c) {
+            best = Some((cost, assign.clone()));
+        }
+        if assign == previous {
+            break;
+        }
+        centres = enclosing.iter().map(|e| e.0).collect();
+        previous = assign;
+    }
+    best.map_or_else(|| vec![0; n], |(_, a)| a)
+}
+
+/// Gives every empty cluster one ball: the one sticking out farthest (centre distance + radius)
+/// from its own cluster centre among clusters with at least two members (lowest index on ties).
+fn fill_empty_clusters(balls: &[Ball], centres: &[DVec3], assign: &mut [u32], k: usize) {
+    let mut counts = vec![0usize; k];
+    for &a in assign.iter() {
+        counts[a as usize] += 1;
+    }
+    for j in 0..k {
+        if counts[j] > 0 {
+            continue;
+        }
+        let mut pick: Option<(f64, usize)> = None;
+        for (i, b) in balls.iter().enumerate() {
+            let a = assign[i] as usize;
+            if counts[a] < 2 {
+                continue;
+            }
+            let s = b.0.distance(centres[a]) + b.1;
+            if pick.is_none_or(|(ps, _)| s > ps) {
+                pick = Some((s, i));
+            }
+        }
+        let Some((_, i)) = pick else { return };
+        counts[assign[i] as usize] -= 1;
+        assign[i] = j as u32;
+        counts[j] = 1;
+    }
+}
+
+/// The f32 sphere to store for a parent of `balls` (f64 copies of stored f32 values): the exact
+/// minimal enclosing ball, centre rounded to the best of its 8 f32 neighbours, radius rounded up
+/// so that |c − cᵢ| + rᵢ ≤ r holds for the stored values (checked in f64 with a 4-ulp margin).
+fn store_enclosing(balls: &[Ball]) -> ([f32; 3], f32) {
+    let (c, _) = min_enclosing_ball_of_balls(balls);
+    let lo = [round_down(c.x), round_down(c.y), round_down(c.z)];
+    let hi = [round_up(c.x), round_up(c.y), round_up(c.z)];
+    let mut best: Option<([f32; 3], f64)> = None;
+    for corner in 0..8u32 {
+        let cc = [
+            if corner & 1 == 0 { lo[0] } else { hi[0] },
+            if corner & 2 == 0 { lo[1] } else { hi[1] },
+            if corner & 4 == 0 { lo[2] } else { hi[2] },
+        ];
+        let c64 = DVec3::new(f64::from(cc[0]), f64::from(cc[1]), f64::from(cc[2]));
+        let need = balls.iter().map(|(bc, br)| bc.distance(c64) + br).fold(0.0, f64::max);
+        if best.is_none_or(|(_, bn)| need < bn) {
+            best = Some((cc, need));
+        }
+    }
+    let (center, need) = best.unwrap_or(([0.0; 3], 0.0));
+    // f64 distance error is a few ulps; cover it before rounding up to f32.
+    let need = need * (1.0 + 4.0 * f64::EPSILON);
+    let radius = round_up(need).max(f32::MIN_POSITIVE);
+    (center, radius)
+}
+
+/// Largest f32 ≤ x (x finite).
+fn round_down(x: f64) -> f32 {
+    let f = x as f32;
+    if f64::from(f) > x {
+        next_down(f)
+    } else {
+        f
+    }
+}
+
+/// Smallest f32 ≥ x (x finite).
+fn round_up(x: f64) -> f32 {
+    let f = x as f32;
+    if f64::from(f) < x {
+        next_up(f)
+    } else {
+        f
+    }
+}
+
+fn next_up(f: f32) -> f32 {
+    if f.is_nan() || f == f32::INFINITY {
+        return f;
+    }
+    if f == 0.0 {
+        return f32::from_bits(1);
+    }
+    let bits = f.to_bits();
+    f32::from_bits(if f > 0.0 { bits + 1 } else { bits - 1 })
+}
+
+fn next_down(f: f32) -> f32 {
+    -next_up(-f)
+}
+
+/// Measures `h` over `leaves`: levels, mean branching and parent tightness against
+/// [`brute_force_min_ball_of_balls`] of each node's children (stored f32 values).
+/// Out-of-range indices are skipped; a node without valid children counts as tightness 1.
+pub fn hierarchy_stats(h: &Hierarchy, leaves: &[[f32; 4]]) -> HierarchyStats {
+    let per_node: Vec<f64> = h
+        .nodes
+        .par_iter()
+        .map(|n| {
+            let mut balls: Vec<Ball> =
+                n.children.iter().filter_map(|&c| h.nodes.get(c as usize)).map(node_ball).collect();
+            balls.extend(n.leaf_children.iter().filter_map(|&l| leaves.get(l as usize)).map(leaf_ball));
+            if balls.is_empty() {
+                return 1.0;
+            }
+            let (_, r) = brute_force_min_ball_of_balls(&balls);
+            if r > 0.0 {
+                f64::from(n.radius) / r
+            } else {
+                1.0
+            }
+        })
+        .collect();
+    let count = per_node.len().max(1) as f64;
+    let edges: usize = h.nodes.iter().map(|n| n.children.len() + n.leaf_children.len()).sum();
+    HierarchyStats {
+        levels: depth_levels(h),
+        mean_branching: edges as f64 / count,
+        tightness_mean: per_node.iter().sum::<f64>() / count,
+        tightness_max: per_node.iter().copied().fold(0.0, f64::max),
+    }
+}
+
+/// 1 + the largest node depth below the root (iterative; a malformed graph stops at
+/// `nodes.len()` levels).
+fn depth_levels(h: &Hierarchy) -> usize {
+    if h.nodes.get(h.root as usize).is_none() {
+        return 0;
+    }
+    let mut frontier = vec![h.root];
+    let mut levels = 0;
+    while !frontier.is_empty() && levels < h.nodes.len() {
+        levels += 1;
+        frontier = frontier
+            .iter()
+            .filter_map(|&n| h.nodes.get(n as usize))
+            .flat_map(|n| n.children.iter().copied())
+            .filter(|&c| (c as usize) < h.nodes.len())
+            .collect();
+    }
+    levels
+}
+
+/// Reference minimal enclosing ball of balls by brute force: every subset of at most 4 balls,
+/// every ball internally tangent to all of them with its centre in their affine hull
+/// (|c − cⱼ| + rⱼ = R: a linear system in the affine coordinates plus one quadratic in R), the
+/// smallest one that contains every ball (to 1e-10 · scale). O(n⁵); meant for n ≲ 40.
+/// Empty input → (0, 0).
+pub fn brute_force_min_ball_of_balls(balls: &[(DVec3, f64)]) -> (DVec3, f64) {
+    let n = balls.len();
+    if n == 0 {
+        return (DVec3::ZERO, 0.0);
+    }
+    let scale = balls.iter().map(|(c, r)| c.abs().max_element() + r.abs()).fold(0.0, f64::max).max(1e-300);
+    let tol = 1e-10 * scale;
+    let mut best: Option<Ball> = None;
+    let mut consider = |cand: Ball| {
+        if !(cand.0.is_finite() && cand.1.is_finite()) {
+            return;
+        }
+        if best.is_some_and(|b| cand.1 >= b.1) {
+            return;
+        }
+        if balls.iter().all(|(c, r)| c.distance(cand.0) + r <= cand.1 + tol) {
+            best = Some(cand);
+        }
+    };
+    for a in 0..n {
+        consider(balls[a]);
+        for b in a + 1..n {
+            for cand in tangent_ball_candidates(balls, &[a, b]) {
+                consider(cand);
+            }
+            for c in b + 1..n {
+                for cand in tangent_ball_candidates(balls, &[a, b, c]) {
+                    consider(cand);
+                }
+                for d in c + 1..n {
+                    for cand in tangent_ball_candidates(balls, &[a, b, c, d]) {
+                        consider(cand);
+                    }
+                }
+            }
+        }
+    }
+    // Fallback (numerically hopeless input): a ball around the first centre.
+    best.unwrap_or_else(|| {
+        let c = balls[0].0;
+        (c, balls.iter().map(|(bc, r)| bc.distance(c) + r).fold(0.0, f64::max))
+    })
+}
+
+/// Balls internally tangent to all balls of `sub` (2..=4 indices) with the centre in the affine
+/// hull of their centres: up to two.
+fn tangent_ball_candidates(balls: &[Ball], sub: &[usize]) -> Vec<Ball> {
+    let (p0, r0) = balls[sub[0]];
+    let k = sub.len() - 1;
+    // Unknown x = c − p0 = Σ λ_l u_l. For j ≥ 1: |x − u_j|² = (R − r_j)², |x|² = (R − r0)²
+    // → u_j·x = (|u_j|² − r_j² + r0²)/2 + R (r_j − r0)  (linear in R).
+    let u: Vec<DVec3> = sub[1..].iter().map(|&j| balls[j].0 - p0).collect();
+    let mut gram = [[0.0f64; 3]; 3];
+    let mut rhs_a = [0.0f64; 3];
+    let mut rhs_b = [0.0f64; 3];
+    for j in 0..k {
+        let rj = balls[sub[j + 1]].1;
+        for l in 0..k {
+            gram[j][l] = u[j].dot(u[l]);
+        }
+        rhs_a[j] = (u[j].length_squared() - rj * rj + r0 * r0) / 2.0;
+        rhs_b[j] = rj - r0;
+    }
+    let Some((la, lb)) = solve_two_rhs(gram, rhs_a, rhs_b, k) else {
+        return Vec::new();
+    };
+    let mut xa = DVec3::ZERO;
+    let mut xb = DVec3::ZERO;
+    for l in 0..k {
+        xa += u[l] * la[l];
+        xb += u[l] * lb[l];
+    }
+    // |xa + R xb|² = (R − r0)² with R ≥ max rⱼ.
+    let qa = xb.length_squared() - 1.0;
+    let qb = 2.0 * (xa.dot(xb) + r0);
+    let qc = xa.length_squared() - r0 * r0;
+    let mut roots = Vec::with_capacity(2);
+    if qa.abs() < 1e-13 {
+        if qb != 0.0 {
+            roots.push(-qc / qb);
+        }
+    } else {
+        let disc = qb * qb - 4.0 * qa * qc;
+        if disc >= 0.0 {
+            let s = disc.sqrt();
+            roots.push((-qb + s) / (2.0 * qa));
+            roots.push((-qb - s) / (2.0 * qa));
+        }
+    }
+    let rmax = sub.iter().map(|&j| balls[j].1).fold(0.0, f64::max);
+    roots.into_iter().filter(|&r| r.is_finite() && r >= rmax * (1.0 - 1e-12)).map(|r| (p0 + xa + xb * r, r)).collect()
+}
+
+/// Solves G x = a and G y = b (k ≤ 3) by Gaussian elimination with partial pivoting; `None` when
+/// G is numerically singular (relative pivot below 1e-12).
+#[allow(clippy::needless_range_loop)]
+fn solve_two_rhs(mut g: [[f64; 3]; 3], mut a: [f64; 3], mut b: [f64; 3], k: usize) -> Option<([f64; 3], [f64; 3])> {
+    let scale = (0..k).map(|i| g[i][i].abs()).fold(0.0, f64::max);
+    if !(scale > 0.0 && scale.is_finite()) {
+        return None;
+    }
+    for col in 0..k {
+        let piv = (col..k).max_by(|&x, &y| g[x][col].abs().total_cmp(&g[y][col].abs()))?;
+        if g[piv][col].abs() <= 1e-12 * scale {
+            return None;
+        }
+        g.swap(col, piv);
+        a.swap(col, piv);
+        b.swap(col, piv);
+        for row in col + 1..k {
+            let f = g[row][col] / g[col][col];
+            for c in col..k {
+                g[row][c] -= f * g[col][c];
+            }
+            a[row] -= f * a[col];
+            b[row] -= f * b[col];
+        }
+    }
+    let mut x = [0.0; 3];
+    let mut y = [0.0; 3];
+    for row in (0..k).rev() {
+        let mut sa = a[row];
+        let mut sb = b[row];
+        for c in row + 1..k {
+            sa -= g[row][c] * x[c];
+            sb -= g[row][c] * y[c];
+        }
+        x[row] = sa / g[row][row];
+        y[row] = sb / g[row][row];
+    }
+    Some((x, y))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn check(leaf_count: usize, b: f64, expected: &[usize]) {
+        assert_eq!(plan_levels(leaf_count, b), expected, "{leaf_count} leaves, b = {b}");
+    }
+
+    #[test]
+    fn level_plans() {
+        // 256 leaves, b = 4: 64, 16, 4, 1 → 85 parents = 255 / 3 exactly (mean branching 4).
+        check(256, 4.0, &[64, 16, 4, 1]);
+        check(1, 4.0, &[1]);
+        check(2, 4.0, &[1]);
+        // 9 leaves: [2, 1] gives (9 + 2) / 3 = 3.67, [1] gives 9: the first is closer to 4.
+        check(9, 4.0, &[2, 1]);
+        check(64, 2.0, &[32, 16, 8, 4, 2, 1]);
+    }
+
+    #[test]
+    fn rounding_helpers() {
+        assert_eq!(round_up(1.0), 1.0);
+        assert!(f64::from(round_up(0.1)) >= 0.1 && f64::from(round_down(0.1)) <= 0.1);
+        assert_eq!(next_up(round_down(0.1)), round_up(0.1));
+        assert_eq!(next_up(-0.0), f32::from_bits(1));
+        assert_eq!(next_up(-1.0), -0.99999994);
+    }
+
+    #[test]
+    fn brute_force_matches_pair_bound_and_welzl_table() {
+        // Math reference §6: pair bound ((1,2,3),0.5) + ((2,0,3.5),1.2) → R = 1.995643924.
+        let (c, r) =
+            brute_force_min_ball_of_balls(&[(DVec3::new(1.0, 2.0, 3.0), 0.5), (DVec3::new(2.0, 0.0, 3.5), 1.2)]);
+        assert!((r - 1.995643924).abs() < 1e-8);
+        assert!((c - DVec3::new(1.652752523, 0.6944949537, 3.326376262)).length() < 1e-8);
+        // Points (radius 0): the regular tetrahedron row → √3 at the origin.
+        let pts = [(1.0, 1.0, 1.0), (1.0, -1.0, -1.0), (-1.0, 1.0, -1.0), (-1.0, -1.0, 1.0)];
+        let balls: Vec<Ball> = pts.iter().map(|&(x, y, z)| (DVec3::new(x, y, z), 0.0)).collect();
+        let (c, r) = brute_force_min_ball_of_balls(&balls);
+        assert!(c.length() < 1e-9 && (r - 3f64.sqrt()).abs() < 1e-9);
+        // The ten-point row.
+        let balls: Vec<Ball> = (0..10)
+            .map(|k| {
+                let k = k as f64;
+                (DVec3::new((1.3 * k + 0.2).sin(), (2.1 * k).cos(), (0.7 * k + 1.1).sin()), 0.0)
+            })
+            .collect();
+        let (c, r) = brute_force_min_ball_of_balls(&balls);
+        assert!((r - 1.419500959).abs() < 1e-9);
+        assert!((c - DVec3::new(0.1985562219, 0.2119352056, 0.04492116698)).length() < 1e-9);
+        // Balls: three equal balls (radius 0.5) with centres on a unit circle → R = 1.5.
+        let balls: Vec<Ball> = (0..3)
+            .map(|k| {
+                let a = k as f64 * 2.0 * std::f64::consts::PI / 3.0;
+                (DVec3::new(a.cos(), a.sin(), 2.0), 0.5)
+            })
+            .collect();
+        let (c, r) = brute_force_min_ball_of_balls(&balls);
+        assert!((r - 1.5).abs() < 1e-12 && (c - DVec3::new(0.0, 0.0, 2.0)).length() < 1e-12);
+    }
+}

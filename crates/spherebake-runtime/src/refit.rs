@@ -1,0 +1,396 @@
+//! Animation-time refit of the sphere hierarchy (Ren et al. 2006 §6.3): after the leaves (the
+//! sphere set) have been posed, every parent is recomputed bottom-up by merging its children one
+//! at a time with the sphere-pair bound (math reference §6).
+//!
+//! A [`HierarchyPlan`] is built once per hierarchy (it allocates and validates the tree);
+//! [`refit`] and [`crate::cut::cut`] then use it without further checks of the tree. [`refit`]
+//! does not allocate.
+//!
+//! Arithmetic is f64 inside (f32 in and out); every stored parent is rounded outwards (centre to
+//! nearest, radius up, plus the centre's rounding distance), so the f32 parents contain the f32
+//! children exactly when evaluated in exact arithmetic.
+
+use crate::{Hierarchy, Sphere};
+use alloc::vec;
+use alloc::vec::Vec;
+use core::fmt;
+
+/// Flag bit of a child reference in [`HierarchyPlan`]: set = leaf (sphere) index.
+const LEAF_BIT: u32 = 1 << 31;
+
+/// Why a hierarchy cannot be planned or a refit / cut call was given unusable slices.
+#[derive(Clone, Debug, PartialEq, Eq)]
+#[non_exhaustive]
+pub enum QueryError {
+    /// The hierarchy has no nodes.
+    Empty,
+    /// `root` is not below the node count.
+    RootOutOfRange {
+        /// The root index.
+        root: u32,
+        /// Number of nodes.
+        node_count: usize,
+    },
+    /// A node lists a child node index that is not below the node count.
+    ChildOutOfRange {
+        /// The listing node.
+        node: u32,
+        /// The bad child index.
+        child: u32,
+        /// Number of nodes.
+        node_count: usize,
+    },
+    /// A node or leaf index does not fit in 31 bits.
+    IndexTooLarge {
+        /// The listing node.
+        node: u32,
+        /// The index.
+        index: u32,
+    },
+    /// A node is reached twice from the root (the graph is not a tree).
+    NodeReachedTwice {
+        /// The node.
+        node: u32,
+    },
+    /// A node is not reachable from the root.
+    NodeUnreachable {
+        /// The node.
+        node: u32,
+    },
+    /// A node has neither child nodes nor leaves.
+    NodeEmpty {
+        /// The node.
+        node: u32,
+    },
+    /// A slice passed to a query has the wrong length.
+    SliceLength {
+        /// Which argument: `"posed_leaves"`, `"nodes_out"` or `"nodes"`.
+        argument: &'static str,
+        /// Required length (for leaves: at least this many).
+        expected: usize,
+        /// Given length.
+        actual: usize,
+    },
+}
+
+impl fmt::Display for QueryError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            QueryError::Empty => write!(f, "hierarchy has no nodes"),
+            QueryError::RootOutOfRange { root, node_count } => {
+                write!(f, "hierarchy root {root} is out of range (expected < {node_count})")
+            }
+            QueryError::ChildOutOfRange { node, child, node_count } => {
+                write!(f, "node {node} lists child {child}, but there are {node_count} nodes")
+            }
+            QueryError::IndexTooLarge { node, index } => {
+                write!(f, "node {node} lists index {index}, above the 31-bit limit")
+            }
+            QueryError::NodeReachedTwice { node } => write!(f, "node {node} is reached twice from the root"),
+            QueryError::NodeUnreachable { node } => write!(f, "node {node} is not reachable from the root"),
+            QueryError::NodeEmpty { node } => write!(f, "node {node} has no children and no leaves"),
+            QueryError::SliceLength { argument, expected, actual } => {
+                write!(f, "{argument} has length {actual}, expected {expected}")
+            }
+        }
+    }
+}
+
+impl core::error::Error for QueryError {}
+
+/// A validated, flattened copy of a hierarchy's tree: per node its children (nodes and leaves)
+/// in one array, and a bottom-up order (every child node before its parent).
+#[derive(Clone, Debug, PartialEq)]
+pub struct HierarchyPlan {
+    /// Per node: range `[start, end)` into `refs`.
+    ranges: Vec<(u32, u32)>,
+    /// Child references: node index, or `LEAF_BIT | leaf index`. Per node: child nodes in
+    /// listed order, then leaves in listed order (the merge order of [`refit`]).
+    refs: Vec<u32>,
+    /// Node indices, children before parents.
+    bottom_up: Vec<u32>,
+    root: u32,
+    /// 1 + the largest leaf index (0 without leaves).
+    leaf_bound: usize,
+}
+
+impl HierarchyPlan {
+    /// Validates `hierarchy` as a tree (root in range, every node reached exactly once, child
+    /// indices in range, no empty node) and flattens it.
+    ///
+    /// # Errors
+    ///
+    /// The first violation found, as a [`QueryError`].
+    pub fn new(hierarchy: &Hierarchy) -> Result<HierarchyPlan, QueryError> {
+        let nodes = &hierarchy.nodes;
+        let node_count = nodes.len();
+        if node_count == 0 {
+            return Err(QueryError::Empty);
+        }
+        if hierarchy.root as usize >= node_count || u32::try_from(node_count).is_err() {
+            return Err(QueryError::RootOutOfRange { root: hierarchy.root, node_count });
+        }
+        let mut ranges = vec![(0u32, 0u32); node_count];
+        let mut refs = Vec::new();
+        let mut leaf_bound = 0usize;
+        for (i, n) in nodes.iter().enumerate() {
+            let node = i as u32;
+            if n.children.is_empty() && n.leaf_children.is_empty() {
+                return Err(QueryError::NodeEmpty { node });
+            }
+            let start = refs.len();
+            for &c in &n.children {
+                if c as usize >= node_count {
+                    return Err(QueryError::ChildOutOfRange { node, child: c, node_count });
+                }
+                refs.push(c);
+            }
+            for &l in &n.leaf_children {
+                if l & LEAF_BIT != 0 {
+                    return Err(QueryError::IndexTooLarge { node, index: l });
+                }
+                leaf_bound = leaf_bound.max(l as usize + 1);
+                refs.push(LEAF_BIT | l);
+            }
+            let end = u32::try_from(refs.len()).map_err(|_| QueryError::IndexTooLarge { node, index: u32::MAX })?;
+            ranges[i] = (start as u32, end);
+        }
+        // Pre-order from the root; reversed it lists children before parents.
+        let mut seen = vec![false; node_count];
+        let mut pre = Vec::with_capacity(node_count);
+        let mut stack = vec![hierarchy.root];
+        while let Some(n) = stack.pop() {
+            let seen_n = &mut seen[n as usize];
+            if *seen_n {
+                return Err(QueryError::NodeReachedTwice { node: n });
+            }
+            *seen_n = true;
+            pre.push(n);
+            let (s, e) = ranges[n as usize];
+            stack.extend(refs[s as usize..e as usize].iter().rev().filter(|&&r| r & LEAF_BIT == 0));
+        }
+        if let Some(node) = seen.iter().position(|&s| !s) {
+            return Err(QueryError::NodeUnreachable { node: node as u32 });
+        }
+        pre.reverse();
+        Ok(HierarchyPlan { ranges, refs, bottom_up: pre, root: hierarchy.root, leaf_bound })
+    }
+
+    /// Number of nodes.
+    #[must_use]
+    pub fn node_count(&self) -> usize {
+        self.ranges.len()
+    }
+
+    /// The root node index.
+    #[must_use]
+    pub fn root(&self) -> u32 {
+        self.root
+    }
+
+    /// The fewest leaves a query needs: 1 + the largest leaf index.
+    #[must_use]
+    pub fn leaf_bound(&self) -> usize {
+        self.leaf_bound
+    }
+
+    /// Node indices with every child node before its parent.
+    #[must_use]
+    pub fn bottom_up_order(&self) -> &[u32] {
+        &self.bottom_up
+    }
+
+    /// Child references of `node` (empty when out of range).
+    pub(crate) fn refs_of(&self, node: u32) -> impl Iterator<Item = ChildRef> + '_ {
+        let (s, e) = self.ranges.get(node as usize).copied().unwrap_or((0, 0));
+        self.refs.get(s as usize..e as usize).unwrap_or(&[]).iter().map(|&r| {
+            if r & LEAF_BIT != 0 {
+                ChildRef::Leaf(r & !LEAF_BIT)
+            } else {
+                ChildRef::Node(r)
+            }
+        })
+    }
+}
+
+/// A decoded child reference.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum ChildRef {
+    Node(u32),
+    Leaf(u32),
+}
+
+/// The hierarchy's stored (rest-pose) node spheres, indexed like `hierarchy.nodes`: the starting
+/// point for [`crate::cut::cut`] without animation.
+#[must_use]
+pub fn rest_node_spheres(hierarchy: &Hierarchy) -> Vec<Sphere> {
+    hierarchy.nodes.iter().map(|n| Sphere { center: n.center, radius: n.radius }).collect()
+}
+
+/// Recomputes every node sphere of the planned hierarchy from `posed_leaves` (the sphere set
+/// after animation, model or world space — the output is in the same space), bottom-up: each
+/// node is its first child, then the sphere-pair bound with each further child in turn (child
+/// nodes in listed order, then leaves). Writes `nodes_out[i]` for node `i`.
+///
+/// Allocation-free; O(nodes + leaves).
+///
+/// # Errors
+///
+/// [`QueryError::SliceLength`] when `posed_leaves` is shorter than [`HierarchyPlan::leaf_bound`]
+/// or `nodes_out` is not [`HierarchyPlan::node_count`] long; nothing is written then.
+pub fn refit(plan: &HierarchyPlan, posed_leaves: &[Sphere], nodes_out: &mut [Sphere]) -> Result<(), QueryError> {
+    if posed_leaves.len() < plan.leaf_bound {
+        return Err(QueryError::SliceLength {
+            argument: "posed_leaves",
+            expected: plan.leaf_bound,
+            actual: posed_leaves.len(),
+        });
+    }
+    if nodes_out.len() != plan.node_count() {
+        return Err(QueryError::SliceLength {
+            argument: "nodes_out",
+            expected: plan.node_count(),
+            actual: nodes_out.len(),
+        });
+    }
+    for &node in &plan.bottom_up {
+        let mut acc: Option<Ball> = None;
+        for child in plan.refs_of(node) {
+            let s = match child {
+                ChildRef::Node(i) => nodes_out.get(i as usize),
+                ChildRef::Leaf(i) => posed_leaves.get(i as usize),
+            };
+            let Some(s) = s else { continue };
+            let b = Ball::from_sphere(s);
+            acc = Some(match acc {
+                None => b,
+                Some(a) => a.merge(b),
+            });
+        }
+        if let (Some(a), Some(out)) = (acc, nodes_out.get_mut(node as usize)) {
+            *out = a.to_sphere_outward();
+        }
+    }
+    Ok(())
+}
+
+/// A ball in f64.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) struct Ball {
+    pub(crate) c: [f64; 3],
+    pub(crate) r: f64,
+}
+
+impl Ball {
+    pub(crate) fn from_sphere(s: &Sphere) -> Ball {
+        Ball { c: [f64::from(s.center[0]), f64::from(s.center[1]), f64::from(s.center[2])], r: f64::from(s.radius) }
+    }
+
+    /// The sphere-pair bound (math reference §6): the smallest ball containing both.
+    pub(crate) fn merge(self, o: Ball) -> Ball {
+        let dv = [o.c[0] - self.c[0], o.c[1] - self.c[1], o.c[2] - self.c[2]];
+        let d2 = dv[0] * dv[0] + dv[1] * dv[1] + dv[2] * dv[2];
+        let dr = self.r - o.r;
+        if dr >= 0.0 && d2 <= dr * dr {
+            return self;
+        }
+        if dr <= 0.0 && d2 <= dr * dr {
+            return o;
+        }
+        let d = sqrt(d2);
+        if d.is_nan() || d <= 0.0 {
+            // NaN input: propagate rather than divide by zero.
+            return Ball { c: self.c, r: f64::NAN };
+        }
+        let r = 0.5 * (d + self.r + o.r);
+        let t = (r - self.r) / d;
+        Ball { c: [self.c[0] + dv[0] * t, self.c[1] + dv[1] * t, self.c[2] + dv[2] * t], r }
+    }
+
+    /// Rounds to f32 outwards: centre to nearest; radius + the centre's rounding distance
+    /// (bounded by its L1 norm) + a few f64 ulps, rounded up.
+    pub(crate) fn to_sphere_outward(self) -> Sphere {
+        let center = [self.c[0] as f32, self.c[1] as f32, self.c[2] as f32];
+        let shift: f64 = (0..3).map(|k| (f64::from(center[k]) - self.c[k]).abs()).sum();
+        let mag = self.c.iter().fold(0.0f64, |m, v| m.max(v.abs())) + self.r.abs();
+        let need = self.r + shift + 8.0 * f64::EPSILON * mag;
+        Sphere { center, radius: round_up_f32(need) }
+    }
+}
+
+/// Smallest f32 ≥ x (NaN stays NaN).
+pub(crate) fn round_up_f32(x: f64) -> f32 {
+    let f = x as f32;
+    if f64::from(f) >= x || f.is_nan() || f == f32::INFINITY {
+        return f;
+    }
+    if f == 0.0 {
+        return f32::from_bits(1);
+    }
+    let bits = f.to_bits();
+    f32::from_bits(if f > 0.0 { bits + 1 } else { bits - 1 })
+}
+
+/// √x for x ≥ 0 without a math library: reciprocal-square-root Newton iterations from a bit-level
+/// first guess, then one Newton step on √x; within 2 ulps. Negative → NaN, NaN → NaN.
+pub(crate) fn sqrt(x: f64) -> f64 {
+    if x.is_nan() || x < 0.0 {
+        return f64::NAN;
+    }
+    if x == 0.0 || x == f64::INFINITY {
+        return x;
+    }
+    // Bring subnormal and tiny inputs into range: √(x·2¹⁰⁰⁰) = √x · 2⁵⁰⁰.
+    if x < 1e-290 {
+        const UP: f64 = 1.0715086071862673e301; // 2^1000
+        const DOWN: f64 = 3.054936363499605e-151; // 2^-500
+        return sqrt(x * UP) * DOWN;
+    }
+    let mut y = f64::from_bits(0x5FE6_EB50_C7B5_37A9 - (x.to_bits() >> 1));
+    let hx = 0.5 * x;
+    for _ in 0..4 {
+        y *= 1.5 - hx * y * y;
+    }
+    let s = x * y;
+    s + 0.5 * y * (x - s * s)
+}
+
+#[cfg(test)]
+mod tests {
+    extern crate std;
+    use super::*;
+
+    #[test]
+    fn sqrt_matches_std() {
+        let mut x = 1e-320f64;
+        while x < 1e300 {
+            for m in [1.0, 1.37, 2.0, 3.999, 7.5] {
+                let v = x * m;
+                let e = std::primitive::f64::sqrt(v);
+                assert!((sqrt(v) - e).abs() <= 2.0 * f64::EPSILON * e, "{v}: {} vs {e}", sqrt(v));
+            }
+            x *= 3.7;
+        }
+        assert_eq!(sqrt(0.0), 0.0);
+        assert!(sqrt(-1.0).is_nan() && sqrt(f64::NAN).is_nan());
+        assert_eq!(sqrt(f64::INFINITY), f64::INFINITY);
+    }
+
+    fn check(a: Ball, b: Ball, c: [f64; 3], r: f64) {
+        let m = a.merge(b);
+        assert!((m.r - r).abs() < 1e-8, "{m:?}");
+        assert!((0..3).all(|k| (m.c[k] - c[k]).abs() < 1e-8), "{m:?}");
+    }
+
+    #[test]
+    fn pair_bound_checks_from_math_reference() {
+        check(Ball { c: [0.0; 3], r: 1.0 }, Ball { c: [3.0, 0.0, 0.0], r: 0.5 }, [1.25, 0.0, 0.0], 2.25);
+        check(Ball { c: [0.0; 3], r: 2.0 }, Ball { c: [0.5, 0.5, 0.0], r: 0.5 }, [0.0; 3], 2.0);
+        check(
+            Ball { c: [1.0, 2.0, 3.0], r: 0.5 },
+            Ball { c: [2.0, 0.0, 3.5], r: 1.2 },
+            [1.652752523, 0.6944949537, 3.326376262],
+            1.995643924,
+        );
+    }
+}
