@@ -1,0 +1,92 @@
+//! Posing: sphere centres from joint matrices (Ren et al. 2006 §6.2 "Animation"; the bake folds
+//! mean value coordinates and skin weights into per-bone homogeneous points, math reference §7).
+//!
+//! The posed centre of sphere `s` is `Σ_j M_j · (q_j, b_j)` over its skin slots, `M_j` the joint
+//! matrix of the slot's bone in the glTF convention (joint world transform × inverse bind
+//! matrix, column-major `[f32; 16]`, element (row r, column c) at `4c + r`). Radii are kept.
+
+use crate::{Proxy, Sphere, UNUSED_BONE};
+
+/// Why [`pose`] refused its arguments (nothing is written then).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[non_exhaustive]
+pub enum PoseError {
+    /// Fewer joint matrices than bones in the proxy's bone table.
+    JointCount {
+        /// Bones in the bone table.
+        expected: usize,
+        /// Matrices given.
+        actual: usize,
+    },
+    /// `out` does not hold exactly one sphere per proxy sphere.
+    OutputLength {
+        /// Spheres in the proxy.
+        expected: usize,
+        /// Length of `out`.
+        actual: usize,
+    },
+}
+
+impl core::fmt::Display for PoseError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        match self {
+            PoseError::JointCount { expected, actual } => {
+                write!(f, "pose: {actual} joint matrices given, the bone table needs {expected}")
+            }
+            PoseError::OutputLength { expected, actual } => {
+                write!(f, "pose: output holds {actual} spheres, expected {expected}")
+            }
+        }
+    }
+}
+
+impl core::error::Error for PoseError {}
+
+/// Poses every sphere: `out[s].center = Σ_j M_j · (q_j, b_j)` (xyz part) over sphere `s`'s skin
+/// slots, `out[s].radius` = the stored radius. A proxy without a skin section copies its rest
+/// spheres. Allocation-free; f32 arithmetic, slots in stored order.
+///
+/// `joint_matrices[j]` is bone `j`'s joint matrix, glTF convention (world(joint) × inverse bind,
+/// column-major); extra matrices are ignored. Follow with [`crate::refit`] to update the
+/// hierarchy's node spheres.
+///
+/// # Errors
+///
+/// [`PoseError::JointCount`] when fewer matrices than bones are given (only checked for a proxy
+/// with a skin), [`PoseError::OutputLength`] when `out.len() != proxy.sphere_count()`.
+pub fn pose(proxy: &Proxy, joint_matrices: &[[f32; 16]], out: &mut [Sphere]) -> Result<(), PoseError> {
+    let rest = proxy.spheres();
+    if out.len() != rest.len() {
+        return Err(PoseError::OutputLength { expected: rest.len(), actual: out.len() });
+    }
+    let Some(skin) = proxy.skin() else {
+        out.copy_from_slice(rest);
+        return Ok(());
+    };
+    let bone_count = proxy.bones().len();
+    if joint_matrices.len() < bone_count {
+        return Err(PoseError::JointCount { expected: bone_count, actual: joint_matrices.len() });
+    }
+    let k = skin.bones_per_sphere as usize;
+    if k == 0 {
+        out.copy_from_slice(rest);
+        return Ok(());
+    }
+    // `load` validated: entries.len() == sphere count × k, every used bone < bone count.
+    for ((o, r), slots) in out.iter_mut().zip(rest).zip(skin.entries.chunks_exact(k)) {
+        let (mut x, mut y, mut z) = (0.0f32, 0.0f32, 0.0f32);
+        for e in slots {
+            if e.bone == UNUSED_BONE {
+                continue;
+            }
+            let Some(m) = joint_matrices.get(e.bone as usize) else { continue };
+            let [qx, qy, qz] = e.q;
+            let b = e.b;
+            x += m[0] * qx + m[4] * qy + m[8] * qz + m[12] * b;
+            y += m[1] * qx + m[5] * qy + m[9] * qz + m[13] * b;
+            z += m[2] * qx + m[6] * qy + m[10] * qz + m[14] * b;
+        }
+        *o = Sphere { center: [x, y, z], radius: r.radius };
+    }
+    Ok(())
+}
