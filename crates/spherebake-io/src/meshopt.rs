@@ -574,3 +574,430 @@ fn ycocg([y, co, cg, a]: [i32; 4], max: f32) -> [i32; 4] {
     let m = max as i32;
     [r, g, b, a].map(|v| round_i32(v as f32 * s).clamp(0, m))
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use proptest::prelude::*;
+
+    // ---- A small encoder written from the specification's bitstream description (Appendix A),
+    // used to round-trip data through the decoder. It picks the smallest group encoding, so the
+    // sentinel paths of every bit width are exercised.
+
+    fn zigzag8(v: u8) -> u8 {
+        ((v as i8 >> 7) as u8) ^ (v << 1)
+    }
+    fn zigzag16(v: u16) -> u16 {
+        ((v as i16 >> 15) as u16) ^ (v << 1)
+    }
+
+    fn encode_group(out: &mut Vec<u8>, d: &[u8], bits: u32) {
+        match bits {
+            0 => {}
+            8 => out.extend_from_slice(d),
+            _ => {
+                let sentinel = (1u8 << bits) - 1;
+                let per_byte = 8 / bits as usize;
+                for chunk in d.chunks(per_byte) {
+                    let mut byte = 0u8;
+                    for (s, &v) in chunk.iter().enumerate() {
+                        let enc = v.min(sentinel);
+                        byte |= if bits == 1 { enc << s } else { enc << (8 - bits as usize * (s + 1)) };
+                    }
+                    out.push(byte);
+                }
+                out.extend(d.iter().copied().filter(|&v| v >= sentinel));
+            }
+        }
+    }
+
+    fn group_size(d: &[u8], bits: u32) -> Option<usize> {
+        match bits {
+            0 => d.iter().all(|&v| v == 0).then_some(0),
+            8 => Some(16),
+            _ => Some(16 * bits as usize / 8 + d.iter().filter(|&&v| v >= (1 << bits) - 1).count()),
+        }
+    }
+
+    fn encode_bytes(d: &[u8], table: &[u32; 4]) -> Option<Vec<u8>> {
+        let groups = d.len() / 16;
+        let mut header = vec![0u8; groups.div_ceil(4)];
+        let mut body = Vec::new();
+        for g in 0..groups {
+            let gd = &d[g * 16..g * 16 + 16];
+            let (k, _) = (0..4).filter_map(|k| group_size(gd, table[k]).map(|s| (k, s))).min_by_key(|&(_, s)| s)?;
+            header[g / 4] |= (k as u8) << ((g % 4) * 2);
+            encode_group(&mut body, gd, table[k]);
+        }
+        header.extend(body);
+        Some(header)
+    }
+
+    /// Encodes `data` (count × stride bytes). `channels` (version 1 only): per 4-byte channel,
+    /// mode 0 (bytes), 1 (16-bit) or 2 | rot << 4 (32-bit XOR).
+    fn encode_vertex(data: &[u8], stride: usize, version: u8, channels: &[u8]) -> Vec<u8> {
+        let count = data.len() / stride;
+        let mut out = vec![0xa0 | version];
+        let base: Vec<u8> = if count > 0 { data[..stride].to_vec() } else { vec![0; stride] };
+        let mut last = base.clone();
+        let block = vertex_block_elements(stride);
+        let mut start = 0;
+        while start < count {
+            let n = block.min(count - start);
+            let aligned = n.div_ceil(16) * 16;
+            let el = |i: usize, b: usize| data[(start + i) * stride + b];
+            let mut planes = vec![vec![0u8; aligned]; stride];
+            for k in (0..stride).step_by(4) {
+                let ch = if version == 0 { 0 } else { channels[k / 4] };
+                for i in 0..n {
+                    let prev = |b: usize| if i == 0 { last[b] } else { el(i - 1, b) };
+                    match ch & 3 {
+                        0 => {
+                            for j in 0..4 {
+                                planes[k + j][i] = zigzag8(el(i, k + j).wrapping_sub(prev(k + j)));
+                            }
+                        }
+                        1 => {
+                            for h in [0, 2] {
+                                let v = u16::from_le_bytes([el(i, k + h), el(i, k + h + 1)]);
+                                let p = u16::from_le_bytes([prev(k + h), prev(k + h + 1)]);
+                                let d = zigzag16(v.wrapping_sub(p)).to_le_bytes();
+                                planes[k + h][i] = d[0];
+                                planes[k + h + 1][i] = d[1];
+                            }
+                        }
+                        _ => {
+                            let v = u32::from_le_bytes([el(i, k), el(i, k + 1), el(i, k + 2), el(i, k + 3)]);
+                            let p = u32::from_le_bytes([prev(k), prev(k + 1), prev(k + 2), prev(k + 3)]);
+                            let d = (v ^ p).rotate_left(u32::from(ch >> 4)).to_le_bytes();
+                            for j in 0..4 {
+                                planes[k + j][i] = d[j];
+                            }
+                        }
+                    }
+                }
+            }
+            if version == 0 {
+                for p in &planes {
+                    out.extend(encode_bytes(p, &[0, 2, 4, 8]).unwrap());
+                }
+            } else {
+                let mut control = vec![0u8; stride / 4];
+                let mut body = Vec::new();
+                for (b, p) in planes.iter().enumerate() {
+                    let mut options: Vec<(u8, Vec<u8>)> = Vec::new();
+                    if let Some(e) = encode_bytes(p, &[0, 1, 2, 4]) {
+                        options.push((0, e));
+                    }
+                    options.push((1, encode_bytes(p, &[1, 2, 4, 8]).unwrap()));
+                    if p.iter().all(|&v| v == 0) {
+                        options.push((2, Vec::new()));
+                    }
+                    options.push((3, p[..n].to_vec()));
+                    let (ctrl, e) = options.into_iter().min_by_key(|(_, e)| e.len()).unwrap();
+                    control[b / 4] |= ctrl << ((b % 4) * 2);
+                    body.extend(e);
+                }
+                out.extend(control);
+                out.extend(body);
+            }
+            last.copy_from_slice(&data[(start + n - 1) * stride..(start + n) * stride]);
+            start += n;
+        }
+        let tail = stride + if version == 0 { 0 } else { stride / 4 };
+        let min: usize = if version == 0 { 32 } else { 24 };
+        out.extend(std::iter::repeat_n(0, min.saturating_sub(tail)));
+        out.extend(&base);
+        if version == 1 {
+            out.extend(&channels[..stride / 4]);
+        }
+        out
+    }
+
+    #[test]
+    fn spec_example_of_4bit_sentinel_group() {
+        // KHR_meshopt_compression Appendix A, "Channel mode 0": these 10 bytes encode 16 deltas.
+        let bytes = [0x17, 0x5f, 0xf0, 0xbc, 0x77, 0xa9, 0x21, 0x00, 0x34, 0xb5];
+        let mut r = Reader { data: &bytes, pos: 0 };
+        let mut out = [0u8; 16];
+        decode_group(&mut r, &mut out, 4).unwrap();
+        assert_eq!(r.pos, bytes.len());
+        let deltas: Vec<i8> = out.iter().map(|&v| unzigzag8(v) as i8).collect();
+        assert_eq!(deltas, [-1, -4, -3, 26, -91, 0, -6, 6, -4, -4, 5, -5, 1, -1, 0, 0]);
+    }
+
+    #[test]
+    fn spec_examples_of_varint_and_zigzag() {
+        // The first two are the specification's examples. Its third (`0xff 0xa0 0x05 => 0x1fd005`)
+        // reads the groups most significant first, contradicting the LEB128 rule it states and
+        // meshoptimizer's `decodeVByte`; LEB128 gives 0x7f + (0x20 << 7) + (0x05 << 14).
+        for (bytes, v) in [(&[0x7f][..], 0x7f), (&[0x81, 0x04][..], 0x201), (&[0xff, 0xa0, 0x05][..], 0x1507f)] {
+            let mut r = Reader { data: bytes, pos: 0 };
+            assert_eq!(r.vbyte().unwrap(), v);
+            assert_eq!(r.pos, bytes.len());
+        }
+        // Spec: encode(v) = v & 0x80 ? ~(v << 1) : v << 1; decode inverts it.
+        for v in 0..=255u8 {
+            let enc = if v & 0x80 != 0 { !(v << 1) } else { v << 1 };
+            assert_eq!(unzigzag8(enc), v);
+        }
+        assert_eq!(unzigzag16(3), 0xfffe); // -2
+        assert_eq!(unzigzag32(4), 2);
+    }
+
+    #[test]
+    fn one_bit_groups_are_lsb_first() {
+        // Deltas 1 at positions 0 and 9, sentinel (1) at position 3 carrying 0x42.
+        let mut d = [0u8; 16];
+        d[0] = 1;
+        d[9] = 1;
+        d[3] = 0x42;
+        // 1-bit: a delta equal to the sentinel (1) must be stored as an explicit byte.
+        let bytes = [0b0000_1001, 0b0000_0010, 0x01, 0x42, 0x01];
+        let mut r = Reader { data: &bytes, pos: 0 };
+        let mut out = [0u8; 16];
+        decode_group(&mut r, &mut out, 1).unwrap();
+        assert_eq!(out, d);
+        assert_eq!(r.pos, bytes.len());
+    }
+
+    #[test]
+    fn vertex_round_trip_v0_v1_channel_modes_and_blocks() {
+        // 600 elements of 12 bytes: 3 blocks (256, 256, 88), smooth + noisy + constant columns.
+        let stride = 12;
+        let count = 600;
+        let mut data = Vec::with_capacity(count * stride);
+        let mut seed = 12345u32;
+        for i in 0..count {
+            seed = seed.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
+            let smooth = (i as u32 * 37) as u16;
+            data.extend(smooth.to_le_bytes());
+            data.extend(((seed >> 16) as u16).to_le_bytes());
+            data.extend(((i as f32) * 0.25).to_le_bytes());
+            data.extend([7, 7, (i % 3) as u8, (seed >> 24) as u8]);
+        }
+        let v0 = encode_vertex(&data, stride, 0, &[]);
+        assert_eq!(decode_vertex_buffer(count, stride, &v0).unwrap(), data);
+        for channels in [[0u8, 0, 0], [1, 1, 0], [2 | (3 << 4), 2, 1], [1, 2 | (15 << 4), 2]] {
+            let v1 = encode_vertex(&data, stride, 1, &channels);
+            assert_eq!(decode_vertex_buffer(count, stride, &v1).unwrap(), data, "channels {channels:?}");
+        }
+        // Zero elements: header, padding and tail only.
+        let empty = encode_vertex(&[], 8, 0, &[]);
+        assert_eq!(empty.len(), 1 + 32);
+        assert_eq!(decode_vertex_buffer(0, 8, &empty).unwrap(), Vec::<u8>::new());
+    }
+
+    #[test]
+    fn vertex_stream_structure_errors() {
+        let data: Vec<u8> = (0..64u8).collect();
+        let enc = encode_vertex(&data, 16, 0, &[]);
+        assert!(matches!(
+            decode_vertex_buffer(4, 16, &enc[..enc.len() - 1]),
+            Err(MeshoptError::TrailingData { .. } | MeshoptError::Truncated { .. })
+        ));
+        let mut longer = enc.clone();
+        longer.insert(1, 0);
+        assert!(decode_vertex_buffer(4, 16, &longer).is_err());
+        let mut bad = enc.clone();
+        bad[0] = 0xa2;
+        assert!(matches!(decode_vertex_buffer(4, 16, &bad), Err(MeshoptError::UnsupportedVersion { version: 2, .. })));
+        bad[0] = 0x50;
+        assert!(matches!(decode_vertex_buffer(4, 16, &bad), Err(MeshoptError::BadHeader { .. })));
+        assert!(matches!(decode_vertex_buffer(4, 6, &enc), Err(MeshoptError::Parameters(_))));
+        // A claim of more elements than the stream could hold is refused before allocating.
+        assert!(matches!(decode_vertex_buffer(usize::MAX / 32, 16, &enc), Err(MeshoptError::Parameters(_))));
+        // Version 1 with an invalid channel mode byte (3).
+        let v1 = encode_vertex(&data, 16, 1, &[0, 0, 0, 0]);
+        let mut bad = v1.clone();
+        let n = bad.len();
+        bad[n - 1] = 3;
+        assert!(matches!(decode_vertex_buffer(4, 16, &bad), Err(MeshoptError::Malformed(_))));
+    }
+
+    /// The stream built by hand in the comments, following Appendix A "Mode 1: triangles".
+    fn hand_triangles(version: u8) -> Vec<u8> {
+        let mut s = vec![0xe0 | version];
+        // codes: 0xf0 (codeaux[0] = 0x00: next, next, next) → (0,1,2)
+        //        0x10 (edge 1 = (2,1), c = next)           → (2,1,3)
+        //        0x13 (edge 1 = (3,1), vertex FIFO 3 = 0)   → (3,1,0)
+        //        0x0f (edge 0 = (3,0), explicit +7)         → (3,0,7)
+        //        0x0d (edge 0 = (3,7), last - 1)            → (3,7,6)   [version 1]
+        //        0xff (aux 0x1f: a explicit +4, b = FIFO 0, c explicit +290) → (10,6,300)
+        s.extend([0xf0, 0x10, 0x13, 0x0f, 0x0d, 0xff]);
+        s.extend([0x0e, 0x1f, 0x08, 0xc4, 0x04]);
+        s.extend([0u8; 16]);
+        s
+    }
+
+    #[test]
+    fn triangle_codes_decode_as_specified() {
+        let tris = decode_index_buffer(18, &hand_triangles(1)).unwrap();
+        assert_eq!(tris, [0, 1, 2, 2, 1, 3, 3, 1, 0, 3, 0, 7, 3, 7, 6, 10, 6, 300]);
+        // Version 0 has no 0xXd code: 0x0d reads vertex FIFO entry 13, never written here.
+        assert!(matches!(decode_index_buffer(18, &hand_triangles(0)), Err(MeshoptError::Malformed(_))));
+        // 0xfe with aux 0x00 restarts `next`: (0, 1, 2) twice.
+        let mut s = vec![0xe1, 0xf0, 0xfe, 0x00];
+        s.extend([0u8; 16]);
+        assert_eq!(decode_index_buffer(6, &s).unwrap(), [0, 1, 2, 0, 1, 2]);
+        // Structure errors.
+        let good = hand_triangles(1);
+        assert!(decode_index_buffer(18, &good[..good.len() - 1]).is_err());
+        assert!(matches!(decode_index_buffer(18, &good[..20]), Err(MeshoptError::Truncated { .. })));
+        let mut extra = good.clone();
+        extra.insert(12, 0);
+        assert!(matches!(decode_index_buffer(18, &extra), Err(MeshoptError::TrailingData { .. })));
+        assert!(matches!(decode_index_buffer(17, &good), Err(MeshoptError::Parameters(_))));
+        // An edge FIFO read before any edge exists.
+        let mut s = vec![0xe1, 0x00];
+        s.extend([0u8; 16]);
+        assert!(matches!(decode_index_buffer(3, &s), Err(MeshoptError::Malformed(_))));
+    }
+
+    #[test]
+    fn index_sequence_uses_two_baselines() {
+        // 5 (base 0, +5), 6 (base 0, +1), 100 (base 1, +100), 7 (base 0, +1), 101 (base 1, +1),
+        // 99 (base 1, −2): v = zigzag(delta) << 1 | base, LEB128.
+        let s = [0xd1, 0x14, 0x04, 0x91, 0x03, 0x04, 0x05, 0x07, 0, 0, 0, 0];
+        assert_eq!(decode_index_sequence(6, &s).unwrap(), [5, 6, 100, 7, 101, 99]);
+        assert!(matches!(decode_index_sequence(7, &s), Err(MeshoptError::Truncated { .. })));
+        assert!(matches!(decode_index_sequence(5, &s), Err(MeshoptError::TrailingData { .. })));
+    }
+
+    fn i16s(v: &[u8]) -> Vec<i16> {
+        v.chunks_exact(2).map(|c| i16::from_le_bytes([c[0], c[1]])).collect()
+    }
+    fn bytes16(v: &[i16]) -> Vec<u8> {
+        v.iter().flat_map(|x| x.to_le_bytes()).collect()
+    }
+
+    #[test]
+    fn octahedral_filter_poles_and_unit_length() {
+        // 8-bit, K = 8 (one = 127): +Z, +X, −Y, and the (1, 1) corner that folds to −Z; w passes through.
+        let mut d: Vec<u8> = [[0i8, 0, 127, 5], [127, 0, 127, -3], [0, -127, 127, 0], [127, 127, 127, 9]]
+            .iter()
+            .flatten()
+            .map(|&x| x as u8)
+            .collect();
+        apply_filter(Filter::Octahedral, 4, &mut d).unwrap();
+        let out: Vec<i8> = d.iter().map(|&x| x as i8).collect();
+        assert_eq!(out, [0, 0, 127, 5, 127, 0, 0, -3, 0, -127, 0, 0, 0, 0, -127, 9]);
+        // 16-bit, K = 10 (one = 511): every output has unit length within one unit per component
+        // and points where the octahedral map says (x : y : z in the same ratios).
+        for (x, y) in [(100i16, -200i16), (-300, 150), (400, 400), (-511, 0), (17, -480)] {
+            let mut d = bytes16(&[x, y, 511, 1234]);
+            apply_filter(Filter::Octahedral, 8, &mut d).unwrap();
+            let o = i16s(&d);
+            assert_eq!(o[3], 1234);
+            let v = [o[0], o[1], o[2]].map(|c| f64::from(c) / 32767.0);
+            let len = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
+            assert!((len - 1.0).abs() < 2.0 / 32767.0, "{x} {y}: {v:?}");
+            let (fx, fy) = (f64::from(x) / 511.0, f64::from(y) / 511.0);
+            let z = 1.0 - fx.abs() - fy.abs();
+            let (ex, ey) =
+                if z < 0.0 { (fx.signum() * (fx.abs() + z), fy.signum() * (fy.abs() + z)) } else { (fx, fy) };
+            let el = (ex * ex + ey * ey + z * z).sqrt();
+            for (got, want) in v.iter().zip([ex / el, ey / el, z / el]) {
+                assert!((got - want).abs() <= 1.0 / 32767.0, "{x} {y}: {v:?}");
+            }
+        }
+        assert!(apply_filter(Filter::Octahedral, 12, &mut [0; 12]).is_err());
+    }
+
+    #[test]
+    fn quaternion_filter_identity_and_quarter_turn() {
+        // K = 12: one = 2047 with the low two bits replaced by the index of the dropped component.
+        let one = 2047i16 & !3;
+        let mut d = bytes16(&[0, 0, 0, one | 3]);
+        apply_filter(Filter::Quaternion, 8, &mut d).unwrap();
+        assert_eq!(i16s(&d), [0, 0, 0, 32767]);
+        // 90° about Z: (0, 0, √½, √½); w dropped (index 3), z stored as √½·√2 = 1.0 = 2047.
+        let mut d = bytes16(&[0, 0, 2047, one | 3]);
+        apply_filter(Filter::Quaternion, 8, &mut d).unwrap();
+        let h = (std::f64::consts::FRAC_1_SQRT_2 * 32767.0).round() as i16;
+        assert_eq!(i16s(&d), [0, 0, h, h]);
+        // The dropped component is x (index 0): stored order is y, z, w.
+        let mut d = bytes16(&[0, 0, 0, one]);
+        apply_filter(Filter::Quaternion, 8, &mut d).unwrap();
+        assert_eq!(i16s(&d), [32767, 0, 0, 0]);
+        assert!(apply_filter(Filter::Quaternion, 4, &mut [0; 4]).is_err());
+    }
+
+    #[test]
+    fn exponential_filter_values() {
+        let enc = |e: i32, m: i32| ((e << 24) | (m & 0x00ff_ffff)).to_le_bytes();
+        let mut d: Vec<u8> = [enc(-3, 12), enc(0, -1), enc(10, 8_388_607), enc(-100, 1)].concat();
+        apply_filter(Filter::Exponential, 16, &mut d).unwrap();
+        let f: Vec<f32> = d.chunks_exact(4).map(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]])).collect();
+        assert_eq!(f, [1.5, -1.0, 8_388_607.0 * 1024.0, (2f64.powi(-100)) as f32]);
+    }
+
+    #[test]
+    fn color_filter_ycocg() {
+        // K = 8: RGB (200, 100, 40) → Y = (r + 2g + b)/4 = 110, Co = (r − b)/2 = 80,
+        // Cg = (2g − r − b)/4 = −10; alpha 7 bits (127) with bit 7 set.
+        let mut d = vec![110u8, 80, (-10i8) as u8, 0xff];
+        apply_filter(Filter::Color, 4, &mut d).unwrap();
+        assert_eq!(d, [200, 100, 40, 255]);
+        // K = 6: RGB (60, 30, 12) in 6 bits → Y 33, Co 24, Cg −3; alpha 31 | 0b100000;
+        // output scaled by 255 / 63.
+        let mut d = vec![33u8, 24, (-3i8) as u8, 0b11_1111];
+        apply_filter(Filter::Color, 4, &mut d).unwrap();
+        let s: f64 = 255.0 / 63.0;
+        assert_eq!(d, [(60.0 * s).round() as u8, (30.0 * s).round() as u8, (12.0 * s).round() as u8, 255]);
+        // 16-bit, K = 16: grey 40000 with alpha 0x7fff | 0x8000.
+        let mut d: Vec<u8> = [40000u16, 0, 0, 0xffff].iter().flat_map(|x| x.to_le_bytes()).collect();
+        apply_filter(Filter::Color, 8, &mut d).unwrap();
+        let o: Vec<u16> = d.chunks_exact(2).map(|c| u16::from_le_bytes([c[0], c[1]])).collect();
+        assert_eq!(o, [40000, 40000, 40000, 65535]);
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig { cases: 2000, ..ProptestConfig::default() })]
+
+        #[test]
+        fn decoders_never_panic_on_random_bytes(
+            bytes in proptest::collection::vec(any::<u8>(), 0..400),
+            count in 0usize..700,
+            stride_k in 1usize..20,
+            head in prop_oneof![Just(0xa0u8), Just(0xa1), Just(0xe0), Just(0xe1), Just(0xd1), any::<u8>()],
+        ) {
+            let mut b = bytes;
+            if let Some(f) = b.first_mut() { *f = head; }
+            let stride = stride_k * 4;
+            if let Ok(v) = decode_vertex_buffer(count, stride, &b) {
+                prop_assert_eq!(v.len(), count * stride);
+                let mut v = v;
+                for f in [Filter::Octahedral, Filter::Quaternion, Filter::Exponential, Filter::Color] {
+                    let _ = apply_filter(f, stride, &mut v);
+                }
+            }
+            if let Ok(ix) = decode_index_buffer(count / 3 * 3, &b) {
+                prop_assert_eq!(ix.len(), count / 3 * 3);
+            }
+            if let Ok(ix) = decode_index_sequence(count, &b) {
+                prop_assert_eq!(ix.len(), count);
+            }
+        }
+
+        #[test]
+        fn random_attribute_data_round_trips(
+            seed in any::<u64>(),
+            count in 0usize..300,
+            stride_k in 1usize..6,
+            version in 0u8..2,
+            smooth in any::<bool>(),
+        ) {
+            let stride = stride_k * 4;
+            let mut s = seed | 1;
+            let mut data = Vec::with_capacity(count * stride);
+            for i in 0..count * stride {
+                s ^= s << 13; s ^= s >> 7; s ^= s << 17;
+                data.push(if smooth { (i / stride) as u8 ^ ((s as u8) & 3) } else { s as u8 });
+            }
+            let channels: Vec<u8> = (0..stride / 4).map(|c| [0u8, 1, 2, 2 | (5 << 4)][(seed as usize >> (2 * c)) & 3]).collect();
+            let enc = encode_vertex(&data, stride, version, &channels);
+            prop_assert_eq!(decode_vertex_buffer(count, stride, &enc).unwrap(), data);
+        }
+    }
+}
