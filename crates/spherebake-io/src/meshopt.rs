@@ -635,6 +635,7 @@ mod tests {
 
     /// Encodes `data` (count × stride bytes). `channels` (version 1 only): per 4-byte channel,
     /// mode 0 (bytes), 1 (16-bit) or 2 | rot << 4 (32-bit XOR).
+    #[allow(clippy::needless_range_loop)] // indices address several planes and elements at once
     fn encode_vertex(data: &[u8], stride: usize, version: u8, channels: &[u8]) -> Vec<u8> {
         let count = data.len() / stride;
         let mut out = vec![0xa0 | version];
