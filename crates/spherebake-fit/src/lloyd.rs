@@ -237,6 +237,56 @@ pub fn power_assign(pts: &[Rep], centres: &[DVec3], radii: &[f64]) -> Vec<u32> {
         .collect()
 }
 
+/// Assignment for a point set the spheres do not yet cover: covered points as in
+/// [`power_assign`]; uncovered points, farthest out first, each grow the sphere (of the three
+/// nearest to reaching it) whose proxy outside volume grows least, radii updated as they go so
+/// one growth serves many neighbouring points. Deterministic (sequential over the uncovered).
+pub fn assign_grow(solid: &Solid, pts: &[Rep], centres: &[DVec3], radii: &[f64]) -> Vec<u32> {
+    let mut assign = power_assign(pts, centres, radii);
+    let mut r = radii.to_vec();
+    let mut out: Vec<(f64, u32)> = pts
+        .par_iter()
+        .enumerate()
+        .filter_map(|(i, p)| {
+            let gap = centres.iter().zip(radii).map(|(c, rr)| p.far(*c) - rr).fold(f64::INFINITY, f64::min);
+            (gap > 0.0).then_some((gap, i as u32))
+        })
+        .collect();
+    out.sort_by(|a, b| b.0.total_cmp(&a.0).then(a.1.cmp(&b.1)));
+    for &(_, i) in &out {
+        let p = &pts[i as usize];
+        let mut best: [(f64, usize); 3] = [(f64::INFINITY, usize::MAX); 3];
+        for (ci, c) in centres.iter().enumerate() {
+            let g = p.far(*c) - r[ci];
+            if g <= 0.0 {
+                best = [(g, ci), best[0], best[1]];
+                break;
+            }
+            if g < best[2].0 {
+                best[2] = (g, ci);
+                best.sort_by(|a, b| a.0.total_cmp(&b.0));
+            }
+        }
+        if best[0].0 <= 0.0 {
+            assign[i as usize] = best[0].1 as u32;
+            continue;
+        }
+        let mut choice = (f64::INFINITY, usize::MAX);
+        for &(_, ci) in best.iter().filter(|x| x.1 != usize::MAX) {
+            let d = p.far(centres[ci]);
+            let inc = outside(solid, centres[ci], d) - outside(solid, centres[ci], r[ci]);
+            if inc < choice.0 {
+                choice = (inc, ci);
+            }
+        }
+        if choice.1 != usize::MAX {
+            r[choice.1] = p.far(centres[choice.1]);
+            assign[i as usize] = choice.1 as u32;
+        }
+    }
+    assign
+}
+
 /// Per-cluster members, in point order.
 pub fn members(assign: &[u32], k: usize) -> Vec<Vec<u32>> {
     let mut m = vec![Vec::new(); k];
@@ -500,7 +550,7 @@ pub fn polish(ctx: &Ctx, spheres: &[(DVec3, f64)], rounds: usize) -> Vec<(DVec3,
     for _ in 0..rounds {
         let centres: Vec<DVec3> = cur.iter().map(|x| x.0).collect();
         let radii: Vec<f64> = cur.iter().map(|x| x.1).collect();
-        let assign = power_assign(all, &centres, &radii);
+        let assign = assign_grow(ctx.solid, all, &centres, &radii);
         let mem = members(&assign, cur.len());
         cur = (0..cur.len())
             .into_par_iter()
