@@ -53,15 +53,15 @@ fn main() {
     models(&dir, &mut paths);
     println!("threads: {}", rayon::current_num_threads());
     println!(
-        "| model | tris | spheres | samples/sphere mean | min | rule 2 empty | rule 3 empty | place_samples s | BVH s | orient s |"
+        "| model | tris | spheres (skipped) | samples/sphere mean | min | spheres with 0 samples | rule 2 empty | rule 3 empty | place_samples s | BVH s | orient s |"
     );
-    println!("|---|---|---|---|---|---|---|---|---|---|");
+    println!("|---|---|---|---|---|---|---|---|---|---|---|");
     for path in paths {
         let settings = BakeSettings { spheres: count, ..Default::default() };
         let baked = match spherebake_bake::bake_path(&path, &settings, &|_| {}) {
             Ok(b) => b,
             Err(e) => {
-                println!("| {} | skipped: {e} |", path.display());
+                println!("| {} | not baked: {e} |", path.strip_prefix(&dir).unwrap_or(&path).display());
                 continue;
             }
         };
@@ -76,8 +76,10 @@ fn main() {
         });
         let ((_, stats), place_s) = timed(5, || place_samples(&mesh, &bvh, &orient.flip, &spheres));
         let name = path.strip_prefix(&dir).unwrap_or(&path).display();
+        let skipped = stats.per_sphere.iter().filter(|c| c.skipped > 0).count();
+        let empty = stats.per_sphere.iter().filter(|c| c.skipped == 0 && c.rule1 + c.rule3 == 0).count();
         println!(
-            "| {name} | {} | {} | {:.1} | {} | {:.3} | {:.3} | {:.4} | {:.4} | {:.4} (flipped {}, ambiguous {}) |",
+            "| {name} | {} | {} ({skipped}) | {:.1} | {} | {empty} | {:.3} | {:.3} | {:.4} | {:.4} | {:.4} (flipped {}, ambiguous {}) |",
             mesh.triangles.len(),
             spheres.len(),
             stats.samples_per_sphere_mean,
