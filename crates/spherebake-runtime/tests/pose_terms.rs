@@ -2,6 +2,8 @@
 //! unused slots, argument errors, and random terms against an f64 evaluation of the formula.
 //! (End-to-end tests with baked MVC terms of real meshes live in `tools/spherebake/tests/pose.rs`.)
 
+#![allow(clippy::needless_range_loop)] // xyz components side by side read clearer indexed
+
 use proptest::prelude::*;
 use spherebake_runtime::{pose, BoneRecord, PoseError, Proxy, SkinEntry, SkinTerms, SphbFile, Sphere, UNUSED_BONE};
 
