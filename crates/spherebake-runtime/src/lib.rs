@@ -84,16 +84,14 @@
 
 extern crate alloc;
 
-pub mod pose;
-
 pub mod cut;
+pub mod pose;
 pub mod refit;
 
 use alloc::vec::Vec;
 
-pub use pose::{pose, PoseError};
-
 pub use cut::{cut, cut_accepts, cut_threshold, CutEntry, DEFAULT_THETA_MAX_RAD};
+pub use pose::{pose, pose_and_refit, PoseError};
 pub use refit::{refit, rest_node_spheres, HierarchyPlan, QueryError};
 
 pub use spherebake_format::{

@@ -5,10 +5,10 @@
 //! matrix of the slot's bone in the glTF convention (joint world transform × inverse bind
 //! matrix, column-major `[f32; 16]`, element (row r, column c) at `4c + r`). Radii are kept.
 
-use crate::{Proxy, Sphere, UNUSED_BONE};
+use crate::{refit, HierarchyPlan, Proxy, QueryError, Sphere, UNUSED_BONE};
 
 /// Why [`pose`] refused its arguments (nothing is written then).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Debug, PartialEq, Eq)]
 #[non_exhaustive]
 pub enum PoseError {
     /// Fewer joint matrices than bones in the proxy's bone table.
@@ -25,6 +25,8 @@ pub enum PoseError {
         /// Length of `out`.
         actual: usize,
     },
+    /// The hierarchy refit of [`pose_and_refit`] refused its slices.
+    Refit(QueryError),
 }
 
 impl core::fmt::Display for PoseError {
@@ -36,6 +38,7 @@ impl core::fmt::Display for PoseError {
             PoseError::OutputLength { expected, actual } => {
                 write!(f, "pose: output holds {actual} spheres, expected {expected}")
             }
+            PoseError::Refit(e) => write!(f, "pose: hierarchy refit: {e}"),
         }
     }
 }
@@ -89,4 +92,23 @@ pub fn pose(proxy: &Proxy, joint_matrices: &[[f32; 16]], out: &mut [Sphere]) -> 
         *o = Sphere { center: [x, y, z], radius: r.radius };
     }
     Ok(())
+}
+
+/// [`pose`] followed by the hierarchy refit ([`crate::refit`]): `leaves_out` gets the posed
+/// spheres, `nodes_out` the refitted node spheres (build `plan` once with
+/// [`Proxy::hierarchy_plan`], size `nodes_out` with [`HierarchyPlan::node_count`]).
+/// Allocation-free.
+///
+/// # Errors
+///
+/// Those of [`pose`]; [`PoseError::Refit`] when `nodes_out` does not match the plan.
+pub fn pose_and_refit(
+    proxy: &Proxy,
+    plan: &HierarchyPlan,
+    joint_matrices: &[[f32; 16]],
+    leaves_out: &mut [Sphere],
+    nodes_out: &mut [Sphere],
+) -> Result<(), PoseError> {
+    pose(proxy, joint_matrices, leaves_out)?;
+    refit(plan, leaves_out, nodes_out).map_err(PoseError::Refit)
 }

@@ -163,3 +163,43 @@ proptest! {
         }
     }
 }
+
+#[test]
+fn pose_and_refit_updates_the_hierarchy() {
+    use spherebake_runtime::{pose_and_refit, Hierarchy, HierarchyNode};
+    // Two leaves under one root; bone 1 moves the second sphere by +3 in x.
+    let mut file = SphbFile {
+        spheres: vec![Sphere { center: [0.0; 3], radius: 1.0 }, Sphere { center: [2.0, 0.0, 0.0], radius: 1.0 }],
+        hierarchy: Some(Hierarchy {
+            root: 0,
+            nodes: vec![HierarchyNode {
+                center: [1.0, 0.0, 0.0],
+                radius: 2.0,
+                children: vec![],
+                leaf_children: vec![0, 1],
+            }],
+        }),
+        skin: Some(SkinTerms {
+            bones_per_sphere: 1,
+            entries: vec![
+                SkinEntry { bone: 0, q: [0.0; 3], b: 1.0 },
+                SkinEntry { bone: 1, q: [2.0, 0.0, 0.0], b: 1.0 },
+            ],
+        }),
+        bones: Some(vec![bone("a"), bone("b")]),
+        ..SphbFile::default()
+    };
+    file.metadata = None;
+    let p = Proxy::from_file(&file).unwrap();
+    let plan = p.hierarchy_plan().unwrap();
+    let mut t = ID;
+    t[12] = 3.0;
+    let mut leaves = [Sphere::default(); 2];
+    let mut nodes = vec![Sphere::default(); plan.node_count()];
+    pose_and_refit(&p, &plan, &[ID, t], &mut leaves, &mut nodes).unwrap();
+    assert_eq!(leaves[1].center, [5.0, 0.0, 0.0]);
+    // The enclosing ball of the two unit balls at x = 0 and x = 5: centre 2.5, radius 3.5.
+    assert!((nodes[0].center[0] - 2.5).abs() < 1e-5 && nodes[0].center[1].abs() < 1e-6);
+    assert!(nodes[0].radius >= 3.5 && nodes[0].radius < 3.5 + 1e-4, "{:?}", nodes[0]);
+    assert!(pose_and_refit(&p, &plan, &[ID, t], &mut leaves, &mut []).is_err());
+}
