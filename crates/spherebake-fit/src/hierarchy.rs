@@ -7,8 +7,8 @@
 //! [`HierarchySettings::branching`]; the last level is a single root.
 //!
 //! **Storage.** Parents are stored in f32 and still contain their children when those stored
-//! values are evaluated exactly: the centre is rounded to the f32 neighbour (of the 8) that needs
-//! the smallest radius, and the radius is rounded up. Children are the stored (f32) values of the
+//! values are evaluated exactly: the centre is the f32 lattice point near the exact centre (of
+//! 5³) that needs the smallest radius, and the radius is rounded up. Children are the stored (f32) values of the
 //! level below, so containment holds level by level.
 //!
 //! **Node order.** Nodes are listed level by level from the leaves up; the root is the last node,
@@ -286,23 +286,35 @@ fn fill_empty_clusters(balls: &[Ball], centres: &[DVec3], assign: &mut [u32], k:
 }
 
 /// The f32 sphere to store for a parent of `balls` (f64 copies of stored f32 values): the exact
-/// minimal enclosing ball, centre rounded to the best of its 8 f32 neighbours, radius rounded up
-/// so that |c − cᵢ| + rᵢ ≤ r holds for the stored values (checked in f64 with a 4-ulp margin).
+/// minimal enclosing ball, its centre moved to the f32 lattice point (within ±2 steps per axis of
+/// the nearest) that needs the smallest radius, the radius rounded up so that |c − cᵢ| + rᵢ ≤ r
+/// holds for the stored values (checked in f64 with a 4-ulp margin).
+///
+/// Moving the centre by δ costs about |δ·u| along the direction u of two opposite supports but
+/// only |δ|²/2R across it, so searching 125 lattice points usually finds one far better than the
+/// nearest; with 4 supports around the centre the cost is linear in every direction, and the
+/// inflation stays of the order of the f32 spacing at |c|.
 fn store_enclosing(balls: &[Ball]) -> ([f32; 3], f32) {
     let (c, _) = min_enclosing_ball_of_balls(balls);
-    let lo = [round_down(c.x), round_down(c.y), round_down(c.z)];
-    let hi = [round_up(c.x), round_up(c.y), round_up(c.z)];
+    let axis = |v: f64| -> [f32; 5] {
+        let m = v as f32;
+        let (d1, u1) = (next_down(m), next_up(m));
+        [next_down(d1), d1, m, u1, next_up(u1)]
+    };
+    let (ax, ay, az) = (axis(c.x), axis(c.y), axis(c.z));
     let mut best: Option<([f32; 3], f64)> = None;
-    for corner in 0..8u32 {
-        let cc = [
-            if corner & 1 == 0 { lo[0] } else { hi[0] },
-            if corner & 2 == 0 { lo[1] } else { hi[1] },
-            if corner & 4 == 0 { lo[2] } else { hi[2] },
-        ];
-        let c64 = DVec3::new(f64::from(cc[0]), f64::from(cc[1]), f64::from(cc[2]));
-        let need = balls.iter().map(|(bc, br)| bc.distance(c64) + br).fold(0.0, f64::max);
-        if best.is_none_or(|(_, bn)| need < bn) {
-            best = Some((cc, need));
+    // Nearest first, so ties keep it.
+    let order = [2usize, 1, 3, 0, 4];
+    for &i in &order {
+        for &j in &order {
+            for &k in &order {
+                let cc = [ax[i], ay[j], az[k]];
+                let c64 = DVec3::new(f64::from(cc[0]), f64::from(cc[1]), f64::from(cc[2]));
+                let need = balls.iter().map(|(bc, br)| bc.distance(c64) + br).fold(0.0, f64::max);
+                if best.is_none_or(|(_, bn)| need < bn) {
+                    best = Some((cc, need));
+                }
+            }
         }
     }
     let (center, need) = best.unwrap_or(([0.0; 3], 0.0));
@@ -310,16 +322,6 @@ fn store_enclosing(balls: &[Ball]) -> ([f32; 3], f32) {
     let need = need * (1.0 + 4.0 * f64::EPSILON);
     let radius = round_up(need).max(f32::MIN_POSITIVE);
     (center, radius)
-}
-
-/// Largest f32 ≤ x (x finite).
-fn round_down(x: f64) -> f32 {
-    let f = x as f32;
-    if f64::from(f) > x {
-        next_down(f)
-    } else {
-        f
-    }
 }
 
 /// Smallest f32 ≥ x (x finite).
@@ -559,8 +561,7 @@ mod tests {
     #[test]
     fn rounding_helpers() {
         assert_eq!(round_up(1.0), 1.0);
-        assert!(f64::from(round_up(0.1)) >= 0.1 && f64::from(round_down(0.1)) <= 0.1);
-        assert_eq!(next_up(round_down(0.1)), round_up(0.1));
+        assert!(f64::from(round_up(0.1)) >= 0.1 && f64::from(next_down(round_up(0.1))) < 0.1);
         assert_eq!(next_up(-0.0), f32::from_bits(1));
         assert_eq!(next_up(-1.0), -0.99999994);
     }

@@ -303,3 +303,51 @@ fn hierarchy_over_fitted_sphere_sets() {
         assert!(stats.tightness_mean <= 1.01 && stats.tightness_max <= 1.0 + 1e-6);
     }
 }
+
+/// The fitter's largest sphere count (4096 leaves): invariants hold and the build stays quick.
+#[test]
+fn largest_sphere_count() {
+    let mut state = 17u64;
+    let mut next = || {
+        state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+        ((state >> 11) as f64 / (1u64 << 53) as f64) as f32
+    };
+    // Points on a torus-like shell, radii 0.01..0.05.
+    let leaves: Vec<[f32; 4]> = (0..4096)
+        .map(|_| {
+            let (u, v) = (next() * std::f32::consts::TAU, next() * std::f32::consts::TAU);
+            let ring = 2.0 + 0.5 * v.cos();
+            [ring * u.cos(), ring * u.sin(), 0.5 * v.sin(), 0.01 + 0.04 * next()]
+        })
+        .collect();
+    let t = std::time::Instant::now();
+    let h = build_hierarchy(&leaves, &HierarchySettings::default()).unwrap();
+    let build_s = t.elapsed().as_secs_f64();
+    let mean = check_invariants("4096 leaves", &h, &leaves);
+    let stats = hierarchy_stats(&h, &leaves);
+    println!(
+        "4096 leaves: {} nodes, {} levels, mean branching {mean:.3}, tightness mean {:.9} max {:.9}, build {build_s:.2} s",
+        h.nodes.len(),
+        stats.levels,
+        stats.tightness_mean,
+        stats.tightness_max
+    );
+    assert!((3.0..=5.0).contains(&mean));
+    assert!(stats.tightness_mean <= 1.0 + 1e-6);
+    // Per node: inflation over the reference within 1e-6 of the radius, or within the f32
+    // spacing at the centre (small parents far from the origin cannot do better in f32).
+    for (i, n) in h.nodes.iter().enumerate() {
+        let kids: Vec<(DVec3, f64)> = n
+            .children
+            .iter()
+            .map(|&c| ball(h.nodes[c as usize].center, h.nodes[c as usize].radius))
+            .chain(n.leaf_children.iter().map(|&l| {
+                ball([leaves[l as usize][0], leaves[l as usize][1], leaves[l as usize][2]], leaves[l as usize][3])
+            }))
+            .collect();
+        let (_, reference) = brute_force_min_ball_of_balls(&kids);
+        let spacing = f64::from(f32::EPSILON) * (n.center.iter().fold(0.0f32, |m, v| m.max(v.abs())) + n.radius) as f64;
+        let inflation = f64::from(n.radius) - reference;
+        assert!(inflation <= (1e-6 * reference).max(2.0 * spacing), "node {i}: {inflation} over {reference}");
+    }
+}
