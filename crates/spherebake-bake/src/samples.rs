@@ -99,6 +99,15 @@ pub struct SampleStats {
 /// barycentrics index the vertex normals). `flip[t]` is true when triangle t's counter-clockwise
 /// normal points inward ([`spherebake_geom::orient::outward_orientation`]). `spheres` are
 /// `[x, y, z, r]`, model space, the stored f32 values.
+///
+/// Typical wiring (the triangle order of `welded_triangles()` is that of `mesh.triangles`):
+/// ```text
+/// let welded = mesh.welded_triangles();
+/// let winding = WindingNumber::new(&mesh.welded_positions, &welded); // or the voxelizer's
+/// let orient = outward_orientation(&mesh.welded_positions, &welded, &winding);
+/// let bvh = TriangleBvh::new(&mesh.positions, &mesh.triangles);
+/// let (samples, stats) = place_samples(&mesh, &bvh, &orient.flip, &spheres);
+/// ```
 pub fn place_samples(mesh: &Mesh, bvh: &TriangleBvh, flip: &[bool], spheres: &[[f32; 4]]) -> (Samples, SampleStats) {
     let start = Instant::now();
     let ctx = Ctx::new(mesh, flip, spheres);
