@@ -145,12 +145,6 @@ pub fn bake_imported(
     if mesh.triangles.is_empty() {
         return Err(BakeError::EmptyMesh { path: path.to_path_buf() });
     }
-    if !topology.closed {
-        warnings.push(format!(
-            "mesh is not closed ({} boundary edges, {} non-manifold edges): the solid comes from the voxelization",
-            topology.boundary_edge_count, topology.non_manifold_edge_count
-        ));
-    }
 
     let positions = &mesh.welded_positions;
     let triangles = mesh.welded_triangles();
@@ -165,8 +159,10 @@ pub fn bake_imported(
     // Outward orientation by the solid (real meshes are not always consistently oriented),
     // shared by the sample-point and albedo stages.
     let t = Instant::now();
-    let winding = WindingNumber::new(&mesh.positions, &mesh.triangles);
-    let orientation = outward_orientation(&mesh.positions, &mesh.triangles, &winding);
+    // On the welded mesh, so UV/normal seams do not split orientation patches; triangle indices
+    // are the same as in `mesh.triangles`, so the flips apply there too.
+    let winding = WindingNumber::new(positions, &triangles);
+    let orientation = outward_orientation(positions, &triangles, &winding);
     if orientation.flipped > 0 {
         warnings.push(format!("{} triangles face inward; oriented outward by the solid", orientation.flipped));
     }
