@@ -257,7 +257,13 @@ fn prepare(positions: &[Vec3], triangles: &[[u32; 3]], voxel_resolution: u32) ->
             if dup { ", non-manifold or inconsistently oriented edges" } else { "" }
         ));
     }
-    let solid = solid::voxelize(&pos, &tris, voxel_resolution, closed);
+    let mut solid = solid::voxelize(&pos, &tris, voxel_resolution, closed);
+    if solid.solid_count == 0 {
+        // A sheet encloses nothing: bound it anyway, with the cells its surface passes through
+        // as the solid (E is then relative to that one-cell-thick layer).
+        warnings.push("mesh encloses no volume: the solid is the layer of cells the surface passes through".into());
+        solid = solid.with_surface_cells(&pos, &tris);
+    }
     if solid.solid_count == 0 {
         return Err(FitError::EmptySolid { resolution: voxel_resolution });
     }

@@ -321,19 +321,48 @@ pub fn voxelize(positions: &[DVec3], triangles: &[[u32; 3]], resolution: u32, cl
     }
     let need = if closed { 1 } else { 2 };
     let solid: Vec<bool> = votes.iter().map(|&x| x >= need).collect();
-    let nx = dims[0];
-    let rows = dims[1] * dims[2];
-    let mut prefix = vec![0u32; rows * (nx + 1)];
-    let mut count = 0usize;
-    for row in 0..rows {
-        let mut acc = 0u32;
-        for i in 0..nx {
-            if solid[row * nx + i] {
-                acc += 1;
+    Solid::from_cells(origin, h, dims, solid)
+}
+
+impl Solid {
+    /// Builds the row prefix sums for a given cell classification.
+    pub fn from_cells(origin: DVec3, h: f64, dims: [usize; 3], solid: Vec<bool>) -> Solid {
+        let nx = dims[0];
+        let rows = dims[1] * dims[2];
+        let mut prefix = vec![0u32; rows * (nx + 1)];
+        let mut count = 0usize;
+        for row in 0..rows {
+            let mut acc = 0u32;
+            for i in 0..nx {
+                if solid[row * nx + i] {
+                    acc += 1;
+                }
+                prefix[row * (nx + 1) + i + 1] = acc;
             }
-            prefix[row * (nx + 1) + i + 1] = acc;
+            count += acc as usize;
         }
-        count += acc as usize;
+        Solid { origin, h, dims, solid, prefix, solid_count: count }
     }
-    Solid { origin, h, dims, solid, prefix, solid_count: count }
+
+    /// The same grid with every cell that contains a surface sample (barycentric grid of
+    /// spacing ≤ h/2 on each triangle) also solid: the fallback solid for meshes that enclose
+    /// no volume (single sheets).
+    pub fn with_surface_cells(&self, positions: &[DVec3], triangles: &[[u32; 3]]) -> Solid {
+        let mut solid = self.solid.clone();
+        for t in triangles {
+            let (a, b, c) = (positions[t[0] as usize], positions[t[1] as usize], positions[t[2] as usize]);
+            let l = (b - a).length().max((c - b).length()).max((a - c).length());
+            let m = (2.0 * l / self.h).ceil().clamp(1.0, 4096.0) as usize;
+            for i in 0..=m {
+                for j in 0..=(m - i) {
+                    let p = a + (b - a) * (i as f64 / m as f64) + (c - a) * (j as f64 / m as f64);
+                    if let Some([x, y, z]) = self.cell_of(p) {
+                        let idx = self.index(x, y, z);
+                        solid[idx] = true;
+                    }
+                }
+            }
+        }
+        Solid::from_cells(self.origin, self.h, self.dims, solid)
+    }
 }

@@ -288,3 +288,42 @@ fn real_models_are_bounded() {
         }
     }
 }
+
+#[test]
+fn flat_sheet_is_bounded() {
+    // A single quad encloses no volume; the fit still bounds it (solid = surface cell layer).
+    let p = vec![
+        Vec3::new(-1.0, 0.0, -1.0),
+        Vec3::new(1.0, 0.0, -1.0),
+        Vec3::new(1.0, 0.0, 1.0),
+        Vec3::new(-1.0, 0.0, 1.0),
+    ];
+    let t = vec![[0, 2, 1], [0, 3, 2]];
+    for method in [Method::Variational, Method::Kmeans, Method::Octree] {
+        let r = fit(&p, &t, &FitSettings { method, spheres: 8, voxel_resolution: 32, ..Default::default() }, &|_| {})
+            .unwrap();
+        assert!(r.warnings.iter().any(|w| w.contains("encloses no volume")), "{:?}", r.warnings);
+        assert_triangles_covered(&p, &t, &r.spheres);
+        assert_random_surface_points_covered(&p, &t, &r.spheres, 50_000);
+    }
+}
+
+#[test]
+fn voxel_proxy_agrees_with_exact_volume() {
+    use spherebake_fit::solid::voxelize;
+    use spherebake_geom::volume::ball_mesh_intersection_volume;
+    let (p, t) = voxel_union(&[[0, 0, 0]], 1.0, 1);
+    let pd: Vec<DVec3> = p.iter().map(|x| x.as_dvec3()).collect();
+    let solid = voxelize(&pd, &t, 64, true);
+    // Cells are offset from the faces, so the voxel volume is within area × cell of 1.
+    assert!((solid.volume() - 1.0).abs() <= 6.0 * solid.h, "parity voxelization of the unit cube: {}", solid.volume());
+    for (c, r) in
+        [(DVec3::splat(0.5), 0.6), (DVec3::new(0.9, 0.2, 0.5), 0.4), (DVec3::ZERO, 0.5), (DVec3::splat(0.3), 0.2)]
+    {
+        let exact = ball_mesh_intersection_volume(c, r, &pd, &t);
+        let proxy = solid.ball_volume(c, r);
+        // Error bound: the ball's surface area times one cell.
+        let tol = 4.0 * std::f64::consts::PI * r * r * solid.h;
+        assert!((exact - proxy).abs() <= tol, "c {c}, r {r}: exact {exact}, proxy {proxy}, tol {tol}");
+    }
+}
