@@ -7,6 +7,7 @@ mod atomic;
 mod cmd_bake;
 mod cmd_eval;
 mod cmd_inspect;
+mod cmd_pose;
 mod cmd_view;
 mod config;
 mod json;
@@ -35,6 +36,8 @@ enum Command {
     Export(cmd_view::ExportArgs),
     /// Draw the mesh with its sphere set from three views into a PNG, headless.
     Render(cmd_view::RenderArgs),
+    /// Pose a skinned proxy from its model's animation at a time; print the spheres and their vertex coverage.
+    Pose(cmd_pose::PoseArgs),
 }
 
 fn main() -> ExitCode {
@@ -53,6 +56,7 @@ fn main() -> ExitCode {
         Command::Eval(a) => cmd_eval::run(a),
         Command::Export(a) => cmd_view::run_export(a),
         Command::Render(a) => cmd_view::run_render(a),
+        Command::Pose(a) => cmd_pose::run(a),
     };
     match result {
         Ok(code) => code,
