@@ -4,7 +4,8 @@
 //! views (collected here, decoded in [`decode_views`]) and textures whose only image comes
 //! through `KHR_texture_basisu` / `EXT_texture_webp` / `EXT_texture_avif` (their `source` is
 //! filled in so that the crate accepts them; the image is then skipped with a warning naming the
-//! extension and the material keeps its base colour factor).
+//! extension and the material keeps its base colour factor). `EXT_mesh_gpu_instancing` node
+//! attributes are collected here too (the importer places one copy of the mesh per instance).
 
 use std::collections::HashMap;
 use std::path::Path;
@@ -30,6 +31,7 @@ pub(crate) const SUPPORTED_REQUIRED: &[&str] = &[
     "KHR_materials_clearcoat",
     "KHR_materials_sheen",
     "KHR_lights_punctual",
+    "EXT_mesh_gpu_instancing",
     // Texture formats the importer cannot decode: the material falls back to its base colour
     // factor with a warning naming the extension.
     "KHR_texture_basisu",
@@ -73,6 +75,8 @@ pub(crate) struct Prepared {
     pub fallback: Vec<bool>,
     /// Images reachable only through a texture extension the importer cannot decode.
     pub undecodable_images: HashMap<usize, &'static str>,
+    /// `EXT_mesh_gpu_instancing` per node: accessor of TRANSLATION, ROTATION, SCALE.
+    pub instancing: HashMap<usize, [Option<usize>; 3]>,
 }
 
 fn as_index(v: &Value) -> Option<usize> {
@@ -158,6 +162,21 @@ pub(crate) fn prepare(path: &Path, root: &mut Value) -> Result<Prepared, IoError
                 });
                 break;
             }
+        }
+    }
+    if let Some(nodes) = obj.get("nodes").and_then(Value::as_array) {
+        for (ni, n) in nodes.iter().enumerate() {
+            let Some(attrs) = n.pointer("/extensions/EXT_mesh_gpu_instancing/attributes") else { continue };
+            let mut acc = [None; 3];
+            for (k, name) in ["TRANSLATION", "ROTATION", "SCALE"].iter().enumerate() {
+                if let Some(a) = attrs.get(*name) {
+                    acc[k] = Some(as_index(a).ok_or_else(|| IoError::Invalid {
+                        path: path.to_path_buf(),
+                        message: format!("nodes[{ni}]: EXT_mesh_gpu_instancing {name} is not an accessor index"),
+                    })?);
+                }
+            }
+            prep.instancing.insert(ni, acc);
         }
     }
     if let Some(textures) = obj.get_mut("textures").and_then(Value::as_array_mut) {

@@ -18,6 +18,10 @@ use crate::gltf_ext;
 use crate::texture::decode_srgb_texture;
 use crate::{Ctx, ImportedPart, IoError};
 
+/// Most vertices one import may produce (all instances together): bounds memory for files whose
+/// instancing multiplies a large mesh, and keeps vertex indices within `u32`.
+const MAX_VERTICES: usize = 1 << 27;
+
 /// Largest accessor (in components) accepted without a buffer view (zeros + sparse values).
 const MAX_VIEWLESS_VALUES: usize = 1 << 26;
 
@@ -160,6 +164,8 @@ struct Source<'c> {
     decoded: HashMap<usize, Vec<u8>>,
     /// Images only an undecodable texture extension provides, with that extension's name.
     undecodable_images: HashMap<usize, &'static str>,
+    /// `EXT_mesh_gpu_instancing` accessors (TRANSLATION, ROTATION, SCALE) by node.
+    instancing: HashMap<usize, [Option<usize>; 3]>,
 }
 
 pub(crate) fn import(ctx: &mut Ctx, bytes: &[u8], glb: bool) -> Result<(Mesh, Vec<ImportedPart>), IoError> {
@@ -279,7 +285,8 @@ pub(crate) fn import(ctx: &mut Ctx, bytes: &[u8], glb: bool) -> Result<(Mesh, Ve
             });
         }
     }
-    let mut src = Source { ctx, doc, buffers, decoded, undecodable_images: prep.undecodable_images };
+    let mut src =
+        Source { ctx, doc, buffers, decoded, undecodable_images: prep.undecodable_images, instancing: prep.instancing };
     src.build()
 }
 
@@ -681,7 +688,20 @@ impl Source<'_> {
         let mut material_map: HashMap<Option<usize>, u32> = HashMap::new();
         let mut image_map: HashMap<usize, Option<usize>> = HashMap::new();
         let mut warned_unattached = false;
+        // Mesh placements: one per node, or one per EXT_mesh_gpu_instancing instance (scene ←
+        // node ← instance). Skinned nodes ignore instancing (the extension excludes skins).
+        let mut placements: Vec<(usize, DMat4)> = Vec::with_capacity(instances.len());
         for &ni in &instances {
+            match self.instancing.get(&ni).copied() {
+                Some(attrs) if nodes[ni].skin().is_none() => {
+                    for m in self.instance_matrices(ni, attrs)? {
+                        placements.push((ni, world[ni] * m));
+                    }
+                }
+                _ => placements.push((ni, world[ni])),
+            }
+        }
+        for &(ni, node_world) in &placements {
             let node = nodes[ni].clone();
             let mesh = node.mesh().expect("instances have meshes");
             let mi = mesh.index();
@@ -890,7 +910,7 @@ impl Source<'_> {
                         }
                     }
                     _ => {
-                        let m = world[ni];
+                        let m = node_world;
                         let m3 = DMat3::from_mat4(m);
                         let nm = m3.inverse().transpose();
                         let neg = m3.determinant() < 0.0;
@@ -971,6 +991,14 @@ impl Source<'_> {
                     }
                 };
 
+                if b.mesh.positions.len() + scene.len() > MAX_VERTICES {
+                    return Err(IoError::Invalid {
+                        path,
+                        message: format!(
+                            "{ctx_name}: the scene expands to more than {MAX_VERTICES} vertices (instancing included)"
+                        ),
+                    });
+                }
                 let v0 = b.mesh.positions.len() as u32;
                 let t0 = b.mesh.triangles.len() as u32;
                 b.push(scene, normals, uv_sets, colors, &tris, material);
@@ -982,7 +1010,7 @@ impl Source<'_> {
                     source_mesh: mi,
                     primitive: pi,
                     node: Some(ni),
-                    node_world: world[ni].as_mat4(),
+                    node_world: node_world.as_mat4(),
                     file_vertex_count: n,
                     vertices: v0..b.mesh.positions.len() as u32,
                     triangles: t0..b.mesh.triangles.len() as u32,
@@ -1012,6 +1040,51 @@ impl Source<'_> {
             self.ctx.warn(format!("{} animation(s) ignored: no skinned mesh in the scene", doc.animations().len()));
         }
         Ok((mesh, parts))
+    }
+
+    /// Instance transforms (T·R·S) of an `EXT_mesh_gpu_instancing` node.
+    fn instance_matrices(&self, ni: usize, attrs: [Option<usize>; 3]) -> Result<Vec<DMat4>, IoError> {
+        let mut data: [Option<AccessorData>; 3] = [None, None, None];
+        let mut count: Option<usize> = None;
+        for (k, (acc, comps)) in attrs.iter().zip([3usize, 4, 3]).enumerate() {
+            let Some(ai) = *acc else { continue };
+            let Some(a) = self.doc.accessors().nth(ai) else {
+                return Err(IoError::Invalid {
+                    path: self.path(),
+                    message: format!("nodes[{ni}]: EXT_mesh_gpu_instancing accessor {ai} does not exist"),
+                });
+            };
+            let d = self.read_vec(&a, &[comps], "EXT_mesh_gpu_instancing attribute")?;
+            if count.is_some_and(|c| c != d.count()) {
+                return Err(IoError::Accessor {
+                    path: self.path(),
+                    accessor: ai,
+                    reason: format!(
+                        "{} instances, other attributes of node {ni} have {}",
+                        d.count(),
+                        count.unwrap_or(0)
+                    ),
+                });
+            }
+            count = Some(d.count());
+            data[k] = Some(d);
+        }
+        let n = count.unwrap_or(1);
+        Ok((0..n)
+            .map(|i| {
+                let t = data[0].as_ref().map_or(DVec3::ZERO, |d| DVec3::from(d.get::<3>(i)));
+                let r = data[1].as_ref().map_or(DQuat::IDENTITY, |d| {
+                    let q = DQuat::from_array(d.get::<4>(i));
+                    if q.length() > 1e-12 {
+                        q.normalize()
+                    } else {
+                        DQuat::IDENTITY
+                    }
+                });
+                let s = data[2].as_ref().map_or(DVec3::ONE, |d| DVec3::from(d.get::<3>(i)));
+                DMat4::from_scale_rotation_translation(s, r, t)
+            })
+            .collect())
     }
 
     fn material(

@@ -227,6 +227,26 @@ fn vertex_colours_through_the_color_filter() {
     }
 }
 
+#[test]
+fn gpu_instancing_places_every_instance() {
+    // Source: three placements of the unit cube (see fixtures/README.md). Tolerance: half a 14-bit
+    // step of the unit cube, times the largest instance scale (2), plus the 12-bit rotation
+    // (about 1e-3 rad at up to 1.6 from the instance origin), plus 16-bit exponential
+    // translations/scales (2^-16 relative, at most 4 units): about 1.8e-3.
+    let src = load("gltfpack/cubes.gltf");
+    let imp = load("gltfpack/cubes.mi.cc.glb");
+    assert!(imp.warnings.is_empty(), "{:?}", imp.warnings);
+    assert_eq!(imp.parts.len(), 3);
+    let (sr, r) = (TopologyReport::compute(&src.mesh), TopologyReport::compute(&imp.mesh));
+    assert_eq!((r.triangle_count, r.component_count), (36, 3));
+    assert!(r.closed && r.consistently_oriented);
+    assert!((sr.signed_volume - 3.0).abs() < 1e-6);
+    let tol = 2e-3f32;
+    assert!((r.signed_volume - 3.0).abs() < sr.surface_area * f64::from(tol), "volume {}", r.signed_volume);
+    let worst = every_vertex_found(&src.mesh, &imp.mesh, tol, 0.02);
+    println!("instancing: worst position error {worst}");
+}
+
 fn shared_model(rel: &str) -> Option<PathBuf> {
     let d = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/models");
     if d.join("README.md").is_file() {
