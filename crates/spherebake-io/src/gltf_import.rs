@@ -1,7 +1,9 @@
 //! glTF 2.0 import (`.gltf` with external or data-URI buffers, `.glb`).
 //!
-//! The `gltf` crate parses and validates the JSON; buffers, images and accessors are read here
-//! with checked arithmetic so that no input can make the importer panic.
+//! The JSON is parsed with serde_json and prepared by [`crate::gltf_ext`] (required extensions,
+//! meshopt views, texture-extension sources, instancing); the `gltf` crate then deserializes and
+//! validates it. Buffers (meshopt views decoded), images and accessors are read here with checked
+//! arithmetic so that no input can make the importer panic.
 
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};

@@ -8,6 +8,23 @@
 //! Entry points: [`load_mesh`] (reads the file and everything it references) and
 //! [`load_mesh_from_bytes`] (the model bytes are given; referenced files are still read relative
 //! to the path).
+//!
+//! # glTF extensions
+//!
+//! What asset pipelines ship, gltfpack output in particular, imports directly:
+//!
+//! | extension | handling |
+//! |---|---|
+//! | `KHR_mesh_quantization` | integer / normalized positions, normals, UVs, colours; the dequantizing node transform, inverse bind matrices or `KHR_texture_transform` are applied as usual |
+//! | `EXT_meshopt_compression`, `KHR_meshopt_compression` | buffer views decoded by [`meshopt`] (attribute codec v0 and v1, triangle and index-sequence codecs, all four filters); `fallback` buffers are never read |
+//! | `EXT_mesh_gpu_instancing` | one copy of the mesh per instance |
+//! | `KHR_texture_transform` | kept on the material's [`spherebake_geom::TextureRef`] |
+//! | `KHR_texture_basisu`, `EXT_texture_webp`, `EXT_texture_avif` | a fallback PNG / JPEG `source` is used when present; otherwise a warning naming the extension and the base colour factor |
+//! | `KHR_materials_*`, `KHR_lights_punctual` | ignored (no effect on geometry or base colour) |
+//!
+//! Any other extension in `extensionsRequired` (for example `KHR_draco_mesh_compression`) is an
+//! [`IoError::UnsupportedExtension`] naming it. A malformed compressed view is an
+//! [`IoError::CompressedView`] naming the buffer view, the extension and what is wrong.
 
 mod error;
 mod gltf_ext;
