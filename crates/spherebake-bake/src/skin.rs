@@ -423,8 +423,9 @@ pub struct MarginResult {
 
 /// `--pose-margin auto`: grows radii as little as needed so that every skinned (welded) vertex
 /// lies inside the union of the posed spheres at every frame of [`animation_frames`] (and at
-/// rest). Frames are visited in order; a vertex outside every sphere grows the sphere that needs
-/// the least growth to reach it (ties: lower index), to `distance × (1 + 1e-5)` rounded up in f32,
+/// rest). Frames are visited in order; a vertex outside every sphere grows the sphere whose ball
+/// volume grows least when reaching it (`d³ − r³` smallest; ties: lower index), to
+/// `distance × (1 + 1e-5)` rounded up in f32,
 /// so that the runtime's f32 posing still covers it. Greedy: small, not proven minimal.
 /// Centres are posed from the stored f32 terms, as the runtime does.
 ///
@@ -492,8 +493,11 @@ pub fn grow_for_animations(
                     covered = true;
                     break;
                 }
-                if d - r < best.0 {
-                    best = (d - r, s);
+                // Added ball volume (∝ d³ − r³): growing a small sphere a little costs less
+                // than growing a large one by the same length.
+                let cost = d * d * d - r * r * r;
+                if cost < best.0 {
+                    best = (cost, s);
                 }
             }
             if covered || best.1 == usize::MAX {
