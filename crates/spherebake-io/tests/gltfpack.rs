@@ -145,6 +145,19 @@ fn meshopt_decoding_is_lossless_against_the_uncompressed_quantized_file() {
 }
 
 #[test]
+fn external_bin_with_a_uri_less_fallback_buffer() {
+    let glb = load("gltfpack/skinned-arm.c.glb");
+    let gltf = load("gltfpack/skinned-arm.c.gltf");
+    assert_eq!(gltf.mesh.positions, glb.mesh.positions);
+    assert_eq!(gltf.mesh.triangles, glb.mesh.triangles);
+    assert_eq!(gltf.mesh.normals, glb.mesh.normals);
+    // The compressed .bin is an input; the fallback buffer is never read.
+    let names: Vec<String> =
+        gltf.inputs.iter().map(|p| p.file_name().unwrap().to_string_lossy().into_owned()).collect();
+    assert_eq!(names, ["skinned-arm.c.gltf", "skinned-arm.c.bin"]);
+}
+
+#[test]
 fn animation_survives_resampling_quantization_and_the_quaternion_filter() {
     // Source: the elbow turns about +Z by 90°·t for t in [0, 1] (LINEAR = slerp between the
     // 0°, 45°, 90° keys, so the angle is exactly linear in t). gltfpack resamples at 30 Hz and
