@@ -87,6 +87,7 @@ extern crate alloc;
 pub mod cut;
 pub mod pose;
 pub mod refit;
+pub mod shadow;
 
 use alloc::vec::Vec;
 

@@ -7,6 +7,7 @@ mod atomic;
 mod cmd_bake;
 mod cmd_eval;
 mod cmd_inspect;
+mod cmd_shadows;
 mod cmd_pose;
 mod cmd_view;
 mod config;
@@ -36,6 +37,8 @@ enum Command {
     Export(cmd_view::ExportArgs),
     /// Draw the mesh with its sphere set from three views into a PNG, headless.
     Render(cmd_view::RenderArgs),
+    /// Ground-plane soft shadows of the proxy (runtime log-SH query) against ray-traced truth.
+    Shadows(cmd_shadows::ShadowsArgs),
     /// Pose a skinned proxy from its model's animation at a time; print the spheres and their vertex coverage.
     Pose(cmd_pose::PoseArgs),
 }
@@ -56,6 +59,7 @@ fn main() -> ExitCode {
         Command::Eval(a) => cmd_eval::run(a),
         Command::Export(a) => cmd_view::run_export(a),
         Command::Render(a) => cmd_view::run_render(a),
+        Command::Shadows(a) => cmd_shadows::run(a),
         Command::Pose(a) => cmd_pose::run(a),
     };
     match result {
