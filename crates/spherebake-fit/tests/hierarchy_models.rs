@@ -351,3 +351,52 @@ fn largest_sphere_count() {
         assert!(inflation <= (1e-6 * reference).max(2.0 * spacing), "node {i}: {inflation} over {reference}");
     }
 }
+
+/// Baked hierarchies pass the file format's validation, and the runtime's refit of the rest pose
+/// (sequential pair bounds) gives parents containing their children, and on the lowest level no
+/// smaller than the baked exact balls (higher up the children themselves differ).
+#[test]
+fn baked_hierarchies_load_and_refit_in_the_runtime() {
+    use spherebake_runtime::{refit, rest_node_spheres, Proxy, SphbFile, Sphere};
+    let Some(files) = model_files() else { return };
+    for path in files.iter().filter(|p| p.extension().is_some_and(|e| e == "glb" || e == "obj")) {
+        let Ok(imported) = spherebake_io::load_mesh(path) else { continue };
+        let pts: Vec<DVec3> = imported.mesh.welded_positions.iter().map(|p| p.as_dvec3()).collect();
+        let leaves: Vec<[f32; 4]> = kmeans(&pts, 128, 5, 8)
+            .iter()
+            .map(|(c, r)| [c.x as f32, c.y as f32, c.z as f32, (*r as f32).max(1e-6 * (c.length() as f32 + 1.0))])
+            .collect();
+        let h = build_hierarchy(&leaves, &HierarchySettings::default()).unwrap();
+        let spheres: Vec<Sphere> = leaves.iter().map(|s| Sphere { center: [s[0], s[1], s[2]], radius: s[3] }).collect();
+        let file = SphbFile { spheres, hierarchy: Some(h.clone()), ..SphbFile::default() };
+        let proxy = Proxy::from_file(&file).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+        let plan = proxy.hierarchy_plan().unwrap();
+        let mut nodes = rest_node_spheres(&h);
+        refit(&plan, proxy.spheres(), &mut nodes).unwrap();
+        let mut growth: f64 = 1.0;
+        let mut growth_sum = 0.0;
+        for (i, (n, r)) in h.nodes.iter().zip(&nodes).enumerate() {
+            if n.children.is_empty() {
+                // Same children as the bake: a sequential pair bound is never below the exact ball.
+                assert!(f64::from(r.radius) >= f64::from(n.radius) * (1.0 - 1e-6), "{}: node {i}", path.display());
+                for &l in &n.leaf_children {
+                    let s = proxy.spheres()[l as usize];
+                    let d = ball(r.center, 0.0).0.distance(ball(s.center, 0.0).0);
+                    assert!(d + f64::from(s.radius) <= f64::from(r.radius));
+                }
+            }
+            growth = growth.max(f64::from(r.radius) / f64::from(n.radius));
+            growth_sum += f64::from(r.radius) / f64::from(n.radius);
+            for &c in &n.children {
+                let k = nodes[c as usize];
+                let d = ball(r.center, 0.0).0.distance(ball(k.center, 0.0).0);
+                assert!(d + f64::from(k.radius) <= f64::from(r.radius));
+            }
+        }
+        println!(
+            "{}: runtime refit of the rest pose, radius / baked radius: mean {:.4}, max {growth:.4}",
+            path.display(),
+            growth_sum / h.nodes.len() as f64
+        );
+    }
+}
