@@ -78,6 +78,34 @@ fn main() {
             cov_all = cov_all.min(union_coverage(&verts, &ball));
         }
         let m = grow_for_animations(&mesh, &spheres, &t4, &s4).unwrap();
+        if let Ok(dir) = std::env::var("DUMP") {
+            // For the oracle cross-check: the spheres (rest scene space) and an all-bones .sphb.
+            let stem = name.trim_end_matches(".glb");
+            let pts: Vec<String> = spheres
+                .iter()
+                .map(|s| format!("{{\"center\": [{:?}, {:?}, {:?}], \"radius\": {:?}}}", s[0], s[1], s[2], s[3]))
+                .collect();
+            let dir = Path::new(&dir);
+            std::fs::write(dir.join(format!("{stem}.points.json")), format!("{{\"spheres\": [{}]}}", pts.join(", ")))
+                .unwrap();
+            let (_, bone_table, _) =
+                bake_skin(&mesh, &spheres, &SkinSettings { bones_per_sphere: bones, ..Default::default() })
+                    .unwrap()
+                    .unwrap();
+            let file = spherebake_format::SphbFile {
+                spheres: spheres
+                    .iter()
+                    .map(|s| spherebake_format::Sphere {
+                        center: [s[0], s[1], s[2]],
+                        radius: s[3].max(f32::MIN_POSITIVE),
+                    })
+                    .collect(),
+                skin: Some(tall.clone()),
+                bones: Some(bone_table),
+                ..Default::default()
+            };
+            std::fs::write(dir.join(format!("{stem}.sphb")), spherebake_format::write(&file)).unwrap();
+        }
         println!(
             "| {name} | {bones} | {} | {} | {} | {:.2e} | {:.2e} | {:.3} | {:.4} | {:.4} | {} | {:.2e} | {:.4} | {:.4} | {:.1e} |",
             skel.animations.len(),
