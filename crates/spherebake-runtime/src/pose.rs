@@ -5,7 +5,9 @@
 //! matrix of the slot's bone in the glTF convention (joint world transform × inverse bind
 //! matrix, column-major `[f32; 16]`, element (row r, column c) at `4c + r`). Radii are kept.
 
-use crate::{refit, HierarchyPlan, Proxy, QueryError, Sphere, UNUSED_BONE};
+use crate::{refit, HierarchyPlan, Proxy, QueryError, Sphere};
+
+static ZERO_MATRIX: [f32; 16] = [0.0; 16];
 
 /// Why [`pose`] refused its arguments (nothing is written then).
 #[derive(Clone, Debug, PartialEq, Eq)]
@@ -77,18 +79,18 @@ pub fn pose(proxy: &Proxy, joint_matrices: &[[f32; 16]], out: &mut [Sphere]) -> 
     }
     // `load` validated: entries.len() == sphere count × k, every used bone < bone count.
     for ((o, r), slots) in out.iter_mut().zip(rest).zip(skin.entries.chunks_exact(k)) {
-        let (mut x, mut y, mut z) = (0.0f32, 0.0f32, 0.0f32);
+        // Four lanes (the w row rides along) so the compiler can use one SIMD register per column.
+        let mut acc = [0.0f32; 4];
         for e in slots {
-            if e.bone == UNUSED_BONE {
-                continue;
-            }
-            let Some(m) = joint_matrices.get(e.bone as usize) else { continue };
+            // Unused slots (bone UNUSED_BONE, out of range) read the zero matrix: no branch.
+            let m = joint_matrices.get(e.bone as usize).unwrap_or(&ZERO_MATRIX);
             let [qx, qy, qz] = e.q;
             let b = e.b;
-            x += m[0] * qx + m[4] * qy + m[8] * qz + m[12] * b;
-            y += m[1] * qx + m[5] * qy + m[9] * qz + m[13] * b;
-            z += m[2] * qx + m[6] * qy + m[10] * qz + m[14] * b;
+            for (i, a) in acc.iter_mut().enumerate() {
+                *a += m[i] * qx + m[4 + i] * qy + m[8 + i] * qz + m[12 + i] * b;
+            }
         }
+        let [x, y, z, _] = acc;
         *o = Sphere { center: [x, y, z], radius: r.radius };
     }
     Ok(())
