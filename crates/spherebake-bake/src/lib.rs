@@ -27,6 +27,7 @@ pub use settings::{BakeSettings, Method};
 pub use skin::{bake_skin, grow_for_animations, MarginResult, PoseMargin, SkinError, SkinSettings, SkinStats};
 
 use serde::Serialize;
+use spherebake_fit::hierarchy::{build_hierarchy, hierarchy_stats, HierarchySettings};
 use spherebake_fit::{FitSettings, Method as FitMethod};
 use spherebake_format::{Metadata, SphbFile, Sphere};
 use spherebake_geom::bvh::TriangleBvh;
@@ -78,6 +79,8 @@ pub struct BakeReport {
     pub outside_ratio_e: Option<f64>,
     /// V(∪S − T) / V(T), when measured.
     pub union_outside_ratio: Option<f64>,
+    /// Sphere hierarchy statistics.
+    pub hierarchy: HierarchySummary,
     /// Surface sample statistics.
     pub samples: SampleSummary,
     /// Per-stage wall times, in pipeline order (fit sub-stages are prefixed by the fitter).
@@ -88,6 +91,17 @@ pub struct BakeReport {
     pub warnings: Vec<String>,
     /// Size of the written file in bytes.
     pub file_bytes: usize,
+}
+
+/// Sphere hierarchy statistics (Ren et al. 2006 §6.3).
+#[derive(Clone, Debug, Serialize)]
+pub struct HierarchySummary {
+    /// Levels above the leaves.
+    pub levels: usize,
+    pub mean_branching: f64,
+    /// Parent radius / radius of the minimal ball enclosing its children (1 = tightest).
+    pub tightness_mean: f64,
+    pub tightness_max: f64,
 }
 
 /// Surface sample statistics of a bake (Guerrero et al. 2008 §4.2, 92 directions per sphere).
@@ -156,6 +170,12 @@ pub fn bake_imported(
     warnings.extend(fitted.warnings);
     let spheres = &fitted.spheres;
 
+    let t = Instant::now();
+    let hierarchy = build_hierarchy(spheres, &HierarchySettings { branching: settings.branching, seed: settings.seed })
+        .map_err(|e| BakeError::Stage { path: path.to_path_buf(), stage: "hierarchy", message: e.to_string() })?;
+    let hstats = hierarchy_stats(&hierarchy, spheres);
+    timings.push(StageTime { stage: "hierarchy", seconds: t.elapsed().as_secs_f64() });
+
     // Outward orientation by the solid (real meshes are not always consistently oriented),
     // shared by the sample-point and albedo stages.
     let t = Instant::now();
@@ -196,6 +216,7 @@ pub fn bake_imported(
     let input_hash = format!("{:016x}", imported.content_hash);
     let file = SphbFile {
         spheres: spheres.iter().map(|s| Sphere { center: [s[0], s[1], s[2]], radius: s[3] }).collect(),
+        hierarchy: Some(hierarchy),
         samples: Some(samples),
         albedo_sh: Some(albedo_sh),
         metadata: Some(Metadata {
@@ -234,6 +255,12 @@ pub fn bake_imported(
         sphere_count: file.spheres.len(),
         outside_ratio_e: fitted.outside_ratio_e,
         union_outside_ratio: fitted.union_outside_ratio,
+        hierarchy: HierarchySummary {
+            levels: hstats.levels,
+            mean_branching: hstats.mean_branching,
+            tightness_mean: hstats.tightness_mean,
+            tightness_max: hstats.tightness_max,
+        },
         samples: SampleSummary {
             per_sphere_mean: sample_stats.samples_per_sphere_mean,
             per_sphere_min: sample_stats.samples_per_sphere_min,

@@ -29,6 +29,8 @@ pub struct BakeSettings {
     pub voxels: u32,
     /// Seed of the random start. Default 1. Same seed + input + settings → byte-identical output.
     pub seed: u64,
+    /// Average branching ratio of the sphere hierarchy. Default 4, range 2..=16.
+    pub branching: f64,
     /// SH order n of the albedo (bands 0..n−1, n² coefficients per sphere). Default 4, range 1..=8.
     pub sh_order: usize,
     /// Albedo cube-map face size in texels. Default 32, range 4..=512.
@@ -47,6 +49,7 @@ impl Default for BakeSettings {
             max_outside_ratio: None,
             voxels: 128,
             seed: 1,
+            branching: 4.0,
             sh_order: 4,
             cubemap_size: 32,
             debug_cubemaps: None,
@@ -67,6 +70,9 @@ impl BakeSettings {
         }
         if !(16..=1024).contains(&self.voxels) {
             return Err(format!("--voxels must be in 16..=1024, got {}", self.voxels));
+        }
+        if !(self.branching.is_finite() && (2.0..=16.0).contains(&self.branching)) {
+            return Err(format!("--branching must be in 2..=16, got {}", self.branching));
         }
         if !(1..=8).contains(&self.sh_order) {
             return Err(format!("--sh-order must be in 1..=8, got {}", self.sh_order));

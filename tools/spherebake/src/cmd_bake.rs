@@ -50,6 +50,9 @@ pub struct BakeArgs {
     /// Seed of the random start; same seed + input + settings give byte-identical files [default: 1]
     #[arg(long)]
     pub seed: Option<u64>,
+    /// Average branching ratio of the sphere hierarchy [default: 4, range 2..=16]
+    #[arg(long)]
+    pub branching: Option<f64>,
     /// SH order of the albedo per sphere (n² coefficients) [default: 4, range 1..=8]
     #[arg(long)]
     pub sh_order: Option<usize>,
@@ -197,6 +200,7 @@ fn plan(a: &BakeArgs) -> std::result::Result<Vec<Job>, Usage> {
         seed: a.seed,
         sh_order: a.sh_order,
         cubemap_size: a.cubemap_size,
+        branching: a.branching,
     };
     let n_inputs = inputs.len();
     inputs
@@ -230,6 +234,7 @@ fn to_settings(o: &Overrides) -> std::result::Result<BakeSettings, String> {
         seed: o.seed.unwrap_or(d.seed),
         sh_order: o.sh_order.unwrap_or(d.sh_order),
         cubemap_size: o.cubemap_size.unwrap_or(d.cubemap_size),
+        branching: o.branching.unwrap_or(d.branching),
         debug_cubemaps: None,
     };
     s.validate()?;
@@ -397,6 +402,11 @@ fn print_single(output: &Path, r: &spherebake_bake::BakeReport) {
     println!("  time      {total:.3} s ({})", stages.join(", "));
     let fit: Vec<String> = r.fit_stages.iter().map(|t| format!("{} {:.3}", t.stage, t.seconds)).collect();
     println!("  fit       {}", fit.join(", "));
+    let h = &r.hierarchy;
+    println!(
+        "  hierarchy {} levels, mean branching {:.2}, parent tightness mean {:.6} max {:.6}",
+        h.levels, h.mean_branching, h.tightness_mean, h.tightness_max
+    );
     println!(
         "  samples   {:.1} per sphere (min {}), empty directions: rule 2 {:.1}%, rule 3 {:.1}%",
         r.samples.per_sphere_mean,

@@ -29,6 +29,7 @@ pub struct Overrides {
     pub seed: Option<u64>,
     pub sh_order: Option<usize>,
     pub cubemap_size: Option<usize>,
+    pub branching: Option<f64>,
 }
 
 impl Overrides {
@@ -42,6 +43,7 @@ impl Overrides {
             seed: over.seed.or(self.seed),
             sh_order: over.sh_order.or(self.sh_order),
             cubemap_size: over.cubemap_size.or(self.cubemap_size),
+            branching: over.branching.or(self.branching),
         }
     }
 }
