@@ -205,3 +205,42 @@ fn pose_margin_covers_every_frame() {
     assert!(r.outside_ratio_after.unwrap() > r.outside_ratio_before.unwrap());
     eprintln!("{r:?}");
 }
+
+#[test]
+fn open_mesh_residual_is_measured_and_carried_by_the_bones() {
+    // The arm without its end caps: open, so MVC loses linear precision.
+    let mut m = arm();
+    let keep: Vec<usize> = (0..m.triangles.len())
+        .filter(|&t| {
+            let ys = m.triangles[t].map(|v| m.positions[v as usize].y);
+            !(ys.iter().all(|&y| y.abs() < 1e-6) || ys.iter().all(|&y| (y - 2.0).abs() < 1e-6))
+        })
+        .collect();
+    assert!(keep.len() < m.triangles.len(), "caps found");
+    m.triangles = keep.iter().map(|&t| m.triangles[t]).collect();
+    m.triangle_materials = keep.iter().filter_map(|&t| m.triangle_materials.get(t).copied()).collect();
+    let s = spheres();
+    let d = diag(&m);
+    let (terms, _, stats) = bake_skin(&m, &s, &SkinSettings::default()).unwrap().unwrap();
+    assert!(!stats.closed);
+    // Independent residual: |Σ λ v − c| recomputed here for the worst sphere.
+    let wp: Vec<DVec3> = m.welded_positions.iter().map(|p| p.as_dvec3()).collect();
+    let wt = m.welded_triangles();
+    let worst = s
+        .iter()
+        .map(|c| {
+            let x = DVec3::new(c[0].into(), c[1].into(), c[2].into());
+            let l = mvc::mean_value_coordinates(x, &wp, &wt).unwrap().weights;
+            (wp.iter().zip(&l).map(|(v, w)| *v * *w).sum::<DVec3>() - x).length()
+        })
+        .fold(0.0, f64::max);
+    assert!(worst > 1e-3, "open mesh: linear precision lost ({worst})");
+    assert!((stats.linear_residual_max - worst).abs() < 1e-12);
+    eprintln!("open arm: residual max {worst:.4} = {:.4} × diagonal", stats.linear_residual_max_relative);
+    // The remainder is redistributed over the kept bones: rest centres still exact.
+    let rest = rest_joint_matrices(&m.skin.as_ref().unwrap().skeleton);
+    for (i, c) in posed(&terms, s.len(), &rest).iter().enumerate() {
+        let e = DVec3::new(s[i][0].into(), s[i][1].into(), s[i][2].into());
+        assert!((*c - e).length() <= 1e-6 * d, "sphere {i}");
+    }
+}
