@@ -87,8 +87,8 @@ pub struct SkinStats {
 pub enum SkinError {
     #[error("bones per sphere is {value}, expected 1..={max}")]
     BonesPerSphere { value: usize, max: usize },
-    #[error("skin has {bone_count} bones; keeping all of them needs {bone_count} slots per sphere, the format stores at most {max}")]
-    TooManyBones { bone_count: usize, max: usize },
+    #[error("bones per sphere {bones_per_sphere} with a {bone_count}-bone skin needs {} slots per sphere, the format stores at most {max}", bones_per_sphere.min(bone_count))]
+    TooManyBones { bones_per_sphere: usize, bone_count: usize, max: usize },
     #[error("samples per animation is {value}, expected 1..=10000")]
     SamplesPerAnimation { value: usize },
     #[error("sphere {index} is not finite or has a negative radius")]
@@ -114,9 +114,8 @@ struct WeldedSkin {
     triangles: Vec<[u32; 3]>,
 }
 
-fn welded_skin(mesh: &Mesh) -> Result<WeldedSkin, SkinError> {
+fn welded_skin(mesh: &Mesh, skin: &spherebake_geom::Skin) -> Result<WeldedSkin, SkinError> {
     let n = mesh.positions.len();
-    let skin = mesh.skin.as_ref().expect("caller checked");
     if skin.influences.len() != n {
         return Err(SkinError::SkinLength { what: "influences", expected: n, actual: skin.influences.len() });
     }
@@ -244,8 +243,8 @@ pub fn bake_skin(
     settings: &SkinSettings,
 ) -> Result<Option<(SkinTerms, Vec<BoneRecord>, SkinStats)>, SkinError> {
     let t0 = std::time::Instant::now();
-    if settings.bones_per_sphere == 0 || settings.bones_per_sphere > 4096 {
-        return Err(SkinError::BonesPerSphere { value: settings.bones_per_sphere, max: MAX_BONES_PER_SPHERE });
+    if settings.bones_per_sphere == 0 {
+        return Err(SkinError::BonesPerSphere { value: 0, max: MAX_BONES_PER_SPHERE });
     }
     check_spheres(spheres)?;
     let Some(skin) = mesh.skin.as_ref() else { return Ok(None) };
@@ -253,15 +252,16 @@ pub fn bake_skin(
     if bone_count == 0 {
         return Ok(None);
     }
+    // Larger than the bone count keeps every bone; the format stores at most 64 slots.
     let k = settings.bones_per_sphere.min(bone_count);
     if k > MAX_BONES_PER_SPHERE {
-        return Err(if settings.bones_per_sphere > MAX_BONES_PER_SPHERE {
-            SkinError::TooManyBones { bone_count, max: MAX_BONES_PER_SPHERE }
-        } else {
-            SkinError::BonesPerSphere { value: settings.bones_per_sphere, max: MAX_BONES_PER_SPHERE }
+        return Err(SkinError::TooManyBones {
+            bones_per_sphere: settings.bones_per_sphere,
+            bone_count,
+            max: MAX_BONES_PER_SPHERE,
         });
     }
-    let ws = welded_skin(mesh)?;
+    let ws = welded_skin(mesh, skin)?;
     let rest = rest_joint_matrices(&skin.skeleton);
     struct PerSphere {
         terms: Vec<BoneTerm>,
@@ -462,7 +462,7 @@ pub fn grow_for_animations(
             outside_ratio_after: None,
         });
     };
-    let ws = welded_skin(mesh)?;
+    let ws = welded_skin(mesh, skin)?;
     let skel = &skin.skeleton;
     let mut frames: Vec<(Option<usize>, f32)> = vec![(None, 0.0)];
     frames.extend(animation_frames(skel, settings.samples_per_animation).into_iter().map(|(a, t)| (Some(a), t)));
@@ -566,10 +566,10 @@ fn lbs_rows(bind: &[DVec3], rows: &[SkinRow], joints: &[DMat4]) -> Vec<DVec3> {
 ///
 /// Inconsistent skin arrays. A mesh without skin gives its welded rest positions.
 pub fn posed_welded_vertices(mesh: &Mesh, joints: &[Mat4]) -> Result<Vec<DVec3>, SkinError> {
-    if mesh.skin.is_none() {
+    let Some(skin) = mesh.skin.as_ref() else {
         return Ok(mesh.welded_positions.iter().map(|p| p.as_dvec3()).collect());
-    }
-    let ws = welded_skin(mesh)?;
+    };
+    let ws = welded_skin(mesh, skin)?;
     let jm: Vec<DMat4> = joints.iter().map(Mat4::as_dmat4).collect();
     Ok(lbs_rows(&ws.bind, &ws.rows, &jm))
 }
