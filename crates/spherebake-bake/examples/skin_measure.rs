@@ -57,6 +57,9 @@ fn main() {
             f64::from((hi - lo).length())
         };
         let (mut err_sum, mut err_max, mut err_n) = (0.0, 0.0f64, 0usize);
+        // Centre-LBS with the same k = 4 (math reference §7 P'_k): Σ_K b̃_j D_j c, D_j = M_j(t) M_j(rest)⁻¹.
+        let rest = spherebake_bake::skin::rest_joint_matrices(skel);
+        let (mut lbs_sum, mut lbs_max) = (0.0, 0.0f64);
         let (mut cov4, mut cov_all) = (1.0f64, 1.0f64);
         for &(a, t) in &frames {
             let j = animation_joint_matrices(skel, a, t);
@@ -71,6 +74,22 @@ fn main() {
                 err_sum += e;
                 err_max = err_max.max(e);
                 err_n += 1;
+                let mut slots: Vec<_> =
+                    tall.of(i).iter().filter(|e| e.bone != spherebake_format::UNUSED_BONE).collect();
+                slots.sort_by(|a, b| b.b.abs().total_cmp(&a.b.abs()).then(a.bone.cmp(&b.bone)));
+                slots.truncate(4);
+                let bsum: f64 = slots.iter().map(|e| f64::from(e.b)).sum();
+                let c = glam::DVec3::new(s[0].into(), s[1].into(), s[2].into());
+                let lbs: glam::DVec3 = slots
+                    .iter()
+                    .map(|e| {
+                        let j = e.bone as usize;
+                        (jd[j] * rest[j].inverse()).transform_point3(c) * (f64::from(e.b) / bsum)
+                    })
+                    .sum();
+                let el = (lbs - ca).length() / diag;
+                lbs_sum += el;
+                lbs_max = lbs_max.max(el);
                 b4.push([c4.x, c4.y, c4.z, f64::from(s[3])]);
                 ball.push([ca.x, ca.y, ca.z, f64::from(s[3])]);
             }
@@ -123,8 +142,8 @@ fn main() {
             st4.linear_residual_max_relative,
         );
         eprintln!(
-            "  {name}: fit {fit_s:.1} s, skin bake {:.3} s, closed {}, on-surface centres {}, remainder dropped {}",
-            st4.seconds, st4.closed, st4.centres_on_surface, st4.remainder_dropped
+            "  {name}: fit {fit_s:.1} s, skin bake {:.3} s, closed {}, on-surface centres {}, remainder dropped {}; centre-LBS k=4 error mean {:.2e} max {:.2e} (÷diag)",
+            st4.seconds, st4.closed, st4.centres_on_surface, st4.remainder_dropped, lbs_sum / err_n as f64, lbs_max
         );
     }
 }
