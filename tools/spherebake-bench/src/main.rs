@@ -165,6 +165,7 @@ fn child(model: &Path, spheres: usize, method: MethodArg, eval: bool, progress: 
     let out = bake_path(model, &settings, &report_progress)?;
     let wall_s = t0.elapsed().as_secs_f64();
     let peak_kib = vm_hwm_kib()?;
+    let cpu_s = cpu_seconds()?;
     if progress {
         eprintln!("\r  bake 100% in {wall_s:.1} s");
     }
@@ -173,6 +174,7 @@ fn child(model: &Path, spheres: usize, method: MethodArg, eval: bool, progress: 
     let mut doc = json!({
         "wall_s": wall_s,
         "peak_kib": peak_kib,
+        "cpu_s": cpu_s,
         "triangles": r.triangles,
         "spheres": r.sphere_count,
         "closed": r.closed,
@@ -210,6 +212,17 @@ fn vm_hwm_kib() -> Result<u64> {
     line.split_whitespace().nth(1).and_then(|v| v.parse().ok()).context("unreadable VmHWM")
 }
 
+/// CPU time (user + system, all threads) of this process so far, seconds (`/proc/self/stat`,
+/// in clock ticks of 1/100 s, the Linux USER_HZ).
+fn cpu_seconds() -> Result<f64> {
+    let stat = std::fs::read_to_string("/proc/self/stat").context("reading /proc/self/stat")?;
+    // Fields after the parenthesised command name: state is field 3, utime 14, stime 15.
+    let rest = stat.rsplit_once(')').map(|(_, r)| r).context("unreadable /proc/self/stat")?;
+    let fields: Vec<&str> = rest.split_whitespace().collect();
+    let tick = |i: usize| fields.get(i).and_then(|v| v.parse::<f64>().ok()).context("unreadable /proc/self/stat");
+    Ok((tick(11)? + tick(12)?) / 100.0)
+}
+
 /// One row: `runs` bakes of the same input in child processes.
 struct Row {
     walls: Vec<f64>,
@@ -223,6 +236,10 @@ struct Row {
 impl Row {
     fn wall(&self) -> f64 {
         median(&self.walls)
+    }
+    /// Median CPU seconds (user + system) of the bakes.
+    fn cpu(&self) -> f64 {
+        median(&self.all.iter().map(|d| d["cpu_s"].as_f64().unwrap_or(f64::NAN)).collect::<Vec<_>>())
     }
     fn peak_mib(&self) -> f64 {
         self.peak_kib as f64 / 1024.0
@@ -314,12 +331,12 @@ fn quality(
     writeln!(
         md,
         "E = Σ V(S_i − T) / V(T) (Ren et al. 2006 eq. 35) and the union's outside ratio V(∪S − T) / V(T), as \
-         `bake_path` reports them; wall time of the whole bake (median of {runs}), peak memory of the baking \
-         process. Coverage: share of 1,000,000 random surface points inside the union (`spherebake_fit::evaluate`, \
+         `bake_path` reports them; wall time of the whole bake (median of {runs}), its CPU time (user + system, \
+         all threads), peak memory of the baking process. Coverage: share of 1,000,000 random surface points inside the union (`spherebake_fit::evaluate`, \
          run at 64 spheres).\n"
     )?;
-    writeln!(md, "| model | tris | method | spheres | E | union | bake s | peak MiB | coverage |")?;
-    writeln!(md, "|---|---:|---|---:|---:|---:|---:|---:|---:|")?;
+    writeln!(md, "| model | tris | method | spheres | E | union | bake s | cpu s | peak MiB | coverage |")?;
+    writeln!(md, "|---|---:|---|---:|---:|---:|---:|---:|---:|---:|")?;
     let mut summary: BTreeMap<(usize, usize), Vec<String>> = BTreeMap::new();
     for (mi, model) in list.iter().enumerate() {
         for (hi, &method) in methods.iter().enumerate() {
@@ -335,12 +352,13 @@ fn quality(
                 });
                 writeln!(
                     md,
-                    "| {model} | {} | {} | {k} | {} | {} | {:.2} | {:.0} | {} |",
+                    "| {model} | {} | {} | {k} | {} | {} | {:.2} | {:.2} | {:.0} | {} |",
                     row.median_run["triangles"],
                     method.name(),
                     opt(row.num("e"), 3),
                     opt(row.num("union"), 3),
                     row.wall(),
+                    row.cpu(),
                     row.peak_mib(),
                     coverage.unwrap_or_else(|| "–".into())
                 )?;
@@ -392,11 +410,12 @@ fn speed(md: &mut String, models: &Path, runs: usize) -> Result<()> {
     writeln!(
         md,
         "Whole `bake` of the bunny ({} triangles), variational, 64 spheres: median **{:.2} s** of {runs} \
-         (min {:.2}, max {:.2}), peak {:.0} MiB, E = {}.\n",
+         (min {:.2}, max {:.2}), CPU time {:.2} s (median), peak {:.0} MiB, E = {}.\n",
         row.median_run["triangles"],
         row.wall(),
         walls[0],
         walls[walls.len() - 1],
+        row.cpu(),
         row.peak_mib(),
         opt(row.num("e"), 3)
     )?;
@@ -408,6 +427,7 @@ fn speed(md: &mut String, models: &Path, runs: usize) -> Result<()> {
             writeln!(md, "| {prefix}{stage} | {s:.3} | {:.1}% |", 100.0 * s / total)?;
         }
     }
+    writeln!(md, "\nThe `fit ›` rows are the fitter's own timers (`FitStats::timings`); they may nest.")?;
 
     let scratch = Scratch::new()?;
     let mesh = load_bunny(models)?;
@@ -418,8 +438,8 @@ fn speed(md: &mut String, models: &Path, runs: usize) -> Result<()> {
     meshops::write_obj(&small, &small_path)?;
     meshops::write_obj(&big, &big_path)?;
     writeln!(md, "\nGrowth with triangle count (variational, 64 spheres; vertex-clustering decimation and midpoint subdivision of the bunny):\n")?;
-    writeln!(md, "| mesh | tris | bake s (median) | fit s | E | peak MiB |")?;
-    writeln!(md, "|---|---:|---:|---:|---:|---:|")?;
+    writeln!(md, "| mesh | tris | bake s (median) | cpu s | fit s | E | peak MiB |")?;
+    writeln!(md, "|---|---:|---:|---:|---:|---:|---:|")?;
     for (name, path) in [("bunny decimated", &small_path), ("bunny", &bunny), ("bunny subdivided ×1", &big_path)] {
         eprintln!("speed: {name}");
         let r =
@@ -428,23 +448,32 @@ fn speed(md: &mut String, models: &Path, runs: usize) -> Result<()> {
         let fit = r.stage_medians("timings").into_iter().find(|(s, _)| s == "fit").map(|(_, s)| s);
         writeln!(
             md,
-            "| {name} | {} | {:.2} | {} | {} | {:.0} |",
+            "| {name} | {} | {:.2} | {:.2} | {} | {} | {:.0} |",
             r.median_run["triangles"],
             r.wall(),
+            r.cpu(),
             opt(fit, 2),
             opt(r.num("e"), 3),
             r.peak_mib()
         )?;
     }
     writeln!(md, "\nGrowth with sphere count (bunny, variational):\n")?;
-    writeln!(md, "| spheres | bake s (median) | fit s | E | peak MiB |")?;
-    writeln!(md, "|---:|---:|---:|---:|---:|")?;
+    writeln!(md, "| spheres | bake s (median) | cpu s | fit s | E | peak MiB |")?;
+    writeln!(md, "|---:|---:|---:|---:|---:|---:|")?;
     for k in [16, 64, 256] {
         eprintln!("speed: bunny {k} spheres");
         let r = if k == 64 { None } else { Some(run_row(&bunny, k, MethodArg::Variational, runs, false, false)?) };
         let r = r.as_ref().unwrap_or(&row);
         let fit = r.stage_medians("timings").into_iter().find(|(s, _)| s == "fit").map(|(_, s)| s);
-        writeln!(md, "| {k} | {:.2} | {} | {} | {:.0} |", r.wall(), opt(fit, 2), opt(r.num("e"), 3), r.peak_mib())?;
+        writeln!(
+            md,
+            "| {k} | {:.2} | {:.2} | {} | {} | {:.0} |",
+            r.wall(),
+            r.cpu(),
+            opt(fit, 2),
+            opt(r.num("e"), 3),
+            r.peak_mib()
+        )?;
     }
     writeln!(md)?;
     Ok(())
@@ -467,14 +496,15 @@ fn scale(md: &mut String, models: &Path, subdivisions: u32, runs: usize) -> Resu
         "The bunny subdivided {subdivisions}× (midpoint 1→4), written as a temporary OBJ and baked through \
          `bake_path`, variational, 64 spheres (median of {runs}).\n"
     )?;
-    writeln!(md, "| tris | bake s | target | peak MiB | target | E |")?;
-    writeln!(md, "|---:|---:|---|---:|---|---:|")?;
+    writeln!(md, "| tris | bake s | target | cpu s | peak MiB | target | E |")?;
+    writeln!(md, "|---:|---:|---|---:|---:|---|---:|")?;
     let (wall, peak) = (row.wall(), row.peak_mib());
     writeln!(
         md,
-        "| {} | {wall:.1} | ≤ 60 s: {} | {peak:.0} | ≤ 4096 MiB: {} | {} |",
+        "| {} | {wall:.1} | ≤ 60 s: {} | {:.1} | {peak:.0} | ≤ 4096 MiB: {} | {} |",
         row.median_run["triangles"],
         if wall <= 60.0 { "met" } else { "not met" },
+        row.cpu(),
         if peak <= 4096.0 { "met" } else { "not met" },
         opt(row.num("e"), 3)
     )?;
