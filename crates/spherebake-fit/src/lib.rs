@@ -397,8 +397,20 @@ fn run_once(
                 all.push(points::Rep::point(prep.pos[v as usize]));
             }
         }
-        let c = (prep.pos[t[0] as usize] + prep.pos[t[1] as usize] + prep.pos[t[2] as usize]) / 3.0;
-        all.push(points::Rep::point(c));
+        let (a, b, c) = (prep.pos[t[0] as usize], prep.pos[t[1] as usize], prep.pos[t[2] as usize]);
+        all.push(points::Rep::point((a + b + c) / 3.0));
+        // Triangles larger than the sample spacing also get a barycentric grid, so the polish
+        // sees their interiors too (real scans never need it; coarse CAD-like meshes do).
+        let l = (b - a).length().max((c - b).length()).max((a - c).length());
+        let m = (2.0 * l / pts.h).ceil().min(256.0) as usize;
+        if m > 1 {
+            for i in 0..=m {
+                for j in 0..=(m - i) {
+                    let (u, v) = (i as f64 / m as f64, j as f64 / m as f64);
+                    all.push(points::Rep::point(a + (b - a) * u + (c - a) * v));
+                }
+            }
+        }
     }
     all.extend(pts.points[pts.surface_count..].iter().map(|p| points::Rep::point(*p)));
     let ctx = lloyd::Ctx { solid: &prep.solid, pts, all: &pts.reps, powell_sweeps: settings.powell_sweeps };
@@ -490,7 +502,9 @@ pub fn fit(
         Some(target) if settings.method == Method::Variational => {
             // Doubling then bisection on the sphere count.
             let mut tried: Vec<(usize, Run)> = Vec::new();
-            let mut k = 8usize;
+            // More spheres than clustering points cannot help.
+            let k_max = 1024.min(pts.points.len()).max(1);
+            let mut k = 8usize.min(k_max);
             let mut hi_k = None;
             loop {
                 let mut tm = Vec::new();
@@ -501,15 +515,15 @@ pub fn fit(
                     hi_k = Some(k);
                     break;
                 }
-                if k >= 1024 {
+                if k >= k_max {
                     break;
                 }
-                k = (k * 2).min(1024);
-                progress(0.1 + 0.4 * (k as f32 / 1024.0));
+                k = (k * 2).min(k_max);
+                progress(0.1 + 0.4 * (k as f32 / k_max as f32));
             }
             match hi_k {
                 None => {
-                    warnings.push(format!("target E ≤ {target} not reached with 1024 spheres"));
+                    warnings.push(format!("target E ≤ {target} not reached with {k_max} spheres"));
                 }
                 Some(hk) => {
                     let mut lo_k = hk / 2;
