@@ -79,6 +79,8 @@ pub struct BakeReport {
     pub outside_ratio_e: Option<f64>,
     /// V(∪S − T) / V(T), when measured.
     pub union_outside_ratio: Option<f64>,
+    /// Skinning statistics, when the model is skinned.
+    pub skin: Option<SkinSummary>,
     /// Sphere hierarchy statistics.
     pub hierarchy: HierarchySummary,
     /// Surface sample statistics.
@@ -91,6 +93,32 @@ pub struct BakeReport {
     pub warnings: Vec<String>,
     /// Size of the written file in bytes.
     pub file_bytes: usize,
+}
+
+/// Skinning statistics (MVC of sphere centres folded into bones, Ren et al. 2006 §6.2).
+#[derive(Clone, Debug, Serialize)]
+pub struct SkinSummary {
+    pub bones: usize,
+    pub bones_per_sphere: usize,
+    /// max |Σ w_v v − c| / bbox diagonal (0 up to rounding on closed meshes; open meshes lose linear precision).
+    pub linear_residual_max_relative: f64,
+    /// Largest |b| weight share dropped by keeping `bones_per_sphere` bones.
+    pub dropped_weight_max: f64,
+    pub pose_margin: Option<MarginSummary>,
+}
+
+/// What `--pose-margin auto` did.
+#[derive(Clone, Debug, Serialize)]
+pub struct MarginSummary {
+    /// Animation frames checked (every animation, sampled).
+    pub frames: usize,
+    pub grown_spheres: usize,
+    /// Largest radius growth / bbox diagonal.
+    pub max_growth_relative: f64,
+    /// Smallest share of skinned vertices inside the posed union before growing.
+    pub coverage_min_before: f64,
+    pub outside_ratio_before: Option<f64>,
+    pub outside_ratio_after: Option<f64>,
 }
 
 /// Sphere hierarchy statistics (Ren et al. 2006 §6.3).
@@ -168,7 +196,30 @@ pub fn bake_imported(
     let fit_stages: Vec<StageTime> =
         fitted.stage_timings.iter().map(|(stage, seconds)| StageTime { stage, seconds: *seconds }).collect();
     warnings.extend(fitted.warnings);
-    let spheres = &fitted.spheres;
+    let mut spheres = fitted.spheres;
+
+    // Skinning terms of the sphere centres (MVC folded into bones); with `--pose-margin auto`
+    // the radii grow so the model's own animations stay covered. Before the hierarchy, so the
+    // hierarchy bounds the final radii.
+    let t = Instant::now();
+    let skin_settings = SkinSettings {
+        bones_per_sphere: settings.bones_per_sphere,
+        pose_margin: settings.pose_margin,
+        ..Default::default()
+    };
+    let stage_err = |stage: &'static str, e: String| BakeError::Stage { path: path.to_path_buf(), stage, message: e };
+    let skin = bake_skin(mesh, &spheres, &skin_settings).map_err(|e| stage_err("skin", e.to_string()))?;
+    let mut margin = None;
+    if let Some((terms, _, _)) = &skin {
+        if settings.pose_margin == PoseMargin::Auto {
+            let m = grow_for_animations(mesh, &spheres, terms, &skin_settings)
+                .map_err(|e| stage_err("pose margin", e.to_string()))?;
+            spheres = m.spheres.clone();
+            margin = Some(m);
+        }
+    }
+    timings.push(StageTime { stage: "skin", seconds: t.elapsed().as_secs_f64() });
+    let spheres = &spheres;
 
     let t = Instant::now();
     let hierarchy = build_hierarchy(spheres, &HierarchySettings { branching: settings.branching, seed: settings.seed })
@@ -217,6 +268,8 @@ pub fn bake_imported(
     let file = SphbFile {
         spheres: spheres.iter().map(|s| Sphere { center: [s[0], s[1], s[2]], radius: s[3] }).collect(),
         hierarchy: Some(hierarchy),
+        skin: skin.as_ref().map(|(terms, _, _)| terms.clone()),
+        bones: skin.as_ref().map(|(_, bones, _)| bones.clone()),
         samples: Some(samples),
         albedo_sh: Some(albedo_sh),
         metadata: Some(Metadata {
@@ -255,6 +308,20 @@ pub fn bake_imported(
         sphere_count: file.spheres.len(),
         outside_ratio_e: fitted.outside_ratio_e,
         union_outside_ratio: fitted.union_outside_ratio,
+        skin: skin.as_ref().map(|(_, _, st)| SkinSummary {
+            bones: st.bone_count,
+            bones_per_sphere: st.bones_per_sphere,
+            linear_residual_max_relative: st.linear_residual_max_relative,
+            dropped_weight_max: st.dropped_weight_max,
+            pose_margin: margin.as_ref().map(|m| MarginSummary {
+                frames: m.frames,
+                grown_spheres: m.grown_count,
+                max_growth_relative: m.max_growth_relative,
+                coverage_min_before: m.coverage_min_before,
+                outside_ratio_before: m.outside_ratio_before,
+                outside_ratio_after: m.outside_ratio_after,
+            }),
+        }),
         hierarchy: HierarchySummary {
             levels: hstats.levels,
             mean_branching: hstats.mean_branching,

@@ -31,6 +31,11 @@ pub struct BakeSettings {
     pub seed: u64,
     /// Average branching ratio of the sphere hierarchy. Default 4, range 2..=16.
     pub branching: f64,
+    /// Bones kept per sphere for skinning (the k largest |b_j|). Default 4, range 1..=64; more
+    /// than the model's bone count keeps every bone.
+    pub bones_per_sphere: usize,
+    /// Grow radii so the model's own animations stay covered. Default none.
+    pub pose_margin: crate::PoseMargin,
     /// SH order n of the albedo (bands 0..n−1, n² coefficients per sphere). Default 4, range 1..=8.
     pub sh_order: usize,
     /// Albedo cube-map face size in texels. Default 32, range 4..=512.
@@ -50,6 +55,8 @@ impl Default for BakeSettings {
             voxels: 128,
             seed: 1,
             branching: 4.0,
+            bones_per_sphere: 4,
+            pose_margin: crate::PoseMargin::None,
             sh_order: 4,
             cubemap_size: 32,
             debug_cubemaps: None,
@@ -73,6 +80,9 @@ impl BakeSettings {
         }
         if !(self.branching.is_finite() && (2.0..=16.0).contains(&self.branching)) {
             return Err(format!("--branching must be in 2..=16, got {}", self.branching));
+        }
+        if !(1..=64).contains(&self.bones_per_sphere) {
+            return Err(format!("--bones-per-sphere must be in 1..=64, got {}", self.bones_per_sphere));
         }
         if !(1..=8).contains(&self.sh_order) {
             return Err(format!("--sh-order must be in 1..=8, got {}", self.sh_order));

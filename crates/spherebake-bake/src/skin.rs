@@ -21,7 +21,8 @@ use spherebake_geom::{Mesh, Skeleton};
 pub const MAX_BONES_PER_SPHERE: usize = 64;
 
 /// Radius growth so that animated poses stay covered.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default, serde::Serialize)]
+#[serde(rename_all = "lowercase")]
 #[non_exhaustive]
 pub enum PoseMargin {
     /// Radii as fitted (bounding at rest only). Default.

@@ -8,7 +8,7 @@ use clap::{Args, ValueEnum};
 use indicatif::{MultiProgress, ProgressBar, ProgressDrawTarget, ProgressStyle};
 use rayon::prelude::*;
 use serde::Serialize;
-use spherebake_bake::{BakeOutput, BakeSettings, Method};
+use spherebake_bake::{BakeOutput, BakeSettings, Method, PoseMargin};
 use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -53,6 +53,12 @@ pub struct BakeArgs {
     /// Average branching ratio of the sphere hierarchy [default: 4, range 2..=16]
     #[arg(long)]
     pub branching: Option<f64>,
+    /// Bones kept per sphere for skinning; more than the model has keeps every bone [default: 4, range 1..=64]
+    #[arg(long)]
+    pub bones_per_sphere: Option<usize>,
+    /// Grow radii so the model's own animations stay covered ("auto") or not ("none") [default: none]
+    #[arg(long, value_name = "none|auto")]
+    pub pose_margin: Option<String>,
     /// SH order of the albedo per sphere (n² coefficients) [default: 4, range 1..=8]
     #[arg(long)]
     pub sh_order: Option<usize>,
@@ -201,6 +207,8 @@ fn plan(a: &BakeArgs) -> std::result::Result<Vec<Job>, Usage> {
         sh_order: a.sh_order,
         cubemap_size: a.cubemap_size,
         branching: a.branching,
+        bones_per_sphere: a.bones_per_sphere,
+        pose_margin: a.pose_margin.clone(),
     };
     let n_inputs = inputs.len();
     inputs
@@ -235,6 +243,13 @@ fn to_settings(o: &Overrides) -> std::result::Result<BakeSettings, String> {
         sh_order: o.sh_order.unwrap_or(d.sh_order),
         cubemap_size: o.cubemap_size.unwrap_or(d.cubemap_size),
         branching: o.branching.unwrap_or(d.branching),
+        bones_per_sphere: o.bones_per_sphere.unwrap_or(d.bones_per_sphere),
+        pose_margin: match o.pose_margin.as_deref() {
+            None => d.pose_margin,
+            Some("none") => PoseMargin::None,
+            Some("auto") => PoseMargin::Auto,
+            Some(m) => return Err(format!("unknown --pose-margin {m:?} (none, auto)")),
+        },
         debug_cubemaps: None,
     };
     s.validate()?;
@@ -402,6 +417,23 @@ fn print_single(output: &Path, r: &spherebake_bake::BakeReport) {
     println!("  time      {total:.3} s ({})", stages.join(", "));
     let fit: Vec<String> = r.fit_stages.iter().map(|t| format!("{} {:.3}", t.stage, t.seconds)).collect();
     println!("  fit       {}", fit.join(", "));
+    if let Some(k) = &r.skin {
+        println!(
+            "  skin      {} bones, {} kept per sphere (largest dropped weight {:.3}), MVC residual {:.1e} of the diagonal",
+            k.bones, k.bones_per_sphere, k.dropped_weight_max, k.linear_residual_max_relative
+        );
+        if let Some(m) = &k.pose_margin {
+            println!(
+                "  margin    {} spheres grown (max {:.2e} of the diagonal) over {} frames; coverage before {:.4}; E {} -> {}",
+                m.grown_spheres,
+                m.max_growth_relative,
+                m.frames,
+                m.coverage_min_before,
+                m.outside_ratio_before.map_or("-".into(), |e| format!("{e:.4}")),
+                m.outside_ratio_after.map_or("-".into(), |e| format!("{e:.4}"))
+            );
+        }
+    }
     let h = &r.hierarchy;
     println!(
         "  hierarchy {} levels, mean branching {:.2}, parent tightness mean {:.6} max {:.6}",

@@ -30,6 +30,8 @@ pub struct Overrides {
     pub sh_order: Option<usize>,
     pub cubemap_size: Option<usize>,
     pub branching: Option<f64>,
+    pub bones_per_sphere: Option<usize>,
+    pub pose_margin: Option<String>,
 }
 
 impl Overrides {
@@ -44,6 +46,8 @@ impl Overrides {
             sh_order: over.sh_order.or(self.sh_order),
             cubemap_size: over.cubemap_size.or(self.cubemap_size),
             branching: over.branching.or(self.branching),
+            bones_per_sphere: over.bones_per_sphere.or(self.bones_per_sphere),
+            pose_margin: over.pose_margin.clone().or_else(|| self.pose_margin.clone()),
         }
     }
 }
