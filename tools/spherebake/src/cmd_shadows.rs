@@ -23,7 +23,8 @@ use serde_json::json;
 use spherebake_geom::bvh::TriangleBvh;
 use spherebake_geom::glam::Vec3;
 use spherebake_runtime::shadow::{
-    coeff_count, eval_sh_f64, lobe_light, shade, uniform_light, ClusterBlockers, ExpMethod, ShadowContext, MAX_COEFFS,
+    accumulate_log_visibility, coeff_count, eval_sh_f64, lobe_light, shade, uniform_light, ClusterBlockers, ExpMethod,
+    ShadowContext, MAX_COEFFS,
 };
 use spherebake_runtime::{rest_node_spheres, HierarchyPlan, Sphere};
 use std::path::PathBuf;
@@ -95,6 +96,9 @@ pub struct ShadowsArgs {
     /// Which sphere hierarchy the query cuts
     #[arg(long, value_enum, default_value_t = HierarchyArg::File)]
     pub hierarchy: HierarchyArg,
+    /// Skip the self-shadowing rules (every blocker counts whole; for measuring their effect)
+    #[arg(long)]
+    pub no_self_shadow_rules: bool,
     /// Seed of the ray jitter
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
@@ -350,7 +354,15 @@ pub fn compute(
             let mut out = Vec::with_capacity((i1 - i0) * (j1 - j0));
             for j in j0..j1 {
                 for i in i0..i1 {
-                    let v = ctx.shade_point(cb, receiver(i, j), normal, t_vec)?;
+                    let v = if a.no_self_shadow_rules {
+                        let mut log = [0.0f32; MAX_COEFFS];
+                        accumulate_log_visibility(cb.blockers(), order, receiver(i, j), None, &mut log[..nc])?;
+                        let mut g = [0.0f64; MAX_COEFFS];
+                        ctx.visibility(&log[..nc], &mut g[..nc])?;
+                        shade(t_vec, &g[..nc])
+                    } else {
+                        ctx.shade_point(cb, receiver(i, j), normal, t_vec)?
+                    };
                     out.push((j * res + i, v));
                 }
             }
