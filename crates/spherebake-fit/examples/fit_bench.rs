@@ -1,7 +1,7 @@
 //! Usage: `cargo run --release -p spherebake-fit --example fit_bench -- MODEL.obj [counts] [methods] [runs]`
 //! e.g. `... -- bunny.obj 16,32,64,128,256 variational,kmeans,octree 3`.
 //! Prints E (exact), the union outside ratio, and wall time (median of `runs`) per stage.
-//! Environment overrides: SB_POINTS, SB_VOXEL, SB_ITERS, SB_POLISH, SB_SEED.
+//! Environment overrides: SB_POINTS, SB_VOXEL, SB_ITERS, SB_POLISH, SB_SEED, SB_STARTS.
 
 use glam::Vec3;
 use spherebake_fit::{fit, FitSettings, Method};
@@ -65,6 +65,9 @@ fn main() {
             }
             if let Some(v) = env("SB_POLISH") {
                 settings.polish_rounds = v;
+            }
+            if let Some(v) = env("SB_STARTS") {
+                settings.starts = v;
             }
             if let Some(v) = env("SB_SEED") {
                 settings.seed = v as u64;

@@ -83,6 +83,9 @@ pub struct FitSettings {
     pub teleport_attempts: usize,
     /// Powell direction-set sweeps per centre update (default 2, range 1..=20).
     pub powell_sweeps: usize,
+    /// Independent seeded starts of the variational fit; the lowest proxy E is kept
+    /// (default 1, range 1..=16).
+    pub starts: usize,
     /// Final rounds of assignment + centre update on the dense point set (every vertex and
     /// triangle centroid), variational only (default 6, range 0..=100).
     pub polish_rounds: usize,
@@ -101,6 +104,7 @@ impl Default for FitSettings {
             teleport_attempts: 6,
             powell_sweeps: 2,
             polish_rounds: 6,
+            starts: 1,
         }
     }
 }
@@ -418,7 +422,14 @@ fn run_once(
     let mut history = Vec::new();
     let (raw, iterations, teleports): (Vec<(DVec3, f64)>, usize, (usize, usize)) = match settings.method {
         Method::Variational => {
-            let out = lloyd::run(&ctx, k, settings.seed, settings.max_iterations, settings.teleport_attempts);
+            let out = lloyd::run_multi(
+                &ctx,
+                k,
+                settings.seed,
+                settings.max_iterations,
+                settings.teleport_attempts,
+                settings.starts,
+            );
             history = out.history.iter().map(|h| (h.e_before, h.e_trial, h.accepted)).collect();
             let sp: Vec<(DVec3, f64)> = out.state.centres.iter().zip(&out.state.radii).map(|(c, r)| (*c, *r)).collect();
             let t1 = Instant::now();
@@ -476,6 +487,7 @@ pub fn fit(
     check_range("point_resolution", settings.point_resolution, 8, 256, "8..=256")?;
     check_range("max_iterations", settings.max_iterations, 1, 1000, "1..=1000")?;
     check_range("powell_sweeps", settings.powell_sweeps, 1, 20, "1..=20")?;
+    check_range("starts", settings.starts, 1, 16, "1..=16")?;
     check_range("polish_rounds", settings.polish_rounds, 0, 100, "0..=100")?;
     if let Some(t) = settings.max_outside_ratio {
         if !(t.is_finite() && t > 0.0) {

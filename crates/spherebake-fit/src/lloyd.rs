@@ -446,6 +446,26 @@ pub struct LloydOutcome {
 }
 
 /// Runs the variational fit with `k` spheres from a seeded random start.
+/// Runs the variational fit from `starts` seeded starts (seeds derived from `seed`) and keeps
+/// the lowest proxy E (ties: the first).
+pub fn run_multi(
+    ctx: &Ctx,
+    k: usize,
+    seed: u64,
+    max_iterations: usize,
+    teleports: usize,
+    starts: usize,
+) -> LloydOutcome {
+    let mut best: Option<LloydOutcome> = None;
+    for s in 0..starts.max(1) as u64 {
+        let o = run(ctx, k, seed ^ s.wrapping_mul(0x9E37_79B9_7F4A_7C15), max_iterations, teleports);
+        if best.as_ref().is_none_or(|b| o.state.energy() < b.state.energy()) {
+            best = Some(o);
+        }
+    }
+    best.expect("at least one start")
+}
+
 pub fn run(ctx: &Ctx, k: usize, seed: u64, max_iterations: usize, teleports: usize) -> LloydOutcome {
     let pts = &ctx.pts.points;
     let mut rng = SplitMix64::new(seed);
