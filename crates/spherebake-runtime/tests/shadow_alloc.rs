@@ -50,6 +50,8 @@ fn per_point_queries_do_not_allocate() {
     }
     // Same cluster size again: the buffers are reused.
     cb.build(4, &leaves, None, [0.1, 0.0, 0.0], 0.5, 0.4363323).unwrap();
+    let s = cb.correct_overlap(&ctx, [0.1, 0.0, 0.0], [0.0, 1.0, 0.0], 256).unwrap();
+    assert!(s > 0.0 && s <= 1.0);
     let after = ALLOCS.load(Ordering::SeqCst);
     assert_eq!(after, before, "allocations during per-point queries");
     assert!(sum.is_finite() && sum > 0.0);

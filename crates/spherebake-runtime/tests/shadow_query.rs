@@ -240,3 +240,33 @@ fn errors_not_panics() {
     ShadowContext::new(4, ExpMethod::default()).unwrap().visibility(&log, &mut g).unwrap();
     assert!(g.iter().all(|v| v.is_finite()));
 }
+
+/// Ten copies of one 30° sphere: the union is one sphere, so the overlap correction must pick
+/// s = 1/10 and bring the visibility DC back to the single sphere's exp*(log) value (§3); one
+/// sphere alone keeps s = 1.
+#[test]
+fn overlap_correction_undoes_duplicate_spheres() {
+    let ctx = ShadowContext::new(4, ExpMethod::Accurate).unwrap();
+    // Normal +z: the sphere (h = 2 ≥ r) is entirely in front, the rules leave it alone.
+    let n = [0.0f32, 0.0, 1.0];
+    let one = [Sphere { center: [0.0, 0.0, 2.0], radius: 1.0 }];
+    let ten = [one[0]; 10];
+    let mut cb = ClusterBlockers::new();
+    cb.build(4, &one, None, [0.0; 3], 0.0, 0.0).unwrap();
+    assert_eq!(cb.correct_overlap(&ctx, [0.0; 3], n, 4096).unwrap(), 1.0);
+    cb.build(4, &ten, None, [0.0; 3], 0.0, 0.0).unwrap();
+    assert_eq!(cb.blockers().len(), 10);
+    let s = cb.correct_overlap(&ctx, [0.0; 3], n, 4096).unwrap();
+    assert!((s - 0.1).abs() < 1e-6, "s = {s}");
+    assert!(cb.blockers().iter().all(|b| (b.band_weights[0] - 0.1).abs() < 1e-6 && b.band_weights[4] == 0.0));
+    let mut log = [0.0f32; 16];
+    accumulate_log_visibility(cb.blockers(), 4, [0.0; 3], Some(n), &mut log).unwrap();
+    let mut g = [0.0f64; 16];
+    ctx.visibility(&log, &mut g).unwrap();
+    for (l, &want) in EXP_LOG_CAP30.iter().enumerate() {
+        assert!((g[l * (l + 1)] - want).abs() < 1e-3, "l = {l}: {} vs {want}", g[l * (l + 1)]);
+    }
+    // Mismatched order.
+    let ctx3 = ShadowContext::new(3, ExpMethod::Accurate).unwrap();
+    assert!(matches!(cb.correct_overlap(&ctx3, [0.0; 3], n, 16), Err(ShadowError::Order { order: 4 })));
+}

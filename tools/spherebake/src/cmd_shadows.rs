@@ -99,6 +99,9 @@ pub struct ShadowsArgs {
     /// Skip the self-shadowing rules (every blocker counts whole; for measuring their effect)
     #[arg(long)]
     pub no_self_shadow_rules: bool,
+    /// Damp overlapping blockers per tile (ClusterBlockers::correct_overlap, 1024 directions; not in Ren 2006)
+    #[arg(long)]
+    pub overlap_correction: bool,
     /// Seed of the ray jitter
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
@@ -351,6 +354,9 @@ pub fn compute(
             let half = [0.5 * (a1[0] - a0[0]), 0.5 * (a1[2] - a0[2])];
             let radius = (half[0] * half[0] + half[1] * half[1]).sqrt() * (1.0 + 1e-6);
             cb.build(order, leaves, hierarchy, centre, radius, theta_max)?;
+            if a.overlap_correction {
+                cb.correct_overlap(&ctx, centre, normal, 1024)?;
+            }
             let mut out = Vec::with_capacity((i1 - i0) * (j1 - j0));
             for j in j0..j1 {
                 for i in i0..i1 {
