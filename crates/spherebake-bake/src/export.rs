@@ -97,7 +97,8 @@ fn icosphere() -> (Vec<[f32; 3]>, Vec<[u32; 3]>) {
     (v, out)
 }
 
-fn hue(i: usize) -> [f32; 4] {
+/// A distinct, deterministic colour per index (golden-ratio hues), linear RGBA.
+pub(crate) fn hue(i: usize) -> [f32; 4] {
     // Golden-ratio hues, fixed saturation: distinct neighbours, deterministic.
     let h = (i as f32 * 0.618_034).fract() * 6.0;
     let x = 1.0 - (h % 2.0 - 1.0).abs();
@@ -125,7 +126,12 @@ pub fn hierarchy_levels(file: &SphbFile) -> Vec<Vec<([f32; 3], f32)>> {
         changed = false;
         guard += 1;
         for i in 0..n {
-            let hgt = 1 + h.nodes[i].children.iter().map(|&c| height.get(c as usize).copied().unwrap_or(0)).max().unwrap_or(0);
+            let hgt = 1 + h.nodes[i]
+                .children
+                .iter()
+                .map(|&c| height.get(c as usize).copied().unwrap_or(0))
+                .max()
+                .unwrap_or(0);
             if hgt != height[i] {
                 height[i] = hgt;
                 changed = true;

@@ -17,7 +17,13 @@ pub struct Image {
 
 /// Renders `width × height` pixels: three square-ish panels of the mesh (`positions`,
 /// `triangles`) and `spheres` (`[x, y, z, r]`, same space).
-pub fn render_views(positions: &[Vec3], triangles: &[[u32; 3]], spheres: &[[f32; 4]], width: u32, height: u32) -> Image {
+pub fn render_views(
+    positions: &[Vec3],
+    triangles: &[[u32; 3]],
+    spheres: &[[f32; 4]],
+    width: u32,
+    height: u32,
+) -> Image {
     let (w, h) = (width.max(3) as usize, height.max(1) as usize);
     let mut rgb = vec![255u8; w * h * 3];
     // Bounds over mesh and spheres so everything is in view.
@@ -50,7 +56,11 @@ pub fn render_views(positions: &[Vec3], triangles: &[[u32; 3]], spheres: &[[f32;
         let scale = 0.92 * (panel_w as f32 / ext_u).min(h as f32 / ext_v);
         let project = |p: Vec3| -> (f32, f32, f32) {
             let d = p - centre;
-            (x0 as f32 + panel_w as f32 * 0.5 + d.dot(*right) * scale, h as f32 * 0.5 - d.dot(*up) * scale, d.dot(*toward))
+            (
+                x0 as f32 + panel_w as f32 * 0.5 + d.dot(*right) * scale,
+                h as f32 * 0.5 - d.dot(*up) * scale,
+                d.dot(*toward),
+            )
         };
         let mut zbuf = vec![f32::MIN; panel_w * h];
         for t in triangles {
@@ -95,7 +105,8 @@ pub fn render_views(positions: &[Vec3], triangles: &[[u32; 3]], spheres: &[[f32;
             let r = s[3] * scale;
             let col = colour(si);
             // Faint fill, then the silhouette circle.
-            let (minx, maxx) = ((cx - r).floor().max(x0 as f32) as usize, (cx + r).ceil().min((x0 + panel_w - 1) as f32) as usize);
+            let (minx, maxx) =
+                ((cx - r).floor().max(x0 as f32) as usize, (cx + r).ceil().min((x0 + panel_w - 1) as f32) as usize);
             let (miny, maxy) = ((cy - r).floor().max(0.0) as usize, (cy + r).ceil().min((h - 1) as f32) as usize);
             for y in miny..=maxy {
                 for x in minx..=maxx {
@@ -115,18 +126,10 @@ pub fn render_views(positions: &[Vec3], triangles: &[[u32; 3]], spheres: &[[f32;
     Image { width: w as u32, height: h as u32, rgb }
 }
 
+/// The per-sphere colour `export` uses, as RGB8.
 fn colour(i: usize) -> [u8; 3] {
-    let h = (i as f32 * 0.618_034).fract() * 6.0;
-    let x = 1.0 - (h % 2.0 - 1.0).abs();
-    let (r, g, b) = match h as u32 {
-        0 => (1.0, x, 0.0),
-        1 => (x, 1.0, 0.0),
-        2 => (0.0, 1.0, x),
-        3 => (0.0, x, 1.0),
-        4 => (x, 0.0, 1.0),
-        _ => (1.0, 0.0, x),
-    };
-    [(r * 220.0) as u8, (g * 220.0) as u8, (b * 220.0) as u8]
+    let c = crate::export::hue(i);
+    [(c[0] * 255.0) as u8, (c[1] * 255.0) as u8, (c[2] * 255.0) as u8]
 }
 
 #[cfg(test)]
