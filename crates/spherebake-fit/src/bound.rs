@@ -66,10 +66,10 @@ fn growth_cost(s: &Sphere32, ps: &[DVec3]) -> f64 {
     }
 }
 
-fn cheapest(spheres: &[Sphere32], ps: &[DVec3]) -> usize {
+fn cheapest(spheres: &[Sphere32], ps: &[DVec3], weights: &[f64]) -> usize {
     let mut best = (f64::INFINITY, 0usize);
     for (i, s) in spheres.iter().enumerate() {
-        let g = growth_cost(s, ps);
+        let g = growth_cost(s, ps) * weights.get(i).copied().unwrap_or(1.0);
         if g < best.0 {
             best = (g, i);
         }
@@ -99,17 +99,21 @@ pub struct BoundInput<'a> {
     pub delta: f64,
     /// Inside test for T (rule 3).
     pub inside: &'a (dyn Fn(DVec3) -> bool + Sync),
+    /// Per-sphere multiplier of the growth cost (volume added), e.g. the share of a thin shell
+    /// around the sphere that lies outside T, so growth goes where it adds least outside
+    /// volume. Empty: all 1.
+    pub weights: &'a [f64],
 }
 
 fn covered_piece(spheres: &[Sphere32], t: &[DVec3; 3]) -> bool {
     spheres.iter().any(|s| t.iter().all(|p| contains(s, *p)))
 }
 
-fn cover_piece(spheres: &mut [Sphere32], t: [DVec3; 3], depth: u32, rep: &mut BoundReport) {
+fn cover_piece(spheres: &mut [Sphere32], t: [DVec3; 3], depth: u32, rep: &mut BoundReport, weights: &[f64]) {
     if covered_piece(spheres, &t) {
         return;
     }
-    let i = cheapest(spheres, &t);
+    let i = cheapest(spheres, &t, weights);
     let l = (t[1] - t[0]).length().max((t[2] - t[1]).length()).max((t[0] - t[2]).length());
     // Splitting is free (no sphere grows), so split down to pieces small next to the sphere
     // that would grow before growing anything.
@@ -121,7 +125,7 @@ fn cover_piece(spheres: &mut [Sphere32], t: [DVec3; 3], depth: u32, rep: &mut Bo
         let m12 = (t[1] + t[2]) * 0.5;
         let m20 = (t[2] + t[0]) * 0.5;
         for piece in [[t[0], m01, m20], [m01, t[1], m12], [m20, m12, t[2]], [m01, m12, m20]] {
-            cover_piece(spheres, piece, depth + 1, rep);
+            cover_piece(spheres, piece, depth + 1, rep, weights);
         }
         return;
     }
@@ -152,7 +156,7 @@ pub fn make_bounding(spheres: &[(DVec3, f64)], input: &BoundInput) -> (Vec<Spher
             .collect()
     };
     for ti in uncovered {
-        cover_piece(&mut out, corners(&input.triangles[ti as usize]), 0, &mut rep);
+        cover_piece(&mut out, corners(&input.triangles[ti as usize]), 0, &mut rep, input.weights);
     }
     // Rule 2.
     let uncovered: Vec<u32> = {
@@ -170,7 +174,7 @@ pub fn make_bounding(spheres: &[(DVec3, f64)], input: &BoundInput) -> (Vec<Spher
         if out.iter().any(|s| contains(s, p[0])) {
             continue;
         }
-        let i = cheapest(&out, &p);
+        let i = cheapest(&out, &p, input.weights);
         grow(&mut out[i], &p);
         rep.grown_points += 1;
     }
@@ -186,7 +190,7 @@ pub fn make_bounding(spheres: &[(DVec3, f64)], input: &BoundInput) -> (Vec<Spher
             }
             // Cover v with a little room (a quarter of its orthogonal radius) so the pocket
             // closes in few rounds.
-            let i = cheapest(&out, &[v]);
+            let i = cheapest(&out, &[v], input.weights);
             let c = DVec3::new(out[i][0] as f64, out[i][1] as f64, out[i][2] as f64);
             let dir = (v - c).normalize_or_zero();
             grow(&mut out[i], &[v, v + dir * 0.25 * p.sqrt()]);

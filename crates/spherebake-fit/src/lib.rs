@@ -10,8 +10,11 @@
 //! per-cluster Powell update of the centre minimising the proxy outside volume with the radius
 //! bounding the cluster; (3) teleportation (split the worst cluster at its farthest pair,
 //! delete the cluster of maximal relative overlap, accept only if E drops) when progress
-//! stalls; (4) polish rounds of the same assignment + update on the dense set (every vertex
-//! and triangle centroid); (5) the exactness pass.
+//! stalls; (4) polish rounds on the dense set (every vertex, edge midpoint and triangle
+//! centroid): assignment, joint radius shrinking (farthest members handed to neighbouring
+//! spheres where that lowers the summed outside volume), centre update; (5) the exactness
+//! pass, growing the sphere with the least weighted growth (volume × outside share of a thin
+//! shell).
 //!
 //! Quality is E = Σ_i V(S_i − T) / V(T) (Ren eq. 35 normalised by the object volume), computed
 //! exactly with [`spherebake_geom::volume`]. The optimiser works on a voxel proxy of T (see
@@ -392,8 +395,11 @@ fn run_once(
     timings: &mut Vec<(&'static str, f64)>,
 ) -> Run {
     let t = Instant::now();
-    let mut all: Vec<points::Rep> = Vec::with_capacity(prep.pos.len() + prep.tris.len() + pts.points.len());
+    let mut all: Vec<points::Rep> = Vec::with_capacity(prep.pos.len() + 2 * prep.tris.len() + pts.points.len());
     let mut used = vec![false; prep.pos.len()];
+    // Edge midpoints too (each edge once): the exactness pass then has far less to grow
+    // (measured: bunny 64 E 0.305 → 0.294, armadillo 64 0.544 → 0.539).
+    let edge_mids = true;
     for t in &prep.tris {
         for &v in t {
             if !used[v as usize] {
@@ -403,6 +409,13 @@ fn run_once(
         }
         let (a, b, c) = (prep.pos[t[0] as usize], prep.pos[t[1] as usize], prep.pos[t[2] as usize]);
         all.push(points::Rep::point((a + b + c) / 3.0));
+        if edge_mids {
+            for (x, y, px, py) in [(t[0], t[1], a, b), (t[1], t[2], b, c), (t[2], t[0], c, a)] {
+                if x < y {
+                    all.push(points::Rep::point((px + py) * 0.5));
+                }
+            }
+        }
         // Triangles larger than the sample spacing also get a barycentric grid, so the polish
         // sees their interiors too (real scans never need it; coarse CAD-like meshes do).
         let l = (b - a).length().max((c - b).length()).max((a - c).length());
@@ -448,7 +461,22 @@ fn run_once(
     let t = Instant::now();
     let delta = 1.01 * 3f64.sqrt() * (pts.h * points::INTERIOR_SPACING + prep.solid.h);
     let inside = |v: DVec3| winding_inside(prep, v);
+    // Growth in the exactness pass is weighted by the share of a one-cell shell around each
+    // sphere that lies outside the solid (proxy), so pieces go to the sphere that adds the
+    // least outside volume.
+    let weights: Vec<f64> = raw
+        .par_iter()
+        .map(|(c, r)| {
+            let (r0, r1) = (*r, *r + prep.solid.h);
+            let dv = 4.0 / 3.0 * PI * (r1.powi(3) - r0.powi(3));
+            if dv <= 0.0 {
+                return 1.0;
+            }
+            ((lloyd::outside(&prep.solid, *c, r1) - lloyd::outside(&prep.solid, *c, r0)) / dv).clamp(0.02, 1.0)
+        })
+        .collect();
     let input = bound::BoundInput {
+        weights: &weights,
         positions: &prep.pos,
         triangles: &prep.tris,
         interior: &pts.points[pts.surface_count..],
