@@ -282,7 +282,6 @@ pub fn bake_imported(
                 (INPUTS_KEY.to_string(), inputs_value(path, &imported.inputs)),
             ],
         }),
-        ..Default::default()
     };
     let t = Instant::now();
     let bytes = file.to_bytes();

@@ -99,9 +99,12 @@ pub struct ShadowsArgs {
     /// Skip the self-shadowing rules (every blocker counts whole; for measuring their effect)
     #[arg(long)]
     pub no_self_shadow_rules: bool,
-    /// Damp overlapping blockers per tile (ClusterBlockers::correct_overlap, 1024 directions; not in Ren 2006)
+    /// Use Ren et al. 2006's log-SH sum as published, without the per-tile overlap correction.
+    /// By default each receiver tile's summed log is scaled so its visibility matches the visible
+    /// fraction of the sphere union along 1024 directions: deeply overlapping sphere sets
+    /// otherwise count shared volume many times and their shadows wash out as spheres grow.
     #[arg(long)]
-    pub overlap_correction: bool,
+    pub no_overlap_correction: bool,
     /// Seed of the ray jitter
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
@@ -354,7 +357,7 @@ pub fn compute(
             let half = [0.5 * (a1[0] - a0[0]), 0.5 * (a1[2] - a0[2])];
             let radius = (half[0] * half[0] + half[1] * half[1]).sqrt() * (1.0 + 1e-6);
             cb.build(order, leaves, hierarchy, centre, radius, theta_max)?;
-            if a.overlap_correction {
+            if !a.no_overlap_correction {
                 cb.correct_overlap(&ctx, centre, normal, 1024)?;
             }
             let mut out = Vec::with_capacity((i1 - i0) * (j1 - j0));
