@@ -69,11 +69,7 @@ pub fn sample_channel(ch: &AnimChannel, time_s: f32) -> Option<Vec4> {
             }
         }
     };
-    Some(if ch.path == AnimPath::Rotation {
-        out.try_normalize().unwrap_or(Vec4::W)
-    } else {
-        out
-    })
+    Some(if ch.path == AnimPath::Rotation { out.try_normalize().unwrap_or(Vec4::W) } else { out })
 }
 
 /// Shortest-path-ready slerp (the caller flips `b` to the same hemisphere), computed in f64.

@@ -90,12 +90,7 @@ pub struct Material {
 
 impl Default for Material {
     fn default() -> Self {
-        Self {
-            name: String::new(),
-            base_color_factor_linear: [1.0; 4],
-            base_color_texture: None,
-            double_sided: false,
-        }
+        Self { name: String::new(), base_color_factor_linear: [1.0; 4], base_color_texture: None, double_sided: false }
     }
 }
 
