@@ -205,6 +205,9 @@ pub fn cluster(ctx: &Ctx, centres: &[DVec3], init_radii: Option<&[f64]>) -> (Vec
 
 const POWER_RULE_RELATIVE: bool = false;
 
+/// After a rejected teleportation, the next trial splits the next-worst cluster.
+const TELEPORT_ROTATE: bool = true;
+
 /// Power assignment: each point joins the containing sphere in which it lies deepest
 /// (least power d² − r²), or else the sphere whose volume grows least to reach it. With the
 /// spheres of the previous update every point is contained, so no cluster's bounding radius at
@@ -381,16 +384,16 @@ fn lens(c1: DVec3, r1: f64, c2: DVec3, r2: f64) -> f64 {
 
 /// Teleportation proposal: split the cluster of maximal outside volume at its farthest pair,
 /// delete the cluster of maximal relative overlap. Returns the new centres or `None`.
-pub fn teleport(ctx: &Ctx, st: &State) -> Option<(Vec<DVec3>, Vec<f64>)> {
+pub fn teleport(ctx: &Ctx, st: &State, skip: usize) -> Option<(Vec<DVec3>, Vec<f64>)> {
     let k = st.centres.len();
     if k < 2 {
         return None;
     }
     let pts = ctx.all;
     let mem = members(&st.assign, k);
-    let worst = (0..k)
-        .filter(|&i| mem[i].len() >= 2)
-        .max_by(|&a, &b| st.outside[a].total_cmp(&st.outside[b]).then(b.cmp(&a)))?;
+    let mut by_out: Vec<usize> = (0..k).filter(|&i| mem[i].len() >= 2).collect();
+    by_out.sort_by(|&a, &b| st.outside[b].total_cmp(&st.outside[a]).then(a.cmp(&b)));
+    let worst = *by_out.get(skip).or(by_out.first())?;
     let overlap = |j: usize| -> f64 {
         let vj = 4.0 / 3.0 * PI * st.radii[j].powi(3);
         if vj <= 0.0 {
@@ -533,7 +536,8 @@ pub fn run(ctx: &Ctx, k: usize, seed: u64, max_iterations: usize, teleports: usi
         if tried >= teleports || fails >= 3 {
             break;
         }
-        let Some((tc, tr)) = teleport(ctx, &st) else { break };
+        let skip = if TELEPORT_ROTATE { fails } else { 0 };
+        let Some((tc, tr)) = teleport(ctx, &st, skip) else { break };
         tried += 1;
         let mut trial = step(&tc, Some(&tr));
         iterations += 1;
