@@ -12,7 +12,8 @@
 //! delete the cluster of maximal relative overlap, accept only if E drops) when progress
 //! stalls; (4) polish rounds on the dense set (every vertex, edge midpoint and triangle
 //! centroid): assignment, joint radius shrinking (farthest members handed to neighbouring
-//! spheres where that lowers the summed outside volume), centre update; (5) the exactness
+//! spheres where that lowers the summed outside volume), centre update ignoring members that
+//! another sphere already covers (all but the last round); (5) the exactness
 //! pass, growing the sphere with the least weighted growth (volume × outside share of a thin
 //! shell).
 //!

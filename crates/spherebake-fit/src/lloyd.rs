@@ -566,16 +566,22 @@ pub fn run(ctx: &Ctx, k: usize, seed: u64, max_iterations: usize, teleports: usi
     LloydOutcome { state: st, history, iterations, teleports_accepted: accepted, teleports_tried: tried }
 }
 
-/// Final polish on the full point set (every mesh vertex plus the clustering points):
-/// `rounds` of power assignment + Powell centre update, so the sphere set bounds the real
-/// vertices and the exactness pass only has to cover triangle interiors.
+/// Final polish on the full point set (every mesh vertex, edge midpoint and triangle
+/// centroid plus the clustering points): `rounds` of assignment, radius shrinking and Powell
+/// centre update (members covered by another sphere exempt, except in the last round), so the
+/// sphere set bounds the real vertices and the exactness pass only has to cover triangle
+/// interiors.
 pub fn polish(ctx: &Ctx, spheres: &[(DVec3, f64)], rounds: usize) -> Vec<(DVec3, f64)> {
     let all = ctx.all;
     let mut cur = spheres.to_vec();
     // Radius shrinking until a round finds no move (measured: bunny 64 E 0.315 → 0.305,
     // armadillo 64 0.558 → 0.546).
     let mut shrinking = true;
-    for _ in 0..rounds {
+    // Every round but the last, a sphere's centre update ignores members already inside
+    // another sphere (the next round's assignment restores full coverage; the last round
+    // bounds every member). Measured: bunny 64 E 0.2935 → 0.2911, armadillo 64 0.5393 → 0.5297.
+    let exempt = true;
+    for round in 0..rounds {
         let centres: Vec<DVec3> = cur.iter().map(|x| x.0).collect();
         let radii: Vec<f64> = cur.iter().map(|x| x.1).collect();
         let mut assign = assign_grow(ctx.solid, all, &centres, &radii);
@@ -589,7 +595,30 @@ pub fn polish(ctx: &Ctx, spheres: &[(DVec3, f64)], rounds: usize) -> Vec<(DVec3,
                 eprintln!("  shrink moves {mv} E_proxy {e:.4}");
             }
         }
-        let mem = members(&assign, cur.len());
+        let mut mem = members(&assign, cur.len());
+        if exempt && round + 1 < rounds {
+            // Drop members lying inside another sphere (at its current centre and radius).
+            let rr: Vec<f64> = (0..cur.len()).map(|i| max_dist(all, &mem[i], centres[i])).collect();
+            mem = mem
+                .into_par_iter()
+                .enumerate()
+                .map(|(i, m)| {
+                    let kept: Vec<u32> = m
+                        .iter()
+                        .copied()
+                        .filter(|&q| {
+                            let p = &all[q as usize];
+                            !(0..centres.len()).any(|j| j != i && p.far(centres[j]) < rr[j] * 0.999)
+                        })
+                        .collect();
+                    if kept.is_empty() {
+                        m
+                    } else {
+                        kept
+                    }
+                })
+                .collect();
+        }
         cur = (0..cur.len())
             .into_par_iter()
             .map(|ci| {
