@@ -205,6 +205,10 @@ pub fn cluster(ctx: &Ctx, centres: &[DVec3], init_radii: Option<&[f64]>) -> (Vec
 
 const POWER_RULE_RELATIVE: bool = false;
 
+/// Polish: a member within this factor × another sphere's radius of its centre is exempt from
+/// its own sphere's centre update (all rounds but the last).
+const EXEMPT_FACTOR: f64 = 1.01;
+
 /// After a rejected teleportation, the next trial splits the next-worst cluster.
 const TELEPORT_ROTATE: bool = true;
 
@@ -579,7 +583,7 @@ pub fn polish(ctx: &Ctx, spheres: &[(DVec3, f64)], rounds: usize) -> Vec<(DVec3,
     let mut shrinking = true;
     // Every round but the last, a sphere's centre update ignores members already inside
     // another sphere (the next round's assignment restores full coverage; the last round
-    // bounds every member). Measured: bunny 64 E 0.2935 → 0.2911, armadillo 64 0.5393 → 0.5297.
+    // bounds every member). Measured: bunny 64 E 0.2935 → 0.2757, armadillo 64 0.5393 → 0.5108.
     let exempt = true;
     for round in 0..rounds {
         let centres: Vec<DVec3> = cur.iter().map(|x| x.0).collect();
@@ -597,8 +601,13 @@ pub fn polish(ctx: &Ctx, spheres: &[(DVec3, f64)], rounds: usize) -> Vec<(DVec3,
         }
         let mut mem = members(&assign, cur.len());
         if exempt && round + 1 < rounds {
-            // Drop members lying inside another sphere (at its current centre and radius).
+            // Drop members lying inside another sphere (at its current centre and radius, scaled).
             let rr: Vec<f64> = (0..cur.len()).map(|i| max_dist(all, &mem[i], centres[i])).collect();
+            // Members up to 1 % of a radius outside another sphere count as covered by it too
+            // (measured at 64 spheres, factor 0.999 / 1.0 / 1.01 / 1.02: bunny E 0.2911 /
+            // 0.2892 / 0.2757 / 0.3059, armadillo 0.5297 / 0.5276 / 0.5108 / 0.5059, spot
+            // 0.2367 / 0.2373 / 0.2154 / 0.2253).
+            let em = EXEMPT_FACTOR;
             mem = mem
                 .into_par_iter()
                 .enumerate()
@@ -608,7 +617,7 @@ pub fn polish(ctx: &Ctx, spheres: &[(DVec3, f64)], rounds: usize) -> Vec<(DVec3,
                         .copied()
                         .filter(|&q| {
                             let p = &all[q as usize];
-                            !(0..centres.len()).any(|j| j != i && p.far(centres[j]) < rr[j] * 0.999)
+                            !(0..centres.len()).any(|j| j != i && p.far(centres[j]) < rr[j] * em)
                         })
                         .collect();
                     if kept.is_empty() {
