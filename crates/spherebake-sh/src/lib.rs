@@ -150,3 +150,11 @@ pub(crate) fn check_order(order: usize, max: usize) -> Result<(), ShError> {
         Ok(())
     }
 }
+
+/// √x, correctly rounded (IEEE 754), for `no_std` users of this crate such as the runtime
+/// (`core` has no `f64::sqrt`); one `sqrtsd` instruction on x86-64. Negative → NaN.
+#[inline]
+#[must_use]
+pub fn sqrt_f64(x: f64) -> f64 {
+    libm::sqrt(x)
+}
