@@ -7,8 +7,9 @@
 //!
 //! # Conventions
 //!
-//! - **Space and units.** Every centre, radius, sample position and normal is in *model space*
-//!   (the mesh's coordinates before skinning or node transforms), right-handed, in the units
+//! - **Space and units.** Every centre, radius, sample position and normal is in *model space*:
+//!   the asset's scene at rest (glTF: node world transforms applied, skinned meshes posed at
+//!   their rest pose; OBJ: the file's coordinates), right-handed, in the units
 //!   named by [`Metadata::units`]: metres for glTF input, the file's units for OBJ input.
 //! - **Colour.** Albedo is *linear* RGB (not sRGB-encoded).
 //! - **SH.** Real orthonormal spherical harmonics with the Condon–Shortley phase, coefficient
