@@ -612,12 +612,16 @@ pub fn polish(ctx: &Ctx, spheres: &[(DVec3, f64)], rounds: usize) -> Vec<(DVec3,
                 .into_par_iter()
                 .enumerate()
                 .map(|(i, m)| {
+                    // Only spheres that can reach a member (|p − c_i| ≤ rr_i) matter.
+                    let near: Vec<usize> = (0..centres.len())
+                        .filter(|&j| j != i && centres[i].distance(centres[j]) <= rr[i] + rr[j] * em)
+                        .collect();
                     let kept: Vec<u32> = m
                         .iter()
                         .copied()
                         .filter(|&q| {
                             let p = &all[q as usize];
-                            !(0..centres.len()).any(|j| j != i && p.far(centres[j]) < rr[j] * em)
+                            !near.iter().any(|&j| p.far(centres[j]) < rr[j] * em)
                         })
                         .collect();
                     if kept.is_empty() {
