@@ -84,30 +84,6 @@ impl Solid {
         }
     }
 
-    /// Whether the cell containing `p` or any of its 26 neighbours is solid.
-    pub fn near_solid(&self, p: DVec3) -> bool {
-        let u = (p - self.origin) / self.h;
-        let (ci, cj, ck) = (u.x.floor() as i64, u.y.floor() as i64, u.z.floor() as i64);
-        for dk in -1..=1 {
-            for dj in -1..=1 {
-                for di in -1..=1 {
-                    let (i, j, k) = (ci + di, cj + dj, ck + dk);
-                    if i >= 0
-                        && j >= 0
-                        && k >= 0
-                        && (i as usize) < self.dims[0]
-                        && (j as usize) < self.dims[1]
-                        && (k as usize) < self.dims[2]
-                        && self.solid[self.index(i as usize, j as usize, k as usize)]
-                    {
-                        return true;
-                    }
-                }
-            }
-        }
-        false
-    }
-
     /// Volume of the solid, units³.
     pub fn volume(&self) -> f64 {
         self.solid_count as f64 * self.h * self.h * self.h
