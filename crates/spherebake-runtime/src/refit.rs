@@ -2,9 +2,10 @@
 //! sphere set) have been posed, every parent is recomputed bottom-up by merging its children one
 //! at a time with the sphere-pair bound (math reference §6).
 //!
-//! A [`HierarchyPlan`] is built once per hierarchy (it allocates and validates the tree);
-//! [`refit`] and [`crate::cut::cut`] then use it without further checks of the tree. [`refit`]
-//! does not allocate.
+//! A [`HierarchyPlan`] is built once per hierarchy (it allocates and validates the tree, and
+//! precomputes the refit schedule: nodes grouped by height so that independent merge chains run
+//! side by side); [`refit`] and [`crate::cut::cut`] then use it without further checks of the
+//! tree. [`refit`] does not allocate.
 //!
 //! Arithmetic is f64 inside (f32 in and out); every stored parent is rounded outwards (centre to
 //! nearest, radius up, plus the centre's rounding distance), so the f32 parents contain the f32
@@ -17,6 +18,14 @@ use core::fmt;
 
 /// Flag bit of a child reference in [`HierarchyPlan`]: set = leaf (sphere) index.
 const LEAF_BIT: u32 = 1 << 31;
+
+/// Nodes merged side by side by [`refit`]: one group holds up to this many nodes of the same
+/// height, so their merge chains are independent and the processor overlaps them.
+const LANES: usize = 4;
+
+/// Padding in a refit group: as a node index never in range (a plan has fewer than 2³¹ nodes),
+/// so it names no child sphere and no output node.
+const PAD: u32 = !LEAF_BIT;
 
 /// Why a hierarchy cannot be planned or a refit / cut call was given unusable slices.
 #[derive(Clone, Debug, PartialEq, Eq)]
@@ -109,6 +118,13 @@ pub struct HierarchyPlan {
     refs: Vec<u32>,
     /// Node indices, children before parents.
     bottom_up: Vec<u32>,
+    /// The refit schedule: per group `(offset, steps)` into `lanes`; row `offset` holds the
+    /// group's node indices, rows `offset + 1 ..= offset + steps` their child references, one
+    /// merge step per row (the order of `refs`). Groups are sorted by node height (leaf-only
+    /// nodes first), so every child node is refitted in an earlier group. Unused entries: [`PAD`].
+    groups: Vec<(u32, u32)>,
+    /// Rows of [`LANES`] node indices or child references, see `groups`.
+    lanes: Vec<[u32; LANES]>,
     root: u32,
     /// 1 + the largest leaf index (0 without leaves).
     leaf_bound: usize,
@@ -127,7 +143,8 @@ impl HierarchyPlan {
         if node_count == 0 {
             return Err(QueryError::Empty);
         }
-        if hierarchy.root as usize >= node_count || u32::try_from(node_count).is_err() {
+        // Node indices stay below 2^31: the leaf flag and `PAD` need the top bit.
+        if hierarchy.root as usize >= node_count || node_count > PAD as usize {
             return Err(QueryError::RootOutOfRange { root: hierarchy.root, node_count });
         }
         let mut ranges = vec![(0u32, 0u32); node_count];
@@ -173,7 +190,8 @@ impl HierarchyPlan {
             return Err(QueryError::NodeUnreachable { node: node as u32 });
         }
         pre.reverse();
-        Ok(HierarchyPlan { ranges, refs, bottom_up: pre, root: hierarchy.root, leaf_bound })
+        let (groups, lanes) = schedule(&ranges, &refs, &pre);
+        Ok(HierarchyPlan { ranges, refs, bottom_up: pre, groups, lanes, root: hierarchy.root, leaf_bound })
     }
 
     /// Number of nodes.
@@ -213,6 +231,53 @@ impl HierarchyPlan {
     }
 }
 
+/// The refit schedule of a validated tree (`bottom_up` lists children before parents): nodes
+/// sorted by height (0 = no child nodes), then by child count (fewest padded merge steps), then
+/// by bottom-up position; cut into groups of [`LANES`] nodes of equal height.
+fn schedule(ranges: &[(u32, u32)], refs: &[u32], bottom_up: &[u32]) -> (Vec<(u32, u32)>, Vec<[u32; LANES]>) {
+    let children = |n: u32| {
+        let (s, e) = ranges.get(n as usize).copied().unwrap_or((0, 0));
+        refs.get(s as usize..e as usize).unwrap_or(&[])
+    };
+    let mut height = vec![0u32; ranges.len()];
+    for &n in bottom_up {
+        let h = children(n)
+            .iter()
+            .filter(|&&r| r & LEAF_BIT == 0)
+            .map(|&c| height.get(c as usize).map_or(0, |h| h + 1))
+            .max()
+            .unwrap_or(0);
+        if let Some(slot) = height.get_mut(n as usize) {
+            *slot = h;
+        }
+    }
+    let mut order: Vec<u32> = bottom_up.to_vec();
+    // Stable: ties keep the bottom-up order, so the schedule is a function of the tree.
+    order.sort_by_key(|&n| (height.get(n as usize).copied().unwrap_or(0), children(n).len()));
+    let mut groups = Vec::new();
+    let mut lanes = Vec::new();
+    let mut rest = order.as_slice();
+    while let Some(&first) = rest.first() {
+        let h = height.get(first as usize).copied().unwrap_or(0);
+        let same = rest.iter().take(LANES).take_while(|&&n| height.get(n as usize).copied().unwrap_or(0) == h).count();
+        let (group, tail) = rest.split_at(same);
+        rest = tail;
+        let steps = group.iter().map(|&n| children(n).len()).max().unwrap_or(0);
+        let mut row = [PAD; LANES];
+        row[..group.len()].copy_from_slice(group);
+        groups.push((lanes.len() as u32, steps as u32));
+        lanes.push(row);
+        for k in 0..steps {
+            let mut row = [PAD; LANES];
+            for (slot, &n) in row.iter_mut().zip(group) {
+                *slot = children(n).get(k).copied().unwrap_or(PAD);
+            }
+            lanes.push(row);
+        }
+    }
+    (groups, lanes)
+}
+
 /// A decoded child reference.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub(crate) enum ChildRef {
@@ -232,9 +297,12 @@ pub fn rest_node_spheres(hierarchy: &Hierarchy) -> Vec<Sphere> {
 /// node is its first child, then the sphere-pair bound with each further child in turn (child
 /// nodes in listed order, then leaves). Writes `nodes_out[i]` for node `i`.
 ///
-/// Allocation-free; O(nodes + leaves). Measured (`benches/refit_cut.rs`, criterion median,
-/// 2-core machine under a load average of about 6): 6.0 µs for 256 leaves and 85 nodes
-/// (branching 4), i.e. about 18 ns per pair merge.
+/// The nodes are visited in the plan's schedule: groups of up to four nodes of equal height
+/// whose merge chains run side by side (the chains are latency-bound: square root, division).
+/// Each node's result is that of merging its own children in the order above, so it does not
+/// depend on the grouping.
+///
+/// Allocation-free; O(nodes + leaves + padding of groups with unequal child counts).
 ///
 /// # Errors
 ///
@@ -255,23 +323,29 @@ pub fn refit(plan: &HierarchyPlan, posed_leaves: &[Sphere], nodes_out: &mut [Sph
             actual: nodes_out.len(),
         });
     }
-    for &node in &plan.bottom_up {
-        let (start, end) = plan.ranges.get(node as usize).copied().unwrap_or((0, 0));
-        let refs = plan.refs.get(start as usize..end as usize).unwrap_or(&[]);
-        let mut acc: Option<Ball> = None;
-        for &r in refs {
-            // In range: the plan checked node indices, the length checks above the leaf indices.
-            let s =
-                if r & LEAF_BIT != 0 { posed_leaves.get((r & !LEAF_BIT) as usize) } else { nodes_out.get(r as usize) };
-            let Some(s) = s else { continue };
-            let b = Ball::from_sphere(s);
-            acc = Some(match acc {
-                None => b,
-                Some(a) => a.merge(b),
-            });
+    for &(offset, steps) in &plan.groups {
+        let rows = plan.lanes.get(offset as usize..=(offset + steps) as usize).unwrap_or(&[]);
+        let Some((group, steps)) = rows.split_first() else { continue };
+        // Every node has a child, so the first step sets every used lane.
+        let mut acc = [Ball { c: [0.0; 3], r: f64::NAN }; LANES];
+        for (k, step) in steps.iter().enumerate() {
+            for (a, &r) in acc.iter_mut().zip(step) {
+                // In range: the plan checked node indices, the length checks above the leaf
+                // indices; `PAD` is out of range of both.
+                let s = if r & LEAF_BIT != 0 {
+                    posed_leaves.get((r & !LEAF_BIT) as usize)
+                } else {
+                    nodes_out.get(r as usize)
+                };
+                let Some(s) = s else { continue };
+                let b = Ball::from_sphere(s);
+                *a = if k == 0 { b } else { a.merge(b) };
+            }
         }
-        if let (Some(a), Some(out)) = (acc, nodes_out.get_mut(node as usize)) {
-            *out = a.to_sphere_outward();
+        for (a, &n) in acc.iter().zip(group) {
+            if let Some(out) = nodes_out.get_mut(n as usize) {
+                *out = a.to_sphere_outward();
+            }
         }
     }
     Ok(())
@@ -384,6 +458,91 @@ mod tests {
         assert_eq!(sqrt(0.0), 0.0);
         assert!(sqrt(-1.0).is_nan() && sqrt(f64::NAN).is_nan());
         assert_eq!(sqrt(f64::INFINITY), f64::INFINITY);
+    }
+
+    /// The plain refit, one node at a time in bottom-up order, each node's children merged in
+    /// `refs` order: the schedule of [`refit`] must reproduce it bit for bit.
+    fn refit_one_node_at_a_time(plan: &HierarchyPlan, leaves: &[Sphere], nodes: &mut [Sphere]) {
+        for &n in plan.bottom_up_order() {
+            let mut acc: Option<Ball> = None;
+            for c in plan.refs_of(n) {
+                let s = match c {
+                    ChildRef::Node(i) => nodes[i as usize],
+                    ChildRef::Leaf(i) => leaves[i as usize],
+                };
+                let b = Ball::from_sphere(&s);
+                acc = Some(acc.map_or(b, |a| a.merge(b)));
+            }
+            nodes[n as usize] = acc.unwrap().to_sphere_outward();
+        }
+    }
+
+    /// A random tree: groups of 1..=6 pool items (nodes or leaves, so heights and child counts
+    /// mix) under new nodes, node indices in creation order reversed.
+    fn random_hierarchy(seed: &mut u64, leaf_count: u32) -> Hierarchy {
+        let mut next = |n: usize| {
+            *seed = seed.wrapping_mul(6_364_136_223_846_793_005).wrapping_add(1_442_695_040_888_963_407);
+            ((*seed >> 33) % n as u64) as usize
+        };
+        let mut pool: Vec<(bool, u32)> = (0..leaf_count).map(|l| (true, l)).collect();
+        let mut nodes: Vec<crate::HierarchyNode> = Vec::new();
+        while pool.len() != 1 || pool[0].0 {
+            let take = (1 + next(6)).min(pool.len());
+            let mut node = crate::HierarchyNode::default();
+            for _ in 0..take {
+                let (is_leaf, i) = pool.swap_remove(next(pool.len()));
+                if is_leaf {
+                    node.leaf_children.push(i);
+                } else {
+                    node.children.push(i);
+                }
+            }
+            nodes.push(node);
+            pool.push((false, nodes.len() as u32 - 1));
+        }
+        let m = nodes.len() as u32;
+        for n in &mut nodes {
+            n.children.iter_mut().for_each(|c| *c = m - 1 - *c);
+        }
+        nodes.reverse();
+        Hierarchy { root: 0, nodes }
+    }
+
+    #[test]
+    fn grouped_schedule_matches_one_node_at_a_time_bit_for_bit() {
+        let mut seed = 3u64;
+        for trial in 0..200u32 {
+            let leaf_count = 1 + (trial * 37) % 300;
+            let h = random_hierarchy(&mut seed, leaf_count);
+            let plan = HierarchyPlan::new(&h).unwrap();
+            // Every node appears once in the schedule, after the groups of its child nodes.
+            let mut done = vec![false; plan.node_count()];
+            for &(offset, steps) in &plan.groups {
+                let rows = &plan.lanes[offset as usize..=(offset + steps) as usize];
+                for r in rows[1..].iter().flatten().filter(|&&r| r & LEAF_BIT == 0 && r != PAD) {
+                    assert!(done[*r as usize], "trial {trial}: child {r} scheduled after its parent");
+                }
+                for &n in rows[0].iter().filter(|&&n| n != PAD) {
+                    assert!(!done[n as usize]);
+                    done[n as usize] = true;
+                }
+            }
+            assert!(done.iter().all(|&d| d));
+            let leaves: Vec<Sphere> = (0..leaf_count)
+                .map(|l| {
+                    let f = |k: u32| ((l * 7919 + k * 104_729) % 1000) as f32 / 500.0 - 1.0;
+                    Sphere { center: [f(1), f(2), f(3)], radius: 0.01 + 0.2 * (f(4) + 1.0) }
+                })
+                .collect();
+            let mut want = rest_node_spheres(&h);
+            refit_one_node_at_a_time(&plan, &leaves, &mut want);
+            let mut got = rest_node_spheres(&h);
+            refit(&plan, &leaves, &mut got).unwrap();
+            let bits = |v: &[Sphere]| -> Vec<[u32; 4]> {
+                v.iter().map(|s| [s.center[0], s.center[1], s.center[2], s.radius].map(f32::to_bits)).collect()
+            };
+            assert_eq!(bits(&got), bits(&want), "trial {trial}");
+        }
     }
 
     fn check(a: Ball, b: Ball, c: [f64; 3], r: f64) {
