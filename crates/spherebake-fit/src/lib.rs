@@ -35,6 +35,7 @@
 pub mod baselines;
 pub mod bound;
 mod cover;
+mod descent;
 pub mod hierarchy;
 mod lloyd;
 mod points;
@@ -93,6 +94,13 @@ pub struct FitSettings {
     /// Final rounds of assignment + centre update on the dense point set (every vertex and
     /// triangle centroid), variational only (default 6, range 0..=100).
     pub polish_rounds: usize,
+    /// Split/delete trials of the exclusive descent after the polish (variational only;
+    /// default 8, range 0..=1000; each seam round gets an eighth of them). More trials lower
+    /// E at the cost of time.
+    pub descent_trials: usize,
+    /// Seam rounds after the descent: uncovered surface points between mesh vertices join
+    /// the point set and the descent runs again (default 2, range 0..=10).
+    pub seam_rounds: usize,
 }
 
 impl Default for FitSettings {
@@ -109,6 +117,8 @@ impl Default for FitSettings {
             powell_sweeps: 2,
             polish_rounds: 6,
             starts: 1,
+            descent_trials: 8,
+            seam_rounds: 2,
         }
     }
 }
@@ -447,8 +457,29 @@ fn run_once(
             history = out.history.iter().map(|h| (h.e_before, h.e_trial, h.accepted)).collect();
             let sp: Vec<(DVec3, f64)> = out.state.centres.iter().zip(&out.state.radii).map(|(c, r)| (*c, *r)).collect();
             let t1 = Instant::now();
-            let sp = lloyd::polish(&dense, &sp, settings.polish_rounds);
+            let mut sp = lloyd::polish(&dense, &sp, settings.polish_rounds);
             timings.push(("polish", t1.elapsed().as_secs_f64()));
+            let t1 = Instant::now();
+            // Exclusive descent with split/delete moves on the mesh vertices and interior
+            // lattice points, then seam rounds: surface points between the vertices that no
+            // sphere covers join the point set, so the optimiser (not the greedy exactness
+            // pass) decides which sphere covers each seam.
+            let mut dpts: Vec<DVec3> = prep.pos.clone();
+            dpts.extend(pts.points[pts.surface_count..].iter().copied());
+            let opts =
+                descent::Options { sweeps: 8, powell_sweeps: settings.powell_sweeps, trials: settings.descent_trials };
+            descent::exclusive_descent(&prep.solid, &dpts, &mut sp, &opts);
+            let seam_opts = descent::Options { trials: settings.descent_trials / 8, ..opts };
+            for _ in 0..settings.seam_rounds {
+                let seam = descent::seam_points(&sp, &prep.pos, &prep.tris, descent::SEAM_GRID);
+                if seam.is_empty() {
+                    break;
+                }
+                dpts.extend(seam);
+                descent::exclusive_descent(&prep.solid, &dpts, &mut sp, &seam_opts);
+            }
+            timings.push(("descent", t1.elapsed().as_secs_f64()));
+
             (sp, out.iterations, (out.teleports_accepted, out.teleports_tried))
         }
         Method::Kmeans => {
@@ -518,6 +549,8 @@ pub fn fit(
     check_range("powell_sweeps", settings.powell_sweeps, 1, 20, "1..=20")?;
     check_range("starts", settings.starts, 1, 16, "1..=16")?;
     check_range("polish_rounds", settings.polish_rounds, 0, 100, "0..=100")?;
+    check_range("descent_trials", settings.descent_trials, 0, 1000, "0..=1000")?;
+    check_range("seam_rounds", settings.seam_rounds, 0, 10, "0..=10")?;
     if let Some(t) = settings.max_outside_ratio {
         if !(t.is_finite() && t > 0.0) {
             return Err(FitError::InvalidSetting {

@@ -306,20 +306,20 @@ pub fn members(assign: &[u32], k: usize) -> Vec<Vec<u32>> {
 }
 
 /// Members sorted by decreasing distance from a reference centre c0, for [`FarQuery`].
-struct FarQuery {
+pub(crate) struct FarQuery {
     c0: DVec3,
     /// (far distance from c0, rep), decreasing.
     sorted: Vec<(f64, Rep)>,
 }
 
 impl FarQuery {
-    fn new(pts: &[Rep], mem: &[u32], c0: DVec3) -> Self {
+    pub(crate) fn new(pts: &[Rep], mem: &[u32], c0: DVec3) -> Self {
         let mut sorted: Vec<(f64, Rep)> = mem.iter().map(|&i| (pts[i as usize].far(c0), pts[i as usize])).collect();
         sorted.sort_by(|a, b| b.0.total_cmp(&a.0));
         Self { c0, sorted }
     }
     /// max |p − c| over the members, exact: |p − c| ≤ |p − c0| + |c − c0| prunes the scan.
-    fn max_dist(&self, c: DVec3) -> f64 {
+    pub(crate) fn max_dist(&self, c: DVec3) -> f64 {
         let shift = c.distance(self.c0);
         let mut best2 = 0.0f64;
         for &(d0, p) in &self.sorted {

@@ -25,8 +25,8 @@ pub struct Solid {
     pub dims: [usize; 3],
     /// x-fastest, `true` = cell centre inside the solid.
     pub solid: Vec<bool>,
-    /// Per x row (j, k): `dims[0] + 1` prefix counts of solid cells.
-    prefix: Vec<u32>,
+    /// Per x row (j, k): `dims[0] + 1` prefix counts of solid cells (exact in f32: ≤ 2²⁴).
+    prefix: Vec<f32>,
     /// Number of solid cells.
     pub solid_count: usize,
 }
@@ -128,8 +128,10 @@ impl Solid {
                 let half = rem.sqrt();
                 let row = (j + self.dims[1] * k) * (nx + 1);
                 let pre = &self.prefix[row..row + nx + 1];
-                let solid_row = &self.solid[(j + self.dims[1] * k) * nx..(j + self.dims[1] * k + 1) * nx];
-                sum += prefix_at(pre, solid_row, u.x + half) - prefix_at(pre, solid_row, u.x - half);
+                if pre[nx] == 0.0 {
+                    continue;
+                }
+                sum += prefix_at(pre, u.x + half) - prefix_at(pre, u.x - half);
             }
         }
         sum * h * h * h
@@ -195,9 +197,11 @@ impl Solid {
     }
 }
 
+/// The row's prefix count at x (cells), linear inside a cell: P(i) + (x − i)(P(i+1) − P(i)),
+/// i.e. the solid length of the row left of x.
 #[inline]
-fn prefix_at(pre: &[u32], solid_row: &[bool], x: f64) -> f64 {
-    let n = solid_row.len();
+fn prefix_at(pre: &[f32], x: f64) -> f64 {
+    let n = pre.len() - 1;
     if x <= 0.0 {
         return 0.0;
     }
@@ -205,7 +209,8 @@ fn prefix_at(pre: &[u32], solid_row: &[bool], x: f64) -> f64 {
         return pre[n] as f64;
     }
     let i = x as usize;
-    pre[i] as f64 + if solid_row[i] { x - i as f64 } else { 0.0 }
+    let (a, b) = (pre[i] as f64, pre[i + 1] as f64);
+    a + (x - i as f64) * (b - a)
 }
 
 /// Voxelizes a triangle mesh with `resolution` cells along the longest bounding-box axis.
@@ -305,7 +310,7 @@ impl Solid {
     pub fn from_cells(origin: DVec3, h: f64, dims: [usize; 3], solid: Vec<bool>) -> Solid {
         let nx = dims[0];
         let rows = dims[1] * dims[2];
-        let mut prefix = vec![0u32; rows * (nx + 1)];
+        let mut prefix = vec![0f32; rows * (nx + 1)];
         let mut count = 0usize;
         for row in 0..rows {
             let mut acc = 0u32;
@@ -313,7 +318,7 @@ impl Solid {
                 if solid[row * nx + i] {
                     acc += 1;
                 }
-                prefix[row * (nx + 1) + i + 1] = acc;
+                prefix[row * (nx + 1) + i + 1] = acc as f32;
             }
             count += acc as usize;
         }
