@@ -1,7 +1,8 @@
 //! Usage: `cargo run --release -p spherebake-fit --example fit_bench -- MODEL.obj [counts] [methods] [runs]`
 //! e.g. `... -- bunny.obj 16,32,64,128,256 variational,kmeans,octree 3`.
 //! Prints E (exact), the union outside ratio, and wall time (median of `runs`) per stage.
-//! Environment overrides: SB_POINTS, SB_VOXEL, SB_ITERS, SB_POLISH, SB_SEED, SB_STARTS, SB_SUBDIV.
+//! Environment overrides: SB_POINTS, SB_VOXEL, SB_ITERS, SB_POLISH, SB_SEED, SB_STARTS,
+//! SB_TRIALS, SB_SEAMS, SB_TELE, SB_SUBDIV.
 
 use glam::Vec3;
 use spherebake_fit::{fit, FitSettings, Method};
@@ -88,6 +89,15 @@ fn main() {
             }
             if let Some(v) = env("SB_POLISH") {
                 settings.polish_rounds = v;
+            }
+            if let Some(v) = env("SB_TRIALS") {
+                settings.descent_trials = v;
+            }
+            if let Some(v) = env("SB_SEAMS") {
+                settings.seam_rounds = v;
+            }
+            if let Some(v) = env("SB_TELE") {
+                settings.teleport_attempts = v;
             }
             if let Some(v) = env("SB_STARTS") {
                 settings.starts = v;

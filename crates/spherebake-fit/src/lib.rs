@@ -84,7 +84,8 @@ pub struct FitSettings {
     pub seed: u64,
     /// Maximum Lloyd iterations, teleportation trials included (default 24, range 1..=1000).
     pub max_iterations: usize,
-    /// Maximum teleportation trials (default 6).
+    /// Maximum teleportation trials of the Lloyd stage (default 2; the descent runs its own
+    /// split/delete trials, `descent_trials`).
     pub teleport_attempts: usize,
     /// Powell direction-set sweeps per centre update (default 2, range 1..=20).
     pub powell_sweeps: usize,
@@ -92,14 +93,14 @@ pub struct FitSettings {
     /// (default 1, range 1..=16).
     pub starts: usize,
     /// Final rounds of assignment + centre update on the dense point set (every vertex and
-    /// triangle centroid), variational only (default 6, range 0..=100).
+    /// triangle centroid), variational only (default 4, range 0..=100).
     pub polish_rounds: usize,
     /// Split/delete trials of the exclusive descent after the polish (variational only;
-    /// default 8, range 0..=1000; each seam round gets an eighth of them). More trials lower
+    /// default 32, range 0..=1000; each seam round gets a quarter of them). More trials lower
     /// E at the cost of time.
     pub descent_trials: usize,
     /// Seam rounds after the descent: uncovered surface points between mesh vertices join
-    /// the point set and the descent runs again (default 2, range 0..=10).
+    /// the point set and the descent runs again (default 3, range 0..=10).
     pub seam_rounds: usize,
 }
 
@@ -113,12 +114,12 @@ impl Default for FitSettings {
             point_resolution: 40,
             seed: 1,
             max_iterations: 24,
-            teleport_attempts: 6,
+            teleport_attempts: 2,
             powell_sweeps: 2,
-            polish_rounds: 6,
+            polish_rounds: 4,
             starts: 1,
-            descent_trials: 8,
-            seam_rounds: 2,
+            descent_trials: 32,
+            seam_rounds: 3,
         }
     }
 }
@@ -184,7 +185,7 @@ pub enum FitError {
 
 /// Exact T for the energy.
 enum ExactT {
-    Closed { pos: Vec<DVec3>, tris: Vec<[u32; 3]> },
+    Closed { pos: Vec<DVec3>, tris: Vec<[u32; 3]>, bvh: spherebake_geom::bvh::TriangleBvh, diag: f64 },
     Voxel { pos: Vec<DVec3>, tris: Vec<[u32; 3]>, cells: Vec<u32> },
 }
 
@@ -235,7 +236,7 @@ fn prepare(positions: &[Vec3], triangles: &[[u32; 3]], voxel_resolution: u32) ->
             return Err(FitError::NonFinitePosition { index: i });
         }
     }
-    let pos: Vec<DVec3> = positions.iter().map(|p| p.as_dvec3()).collect();
+    let mut pos: Vec<DVec3> = positions.iter().map(|p| p.as_dvec3()).collect();
     let mut tris = triangles.to_vec();
     let mut warnings = Vec::new();
     let (mut lo, mut hi) = (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY));
@@ -257,7 +258,13 @@ fn prepare(positions: &[Vec3], triangles: &[[u32; 3]], voxel_resolution: u32) ->
     edges.sort_unstable();
     let dup = edges.windows(2).any(|w| w[0] == w[1]);
     let boundary = edges.iter().filter(|&&(a, b)| edges.binary_search(&(b, a)).is_err()).count();
-    let mut closed = !degenerate && !dup && boundary == 0;
+    let mut filled = 0;
+    if !degenerate && !dup && boundary > 0 {
+        if let Some(n) = fill_small_holes(&mut pos, &mut tris, &edges) {
+            filled = n;
+        }
+    }
+    let mut closed = !degenerate && !dup && (boundary == 0 || filled > 0);
     let mut vol = if closed { volume::mesh_signed_volume(&pos, &tris) } else { 0.0 };
     if closed && vol < 0.0 {
         warnings.push("closed mesh is inward-oriented: flipped for the fit".to_string());
@@ -268,6 +275,11 @@ fn prepare(positions: &[Vec3], triangles: &[[u32; 3]], voxel_resolution: u32) ->
     }
     if closed && vol <= 0.0 {
         closed = false;
+    }
+    if closed && filled > 0 {
+        warnings.push(format!(
+            "mesh not closed ({boundary} boundary edges): its {filled} small hole(s) were filled (fan to the loop centroid), the solid is the filled mesh"
+        ));
     }
     if !closed {
         warnings.push(format!(
@@ -286,13 +298,80 @@ fn prepare(positions: &[Vec3], triangles: &[[u32; 3]], voxel_resolution: u32) ->
         return Err(FitError::EmptySolid { resolution: voxel_resolution });
     }
     let (source, exact, object_volume) = if closed {
-        (SolidSource::ClosedMesh, ExactT::Closed { pos: pos.clone(), tris: tris.clone() }, vol)
+        let p32: Vec<Vec3> = pos.iter().map(|p| p.as_vec3()).collect();
+        let bvh = spherebake_geom::bvh::TriangleBvh::new(&p32, &tris);
+        let diag = (hi - lo).length();
+        (SolidSource::ClosedMesh, ExactT::Closed { pos: pos.clone(), tris: tris.clone(), bvh, diag }, vol)
     } else {
         let (p, t, cells) = solid.boundary_mesh();
         let v = solid.volume();
         (SolidSource::VoxelSolid, ExactT::Voxel { pos: p, tris: t, cells }, v)
     };
     Ok(Prepared { pos, tris, solid, lo, hi, object_volume, source, exact, warnings })
+}
+
+/// [`fill_small_holes`] closes holes only while their fans add at most this share of the
+/// mesh's surface area (the bunny's five base holes: 1.2 %).
+const MAX_HOLE_AREA: f64 = 0.05;
+
+/// Closes the holes of a mesh that is closed except for a few small holes (scans such as the
+/// Stanford bunny): every boundary loop (directed edges without a reverse partner, chained)
+/// gets a fan of triangles to a new vertex at the loop's centroid, oriented to match. Only when
+/// every boundary vertex has exactly one outgoing boundary edge (manifold boundary) and the
+/// fans add at most [`MAX_HOLE_AREA`] of the mesh's area; then returns the number of holes
+/// filled, else leaves the mesh untouched and returns `None`. `edges` is the sorted list of
+/// directed edges.
+fn fill_small_holes(pos: &mut Vec<DVec3>, tris: &mut Vec<[u32; 3]>, edges: &[(u32, u32)]) -> Option<usize> {
+    let boundary: Vec<(u32, u32)> =
+        edges.iter().copied().filter(|&(a, b)| edges.binary_search(&(b, a)).is_err()).collect();
+    let mut next: std::collections::BTreeMap<u32, u32> = std::collections::BTreeMap::new();
+    for &(a, b) in &boundary {
+        if next.insert(a, b).is_some() {
+            return None;
+        }
+    }
+    let mut seen: std::collections::BTreeSet<u32> = std::collections::BTreeSet::new();
+    let mut loops: Vec<Vec<u32>> = Vec::new();
+    for &(start, _) in &boundary {
+        if seen.contains(&start) {
+            continue;
+        }
+        let mut lp = vec![start];
+        seen.insert(start);
+        let mut v = *next.get(&start)?;
+        while v != start {
+            if !seen.insert(v) || lp.len() > boundary.len() {
+                return None;
+            }
+            lp.push(v);
+            v = *next.get(&v)?;
+        }
+        loops.push(lp);
+    }
+    let area = |a: DVec3, b: DVec3, c: DVec3| 0.5 * (b - a).cross(c - a).length();
+    let mesh_area: f64 = tris.iter().map(|t| area(pos[t[0] as usize], pos[t[1] as usize], pos[t[2] as usize])).sum();
+    let centroids: Vec<DVec3> =
+        loops.iter().map(|lp| lp.iter().map(|&v| pos[v as usize]).sum::<DVec3>() / lp.len() as f64).collect();
+    let fill_area: f64 = loops
+        .iter()
+        .zip(&centroids)
+        .map(|(lp, &c)| {
+            (0..lp.len()).map(|i| area(pos[lp[i] as usize], pos[lp[(i + 1) % lp.len()] as usize], c)).sum::<f64>()
+        })
+        .sum();
+    if fill_area.is_nan() || fill_area > MAX_HOLE_AREA * mesh_area {
+        return None;
+    }
+    for (lp, &c) in loops.iter().zip(&centroids) {
+        let ci = pos.len() as u32;
+        pos.push(c);
+        for i in 0..lp.len() {
+            let (a, b) = (lp[i], lp[(i + 1) % lp.len()]);
+            // The mesh has a → b; the fill triangle carries b → a.
+            tris.push([b, a, ci]);
+        }
+    }
+    Some(loops.len())
 }
 
 /// Exact V(S − T) per sphere, units³ (parallel over spheres, ordered).
@@ -303,7 +382,7 @@ fn exact_outside(prep: &Prepared, spheres: &[Sphere32]) -> Vec<f64> {
             let c = DVec3::new(s[0] as f64, s[1] as f64, s[2] as f64);
             let r = s[3] as f64;
             let inter = match &prep.exact {
-                ExactT::Closed { pos, tris } => volume::ball_mesh_intersection_volume(c, r, pos, tris),
+                ExactT::Closed { pos, tris, bvh, diag } => closed_intersection(c, r, pos, tris, bvh, *diag),
                 ExactT::Voxel { pos, tris, cells } => {
                     let sd = &prep.solid;
                     let mut near = Vec::new();
@@ -327,6 +406,34 @@ fn exact_outside(prep: &Prepared, spheres: &[Sphere32]) -> Vec<f64> {
             (volume::ball_volume_f64(r) - inter).max(0.0)
         })
         .collect()
+}
+
+/// V(B(c, r) ∩ T) for the closed mesh, exact, over the triangles the BVH finds near the ball
+/// (query radius widened by 1e-5 relative and 1e-5 of the diagonal, covering the f32 copy of
+/// the positions the BVH holds). The winding number at c that the culled sum needs is read
+/// off the result: V = w·V(B) + X with X from the near triangles, and V ∈ [0, V(B)] holds for
+/// w = 0 only when X ≥ 0 and for w = 1 only when X ≤ 0; when X ≈ 0 (no triangle reaches into
+/// the ball) it is computed directly.
+fn closed_intersection(
+    c: DVec3,
+    r: f64,
+    pos: &[DVec3],
+    tris: &[[u32; 3]],
+    bvh: &spherebake_geom::bvh::TriangleBvh,
+    diag: f64,
+) -> f64 {
+    let mut near = Vec::new();
+    bvh.triangles_near_sphere(c.as_vec3(), (r * (1.0 + 1e-5) + 1e-5 * diag) as f32, &mut near);
+    let x = volume::ball_mesh_intersection_volume_near(c, r, pos, tris, &near, 0.0);
+    let vb = volume::ball_volume_f64(r);
+    let w = if x > 1e-9 * vb {
+        0.0
+    } else if x < -1e-9 * vb {
+        1.0
+    } else {
+        volume::winding_number_brute(c, pos, tris).round()
+    };
+    (w * vb + x).clamp(0.0, vb)
 }
 
 /// V(∪S − T) estimated on the voxel grid: cells whose centre is in the union but not solid.
@@ -464,14 +571,27 @@ fn run_once(
             // lattice points, then seam rounds: surface points between the vertices that no
             // sphere covers join the point set, so the optimiser (not the greedy exactness
             // pass) decides which sphere covers each seam.
+            // Vertices, a grid on triangles larger than two voxel cells, interior points.
             let mut dpts: Vec<DVec3> = prep.pos.clone();
+            for t in &prep.tris {
+                let (a, b, c) = (prep.pos[t[0] as usize], prep.pos[t[1] as usize], prep.pos[t[2] as usize]);
+                let l = (b - a).length().max((c - b).length()).max((a - c).length());
+                let m = descent::grid_divisions(l, 2.0 * prep.solid.h, 1);
+                for i in 0..=m {
+                    for j in 0..=(m - i) {
+                        if (i == 0 || i == m) && j == 0 || i == 0 && j == m {
+                            continue;
+                        }
+                        dpts.push(a + (b - a) * (i as f64 / m as f64) + (c - a) * (j as f64 / m as f64));
+                    }
+                }
+            }
             dpts.extend(pts.points[pts.surface_count..].iter().copied());
-            let opts =
-                descent::Options { sweeps: 8, powell_sweeps: settings.powell_sweeps, trials: settings.descent_trials };
+            let opts = descent::Options { sweeps: 8, trials: settings.descent_trials };
             descent::exclusive_descent(&prep.solid, &dpts, &mut sp, &opts);
-            let seam_opts = descent::Options { trials: settings.descent_trials / 8, ..opts };
+            let seam_opts = descent::Options { trials: settings.descent_trials / 4, ..opts };
             for _ in 0..settings.seam_rounds {
-                let seam = descent::seam_points(&sp, &prep.pos, &prep.tris, descent::SEAM_GRID);
+                let seam = descent::seam_points(&sp, &prep.pos, &prep.tris, 0.25 * prep.solid.h);
                 if seam.is_empty() {
                     break;
                 }
@@ -787,4 +907,68 @@ pub fn evaluate(
 #[allow(dead_code)]
 fn ball_volume(r: f64) -> f64 {
     4.0 / 3.0 * PI * r * r * r
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A closed, outward-oriented UV sphere (poles are single vertices).
+    fn uv_sphere(n: u32, radius: f64) -> (Vec<DVec3>, Vec<[u32; 3]>) {
+        let mut p = vec![DVec3::new(0.0, 0.0, radius)];
+        for i in 1..n {
+            let th = PI * i as f64 / n as f64;
+            for j in 0..2 * n {
+                let ph = PI * j as f64 / n as f64;
+                p.push(radius * DVec3::new(th.sin() * ph.cos(), th.sin() * ph.sin(), th.cos()));
+            }
+        }
+        p.push(DVec3::new(0.0, 0.0, -radius));
+        let ring = |i: u32, j: u32| 1 + (i - 1) * 2 * n + (j % (2 * n));
+        let last = p.len() as u32 - 1;
+        let mut t = Vec::new();
+        for j in 0..2 * n {
+            t.push([0, ring(1, j), ring(1, j + 1)]);
+            t.push([last, ring(n - 1, j + 1), ring(n - 1, j)]);
+        }
+        for i in 1..n - 1 {
+            for j in 0..2 * n {
+                t.push([ring(i, j), ring(i + 1, j), ring(i + 1, j + 1)]);
+                t.push([ring(i, j), ring(i + 1, j + 1), ring(i, j + 1)]);
+            }
+        }
+        (p, t)
+    }
+
+    #[test]
+    fn culled_closed_intersection_equals_the_full_sum() {
+        let (mut pos, tris) = uv_sphere(12, 1.0);
+        // Shift off the origin so f32 rounding of the BVH copy matters.
+        for p in &mut pos {
+            *p += DVec3::new(3.1, -2.7, 0.3);
+        }
+        assert!(volume::mesh_signed_volume(&pos, &tris) > 0.0);
+        let p32: Vec<Vec3> = pos.iter().map(|p| p.as_vec3()).collect();
+        let bvh = spherebake_geom::bvh::TriangleBvh::new(&p32, &tris);
+        let mut rng = rng::SplitMix64::new(5);
+        let (mut inside, mut outside, mut crossing) = (0, 0, 0);
+        for _ in 0..2000 {
+            let c = DVec3::new(3.1, -2.7, 0.3)
+                + DVec3::new(rng.next_f64() - 0.5, rng.next_f64() - 0.5, rng.next_f64() - 0.5) * 3.0;
+            let r = 0.01 + 1.5 * rng.next_f64() * rng.next_f64();
+            let full = volume::ball_mesh_intersection_volume(c, r, &pos, &tris);
+            let culled = closed_intersection(c, r, &pos, &tris, &bvh, 2.0);
+            assert!((full - culled).abs() <= 1e-10 * volume::ball_volume_f64(r), "c {c} r {r}: {full} vs {culled}");
+            let vb = volume::ball_volume_f64(r);
+            if full > vb * (1.0 - 1e-9) {
+                inside += 1;
+            } else if full < vb * 1e-9 {
+                outside += 1;
+            } else {
+                crossing += 1;
+            }
+        }
+        // All three cases occur (balls fully inside, fully outside, and crossing the surface).
+        assert!(inside > 20 && outside > 20 && crossing > 20, "{inside} {outside} {crossing}");
+    }
 }
