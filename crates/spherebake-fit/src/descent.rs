@@ -134,10 +134,11 @@ fn best_ball(solid: &Solid, pts: &[DVec3], mem: &[u32], c0: DVec3) -> (DVec3, f6
 }
 
 /// A covering sphere set over a point set with per-point coverage counts.
+#[derive(Clone)]
 struct Cover<'a> {
     solid: &'a Solid,
     pts: &'a [DVec3],
-    grid: Grid,
+    grid: &'a Grid,
     cnt: Vec<u16>,
     spheres: Vec<(DVec3, f64)>,
     outs: Vec<f64>,
@@ -163,8 +164,7 @@ fn key(s: (DVec3, f64), ex: &[u32]) -> u64 {
 }
 
 impl<'a> Cover<'a> {
-    fn new(solid: &'a Solid, pts: &'a [DVec3], spheres: &[(DVec3, f64)]) -> Self {
-        let grid = Grid::new(pts, 2.0 * solid.h);
+    fn new(solid: &'a Solid, pts: &'a [DVec3], grid: &'a Grid, spheres: &[(DVec3, f64)]) -> Self {
         let mut cnt = vec![0u16; pts.len()];
         for s in spheres {
             grid.for_each_in(pts, s.0, s.1, |q| cnt[q as usize] = cnt[q as usize].saturating_add(1));
@@ -429,10 +429,10 @@ pub struct Options {
     pub sweeps: usize,
     /// Maximum split/delete trials.
     pub trials: usize,
+    /// Consecutive rejected trials after which the trials stop.
+    pub max_fails: usize,
 }
 
-/// Consecutive rejected trials after which the trials stop.
-const MAX_FAILS: usize = 6;
 /// Trials are only tried while the predicted change is below this share of the total
 /// (predictions are pessimistic: the local sweeps after a move gain 0.1–0.5 % of E).
 const TRIAL_THRESHOLD: f64 = 0.05;
@@ -465,7 +465,10 @@ pub fn exclusive_descent(solid: &Solid, pts: &[DVec3], spheres: &mut [(DVec3, f6
     }
     let debug = std::env::var_os("SPHEREBAKE_DEBUG").is_some();
     let t0 = std::time::Instant::now();
-    let mut cov = Cover::new(solid, pts, spheres);
+    let grid = Grid::new(pts, 2.0 * solid.h);
+    let mut cov = Cover::new(solid, pts, &grid, spheres);
+    // Spheres that meet (with two cells of slack).
+    let near = |a: (DVec3, f64), b: (DVec3, f64)| a.0.distance(b.0) <= a.1 + b.1 + 2.0 * solid.h;
     let mut moves = 0;
     let all: Vec<usize> = (0..k).collect();
     for _ in 0..opts.sweeps {
@@ -496,82 +499,106 @@ pub fn exclusive_descent(solid: &Solid, pts: &[DVec3], spheres: &mut [(DVec3, f6
         for (i, sp) in ns {
             splits[i] = Some(sp);
         }
-        // Best untried pair (j deleted, i split), i not among the spheres j's deletion grows.
-        let mut best = (f64::INFINITY, usize::MAX, usize::MAX);
+        // The two best untried pairs (j deleted, i split), i not among the spheres j's
+        // deletion grows; the second shares no sphere with the first. Both are tried at once
+        // (two cores) and the better improvement is kept.
+        let mut ranked: Vec<(f64, usize, usize)> = Vec::new();
         for (j, d) in dels.iter().enumerate() {
             let Some((dj, grown)) = d else { continue };
+            if tabu_del[j] >= 2 {
+                continue;
+            }
             for (i, sp) in splits.iter().enumerate() {
                 let Some((_, Some((di, _, _)))) = sp else { continue };
-                if i == j || grown.iter().any(|g| g.0 == i) || tabu.contains(&(j, i)) || tabu_del[j] >= 2 {
+                if i == j || grown.iter().any(|g| g.0 == i) || tabu.contains(&(j, i)) {
                     continue;
                 }
-                if dj + di < best.0 {
-                    best = (dj + di, j, i);
+                if dj + di <= TRIAL_THRESHOLD * cov.total() {
+                    ranked.push((dj + di, j, i));
                 }
             }
         }
-        if best.1 == usize::MAX || best.0 > TRIAL_THRESHOLD * cov.total() {
-            break;
-        }
-        let (j, i) = (best.1, best.2);
-        let (Some((_, grown)), Some((_, Some((_, ba, bb))))) = (dels[j].clone(), splits[i]) else { break };
-        let saved = (cov.spheres.clone(), cov.outs.clone(), cov.cnt.clone(), cov.tried.clone());
+        ranked.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)).then(a.2.cmp(&b.2)));
+        let Some(&first) = ranked.first() else { break };
+        let second =
+            ranked.iter().copied().find(|c| c.1 != first.1 && c.1 != first.2 && c.2 != first.1 && c.2 != first.2);
+        let attempt = |(_, j, i): (f64, usize, usize)| -> Option<(f64, Cover<'_>)> {
+            let (Some((_, grown)), Some((_, Some((_, ba, bb))))) = (&dels[j], &splits[i]) else { return None };
+            let mut c = cov.clone();
+            // Grow the absorbers first (j's exclusive points stay covered), then move j to one
+            // half of i's split and shrink i to the other.
+            for &(l, rl) in grown {
+                let cl = c.spheres[l].0;
+                c.set(l, cl, rl);
+            }
+            c.set(j, bb.0, bb.1);
+            c.set(i, ba.0, ba.1);
+            let mut touched: Vec<usize> = grown.iter().map(|g| g.0).chain([i, j]).collect();
+            touched.sort_unstable();
+            touched.dedup();
+            let region: Vec<usize> = (0..k)
+                .filter(|&a| {
+                    touched.iter().any(|&t| near(c.spheres[a], c.spheres[t]) || near(c.spheres[a], cov.spheres[t]))
+                })
+                .collect();
+            for _ in 0..3 {
+                if c.sweep_set(&region, true) <= 1e-4 * c.total() {
+                    break;
+                }
+            }
+            Some((c.total(), c))
+        };
+        let (r1, r2) = match second {
+            Some(sec) => rayon::join(|| attempt(first), || attempt(sec)),
+            None => (attempt(first), None),
+        };
         let before = cov.total();
-        // Grow the absorbers first (j's exclusive points stay covered), then move j to one
-        // half of i's split and shrink i to the other.
-        for &(l, rl) in &grown {
-            let c = cov.spheres[l].0;
-            cov.set(l, c, rl);
-        }
-        cov.set(j, bb.0, bb.1);
-        cov.set(i, ba.0, ba.1);
-        let mut touched: Vec<usize> = grown.iter().map(|g| g.0).chain([i, j]).collect();
-        touched.sort_unstable();
-        touched.dedup();
-        // Spheres that meet (with two cells of slack) a touched sphere before or after the move.
-        let near = |a: (DVec3, f64), b: (DVec3, f64)| a.0.distance(b.0) <= a.1 + b.1 + 2.0 * solid.h;
-        let region: Vec<usize> = (0..k)
-            .filter(|&a| {
-                touched.iter().any(|&t| near(cov.spheres[a], cov.spheres[t]) || near(cov.spheres[a], saved.0[t]))
-            })
-            .collect();
-        for _ in 0..3 {
-            if cov.sweep_set(&region, true) <= 1e-4 * cov.total() {
-                break;
+        let mut best: Option<(f64, Cover<'_>, (f64, usize, usize))> = None;
+        for (r, cand) in [(r1, Some(first)), (r2, second)] {
+            let (Some((after, c)), Some(cand)) = (r, cand) else { continue };
+            if debug {
+                eprintln!(
+                    "  trial: split {} delete {}: predicted {:+.4} got {:+.4}",
+                    cand.2,
+                    cand.1,
+                    cand.0 / solid.volume(),
+                    (after - before) / solid.volume()
+                );
+            }
+            if after < before * (1.0 - 1e-6) && best.as_ref().is_none_or(|b| after < b.0) {
+                best = Some((after, c, cand));
+            } else {
+                tabu.push((cand.1, cand.2));
+                tabu_del[cand.1] += 1;
+                fails += 1;
             }
         }
-        let after = cov.total();
-        if debug {
-            eprintln!(
-                "  trial: split {i} delete {j}: predicted {:+.4} got {:+.4} E_proxy {:.4}",
-                best.0 / solid.volume(),
-                (after - before) / solid.volume(),
-                after / solid.volume()
-            );
-        }
-        if after < before * (1.0 - 1e-6) {
-            moves += 1;
-            fails = 0;
-            tabu.clear();
-            tabu_del.fill(0);
-            // Cached deletions near a changed sphere are stale; cached splits only when the
-            // sphere's exclusive set changed.
-            let changed: Vec<usize> = (0..k).filter(|&a| cov.spheres[a] != saved.0[a]).collect();
-            for a in 0..k {
-                if changed.iter().any(|&t| near(cov.spheres[a], cov.spheres[t]) || near(cov.spheres[a], saved.0[t])) {
-                    dels[a] = None;
-                    if splits[a].is_some_and(|x| x.0 != key(cov.spheres[a], &cov.exclusive(a))) {
-                        splits[a] = None;
+        match best {
+            Some((_, c, _)) => {
+                let old = std::mem::replace(&mut cov, c);
+                moves += 1;
+                fails = 0;
+                tabu.clear();
+                tabu_del.fill(0);
+                // Cached deletions near a changed sphere are stale; cached splits only when
+                // the sphere's exclusive set changed.
+                let changed: Vec<usize> = (0..k).filter(|&a| cov.spheres[a] != old.spheres[a]).collect();
+                for a in 0..k {
+                    if changed
+                        .iter()
+                        .any(|&t| near(cov.spheres[a], cov.spheres[t]) || near(cov.spheres[a], old.spheres[t]))
+                    {
+                        dels[a] = None;
+                        if splits[a].is_some_and(|x| x.0 != key(cov.spheres[a], &cov.exclusive(a))) {
+                            splits[a] = None;
+                        }
                     }
                 }
             }
-        } else {
-            (cov.spheres, cov.outs, cov.cnt, cov.tried) = saved;
-            tabu.push((j, i));
-            tabu_del[j] += 1;
-            fails += 1;
-            if fails >= MAX_FAILS {
-                break;
+            None => {
+                if fails >= opts.max_fails {
+                    break;
+                }
             }
         }
     }
@@ -606,14 +633,9 @@ pub fn seam_points(spheres: &[(DVec3, f64)], pos: &[DVec3], tris: &[[u32; 3]], s
             if spheres.iter().any(|s| inside(a, s) && inside(b, s) && inside(c, s)) {
                 return out;
             }
-            let near: Vec<&(DVec3, f64)> = spheres
-                .iter()
-                .filter(|s| {
-                    let lo = a.min(b).min(c);
-                    let hi = a.max(b).max(c);
-                    s.0.clamp(lo, hi).distance_squared(s.0) <= s.1 * s.1
-                })
-                .collect();
+            let (lo, hi) = (a.min(b).min(c), a.max(b).max(c));
+            let near: Vec<&(DVec3, f64)> =
+                spheres.iter().filter(|s| s.0.clamp(lo, hi).distance_squared(s.0) <= s.1 * s.1).collect();
             let l = (b - a).length().max((c - b).length()).max((a - c).length());
             let m = grid_divisions(l, spacing, SEAM_GRID);
             for i in 0..=m {
@@ -768,8 +790,8 @@ mod tests {
             }
             let before: f64 = spheres.iter().map(|s| outside(&solid, s.0, s.1)).sum();
             let mut after_sweeps = spheres.clone();
-            exclusive_descent(&solid, &pts, &mut after_sweeps, &Options { sweeps: 4, trials: 0 });
-            exclusive_descent(&solid, &pts, &mut spheres, &Options { sweeps: 4, trials: 12 });
+            exclusive_descent(&solid, &pts, &mut after_sweeps, &Options { sweeps: 4, trials: 0, max_fails: 6 });
+            exclusive_descent(&solid, &pts, &mut spheres, &Options { sweeps: 4, trials: 12, max_fails: 6 });
             for sp in [&after_sweeps, &spheres] {
                 for p in &pts {
                     assert!(sp.iter().any(|s| p.distance_squared(s.0) <= s.1 * s.1), "seed {seed}: {p} uncovered");
@@ -788,7 +810,7 @@ mod tests {
     fn uncovered_points_are_covered_first() {
         let (solid, pts) = setup(9, 500);
         let mut spheres = vec![(DVec3::splat(4.0), 0.5), (DVec3::new(3.0, 4.0, 4.0), 0.1)];
-        exclusive_descent(&solid, &pts, &mut spheres, &Options { sweeps: 2, trials: 2 });
+        exclusive_descent(&solid, &pts, &mut spheres, &Options { sweeps: 2, trials: 2, max_fails: 6 });
         for p in &pts {
             assert!(spheres.iter().any(|s| p.distance_squared(s.0) <= s.1 * s.1));
         }

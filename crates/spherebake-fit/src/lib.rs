@@ -100,7 +100,7 @@ pub struct FitSettings {
     /// E at the cost of time.
     pub descent_trials: usize,
     /// Seam rounds after the descent: uncovered surface points between mesh vertices join
-    /// the point set and the descent runs again (default 3, range 0..=10).
+    /// the point set and the descent runs again (default 5, range 0..=10).
     pub seam_rounds: usize,
 }
 
@@ -119,7 +119,7 @@ impl Default for FitSettings {
             polish_rounds: 4,
             starts: 1,
             descent_trials: 32,
-            seam_rounds: 3,
+            seam_rounds: 5,
         }
     }
 }
@@ -572,7 +572,13 @@ fn run_once(
             // sphere covers join the point set, so the optimiser (not the greedy exactness
             // pass) decides which sphere covers each seam.
             // Vertices, a grid on triangles larger than two voxel cells, interior points.
-            let mut dpts: Vec<DVec3> = prep.pos.clone();
+            let mut referenced = vec![false; prep.pos.len()];
+            for t in &prep.tris {
+                for &v in t {
+                    referenced[v as usize] = true;
+                }
+            }
+            let mut dpts: Vec<DVec3> = prep.pos.iter().zip(&referenced).filter(|(_, &r)| r).map(|(p, _)| *p).collect();
             for t in &prep.tris {
                 let (a, b, c) = (prep.pos[t[0] as usize], prep.pos[t[1] as usize], prep.pos[t[2] as usize]);
                 let l = (b - a).length().max((c - b).length()).max((a - c).length());
@@ -587,9 +593,9 @@ fn run_once(
                 }
             }
             dpts.extend(pts.points[pts.surface_count..].iter().copied());
-            let opts = descent::Options { sweeps: 8, trials: settings.descent_trials };
+            let opts = descent::Options { sweeps: 8, trials: settings.descent_trials, max_fails: 6 };
             descent::exclusive_descent(&prep.solid, &dpts, &mut sp, &opts);
-            let seam_opts = descent::Options { trials: settings.descent_trials / 4, ..opts };
+            let seam_opts = descent::Options { trials: settings.descent_trials / 4, max_fails: 3, ..opts };
             for _ in 0..settings.seam_rounds {
                 let seam = descent::seam_points(&sp, &prep.pos, &prep.tris, 0.25 * prep.solid.h);
                 if seam.is_empty() {

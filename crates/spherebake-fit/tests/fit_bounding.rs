@@ -380,3 +380,15 @@ fn small_holes_are_filled_large_ones_are_not() {
     assert_eq!(r.stats.solid_source, SolidSource::VoxelSolid);
     assert_triangles_covered(&p, &t2, &r.spheres);
 }
+
+#[test]
+fn unreferenced_vertices_do_not_constrain_the_fit() {
+    let (p, t) = voxel_union(&[[0, 0, 0], [1, 0, 0], [0, 1, 0]], 1.0, 4);
+    let s = FitSettings { spheres: 6, voxel_resolution: 32, ..Default::default() };
+    let a = fit(&p, &t, &s, &|_| {}).unwrap();
+    // A vertex no triangle uses, far outside (the bunny has 1113 such): same result.
+    let mut p2 = p.clone();
+    p2.push(Vec3::new(0.5, 0.5, 3.0));
+    let b = fit(&p2, &t, &s, &|_| {}).unwrap();
+    assert_eq!(a.spheres, b.spheres);
+}
