@@ -96,8 +96,10 @@ pub struct FitSettings {
     /// triangle centroid), variational only (default 4, range 0..=100).
     pub polish_rounds: usize,
     /// Split/delete trials of the exclusive descent after the polish (variational only;
-    /// default 32, range 0..=1000; each seam round gets a quarter of them). More trials lower
-    /// E at the cost of time.
+    /// default 64, range 0..=1000; each seam round gets a quarter of them). They also stop
+    /// after 20 rejections in a row (3 in seam rounds) or when a fixed work budget is spent
+    /// (`descent::WORK_BUDGET`, counted in voxel rows read, so the result does not depend on
+    /// the machine). More trials lower E at the cost of time.
     pub descent_trials: usize,
     /// Seam rounds after the descent: uncovered surface points between mesh vertices join
     /// the point set and the descent runs again (default 5, range 0..=10).
@@ -118,7 +120,7 @@ impl Default for FitSettings {
             powell_sweeps: 2,
             polish_rounds: 4,
             starts: 1,
-            descent_trials: 32,
+            descent_trials: 64,
             seam_rounds: 5,
         }
     }
@@ -593,9 +595,19 @@ fn run_once(
                 }
             }
             dpts.extend(pts.points[pts.surface_count..].iter().copied());
-            let opts = descent::Options { sweeps: 8, trials: settings.descent_trials, max_fails: 6 };
+            let opts = descent::Options {
+                sweeps: 8,
+                trials: settings.descent_trials,
+                max_fails: 20,
+                work_budget: descent::WORK_BUDGET,
+            };
             descent::exclusive_descent(&prep.solid, &dpts, &mut sp, &opts);
-            let seam_opts = descent::Options { trials: settings.descent_trials / 4, max_fails: 3, ..opts };
+            let seam_opts = descent::Options {
+                trials: settings.descent_trials / 4,
+                max_fails: 3,
+                work_budget: opts.work_budget / 4,
+                ..opts
+            };
             for _ in 0..settings.seam_rounds {
                 let seam = descent::seam_points(&sp, &prep.pos, &prep.tris, 0.25 * prep.solid.h);
                 if seam.is_empty() {
