@@ -359,22 +359,7 @@ impl<'a> Cover<'a> {
         let mut grown: Vec<usize> = Vec::new();
         for &(_, q) in &gaps {
             let p = self.pts[q as usize];
-            let mut best: [(f64, usize); 3] = [(f64::INFINITY, usize::MAX); 3];
-            let mut inside = false;
-            for &l in &nb {
-                let g = p.distance(self.spheres[l].0) - r[l];
-                if g <= 0.0 {
-                    inside = true;
-                    break;
-                }
-                if g < best[2].0 {
-                    best[2] = (g, l);
-                    best.sort_by(|a, b| a.0.total_cmp(&b.0));
-                }
-            }
-            if inside {
-                continue;
-            }
+            let Some(best) = three_nearest(p, nb.iter().map(|&l| (l, (self.spheres[l].0, r[l])))) else { continue };
             // The candidate whose ball volume grows least (outside volume is evaluated once
             // per grown sphere below).
             let mut choice = (f64::INFINITY, usize::MAX, 0.0);
@@ -674,6 +659,23 @@ pub fn seam_points(spheres: &[(DVec3, f64)], pos: &[DVec3], tris: &[[u32; 3]], s
         .collect()
 }
 
+/// The three balls whose surface is nearest to `p` from outside, as (gap, index) by
+/// increasing gap (unused slots have index `usize::MAX`), or `None` when a ball contains `p`.
+fn three_nearest(p: DVec3, balls: impl Iterator<Item = (usize, Ball)>) -> Option<[(f64, usize); 3]> {
+    let mut best: [(f64, usize); 3] = [(f64::INFINITY, usize::MAX); 3];
+    for (l, (c, r)) in balls {
+        let g = p.distance(c) - r;
+        if g <= 0.0 {
+            return None;
+        }
+        if g < best[2].0 {
+            best[2] = (g, l);
+            best.sort_by(|a, b| a.0.total_cmp(&b.0));
+        }
+    }
+    Some(best)
+}
+
 /// Grows spheres so every point of `new` is covered: farthest out first, each point grows
 /// the one of the three spheres nearest to reaching it whose proxy outside volume grows least.
 pub fn cover_points(solid: &Solid, spheres: &mut [(DVec3, f64)], new: &[DVec3]) {
@@ -682,22 +684,7 @@ pub fn cover_points(solid: &Solid, spheres: &mut [(DVec3, f64)], new: &[DVec3]) 
     order.sort_by(|a, b| b.0.total_cmp(&a.0).then(a.1.cmp(&b.1)));
     for &(_, i) in &order {
         let p = new[i];
-        let mut best: [(f64, usize); 3] = [(f64::INFINITY, usize::MAX); 3];
-        let mut covered = false;
-        for (l, s) in spheres.iter().enumerate() {
-            let g = p.distance(s.0) - s.1;
-            if g <= 0.0 {
-                covered = true;
-                break;
-            }
-            if g < best[2].0 {
-                best[2] = (g, l);
-                best.sort_by(|a, b| a.0.total_cmp(&b.0));
-            }
-        }
-        if covered {
-            continue;
-        }
+        let Some(best) = three_nearest(p, spheres.iter().copied().enumerate()) else { continue };
         let mut choice = (f64::INFINITY, usize::MAX, 0.0);
         for &(_, l) in best.iter().filter(|x| x.1 != usize::MAX) {
             let (c, r) = spheres[l];
