@@ -1,28 +1,15 @@
 //! Micro-benchmark of the voxel proxy `Solid::ball_volume` (not a test):
 //! `cargo run --release -p spherebake-fit --example ballvol_bench -- MODEL.obj`.
+#[path = "common/obj.rs"]
+mod obj;
+
 use glam::DVec3;
 use std::time::Instant;
 
 fn main() {
     let path = std::env::args().nth(1).expect("MODEL.obj");
-    let text = std::fs::read_to_string(&path).expect("read");
-    let (mut p, mut t) = (Vec::new(), Vec::new());
-    for line in text.lines() {
-        let mut it = line.split_whitespace();
-        match it.next() {
-            Some("v") => {
-                let v: Vec<f64> = it.take(3).map(|x| x.parse().unwrap()).collect();
-                p.push(DVec3::new(v[0], v[1], v[2]));
-            }
-            Some("f") => {
-                let v: Vec<u32> = it.map(|x| x.split('/').next().unwrap().parse::<u32>().unwrap() - 1).collect();
-                for i in 1..v.len() - 1 {
-                    t.push([v[0], v[i], v[i + 1]]);
-                }
-            }
-            _ => {}
-        }
-    }
+    let (p32, t) = obj::load_obj(&path);
+    let p: Vec<DVec3> = p32.iter().map(|v| v.as_dvec3()).collect();
     let solid = spherebake_fit::solid::voxelize(&p, &t, 128, false);
     let lo = p.iter().fold(DVec3::splat(f64::INFINITY), |a, b| a.min(*b));
     let hi = p.iter().fold(DVec3::splat(f64::NEG_INFINITY), |a, b| a.max(*b));
