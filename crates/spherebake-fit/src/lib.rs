@@ -313,7 +313,7 @@ fn prepare(positions: &[Vec3], triangles: &[[u32; 3]], voxel_resolution: u32) ->
 }
 
 /// [`fill_small_holes`] closes holes only while their fans add at most this share of the
-/// mesh's surface area (the bunny's five base holes: 1.2 %).
+/// mesh's surface area (the bunny's five base holes: 2.2 %, measured by an independent script).
 const MAX_HOLE_AREA: f64 = 0.05;
 
 /// Closes the holes of a mesh that is closed except for a few small holes (scans such as the
