@@ -37,6 +37,19 @@ pub fn run(a: EvalArgs) -> Result<ExitCode> {
     let e = spherebake_fit::evaluate(&mesh.welded_positions, &mesh.welded_triangles(), &spheres, &settings)
         .with_context(|| format!("{}: evaluating against {}", a.file.display(), a.model.display()))?;
     let solid = format!("{:?}", e.solid_source);
+    // The file records the content hash of what it was baked from: say when this model differs
+    // (the numbers are still valid for this pair, but rarely what was meant).
+    let model_hash = format!("{:016x}", imported.content_hash);
+    let hash_matches = proxy.metadata().map(|m| m.input_hash == model_hash);
+    if hash_matches == Some(false) {
+        eprintln!(
+            "spherebake: warning: {} was baked from another input (input hash {}); {} hashes to {}",
+            a.file.display(),
+            proxy.metadata().map(|m| m.input_hash.as_str()).unwrap_or(""),
+            a.model.display(),
+            model_hash
+        );
+    }
     if a.json {
         let doc = json!({
             "file": a.file.display().to_string(),
@@ -51,6 +64,7 @@ pub fn run(a: EvalArgs) -> Result<ExitCode> {
             "radius": {"min": e.radius_min, "mean": e.radius_mean, "max": e.radius_max},
             "object_volume": e.object_volume,
             "solid": solid,
+            "input_hash_matches": hash_matches,
         });
         println!("{}", serde_json::to_string_pretty(&doc)?);
         return Ok(ExitCode::SUCCESS);

@@ -365,3 +365,26 @@ fn eval_matches_the_analytic_outside_volume_of_a_sphere_around_a_cube() {
     let e = v["outside_ratio_e"].as_f64().unwrap();
     assert!((e - expected).abs() < 1e-9 * expected, "E {e} vs {expected}");
 }
+
+#[test]
+fn eval_warns_when_the_model_is_not_the_one_baked() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let capsule = repo().join("fixtures/capsule.obj");
+    let capsule = capsule.to_str().unwrap();
+    let o = run(&["bake", capsule, "-o", "capsule.sphb", "--spheres", "8"], d);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let o = run(&["eval", "capsule.sphb", capsule, "--json", "--surface-samples", "2000"], d);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    assert!(!stderr(&o).contains("warning"), "{}", stderr(&o));
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(v["input_hash_matches"], true);
+    assert_eq!(v["surface_coverage"].as_f64(), Some(1.0));
+    // Another model: still measured (exit 0), with a warning naming the file.
+    std::fs::write(d.join("tri.obj"), "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n").unwrap();
+    let o = run(&["eval", "capsule.sphb", "tri.obj", "--json", "--surface-samples", "2000"], d);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    assert!(stderr(&o).contains("warning: capsule.sphb was baked from another input"), "{}", stderr(&o));
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(v["input_hash_matches"], false);
+}
