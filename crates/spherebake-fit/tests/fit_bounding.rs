@@ -9,31 +9,16 @@ fn models_dir() -> std::path::PathBuf {
     std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/models/obj")
 }
 
+#[path = "../examples/common/obj.rs"]
+mod obj;
+
 fn load_obj(name: &str) -> Option<(Vec<Vec3>, Vec<[u32; 3]>)> {
     let path = models_dir().join(name);
-    let Ok(text) = std::fs::read_to_string(&path) else {
+    if !path.exists() {
         println!("skipping: {} not found", path.display());
         return None;
-    };
-    let mut p = Vec::new();
-    let mut t = Vec::new();
-    for line in text.lines() {
-        let mut it = line.split_whitespace();
-        match it.next() {
-            Some("v") => {
-                let v: Vec<f32> = it.take(3).map(|x| x.parse().unwrap()).collect();
-                p.push(Vec3::new(v[0], v[1], v[2]));
-            }
-            Some("f") => {
-                let v: Vec<u32> = it.map(|x| x.split('/').next().unwrap().parse::<u32>().unwrap() - 1).collect();
-                for i in 1..v.len() - 1 {
-                    t.push([v[0], v[i], v[i + 1]]);
-                }
-            }
-            _ => {}
-        }
     }
-    Some((p, t))
+    Some(obj::load_obj(path.to_str()?))
 }
 
 /// Closed outward boundary of a union of unit voxels scaled by `s`, each face split into

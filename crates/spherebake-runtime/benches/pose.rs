@@ -7,19 +7,13 @@ use std::hint::black_box;
 
 #[path = "common/pose_scene.rs"]
 mod pose_scene;
-use pose_scene::{file, BONES, SPHERES};
+use pose_scene::{file, joints, SPHERES};
 
 fn bench(c: &mut Criterion) {
     let proxy = Proxy::from_file(&file()).expect("valid bench file");
     let plan = HierarchyPlan::new(proxy.hierarchy().expect("hierarchy")).expect("plan");
     let mut nodes = rest_node_spheres(proxy.hierarchy().expect("hierarchy"));
-    let joints: Vec<[f32; 16]> = (0..BONES)
-        .map(|i| {
-            let a = i as f32 * 0.1;
-            let (s, co) = a.sin_cos();
-            [co, s, 0.0, 0.0, -s, co, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.1 * a, 0.0, -0.2 * a, 1.0]
-        })
-        .collect();
+    let joints = joints();
     let mut leaves = vec![Sphere::default(); SPHERES];
     c.bench_function("pose 256 spheres x 4 slots", |b| {
         b.iter(|| pose(black_box(&proxy), black_box(&joints), &mut leaves).expect("pose"))

@@ -8,19 +8,13 @@ use std::time::Instant;
 
 #[path = "../benches/common/pose_scene.rs"]
 mod pose_scene;
-use pose_scene::{file, BONES, K, SPHERES};
+use pose_scene::{file, joints, K, SPHERES};
 
 fn main() {
     let proxy = Proxy::from_file(&file()).expect("valid file");
     let plan = HierarchyPlan::new(proxy.hierarchy().expect("hierarchy")).expect("plan");
     let mut nodes = rest_node_spheres(proxy.hierarchy().expect("hierarchy"));
-    let joints: Vec<[f32; 16]> = (0..BONES)
-        .map(|i| {
-            let a = i as f32 * 0.1;
-            let (s, co) = a.sin_cos();
-            [co, s, 0.0, 0.0, -s, co, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.1 * a, 0.0, -0.2 * a, 1.0]
-        })
-        .collect();
+    let joints = joints();
     let mut leaves = vec![Sphere::default(); SPHERES];
     let (mut best_pose, mut best_both) = (f64::INFINITY, f64::INFINITY);
     for _ in 0..20_000 {

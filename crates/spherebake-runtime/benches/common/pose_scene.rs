@@ -7,6 +7,18 @@ pub const SPHERES: usize = 256;
 pub const BONES: usize = 32;
 pub const K: usize = 4;
 
+/// One joint matrix per bone (column-major, glTF convention): a rotation about z and a
+/// translation growing with the bone index.
+pub fn joints() -> Vec<[f32; 16]> {
+    (0..BONES)
+        .map(|i| {
+            let a = i as f32 * 0.1;
+            let (s, co) = a.sin_cos();
+            [co, s, 0.0, 0.0, -s, co, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.1 * a, 0.0, -0.2 * a, 1.0]
+        })
+        .collect()
+}
+
 pub fn file() -> SphbFile {
     let mut s = 0x9E37_79B9_7F4A_7C15_u64;
     let mut rnd = move || {
