@@ -448,6 +448,7 @@ fn assign(pos: &[DVec3], triangles: &[[u32; 3]], spheres: &[SphereF64]) -> Vec<V
 // Textures
 
 /// A texture as a mip chain of linear RGB levels (box filter, 2×2 → 1).
+#[derive(Clone)]
 struct MipChain {
     levels: Vec<(usize, usize, Vec<[f32; 3]>)>,
 }
@@ -540,6 +541,134 @@ fn wrap_index(i: i64, n: usize, mode: WrapMode) -> usize {
 }
 
 // ---------------------------------------------------------------------------------------------
+// Surface colour
+
+/// The albedo of a mesh's surface points: base colour factor × COLOR_0 × base-colour texture,
+/// linear RGB (alpha ignored), written once and shared by the albedo bake (its cube-map texels)
+/// and the reference path tracer (`spherebake-reference`).
+///
+/// The texture is sampled with the material's UV set (skipped when the mesh lacks it),
+/// KHR_texture_transform (in f64) and the sampler's wrap modes, trilinearly from a box-filtered
+/// mip chain (2×2 → 1 per level, down to 1×1).
+#[derive(Clone)]
+pub struct SurfaceAlbedo<'a> {
+    mesh: &'a Mesh,
+    /// Per texture: its mip chain when a material references it.
+    chains: Vec<Option<MipChain>>,
+}
+
+impl<'a> SurfaceAlbedo<'a> {
+    /// Checks the mesh's indices and attribute lengths and builds one mip chain per referenced
+    /// texture (in parallel, ordered collect).
+    ///
+    /// # Errors
+    /// A triangle referencing a missing vertex, a per-triangle material list of the wrong length
+    /// or a material index out of range, a COLOR_0 list of the wrong length, a material
+    /// referencing a missing texture, or a texture whose texel count is not width × height
+    /// (or is empty).
+    pub fn new(mesh: &'a Mesh) -> Result<Self, AlbedoError> {
+        check_vertices(mesh)?;
+        let tcount = mesh.triangles.len();
+        let vcount = mesh.positions.len();
+        if !mesh.triangle_materials.is_empty() && mesh.triangle_materials.len() != tcount {
+            return Err(AlbedoError::MaterialListLength { expected: tcount, actual: mesh.triangle_materials.len() });
+        }
+        for (triangle, &m) in mesh.triangle_materials.iter().enumerate() {
+            if m as usize >= mesh.materials.len() {
+                return Err(AlbedoError::MaterialOutOfRange {
+                    triangle,
+                    material: m,
+                    material_count: mesh.materials.len(),
+                });
+            }
+        }
+        if !mesh.colors_linear.is_empty() && mesh.colors_linear.len() != vcount {
+            return Err(AlbedoError::AttributeLength {
+                attribute: "COLOR_0",
+                expected: vcount,
+                actual: mesh.colors_linear.len(),
+            });
+        }
+        let mut referenced = vec![false; mesh.textures.len()];
+        for (mi, m) in mesh.materials.iter().enumerate() {
+            let Some(tr) = &m.base_color_texture else { continue };
+            let Some(tex) = mesh.textures.get(tr.texture) else {
+                return Err(AlbedoError::TextureOutOfRange {
+                    material: mi,
+                    texture: tr.texture,
+                    texture_count: mesh.textures.len(),
+                });
+            };
+            let (w, h) = (tex.width as usize, tex.height as usize);
+            if w == 0 || h == 0 || tex.texels_linear.len() != w * h {
+                return Err(AlbedoError::TextureSize {
+                    texture: tr.texture,
+                    width: tex.width,
+                    height: tex.height,
+                    actual: tex.texels_linear.len(),
+                });
+            }
+            referenced[tr.texture] = true;
+        }
+        let chains: Vec<Option<MipChain>> = mesh
+            .textures
+            .par_iter()
+            .zip(referenced.par_iter())
+            .map(|(t, &r)| r.then(|| MipChain::new(t.width as usize, t.height as usize, &t.texels_linear)))
+            .collect();
+        Ok(Self { mesh, chains })
+    }
+
+    /// The mesh this lookup reads.
+    pub fn mesh(&self) -> &'a Mesh {
+        self.mesh
+    }
+
+    /// Linear RGB albedo of triangle `triangle` (index into `mesh.triangles`) at barycentric
+    /// weights `bary` (of its corners 0, 1, 2; not renormalised), texture level of detail `lod`
+    /// (0 = full resolution, fractional levels blend two mip levels; clamped to the chain,
+    /// non-finite → 0).
+    ///
+    /// A triangle index out of range gives black. Non-finite inputs (NaN vertex colours or
+    /// texels) may give non-finite channels; callers map them as they need (the bake makes them 0).
+    pub fn albedo(&self, triangle: usize, bary: [f64; 3], lod: f64) -> [f64; 3] {
+        let Some(&tri) = self.mesh.triangles.get(triangle) else { return [0.0; 3] };
+        let mi = self.mesh.triangle_materials.get(triangle).map_or(usize::MAX, |&m| m as usize);
+        let material = self.mesh.materials.get(mi);
+        let factor = material.map_or([1.0f32; 4], |m| m.base_color_factor_linear);
+        let mut col = [f64::from(factor[0]), f64::from(factor[1]), f64::from(factor[2])];
+        let interp = |v: [[f32; 4]; 3], k: usize| -> f64 {
+            bary[0] * f64::from(v[0][k]) + bary[1] * f64::from(v[1][k]) + bary[2] * f64::from(v[2][k])
+        };
+        if !self.mesh.colors_linear.is_empty() {
+            let vc = tri.map(|v| self.mesh.colors_linear[v as usize]);
+            for (k, c) in col.iter_mut().enumerate() {
+                *c *= interp(vc, k);
+            }
+        }
+        if let Some(tr) = material.and_then(|m| m.base_color_texture.as_ref()) {
+            let vcount = self.mesh.positions.len();
+            if let (Some(uvs), Some(chain)) = (
+                self.mesh.uvs.get(tr.uv_set as usize).filter(|u| u.len() == vcount),
+                self.chains.get(tr.texture).and_then(Option::as_ref),
+            ) {
+                let uv3 = tri.map(|v| {
+                    let u = uvs[v as usize];
+                    [u[0], u[1], 0.0, 0.0]
+                });
+                let uv = [interp(uv3, 0), interp(uv3, 1)];
+                let uv = apply_transform(&tr.transform, uv);
+                let s = chain.sample(uv, lod, [tr.wrap_s, tr.wrap_t]);
+                for k in 0..3 {
+                    col[k] *= s[k];
+                }
+            }
+        }
+        col
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
 // Rendering
 
 /// Per-triangle shading data.
@@ -559,8 +688,8 @@ struct Context<'a> {
     spheres: Vec<SphereF64>,
     assigned: Vec<Vec<u32>>,
     shade: Vec<TriShade>,
-    /// Per texture: its mip chain when a material references it.
-    chains: Vec<Option<MipChain>>,
+    /// The colour lookup (shared with the reference path tracer).
+    surface: SurfaceAlbedo<'a>,
     grid: CubeGrid,
     lod: TextureLod,
     shared_triangles: usize,
@@ -609,55 +738,8 @@ impl<'a> Context<'a> {
             return Err(AlbedoError::FlipLength { expected: tcount, actual: flip.len() });
         }
         check_spheres(spheres)?;
-        check_vertices(mesh)?;
+        let surface = SurfaceAlbedo::new(mesh)?;
         let vcount = mesh.positions.len();
-        if !mesh.triangle_materials.is_empty() && mesh.triangle_materials.len() != tcount {
-            return Err(AlbedoError::MaterialListLength { expected: tcount, actual: mesh.triangle_materials.len() });
-        }
-        for (triangle, &m) in mesh.triangle_materials.iter().enumerate() {
-            if m as usize >= mesh.materials.len() {
-                return Err(AlbedoError::MaterialOutOfRange {
-                    triangle,
-                    material: m,
-                    material_count: mesh.materials.len(),
-                });
-            }
-        }
-        if !mesh.colors_linear.is_empty() && mesh.colors_linear.len() != vcount {
-            return Err(AlbedoError::AttributeLength {
-                attribute: "COLOR_0",
-                expected: vcount,
-                actual: mesh.colors_linear.len(),
-            });
-        }
-        let mut referenced = vec![false; mesh.textures.len()];
-        for (mi, m) in mesh.materials.iter().enumerate() {
-            let Some(tr) = &m.base_color_texture else { continue };
-            let Some(tex) = mesh.textures.get(tr.texture) else {
-                return Err(AlbedoError::TextureOutOfRange {
-                    material: mi,
-                    texture: tr.texture,
-                    texture_count: mesh.textures.len(),
-                });
-            };
-            let (w, h) = (tex.width as usize, tex.height as usize);
-            if w == 0 || h == 0 || tex.texels_linear.len() != w * h {
-                return Err(AlbedoError::TextureSize {
-                    texture: tr.texture,
-                    width: tex.width,
-                    height: tex.height,
-                    actual: tex.texels_linear.len(),
-                });
-            }
-            referenced[tr.texture] = true;
-        }
-        // One mip chain per referenced texture, built in parallel (ordered collect).
-        let chains: Vec<Option<MipChain>> = mesh
-            .textures
-            .par_iter()
-            .zip(referenced.par_iter())
-            .map(|(t, &r)| r.then(|| MipChain::new(t.width as usize, t.height as usize, &t.texels_linear)))
-            .collect();
         let texture_of_material: Vec<Option<usize>> =
             mesh.materials.iter().map(|m| m.base_color_texture.as_ref().map(|t| t.texture)).collect();
 
@@ -714,7 +796,7 @@ impl<'a> Context<'a> {
             spheres: sph,
             assigned,
             shade,
-            chains,
+            surface,
             grid: CubeGrid::new(settings.cubemap_size),
             lod: settings.texture_lod,
             shared_triangles,
@@ -806,56 +888,24 @@ impl<'a> Context<'a> {
     }
 
     /// Colour of the surface point `h` seen in texel `texel` (`sgn` −1 when seen through the
-    /// centre).
+    /// centre): [`SurfaceAlbedo::albedo`] at the texel footprint's level of detail.
     fn shade(&self, texel: usize, h: Hit, sgn: f64) -> [f64; 3] {
         let t = h.tri as usize;
-        let tri = self.mesh.triangles[t];
-        let mi = self.mesh.triangle_materials.get(t).map_or(usize::MAX, |&m| m as usize);
-        let material = self.mesh.materials.get(mi);
-        let factor = material.map_or([1.0f32; 4], |m| m.base_color_factor_linear);
-        let mut col = [f64::from(factor[0]), f64::from(factor[1]), f64::from(factor[2])];
-        let interp = |v: [[f32; 4]; 3], k: usize| -> f64 {
-            h.bary[0] * f64::from(v[0][k]) + h.bary[1] * f64::from(v[1][k]) + h.bary[2] * f64::from(v[2][k])
-        };
-        if !self.mesh.colors_linear.is_empty() {
-            let vc = tri.map(|v| self.mesh.colors_linear[v as usize]);
-            for (k, c) in col.iter_mut().enumerate() {
-                *c *= interp(vc, k);
-            }
-        }
-        if let Some(tr) = material.and_then(|m| m.base_color_texture.as_ref()) {
-            let vcount = self.mesh.positions.len();
-            if let (Some(uvs), Some(chain)) = (
-                self.mesh.uvs.get(tr.uv_set as usize).filter(|u| u.len() == vcount),
-                self.chains.get(tr.texture).and_then(Option::as_ref),
-            ) {
-                let uv3 = tri.map(|v| {
-                    let u = uvs[v as usize];
-                    [u[0], u[1], 0.0, 0.0]
-                });
-                let uv = [interp(uv3, 0), interp(uv3, 1)];
-                let uv = apply_transform(&tr.transform, uv);
-                let lod = match self.lod {
-                    TextureLod::Base => 0.0,
-                    TextureLod::Footprint => {
-                        let d = self.grid.direction(texel) * sgn;
-                        let cos = self.shade[t].normal.dot(d).abs().max(1e-3);
-                        let area = self.grid.nominal_solid_angle(texel) * h.dist * h.dist / cos;
-                        let texels = area * self.shade[t].texels_per_area;
-                        if texels > 1.0 {
-                            0.5 * texels.log2()
-                        } else {
-                            0.0
-                        }
-                    }
-                };
-                let s = chain.sample(uv, lod, [tr.wrap_s, tr.wrap_t]);
-                for k in 0..3 {
-                    col[k] *= s[k];
+        let lod = match self.lod {
+            TextureLod::Base => 0.0,
+            TextureLod::Footprint => {
+                let d = self.grid.direction(texel) * sgn;
+                let cos = self.shade[t].normal.dot(d).abs().max(1e-3);
+                let area = self.grid.nominal_solid_angle(texel) * h.dist * h.dist / cos;
+                let texels = area * self.shade[t].texels_per_area;
+                if texels > 1.0 {
+                    0.5 * texels.log2()
+                } else {
+                    0.0
                 }
             }
-        }
-        col
+        };
+        self.surface.albedo(t, h.bary, lod)
     }
 }
 
@@ -1028,6 +1078,62 @@ mod tests {
         assert_eq!(m, [3, 3, 2, 1, 0, 0, 1, 2, 3, 3, 2, 1, 0, 0]);
         let c: Vec<usize> = (-2..6).map(|i| wrap_index(i, n, WrapMode::ClampToEdge)).collect();
         assert_eq!(c, [0, 0, 0, 1, 2, 3, 3, 3]);
+    }
+
+    #[test]
+    fn surface_albedo_multiplies_factor_vertex_colour_and_texture() {
+        use spherebake_geom::{Material, Texture, TextureRef, UvTransform};
+        // 2×1 texture: left texel (0.2, 0.4, 0.6), right (1, 1, 1); one triangle whose UVs all
+        // sit in the left texel's centre under ClampToEdge: bilinear there is exact.
+        let texture = Texture {
+            name: "t".into(),
+            width: 2,
+            height: 1,
+            texels_linear: vec![[0.2, 0.4, 0.6, 1.0], [1.0, 1.0, 1.0, 1.0]],
+        };
+        let tr = TextureRef {
+            texture: 0,
+            uv_set: 0,
+            wrap_s: WrapMode::ClampToEdge,
+            wrap_t: WrapMode::ClampToEdge,
+            mag_filter: Default::default(),
+            transform: UvTransform::default(),
+        };
+        let mesh = Mesh {
+            positions: vec![glam::Vec3::ZERO, glam::Vec3::X, glam::Vec3::Y],
+            uvs: vec![vec![[0.25, 0.5]; 3]],
+            colors_linear: vec![[1.0, 0.5, 0.25, 1.0], [0.5, 0.5, 0.5, 1.0], [0.0, 1.0, 1.0, 1.0]],
+            triangles: vec![[0, 1, 2]],
+            triangle_materials: vec![0],
+            materials: vec![Material {
+                base_color_factor_linear: [0.5, 1.0, 2.0, 1.0],
+                base_color_texture: Some(tr),
+                ..Default::default()
+            }],
+            textures: vec![texture],
+            ..Default::default()
+        };
+        let s = SurfaceAlbedo::new(&mesh).unwrap();
+        let w = [0.5, 0.25, 0.25];
+        // Vertex colour at w: R 0.5·1 + 0.25·0.5 + 0 = 0.625, G 0.25 + 0.125 + 0.25 = 0.625,
+        // B 0.125 + 0.125 + 0.25 = 0.5.
+        let expect = [0.5 * 0.625 * 0.2, 1.0 * 0.625 * 0.4, 2.0 * 0.5 * 0.6];
+        let got = s.albedo(0, w, 0.0);
+        for k in 0..3 {
+            assert!((got[k] - expect[k]).abs() < 1e-6, "{got:?} vs {expect:?}");
+        }
+        // Level 1 is the 1×1 mean (0.6, 0.7, 0.8).
+        let mean = [0.6, 0.7, 0.8];
+        let got = s.albedo(0, w, 5.0);
+        for k in 0..3 {
+            let e = [0.5 * 0.625, 0.625, 1.0][k] * mean[k];
+            assert!((got[k] - e).abs() < 1e-6, "{got:?}");
+        }
+        assert_eq!(s.albedo(7, w, 0.0), [0.0; 3]);
+        // A material pointing at a missing texture is an error, not a panic.
+        let mut bad = mesh.clone();
+        bad.textures.clear();
+        assert!(matches!(SurfaceAlbedo::new(&bad), Err(AlbedoError::TextureOutOfRange { .. })));
     }
 
     #[test]
