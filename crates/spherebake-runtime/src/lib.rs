@@ -86,6 +86,7 @@
 extern crate alloc;
 
 pub mod cut;
+pub mod light;
 pub mod pose;
 pub mod refit;
 pub mod shadow;

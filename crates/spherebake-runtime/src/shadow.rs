@@ -455,7 +455,7 @@ fn libm_round(x: f64) -> f64 {
 }
 
 /// A bound of all leaves: centre = mean of the centres, radius = max(|c − centre| + r), rounded up.
-fn implicit_root(leaves: &[Sphere]) -> Option<Sphere> {
+pub(crate) fn implicit_root(leaves: &[Sphere]) -> Option<Sphere> {
     if leaves.is_empty() {
         return None;
     }

@@ -3,7 +3,7 @@
 /// Fills `nodes` / `weights` (same length n) with the n-point Gauss–Legendre rule on [−1, 1], nodes descending.
 ///
 /// Exact for polynomials of degree ≤ 2n − 1. Newton iteration on P_n from the Tricomi initial guess.
-pub(crate) fn gauss_legendre(nodes: &mut [f64], weights: &mut [f64]) {
+pub fn gauss_legendre(nodes: &mut [f64], weights: &mut [f64]) {
     let n = nodes.len().min(weights.len());
     let nf = n as f64;
     for k in 0..n {

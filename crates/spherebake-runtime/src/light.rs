@@ -1,0 +1,1055 @@
+//! One-bounce indirect light from the sphere proxies: the spheres as *spherical lights* (Guerrero, Jeschke, Wimmer
+//! 2008 §5–7, seed 000), built on the log-SH visibility of [`crate::shadow`] (Ren et al. 2006).
+//!
+//! # Per frame, in order
+//!
+//! 1. [`crate::pose`] / [`crate::pose_and_refit`] the proxy (skinned models), and [`sphere_rotations`] for the soft
+//!    deformation (§7.1).
+//! 2. **Pass 1** ([`light_spheres`], per proxy): the diffuse exit radiance of every surface sample point p_j of every
+//!    leaf sphere S_i, L_pj = V_p,env · L_env,ρn (eq. 3–8): V by log-SH accumulation over the hierarchy cut seen from
+//!    S_i (the receiver cluster is S_i itself), the self-shadowing rules of `shadow` and any other proxies passed in;
+//!    L_env,ρn = L_env ∗ H(n_j) with H the clamped cosine over π (so an unoccluded sample under uniform radiance 1
+//!    has L_pj = 1: exit radiance per unit albedo). The values are projected onto S_i's SH with the Voronoi-cell
+//!    basis sums (eq. 9–10, [`spherebake_sh::voronoi_cell_basis`]; directions without a sample emit nothing, seed
+//!    rule 2) and multiplied by the baked albedo SH (eq. 11, the SH product through the triple-product tensor), per
+//!    linear RGB channel. Interior hierarchy nodes get radiance from their leaves (below).
+//! 3. **Pass 2** per receiver cluster ([`IndirectCluster::build`]: hierarchy cut, ratio vectors, reflection ratios)
+//!    and per receiver ([`IndirectCluster::irradiance`]): E^I(p) = π Σ_i L̃_p,Si · Ṽ_p,Si · t_Si (eq. 14, 26).
+//! 4. Direct light: [`crate::shadow`] (`ShadowContext::shade_point`); total = direct + indirect (eq. 12), both
+//!    exposed: [`IndirectCluster::irradiance`] returns the indirect part only.
+//!
+//! # Readings taken (where the paper's text is ambiguous) and departures
+//!
+//! - **Units.** [`IndirectCluster::irradiance`] returns irradiance E = ∫ L_in cos dω (linear RGB); the receiver's
+//!   exit radiance is albedo · E / π. The paper's ρ_n includes 1/π (Ṽ = V · ρ_n, eq. 24); we multiply back by π.
+//! - **Average radiance (eq. 15–18).** Tabulated exactly as eq. 15 defines it — the mean over the solid angle the
+//!   sphere covers at p — not eq. 16's sphere-surface form, which drops the Jacobian r²/|p − x|² and differs near the
+//!   sphere (derivation and checks: `spherebake_sh` `light` module).
+//! - **Blocker order (eq. 20–23).** "All SLs closer to p" is taken as the *power* of p with respect to each sphere,
+//!   |p − c|² − r²: for two disjoint balls the radical plane separates them, so every ray from p that meets both
+//!   meets the ball of smaller power first. Ties keep the cut order.
+//! - **Intersecting spheres of the same proxy** (§6.2) are not blockers of each other (|c_i − c_j| < r_i + r_j on the
+//!   posed, unadjusted spheres): their mutual occlusion is already in the emission (rule 2). Spheres of different
+//!   proxies always block (the paper forbids them to intersect).
+//! - **Receivers inside or straddling a sphere** use [`crate::shadow::self_shadow_sphere`] for both the light's
+//!   geometry (its angular radius and direction) and its log vector; spheres entirely behind the tangent plane
+//!   contribute nothing. The adjusted sphere keeps the original's intensity distribution.
+//! - **Parents' radiance (§7.3).** A node N stands for its leaves j in the far field, where the power received from
+//!   a sphere is its average radiance times its solid angle ∝ r²: L^c_N = Σ_j (r_j / r_N)² L^c_j (leaves below N, all
+//!   coefficients in their rest frames), and N turns with the polar rotation of Σ_j r_j² R_j. Mutual occlusion of the
+//!   leaves is what the reflection ratio corrects.
+//! - **Reflection ratio (eq. 25–26).** At the cluster centre x_C (with the cluster's normal) every accepted node N is
+//!   evaluated twice with the same routine as the receivers: as one light among the cut, and replaced by its leaves
+//!   (each occluded by the rest of the cut and by its non-intersecting siblings); t_N = Σ_j (L̃Ṽ)_j / (L̃Ṽ)_N per
+//!   RGB channel, 1 where the node contributes nothing measurable, clamped to [0, 16]. Without a cluster normal the
+//!   ratio is 1.
+//! - **Soft deformation (§7.1).** Each leaf turns with R_i = polar(Σ_j b_j M_j) · polar(Σ_j b_j M⁰_j)ᵀ: the polar
+//!   rotation of its skin terms' weighted joint matrices in the pose, relative to the rest pose (the skin weights
+//!   b_j are the sphere centre's mean-value-coordinate bone weights, so this averages the rotation of what the sphere
+//!   bounds; no format change). Pass 1 moves samples rigidly with (R_i, posed centre); pass 2 rotates the *weight
+//!   vector* into the light's rest frame (axis Rᵀa), never the light's coefficients.
+//!
+//! # Cost (order n, K cut entries per receiver, m samples per sphere)
+//!
+//! Pass 1: per sample one log accumulation over the cut (K · n² multiply-adds), one SH exponential and one triple
+//! product (L_env ∗ H(n)); per sphere three triple products (albedo). Pass 2 per receiver: K log vectors, a sort of
+//! K powers, for each light ≤ K log additions and two exponentials (one when no blocker precedes it). Measured
+//! numbers: `docs/benchmarks.md`. Pass 2 is allocation-free per receiver; builds allocate only while buffers grow.
+
+// Index loops mirror the formulas (bands l, coefficients i, channels c).
+#![allow(clippy::needless_range_loop)]
+
+use crate::cut::CutEntry;
+use crate::refit::{ChildRef, HierarchyPlan};
+use crate::shadow::{
+    accumulate_log_visibility, asin_f32, implicit_root, rsqrt_f32, self_shadow_sphere, Blocker, ClusterBlockers,
+    ExpMethod, ShadowContext, ShadowError, IMPLICIT_ROOT,
+};
+use crate::{Proxy, Sphere};
+use alloc::vec::Vec;
+use core::fmt;
+use spherebake_sh::{
+    accumulate_log_visibility_f32, cap_zh, clamped_cosine_convolution, coeff_count, cosine_weighted_radiance_rgb_f32,
+    eval_sh_f64, voronoi_cell_basis, zh_rotate, MAX_COEFFS, MAX_ORDER,
+};
+
+/// The SH order of the light passes unless told otherwise (Guerrero 2008 §7.4 works with n = 4 bands).
+pub const DEFAULT_LIGHT_ORDER: usize = 4;
+
+/// Largest reflection ratio applied (a guard against a node that is nearly dark at the cluster centre).
+pub const MAX_REFLECTION_RATIO: f32 = 16.0;
+
+/// The identity rotation, column-major 3×3.
+pub const IDENTITY_ROTATION: [f32; 9] = [1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0];
+
+/// Why a light query could not run.
+#[derive(Clone, Debug, PartialEq)]
+#[non_exhaustive]
+pub enum LightError {
+    /// A shadow-machinery call failed (order, slices, hierarchy).
+    Shadow(ShadowError),
+    /// The proxy has no sample section: nothing to light.
+    NoSamples,
+    /// The proxy has no albedo SH section.
+    NoAlbedo,
+    /// The light order exceeds the baked albedo order.
+    AlbedoOrder {
+        /// Requested light order.
+        order: usize,
+        /// Baked albedo order.
+        albedo_order: usize,
+    },
+    /// A slice has the wrong length.
+    SliceLength {
+        /// Which argument.
+        argument: &'static str,
+        /// Required length.
+        expected: usize,
+        /// Given length.
+        actual: usize,
+    },
+    /// The sphere lights were computed at another order, or for another proxy's sphere count.
+    Mismatch {
+        /// What does not match.
+        what: &'static str,
+    },
+}
+
+impl fmt::Display for LightError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            LightError::Shadow(e) => write!(f, "{e}"),
+            LightError::NoSamples => write!(f, "the proxy has no surface samples"),
+            LightError::NoAlbedo => write!(f, "the proxy has no albedo SH"),
+            LightError::AlbedoOrder { order, albedo_order } => {
+                write!(f, "light order {order} exceeds the baked albedo order {albedo_order}")
+            }
+            LightError::SliceLength { argument, expected, actual } => {
+                write!(f, "{argument} has length {actual}, expected {expected}")
+            }
+            LightError::Mismatch { what } => write!(f, "the sphere lights do not match: {what}"),
+        }
+    }
+}
+
+impl core::error::Error for LightError {}
+
+impl From<ShadowError> for LightError {
+    fn from(e: ShadowError) -> Self {
+        LightError::Shadow(e)
+    }
+}
+
+impl From<spherebake_sh::ShError> for LightError {
+    fn from(e: spherebake_sh::ShError) -> Self {
+        LightError::Shadow(ShadowError::Sh(e))
+    }
+}
+
+impl From<crate::QueryError> for LightError {
+    fn from(e: crate::QueryError) -> Self {
+        LightError::Shadow(ShadowError::Query(e))
+    }
+}
+
+/// Order, SH exponential, triple-product tensor and the clamped-cosine factors of the light passes: built once
+/// (allocates).
+#[derive(Clone, Debug)]
+pub struct LightContext {
+    shadow: ShadowContext,
+    /// A_l / π: the clamped cosine over π, band factors.
+    h_band: [f64; MAX_ORDER],
+    /// κ_l of the Voronoi projection.
+    cell_gain: [f64; MAX_ORDER],
+}
+
+/// The per-band gain κ_l = (1/(2l + 1)) Σ_m Σ_j y_lm(ω_j) Y_j,lm of the Voronoi-cell projection (eq. 10) applied
+/// to the band-l basis functions sampled at the 92 directions: the factor by which eq. 10 attenuates band l of a
+/// smooth emission (cell averaging is a low-pass). 1 for l = 0; l < `order`.
+#[must_use]
+pub fn voronoi_band_gains(order: usize) -> [f64; MAX_ORDER] {
+    let mut k = [0.0f64; MAX_ORDER];
+    let order = order.min(MAX_ORDER);
+    let mut y = [0.0f64; MAX_COEFFS];
+    for (j, d) in spherebake_sh::GEODESIC_DIRECTIONS.iter().enumerate() {
+        let Some(row) = voronoi_cell_basis(j, order) else { continue };
+        if eval_sh_f64(order, [f64::from(d[0]), f64::from(d[1]), f64::from(d[2])], &mut y).is_err() {
+            continue;
+        }
+        for l in 0..order {
+            for i in l * l..(l + 1) * (l + 1) {
+                k[l] += y[i] * f64::from(row[i]);
+            }
+        }
+    }
+    for l in 0..order {
+        k[l] /= (2 * l + 1) as f64;
+    }
+    k
+}
+
+impl LightContext {
+    /// A context of SH `order` (1..=8) with exponential `exp`.
+    ///
+    /// # Errors
+    ///
+    /// Order outside 1..=8, or the tensor could not be allocated.
+    pub fn new(order: usize, exp: ExpMethod) -> Result<LightContext, LightError> {
+        let shadow = ShadowContext::new(order, exp)?;
+        let mut a = [0.0; MAX_ORDER];
+        clamped_cosine_convolution(order, &mut a)?;
+        for v in &mut a[..order] {
+            *v /= core::f64::consts::PI;
+        }
+        Ok(LightContext { shadow, h_band: a, cell_gain: voronoi_band_gains(order) })
+    }
+
+    /// The per-band gains κ_l of the Voronoi projection (see [`voronoi_band_gains`]).
+    #[must_use]
+    pub fn voronoi_band_gains(&self) -> &[f64] {
+        &self.cell_gain[..self.order()]
+    }
+
+    /// The SH order.
+    #[must_use]
+    pub fn order(&self) -> usize {
+        self.shadow.order()
+    }
+
+    /// The shadow context inside (the same order and exponential), for the direct light.
+    #[must_use]
+    pub fn shadow(&self) -> &ShadowContext {
+        &self.shadow
+    }
+
+    /// H(n)_lm = (A_l/π) y_lm(n) into `out[0..order²]`.
+    fn cosine_lobe(&self, n: [f64; 3], out: &mut [f64; MAX_COEFFS]) {
+        let order = self.order();
+        if eval_sh_f64(order, n, out).is_err() {
+            return;
+        }
+        for l in 0..order {
+            for i in l * l..(l + 1) * (l + 1) {
+                out[i] *= self.h_band[l];
+            }
+        }
+    }
+}
+
+/// The environment `env` (order² radiance coefficients) with everything below the horizon of the unit `up`
+/// direction removed: the SH product env ∗ χ, χ the hemisphere {ω · up > 0} (exact for an infinite ground plane
+/// under the scene, which hides the lower half of every point's sphere of directions). Into `out[0..order²]`.
+///
+/// # Errors
+///
+/// `env` or `out` shorter than order².
+pub fn clip_below_horizon(ctx: &LightContext, env: &[f64], up: [f64; 3], out: &mut [f64]) -> Result<(), LightError> {
+    let order = ctx.order();
+    let nc = coeff_count(order);
+    check_len("env", nc, env.len())?;
+    check_len("out", nc, out.len())?;
+    let mut g = [0.0; MAX_ORDER];
+    cap_zh(core::f64::consts::FRAC_PI_2, order, &mut g)?;
+    let mut hemi = [0.0; MAX_COEFFS];
+    zh_rotate(&g[..order], normalize3(up), &mut hemi)?;
+    ctx.shadow.triple_product().product(&env[..nc], &hemi[..nc], out)?;
+    Ok(())
+}
+
+fn check_len(argument: &'static str, expected: usize, actual: usize) -> Result<(), LightError> {
+    if actual < expected {
+        Err(LightError::SliceLength { argument, expected, actual })
+    } else {
+        Ok(())
+    }
+}
+
+fn normalize3(v: [f64; 3]) -> [f64; 3] {
+    let n = crate::refit::sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
+    if n > 0.0 && n.is_finite() {
+        [v[0] / n, v[1] / n, v[2] / n]
+    } else {
+        [0.0, 1.0, 0.0]
+    }
+}
+
+/// A posed proxy as the light passes see it.
+#[derive(Clone, Copy, Debug)]
+pub struct PosedProxy<'a> {
+    /// The loaded file (samples, albedo, rest spheres).
+    pub proxy: &'a Proxy,
+    /// The leaf spheres in their current pose (`proxy.spheres()` at rest), one per proxy sphere.
+    pub leaves: &'a [Sphere],
+    /// The hierarchy plan and its (refitted) node spheres, or `None`: all leaves under one implicit root.
+    pub nodes: Option<(&'a HierarchyPlan, &'a [Sphere])>,
+    /// Per-leaf rotation from rest to the pose (column-major 3×3, [`sphere_rotations`]); `None` = identity.
+    pub rotations: Option<&'a [[f32; 9]]>,
+}
+
+impl<'a> PosedProxy<'a> {
+    /// The proxy at rest: its stored spheres, no hierarchy plan, no rotations.
+    #[must_use]
+    pub fn at_rest(proxy: &'a Proxy) -> PosedProxy<'a> {
+        PosedProxy { proxy, leaves: proxy.spheres(), nodes: None, rotations: None }
+    }
+
+    fn rotation(&self, leaf: usize) -> [f32; 9] {
+        self.rotations.and_then(|r| r.get(leaf)).copied().unwrap_or(IDENTITY_ROTATION)
+    }
+
+    fn check(&self) -> Result<(), LightError> {
+        if self.leaves.len() != self.proxy.sphere_count() {
+            return Err(LightError::SliceLength {
+                argument: "leaves",
+                expected: self.proxy.sphere_count(),
+                actual: self.leaves.len(),
+            });
+        }
+        if let Some(r) = self.rotations {
+            if r.len() != self.leaves.len() {
+                return Err(LightError::SliceLength {
+                    argument: "rotations",
+                    expected: self.leaves.len(),
+                    actual: r.len(),
+                });
+            }
+        }
+        Ok(())
+    }
+}
+
+/// Settings of pass 1.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Pass1Settings {
+    /// Cut threshold θmax (radians) of the hierarchy seen from each sphere (Ren eq. 36).
+    pub theta_max_rad: f32,
+}
+
+impl Default for Pass1Settings {
+    fn default() -> Self {
+        Pass1Settings { theta_max_rad: crate::cut::DEFAULT_THETA_MAX_RAD }
+    }
+}
+
+/// Counts of one [`light_spheres`] call.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Pass1Stats {
+    /// Sample points lit.
+    pub samples: usize,
+    /// Blockers accumulated over all samples (after the self-shadowing rules).
+    pub blocker_accumulations: usize,
+}
+
+/// The sphere lights of one proxy for one frame (pass 1's output): linear RGB SH of order n per leaf and per
+/// hierarchy node (L^c, eq. 11), each in its sphere's rest frame, with the node rotations.
+#[derive(Clone, Debug, Default)]
+pub struct SphereLights {
+    order: usize,
+    leaf: Vec<[f32; 3]>,
+    node: Vec<[f32; 3]>,
+    node_rotation: Vec<[f32; 9]>,
+    root: Vec<[f32; 3]>,
+    root_rotation: [f32; 9],
+    sample_radiance: Vec<f32>,
+    // Scratch of pass 1.
+    cluster: ClusterBlockers,
+    others: ClusterBlockers,
+    blockers: Vec<Blocker>,
+    stack: Vec<u32>,
+}
+
+impl SphereLights {
+    /// Empty lights.
+    #[must_use]
+    pub fn new() -> SphereLights {
+        SphereLights { root_rotation: IDENTITY_ROTATION, ..SphereLights::default() }
+    }
+
+    /// The SH order of the last [`light_spheres`] (0 before the first).
+    #[must_use]
+    pub fn order(&self) -> usize {
+        self.order
+    }
+
+    /// Number of leaf lights.
+    #[must_use]
+    pub fn leaf_count(&self) -> usize {
+        if self.order == 0 {
+            0
+        } else {
+            self.leaf.len() / coeff_count(self.order)
+        }
+    }
+
+    /// L^c of leaf `i`: order² RGB coefficients in the sphere's rest frame (empty when out of range).
+    #[must_use]
+    pub fn leaf(&self, i: usize) -> &[[f32; 3]] {
+        let nc = coeff_count(self.order);
+        self.leaf.get(i * nc..(i + 1) * nc).unwrap_or(&[])
+    }
+
+    /// L^c of hierarchy node `n` (empty when out of range or without a hierarchy).
+    #[must_use]
+    pub fn node(&self, n: usize) -> &[[f32; 3]] {
+        let nc = coeff_count(self.order);
+        self.node.get(n * nc..(n + 1) * nc).unwrap_or(&[])
+    }
+
+    /// The diffuse exit radiance per unit albedo L_pj of every sample, in the order of `Proxy::samples`.
+    #[must_use]
+    pub fn sample_radiance(&self) -> &[f32] {
+        &self.sample_radiance
+    }
+
+    fn light_of(&self, entry: CutEntry) -> (&[[f32; 3]], [f32; 9]) {
+        match entry {
+            CutEntry::Leaf(i) => (self.leaf(i as usize), IDENTITY_ROTATION),
+            CutEntry::Node(IMPLICIT_ROOT) => (&self.root, self.root_rotation),
+            CutEntry::Node(n) => {
+                (self.node(n as usize), self.node_rotation.get(n as usize).copied().unwrap_or(IDENTITY_ROTATION))
+            }
+        }
+    }
+}
+
+fn rotate(m: &[f32; 9], v: [f32; 3]) -> [f32; 3] {
+    [
+        m[0] * v[0] + m[3] * v[1] + m[6] * v[2],
+        m[1] * v[0] + m[4] * v[1] + m[7] * v[2],
+        m[2] * v[0] + m[5] * v[1] + m[8] * v[2],
+    ]
+}
+
+fn rotate_transposed(m: &[f32; 9], v: [f32; 3]) -> [f32; 3] {
+    [
+        m[0] * v[0] + m[1] * v[1] + m[2] * v[2],
+        m[3] * v[0] + m[4] * v[1] + m[5] * v[2],
+        m[6] * v[0] + m[7] * v[1] + m[8] * v[2],
+    ]
+}
+
+/// **Pass 1** (eq. 3–11): lights every sample of `posed` under the environment `env` (order² radiance
+/// coefficients, e.g. from [`clip_below_horizon`]), projects onto each leaf's SH with the Voronoi-cell basis sums,
+/// multiplies by the albedo SH, and derives the hierarchy nodes' lights. `others` are further proxies whose spheres
+/// block the environment (their own lights are not needed here). Results go to `out`.
+///
+/// Samples move rigidly with their sphere: p' = R_i (p − c_i,rest) + c_i,posed, n' = R_i n.
+///
+/// # Errors
+///
+/// The proxy has no samples or albedo; the light order exceeds the albedo order; `env` shorter than order²; slices
+/// of `posed` or `others` that do not fit their proxies.
+pub fn light_spheres(
+    ctx: &LightContext,
+    posed: &PosedProxy<'_>,
+    env: &[f64],
+    others: &[PosedProxy<'_>],
+    settings: &Pass1Settings,
+    out: &mut SphereLights,
+) -> Result<Pass1Stats, LightError> {
+    let order = ctx.order();
+    let nc = coeff_count(order);
+    check_len("env", nc, env.len())?;
+    posed.check()?;
+    for o in others {
+        o.check()?;
+    }
+    let proxy = posed.proxy;
+    let samples = proxy.samples().ok_or(LightError::NoSamples)?;
+    let albedo = proxy.albedo_sh().ok_or(LightError::NoAlbedo)?;
+    let albedo_order = usize::from(albedo.order);
+    if order > albedo_order {
+        return Err(LightError::AlbedoOrder { order, albedo_order });
+    }
+    let n_leaves = posed.leaves.len();
+    out.order = order;
+    out.leaf.clear();
+    out.leaf.resize(n_leaves * nc, [0.0; 3]);
+    out.sample_radiance.clear();
+    out.sample_radiance.resize(samples.per_sphere.iter().map(Vec::len).sum(), 0.0);
+    let rest = proxy.spheres();
+    let tp = ctx.shadow.triple_product();
+    let mut stats = Pass1Stats::default();
+    let mut sample_base = 0usize;
+    for i in 0..n_leaves {
+        let pts = proxy.samples_of(i);
+        let first = sample_base;
+        sample_base += pts.len();
+        if pts.is_empty() {
+            continue;
+        }
+        let s = posed.leaves[i];
+        out.cluster.build(order, posed.leaves, posed.nodes, s.center, s.radius, settings.theta_max_rad)?;
+        out.blockers.clear();
+        out.blockers.extend_from_slice(out.cluster.blockers());
+        for o in others {
+            out.others.build(order, o.leaves, o.nodes, s.center, s.radius, settings.theta_max_rad)?;
+            out.blockers.extend_from_slice(out.others.blockers());
+        }
+        let rot = posed.rotation(i);
+        let c_rest = rest.get(i).map_or(s.center, |r| r.center);
+        let mut l_i = [0.0f64; MAX_COEFFS];
+        for (k, sp) in pts.iter().enumerate() {
+            let rel = [sp.position[0] - c_rest[0], sp.position[1] - c_rest[1], sp.position[2] - c_rest[2]];
+            let r = rotate(&rot, rel);
+            let p = [r[0] + s.center[0], r[1] + s.center[1], r[2] + s.center[2]];
+            let n = rotate(&rot, sp.normal);
+            let mut log = [0.0f32; MAX_COEFFS];
+            stats.blocker_accumulations += accumulate_log_visibility(&out.blockers, order, p, Some(n), &mut log[..nc])?;
+            let mut g = [0.0f64; MAX_COEFFS];
+            ctx.shadow.visibility(&log[..nc], &mut g[..nc])?;
+            let mut h = [0.0f64; MAX_COEFFS];
+            ctx.cosine_lobe([f64::from(n[0]), f64::from(n[1]), f64::from(n[2])], &mut h);
+            // L_p = ∫ V L ρ = (V ∗ L) · H(n): one product per sample.
+            let mut vl = [0.0f64; MAX_COEFFS];
+            tp.product(&g[..nc], &env[..nc], &mut vl[..nc])?;
+            let lp: f64 = (0..nc).map(|c| vl[c] * h[c]).sum::<f64>().max(0.0);
+            if let Some(slot) = out.sample_radiance.get_mut(first + k) {
+                *slot = lp as f32;
+            }
+            stats.samples += 1;
+            if let Some(y) = voronoi_cell_basis(usize::from(sp.direction), order) {
+                for c in 0..nc {
+                    l_i[c] += lp * f64::from(y[c]);
+                }
+            }
+        }
+        // Undo the cell averaging's band attenuation (module docs, "Voronoi gain").
+        for l in 0..order {
+            for c in l * l..(l + 1) * (l + 1) {
+                l_i[c] /= ctx.cell_gain[l];
+            }
+        }
+        // L^c = L ∗ c per channel (eq. 11).
+        let a = proxy.albedo_coefficients(i).unwrap_or(&[]);
+        if a.len() < nc {
+            continue;
+        }
+        for ch in 0..3 {
+            let mut c = [0.0f64; MAX_COEFFS];
+            for k in 0..nc {
+                c[k] = f64::from(a[k][ch]);
+            }
+            let mut prod = [0.0f64; MAX_COEFFS];
+            tp.product(&l_i[..nc], &c[..nc], &mut prod[..nc])?;
+            for k in 0..nc {
+                out.leaf[i * nc + k][ch] = prod[k] as f32;
+            }
+        }
+    }
+    derive_node_lights(posed, out)?;
+    Ok(stats)
+}
+
+/// Node lights from their leaves: L^c_N = Σ_j (r_j / r_N)² L^c_j, rotation polar(Σ_j r_j² R_j) (module docs).
+fn derive_node_lights(posed: &PosedProxy<'_>, out: &mut SphereLights) -> Result<(), LightError> {
+    let nc = coeff_count(out.order);
+    out.node.clear();
+    out.node_rotation.clear();
+    out.root.clear();
+    out.root.resize(nc, [0.0; 3]);
+    out.root_rotation = IDENTITY_ROTATION;
+    match posed.nodes {
+        Some((plan, nodes)) => {
+            if nodes.len() != plan.node_count() {
+                return Err(LightError::SliceLength {
+                    argument: "nodes",
+                    expected: plan.node_count(),
+                    actual: nodes.len(),
+                });
+            }
+            out.node.resize(plan.node_count() * nc, [0.0; 3]);
+            out.node_rotation.resize(plan.node_count(), IDENTITY_ROTATION);
+            for n in 0..plan.node_count() {
+                let rn = f64::from(nodes[n].radius);
+                let mut acc = [[0.0f64; 3]; MAX_COEFFS];
+                let mut rot = [0.0f64; 9];
+                out.stack.clear();
+                out.stack.push(n as u32);
+                while let Some(k) = out.stack.pop() {
+                    for c in plan.refs_of(k) {
+                        match c {
+                            ChildRef::Node(c) => out.stack.push(c),
+                            ChildRef::Leaf(l) => {
+                                let l = l as usize;
+                                let Some(s) = posed.leaves.get(l) else { continue };
+                                let w = if rn > 0.0 { sq(f64::from(s.radius) / rn) } else { 0.0 };
+                                let src = out.leaf.get(l * nc..(l + 1) * nc).unwrap_or(&[]);
+                                for (a, v) in acc.iter_mut().zip(src) {
+                                    for ch in 0..3 {
+                                        a[ch] += w * f64::from(v[ch]);
+                                    }
+                                }
+                                let r = posed.rotation(l);
+                                for q in 0..9 {
+                                    rot[q] += w * f64::from(r[q]);
+                                }
+                            }
+                        }
+                    }
+                }
+                for k in 0..nc {
+                    out.node[n * nc + k] = acc[k].map(|v| v as f32);
+                }
+                out.node_rotation[n] = polar_rotation(&rot).map_or(IDENTITY_ROTATION, |m| m.map(|v| v as f32));
+            }
+        }
+        None => {
+            let Some(root) = implicit_root(posed.leaves) else { return Ok(()) };
+            let rn = f64::from(root.radius);
+            let mut rot = [0.0f64; 9];
+            for (l, s) in posed.leaves.iter().enumerate() {
+                let w = if rn > 0.0 { sq(f64::from(s.radius) / rn) } else { 0.0 };
+                let src = out.leaf.get(l * nc..(l + 1) * nc).unwrap_or(&[]);
+                for (a, v) in out.root.iter_mut().zip(src) {
+                    for ch in 0..3 {
+                        a[ch] += (w * f64::from(v[ch])) as f32;
+                    }
+                }
+                let r = posed.rotation(l);
+                for q in 0..9 {
+                    rot[q] += w * f64::from(r[q]);
+                }
+            }
+            out.root_rotation = polar_rotation(&rot).map_or(IDENTITY_ROTATION, |m| m.map(|v| v as f32));
+        }
+    }
+    Ok(())
+}
+
+fn sq(x: f64) -> f64 {
+    x * x
+}
+
+/// The rotation of the polar decomposition M = R S (column-major 3×3) by Higham's iteration
+/// X ← (X + X⁻ᵀ)/2 (quadratic convergence; at most 30 steps); `None` when det M ≤ 0 or M is not finite.
+#[must_use]
+pub fn polar_rotation(m: &[f64; 9]) -> Option<[f64; 9]> {
+    let mut x = *m;
+    let det0 = det3(&x);
+    if !det0.is_finite()
+        || det0
+            <= 1e-30 * {
+                let f = frob2(&x);
+                f * f * f
+            }
+    {
+        return None;
+    }
+    for _ in 0..30 {
+        let d = det3(&x);
+        if !(d.is_finite() && d > 0.0) {
+            return None;
+        }
+        // X⁻ᵀ = cof(X) / det (cofactor matrix), in column-major order.
+        let c = cofactor(&x);
+        let mut next = [0.0; 9];
+        let mut change = 0.0;
+        for k in 0..9 {
+            next[k] = 0.5 * (x[k] + c[k] / d);
+            change += (next[k] - x[k]).abs();
+        }
+        x = next;
+        if change < 1e-14 {
+            break;
+        }
+    }
+    x.iter().all(|v| v.is_finite()).then_some(x)
+}
+
+fn frob2(m: &[f64; 9]) -> f64 {
+    crate::refit::sqrt(m.iter().map(|v| v * v).sum::<f64>())
+}
+
+/// det of a column-major 3×3.
+fn det3(m: &[f64; 9]) -> f64 {
+    let (a, b, c) = ([m[0], m[1], m[2]], [m[3], m[4], m[5]], [m[6], m[7], m[8]]);
+    a[0] * (b[1] * c[2] - b[2] * c[1]) - b[0] * (a[1] * c[2] - a[2] * c[1]) + c[0] * (a[1] * b[2] - a[2] * b[1])
+}
+
+/// Cofactor matrix of a column-major 3×3 (cof(M) = det(M) · M⁻ᵀ), column-major.
+fn cofactor(m: &[f64; 9]) -> [f64; 9] {
+    // Columns a, b, c: the cofactor columns are b×c, c×a, a×b.
+    let (a, b, c) = ([m[0], m[1], m[2]], [m[3], m[4], m[5]], [m[6], m[7], m[8]]);
+    let cross =
+        |u: [f64; 3], v: [f64; 3]| [u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2], u[0] * v[1] - u[1] * v[0]];
+    let (x, y, z) = (cross(b, c), cross(c, a), cross(a, b));
+    [x[0], x[1], x[2], y[0], y[1], y[2], z[0], z[1], z[2]]
+}
+
+/// Soft-deformation rotations (§7.1): for every sphere, R = polar(Σ_j b_j M_j) · polar(Σ_j b_j M⁰_j)ᵀ over its skin
+/// slots, M_j = `joint_matrices[bone]` (the pose) and M⁰_j = `rest_joint_matrices[bone]` (the rest pose the file's
+/// model space shows), glTF convention, column-major 4×4 (upper 3×3 used). Identity for a proxy without skin and
+/// where a weighted matrix is singular. `out[s]` is column-major 3×3.
+///
+/// # Errors
+///
+/// Fewer matrices than bones; `out.len() != proxy.sphere_count()`.
+pub fn sphere_rotations(
+    proxy: &Proxy,
+    joint_matrices: &[[f32; 16]],
+    rest_joint_matrices: &[[f32; 16]],
+    out: &mut [[f32; 9]],
+) -> Result<(), LightError> {
+    if out.len() != proxy.sphere_count() {
+        return Err(LightError::SliceLength { argument: "out", expected: proxy.sphere_count(), actual: out.len() });
+    }
+    out.fill(IDENTITY_ROTATION);
+    if proxy.skin().is_none() {
+        return Ok(());
+    }
+    let bones = proxy.bones().len();
+    check_len("joint_matrices", bones, joint_matrices.len())?;
+    check_len("rest_joint_matrices", bones, rest_joint_matrices.len())?;
+    for (s, o) in out.iter_mut().enumerate() {
+        let mut m = [0.0f64; 9];
+        let mut m0 = [0.0f64; 9];
+        for e in proxy.skin_slots(s) {
+            let (Some(j), Some(j0)) = (joint_matrices.get(e.bone as usize), rest_joint_matrices.get(e.bone as usize))
+            else {
+                continue;
+            };
+            let b = f64::from(e.b);
+            for col in 0..3 {
+                for row in 0..3 {
+                    m[3 * col + row] += b * f64::from(j[4 * col + row]);
+                    m0[3 * col + row] += b * f64::from(j0[4 * col + row]);
+                }
+            }
+        }
+        let (Some(r), Some(r0)) = (polar_rotation(&m), polar_rotation(&m0)) else { continue };
+        // R r0ᵀ, column-major: (R r0ᵀ)[row, col] = Σ_k R[row, k] r0[col, k].
+        let mut q = [0.0f32; 9];
+        for col in 0..3 {
+            for row in 0..3 {
+                let v: f64 = (0..3).map(|k| r[3 * k + row] * r0[3 * k + col]).sum();
+                q[3 * col + row] = v as f32;
+            }
+        }
+        *o = q;
+    }
+    Ok(())
+}
+
+/// One sphere light of a receiver cluster's cut.
+#[derive(Clone, Copy, Debug)]
+struct LightEntry {
+    blocker: Blocker,
+    /// Which source (proxy) it belongs to.
+    source: u32,
+    /// Reflection ratio per channel (1 for leaves).
+    ratio: [f32; 3],
+    /// Rotation of the light's coefficients (rest → pose).
+    rotation: [f32; 9],
+}
+
+/// Per-receiver working data of one entry.
+#[derive(Clone, Copy, Debug)]
+struct Active {
+    entry: u32,
+    power: f32,
+    theta: f32,
+    sin_theta: f32,
+    /// Unit direction from the (adjusted) centre to the receiver.
+    axis: [f32; 3],
+    log: [f32; MAX_COEFFS],
+}
+
+/// The sphere lights of one receiver cluster: the hierarchy cut of every source, its ratio vectors (eq. 37) and
+/// reflection ratios (eq. 25); reusable buffers. Build once per cluster and frame, then query per receiver.
+#[derive(Clone, Debug, Default)]
+pub struct IndirectCluster {
+    order: usize,
+    entries: Vec<LightEntry>,
+    scratch_entries: Vec<LightEntry>,
+    active: Vec<Active>,
+    cb: ClusterBlockers,
+    lights: Vec<(usize, usize)>,
+}
+
+/// A receiver cluster of pass 2: receivers sharing one hierarchy cut (a tile of a ground grid, a patch of a
+/// character).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ClusterSpec {
+    /// Centre x_C of a ball around the cluster's receivers (same space as the spheres).
+    pub center: [f32; 3],
+    /// Radius of that ball.
+    pub radius: f32,
+    /// The receivers' mean unit normal, for the reflection ratios at the centre (`None`: ratios are 1).
+    pub normal: Option<[f32; 3]>,
+    /// Cut threshold θmax in radians (Ren eq. 36).
+    pub theta_max_rad: f32,
+    /// Compute the reflection ratios of eq. 25 (the default; off only to measure their effect).
+    pub reflection_ratio: bool,
+}
+
+impl ClusterSpec {
+    /// A cluster ball with normal `normal`, the default θmax and reflection ratios on.
+    #[must_use]
+    pub fn new(center: [f32; 3], radius: f32, normal: Option<[f32; 3]>) -> ClusterSpec {
+        ClusterSpec { center, radius, normal, theta_max_rad: crate::cut::DEFAULT_THETA_MAX_RAD, reflection_ratio: true }
+    }
+}
+
+/// The light sources of pass 2: each posed proxy with the lights pass 1 computed for it this frame.
+pub type LightSource<'a, 'b> = (PosedProxy<'a>, &'b SphereLights);
+
+impl IndirectCluster {
+    /// Empty buffers.
+    #[must_use]
+    pub fn new() -> IndirectCluster {
+        IndirectCluster::default()
+    }
+
+    /// Number of sphere lights in the cluster's cut.
+    #[must_use]
+    pub fn light_count(&self) -> usize {
+        self.entries.len()
+    }
+
+    /// Assembles the lights of the receiver cluster `cluster`: per source, the hierarchy cut at its θmax (eq. 36)
+    /// with ratio vectors (eq. 37), and — when `cluster.reflection_ratio` is set and `cluster.normal` is given —
+    /// the reflection ratio t of every accepted node at the cluster's centre (eq. 25).
+    ///
+    /// # Errors
+    ///
+    /// The lights of a source were computed at another order or for another sphere count; slices that do not fit.
+    pub fn build(
+        &mut self,
+        ctx: &LightContext,
+        sources: &[LightSource<'_, '_>],
+        cluster: &ClusterSpec,
+    ) -> Result<(), LightError> {
+        let ClusterSpec { center, radius, normal, theta_max_rad, reflection_ratio } = *cluster;
+        let order = ctx.order();
+        self.order = order;
+        self.entries.clear();
+        for (si, (posed, lights)) in sources.iter().enumerate() {
+            posed.check()?;
+            if lights.order != order {
+                return Err(LightError::Mismatch { what: "order" });
+            }
+            if lights.leaf_count() != posed.leaves.len() {
+                return Err(LightError::Mismatch { what: "sphere count" });
+            }
+            self.cb.build(order, posed.leaves, posed.nodes, center, radius, theta_max_rad)?;
+            for b in self.cb.blockers() {
+                let rotation = match b.source {
+                    CutEntry::Leaf(l) => posed.rotation(l as usize),
+                    other => lights.light_of(other).1,
+                };
+                self.entries.push(LightEntry { blocker: *b, source: si as u32, ratio: [1.0; 3], rotation });
+            }
+        }
+        let Some(n) = normal.filter(|_| reflection_ratio) else { return Ok(()) };
+        // Reflection ratios of the accepted nodes.
+        for e in 0..self.entries.len() {
+            let entry = self.entries[e];
+            let CutEntry::Node(node) = entry.blocker.source else { continue };
+            let (posed, _) = &sources[entry.source as usize];
+            let den = self.contribution(ctx, sources, Which::Entries, center, n, |k| k == e)?;
+            // The same cut with the node replaced by its leaves.
+            self.scratch_entries.clear();
+            self.scratch_entries.extend(self.entries.iter().enumerate().filter(|&(k, _)| k != e).map(|(_, x)| *x));
+            let first_leaf = self.scratch_entries.len();
+            self.lights.clear();
+            collect_leaves(posed, node, &mut self.lights);
+            for &(leaf, _) in &self.lights {
+                let s = posed.leaves[leaf];
+                let mut w = [0.0f32; MAX_ORDER];
+                w[..order].fill(1.0);
+                self.scratch_entries.push(LightEntry {
+                    blocker: Blocker {
+                        center: s.center,
+                        radius: s.radius,
+                        band_weights: w,
+                        source: CutEntry::Leaf(leaf as u32),
+                    },
+                    source: entry.source,
+                    ratio: [1.0; 3],
+                    rotation: posed.rotation(leaf),
+                });
+            }
+            let num = self.contribution(ctx, sources, Which::Scratch, center, n, |k| k >= first_leaf)?;
+            let mut t = [1.0f32; 3];
+            for c in 0..3 {
+                if den[c] > 1e-12 * (1.0 + num[c].abs()) && num[c].is_finite() {
+                    t[c] = ((num[c] / den[c]) as f32).clamp(0.0, MAX_REFLECTION_RATIO);
+                }
+            }
+            self.entries[e].ratio = t;
+        }
+        Ok(())
+    }
+
+    /// The indirect irradiance E^I (linear RGB, ∫ L_in cos dω) at receiver `p` with unit normal `normal` from the
+    /// cluster's lights (eq. 14 with the reflection ratios of eq. 26). Allocation-free once the buffers have grown
+    /// to the cluster's size (the first call after a larger build may allocate).
+    ///
+    /// # Errors
+    ///
+    /// The cluster was built at another order than `ctx`'s; `sources` is not the slice the cluster was built from.
+    pub fn irradiance(
+        &mut self,
+        ctx: &LightContext,
+        sources: &[LightSource<'_, '_>],
+        p: [f32; 3],
+        normal: [f32; 3],
+    ) -> Result<[f64; 3], LightError> {
+        if self.order != ctx.order() {
+            return Err(LightError::Mismatch { what: "order" });
+        }
+        self.contribution(ctx, sources, Which::Entries, p, normal, |_| true)
+    }
+
+    /// Σ over the entries with `include(k)` of π L̃ Ṽ t, the blockers being all entries of the chosen list.
+    fn contribution(
+        &mut self,
+        ctx: &LightContext,
+        sources: &[LightSource<'_, '_>],
+        which: Which,
+        p: [f32; 3],
+        normal: [f32; 3],
+        include: impl Fn(usize) -> bool,
+    ) -> Result<[f64; 3], LightError> {
+        let order = self.order;
+        let nc = coeff_count(order);
+        let entries = match which {
+            Which::Entries => &self.entries,
+            Which::Scratch => &self.scratch_entries,
+        };
+        // Per entry: the adjusted sphere, its log vector and power.
+        self.active.clear();
+        for (k, e) in entries.iter().enumerate() {
+            let Some((c, r)) = self_shadow_sphere(e.blocker.center, e.blocker.radius, p, normal) else { continue };
+            let d = [c[0] - p[0], c[1] - p[1], c[2] - p[2]];
+            let d2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
+            if !(d2.is_finite() && d2 > 0.0) {
+                continue;
+            }
+            let inv = rsqrt_f32(d2);
+            let theta = asin_f32(r * inv);
+            let s = [d[0] * inv, d[1] * inv, d[2] * inv];
+            let mut a = Active {
+                entry: k as u32,
+                power: d2 - r * r,
+                theta,
+                sin_theta: (r * inv).min(1.0),
+                axis: [-s[0], -s[1], -s[2]],
+                log: [0.0; MAX_COEFFS],
+            };
+            accumulate_log_visibility_f32(theta, s, &e.blocker.band_weights[..order], &mut a.log[..nc])?;
+            self.active.push(a);
+        }
+        // Nearest first by power (insertion sort: stable, allocation-free, K is small).
+        for i in 1..self.active.len() {
+            let mut j = i;
+            while j > 0 && self.active[j - 1].power > self.active[j].power {
+                self.active.swap(j - 1, j);
+                j -= 1;
+            }
+        }
+        let mut h = [0.0f64; MAX_COEFFS];
+        ctx.cosine_lobe([f64::from(normal[0]), f64::from(normal[1]), f64::from(normal[2])], &mut h);
+        let mut total = [0.0f64; 3];
+        for i in 0..self.active.len() {
+            let ai = &self.active[i];
+            let k = ai.entry as usize;
+            if !include(k) {
+                continue;
+            }
+            let e = &entries[k];
+            let Some((_, lights)) = sources.get(e.source as usize) else {
+                return Err(LightError::Mismatch { what: "sources" });
+            };
+            let (coeffs, _) = lights.light_of(e.blocker.source);
+            if coeffs.len() < nc {
+                continue;
+            }
+            // Cosine-weighted average radiance Φ / Ṽ₀ (spherebake_sh light module), in the light's rest frame.
+            let axis = rotate_transposed(&e.rotation, ai.axis);
+            let n_local = rotate_transposed(&e.rotation, normal);
+            let phi = cosine_weighted_radiance_rgb_f32(ai.theta, axis, n_local, coeffs, order)?;
+            let ns = -(ai.axis[0] * normal[0] + ai.axis[1] * normal[1] + ai.axis[2] * normal[2]);
+            let st = ai.sin_theta;
+            let v0 = ns * st * st;
+            if v0.partial_cmp(&1e-12) != Some(core::cmp::Ordering::Greater) || phi.iter().all(|&v| v.abs() <= 0.0) {
+                continue;
+            }
+            let lt = phi.map(|v| v / v0);
+            // A = Σ of the logs of the nearer lights that do not intersect this one (same source).
+            let mut acc = [0.0f32; MAX_COEFFS];
+            let mut any = false;
+            for aj in &self.active[..i] {
+                let ej = &entries[aj.entry as usize];
+                if ej.source == e.source && intersect(&ej.blocker, &e.blocker) {
+                    continue;
+                }
+                any = true;
+                for c in 0..nc {
+                    acc[c] += aj.log[c];
+                }
+            }
+            // Ṽ = Ṽ₀ · (visible share of the light's cap): the share from eq. 23 as
+            // (exp*(A) − exp*(A + G)) · H / ((1 − exp*(G)) · H), Ṽ₀ = (n·s) sin²θ exact. Without a nearer
+            // blocker the share is 1 and no exponential is needed.
+            let v = if any {
+                let mut g = [0.0f64; MAX_COEFFS];
+                ctx.shadow.visibility(&acc[..nc], &mut g[..nc])?;
+                let v_near = dot(&g[..nc], &h[..nc]);
+                for c in 0..nc {
+                    acc[c] += ai.log[c];
+                }
+                ctx.shadow.visibility(&acc[..nc], &mut g[..nc])?;
+                let v_far = dot(&g[..nc], &h[..nc]);
+                ctx.shadow.visibility(&ai.log[..nc], &mut g[..nc])?;
+                let own = 1.0 - dot(&g[..nc], &h[..nc]);
+                let share = if own > 1e-4 { ((v_near - v_far) / own).clamp(0.0, 1.0) } else { 1.0 };
+                f64::from(v0) * share
+            } else {
+                f64::from(v0)
+            };
+            for c in 0..3 {
+                total[c] += core::f64::consts::PI * f64::from(lt[c]) * v * f64::from(e.ratio[c]);
+            }
+        }
+        Ok(total)
+    }
+}
+
+#[derive(Clone, Copy)]
+enum Which {
+    Entries,
+    Scratch,
+}
+
+fn dot(a: &[f64], b: &[f64]) -> f64 {
+    a.iter().zip(b).map(|(x, y)| x * y).sum()
+}
+
+fn intersect(a: &Blocker, b: &Blocker) -> bool {
+    let d = [a.center[0] - b.center[0], a.center[1] - b.center[1], a.center[2] - b.center[2]];
+    let d2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
+    let r = a.radius + b.radius;
+    d2 < r * r
+}
+
+/// The leaves below `node` (or all leaves for the implicit root) as (leaf, depth-first position).
+fn collect_leaves(posed: &PosedProxy<'_>, node: u32, out: &mut Vec<(usize, usize)>) {
+    match posed.nodes {
+        Some((plan, _)) if node != IMPLICIT_ROOT => {
+            let mut stack: Vec<u32> = Vec::new();
+            stack.push(node);
+            while let Some(k) = stack.pop() {
+                for c in plan.refs_of(k) {
+                    match c {
+                        ChildRef::Node(c) => stack.push(c),
+                        ChildRef::Leaf(l) if (l as usize) < posed.leaves.len() => out.push((l as usize, out.len())),
+                        ChildRef::Leaf(_) => {}
+                    }
+                }
+            }
+        }
+        _ => out.extend((0..posed.leaves.len()).map(|l| (l, l))),
+    }
+}

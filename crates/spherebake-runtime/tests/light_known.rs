@@ -1,0 +1,161 @@
+//! Indirect light on cases with a known answer: one diffuse sphere of one colour standing on the ground under a
+//! uniform sky (analytic exit radiance, numerically integrated one-bounce irradiance on the ground), two spheres of
+//! different colours, and pass 1's sample radiance on an unoccluded convex sphere.
+
+#![allow(clippy::needless_range_loop)] // index loops mirror the formulas
+
+use spherebake_runtime::light::{
+    clip_below_horizon, light_spheres, ClusterSpec, IndirectCluster, LightContext, Pass1Settings, PosedProxy,
+    SphereLights,
+};
+use spherebake_runtime::shadow::{uniform_light, ExpMethod};
+use spherebake_runtime::{AlbedoSh, Proxy, SamplePoint, Samples, SphbFile, Sphere, GEODESIC_DIRECTIONS};
+use std::f64::consts::PI;
+
+/// A proxy of diffuse spheres: sample j of each sphere on its surface in geodesic direction j, outward normal,
+/// constant albedo (DC only, order `order`).
+fn sphere_proxy(spheres: &[(Sphere, [f32; 3])], order: usize) -> Proxy {
+    let nc = order * order;
+    let mut per_sphere = Vec::new();
+    let mut coefficients = Vec::new();
+    for (s, albedo) in spheres {
+        let pts = GEODESIC_DIRECTIONS
+            .iter()
+            .enumerate()
+            .map(|(j, d)| SamplePoint {
+                position: [s.center[0] + s.radius * d[0], s.center[1] + s.radius * d[1], s.center[2] + s.radius * d[2]],
+                normal: *d,
+                direction: j as u8,
+                rule: 1,
+            })
+            .collect();
+        per_sphere.push(pts);
+        let dc = (4.0 * PI).sqrt() as f32;
+        coefficients.push(albedo.map(|a| a * dc));
+        coefficients.extend(std::iter::repeat_n([0.0; 3], nc - 1));
+    }
+    let file = SphbFile {
+        spheres: spheres.iter().map(|(s, _)| *s).collect(),
+        samples: Some(Samples { per_sphere }),
+        albedo_sh: Some(AlbedoSh { order: order as u8, coefficients, ..AlbedoSh::default() }),
+        ..SphbFile::default()
+    };
+    Proxy::from_file(&file).expect("valid proxy")
+}
+
+/// One-bounce ground irradiance from a diffuse sphere (centre `c`, radius `r`, albedo `a`) under a uniform sky of
+/// radiance 1 above the horizon: the sphere's exit radiance is L(n) = a (1 + n_y)/2 (its sky irradiance is
+/// π(1 + n_y)/2; convex, no self-occlusion), and E(x) = ∫_cone L(n(ω)) ω_y dω by Gauss–Legendre in cos ψ × uniform φ.
+fn analytic_ground(c: [f64; 3], r: f64, a: f64, x: [f64; 3]) -> f64 {
+    let d = [c[0] - x[0], c[1] - x[1], c[2] - x[2]];
+    let dist = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
+    let w = [d[0] / dist, d[1] / dist, d[2] / dist];
+    let cos_t = (1.0 - (r / dist).powi(2)).max(0.0).sqrt();
+    // Orthonormal frame (u, v, w).
+    let t = if w[0].abs() < 0.9 { [1.0, 0.0, 0.0] } else { [0.0, 1.0, 0.0] };
+    let cross =
+        |a: [f64; 3], b: [f64; 3]| [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]];
+    let mut u = cross(t, w);
+    let un = (u[0] * u[0] + u[1] * u[1] + u[2] * u[2]).sqrt();
+    u = u.map(|v| v / un);
+    let v = cross(w, u);
+    let (nz, nphi) = (400, 400);
+    let mut e = 0.0;
+    for i in 0..nz {
+        // Midpoint rule in cos ψ ∈ [cos θ, 1] (smooth integrand once the endpoint is a hit at grazing angle).
+        let cz = cos_t + (1.0 - cos_t) * (i as f64 + 0.5) / nz as f64;
+        let sz = (1.0 - cz * cz).max(0.0).sqrt();
+        for k in 0..nphi {
+            let phi = 2.0 * PI * (k as f64 + 0.5) / nphi as f64;
+            let dir = [0, 1, 2].map(|q| cz * w[q] + sz * (phi.cos() * u[q] + phi.sin() * v[q]));
+            if dir[1] <= 0.0 {
+                continue;
+            }
+            // Nearest hit: t = b − √(b² − (|d|² − r²)), b = dir · d.
+            let b = dir[0] * d[0] + dir[1] * d[1] + dir[2] * d[2];
+            let disc = b * b - (dist * dist - r * r);
+            if disc < 0.0 {
+                continue;
+            }
+            let th = b - disc.sqrt();
+            let hit = [0, 1, 2].map(|q| x[q] + th * dir[q]);
+            let ny = (hit[1] - c[1]) / r;
+            e += a * 0.5 * (1.0 + ny) * dir[1];
+        }
+    }
+    e * (1.0 - cos_t) * 2.0 * PI / (nz * nphi) as f64
+}
+
+fn uniform_sky(ctx: &LightContext) -> Vec<f64> {
+    let nc = ctx.order() * ctx.order();
+    let mut l = vec![0.0; nc];
+    uniform_light(ctx.order(), &mut l);
+    let mut env = vec![0.0; nc];
+    clip_below_horizon(ctx, &l, [0.0, 1.0, 0.0], &mut env).unwrap();
+    env
+}
+
+#[test]
+fn unoccluded_sphere_samples_have_the_analytic_exit_radiance() {
+    // A sample with normal n under the upper-hemisphere sky: L = (1 + n_y)/2 exactly at order ≥ 2 (the hemisphere
+    // step has only bands 0 and odd l, the clamped cosine only 0, 1 and even l: their product lives in bands 0–1).
+    let proxy = sphere_proxy(&[(Sphere { center: [0.0, 1.0, 0.0], radius: 1.0 }, [1.0; 3])], 4);
+    let ctx = LightContext::new(4, ExpMethod::Accurate).unwrap();
+    let env = uniform_sky(&ctx);
+    let mut lights = SphereLights::new();
+    light_spheres(&ctx, &PosedProxy::at_rest(&proxy), &env, &[], &Pass1Settings::default(), &mut lights).unwrap();
+    for (j, l) in lights.sample_radiance().iter().enumerate() {
+        let want = 0.5 * (1.0 + f64::from(GEODESIC_DIRECTIONS[j][1]));
+        assert!((f64::from(*l) - want).abs() < 1e-5, "sample {j}: {l} vs {want}");
+    }
+}
+
+fn ground_irradiance(proxy: &Proxy, ctx: &LightContext, xs: &[[f32; 3]]) -> Vec<[f64; 3]> {
+    let env = uniform_sky(ctx);
+    let mut lights = SphereLights::new();
+    let posed = PosedProxy::at_rest(proxy);
+    light_spheres(ctx, &posed, &env, &[], &Pass1Settings::default(), &mut lights).unwrap();
+    let sources = [(posed, &lights)];
+    let mut cl = IndirectCluster::new();
+    xs.iter()
+        .map(|&x| {
+            let spec = ClusterSpec { theta_max_rad: 0.0, ..ClusterSpec::new(x, 0.0, Some([0.0, 1.0, 0.0])) };
+            cl.build(ctx, &sources, &spec).unwrap();
+            cl.irradiance(ctx, &sources, x, [0.0, 1.0, 0.0]).unwrap()
+        })
+        .collect()
+}
+
+#[test]
+fn one_sphere_on_the_ground_matches_the_integrated_one_bounce() {
+    let albedo = [0.8f32, 0.5, 0.2];
+    for (height, ceiling) in [(2.0f32, 2e-3), (1.0, 2e-3)] {
+        let proxy = sphere_proxy(&[(Sphere { center: [0.0, height, 0.0], radius: 1.0 }, albedo)], 4);
+        let ctx = LightContext::new(4, ExpMethod::default()).unwrap();
+        // Ground receivers on a 3 × 3 square around the contact point (the `light` command's scene), off the contact.
+        let mut xs = Vec::new();
+        let n = 24;
+        for i in 0..n {
+            for k in 0..n {
+                let x = -3.0 + 6.0 * (i as f32 + 0.5) / n as f32;
+                let z = -3.0 + 6.0 * (k as f32 + 0.5) / n as f32;
+                xs.push([x, 0.0, z]);
+            }
+        }
+        let got = ground_irradiance(&proxy, &ctx, &xs);
+        let mut se = 0.0;
+        let mut sum = 0.0;
+        for (x, g) in xs.iter().zip(&got) {
+            let want = analytic_ground([0.0, f64::from(height), 0.0], 1.0, 1.0, x.map(f64::from));
+            for c in 0..3 {
+                let w = want * f64::from(albedo[c]);
+                se += (g[c] - w).powi(2);
+                sum += w;
+            }
+        }
+        let count = (xs.len() * 3) as f64;
+        let rel_rmse = (se / count).sqrt() / (sum / count);
+        println!("one sphere at height {height}: relative RMSE {rel_rmse:.4}");
+        assert!(rel_rmse <= ceiling, "height {height}: relative RMSE {rel_rmse}");
+    }
+}
