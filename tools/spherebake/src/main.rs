@@ -7,6 +7,7 @@ mod atomic;
 mod cmd_bake;
 mod cmd_eval;
 mod cmd_inspect;
+mod cmd_light;
 mod cmd_pose;
 mod cmd_shadows;
 mod cmd_view;
@@ -41,6 +42,8 @@ enum Command {
     Shadows(cmd_shadows::ShadowsArgs),
     /// Pose a skinned proxy from its model's animation at a time; print the spheres and their vertex coverage.
     Pose(cmd_pose::PoseArgs),
+    /// One-bounce indirect light of the proxy (runtime passes 1 and 2) on the ground and the model against path tracing.
+    Light(cmd_light::LightArgs),
 }
 
 fn main() -> ExitCode {
@@ -61,6 +64,7 @@ fn main() -> ExitCode {
         Command::Render(a) => cmd_view::run_render(a),
         Command::Shadows(a) => cmd_shadows::run(a),
         Command::Pose(a) => cmd_pose::run(a),
+        Command::Light(a) => cmd_light::run(a),
     };
     match result {
         Ok(code) => code,
