@@ -14,7 +14,8 @@
 //!    rule 2) and multiplied by the baked albedo SH (eq. 11, the SH product through the triple-product tensor), per
 //!    linear RGB channel. Interior hierarchy nodes get radiance from their leaves (below).
 //! 3. **Pass 2** per receiver cluster ([`IndirectCluster::build`]: hierarchy cut, ratio vectors, reflection ratios)
-//!    and per receiver ([`IndirectCluster::irradiance`]): E^I(p) = π Σ_i L̃_p,Si · Ṽ_p,Si · t_Si (eq. 14, 26).
+//!    and per receiver ([`IndirectCluster::irradiance`]): E^I(p) = π Σ_i L̃_p,Si · Ṽ_p,Si · t_Si (eq. 14, 26), with
+//!    the cosine-weighted average radiance and the visibility share below.
 //! 4. Direct light: [`crate::shadow`] (`ShadowContext::shade_point`); total = direct + indirect (eq. 12), both
 //!    exposed: [`IndirectCluster::irradiance`] returns the indirect part only.
 //!
@@ -22,9 +23,24 @@
 //!
 //! - **Units.** [`IndirectCluster::irradiance`] returns irradiance E = ∫ L_in cos dω (linear RGB); the receiver's
 //!   exit radiance is albedo · E / π. The paper's ρ_n includes 1/π (Ṽ = V · ρ_n, eq. 24); we multiply back by π.
-//! - **Average radiance (eq. 15–18).** Tabulated exactly as eq. 15 defines it — the mean over the solid angle the
-//!   sphere covers at p — not eq. 16's sphere-surface form, which drops the Jacobian r²/|p − x|² and differs near the
-//!   sphere (derivation and checks: `spherebake_sh` `light` module).
+//! - **Voronoi gain (departure, eq. 10).** The piecewise-constant Voronoi function attenuates band l of a smooth
+//!   emission by κ_l = (1/(2l+1)) Σ_m Σ_j y_lm(ω_j) Y_j,lm ([`voronoi_band_gains`]: 1, 0.989, 0.967, 0.935 for
+//!   l = 0..3); pass 1 divides band l by κ_l. Without it the band-1 emission of a sky-lit sphere is 1.1 % low, which
+//!   makes its dark underside glow (2.5 % ground error under a floating sphere; 0.00 % with it).
+//! - **Average radiance with the cosine inside (departure, eq. 14–18).** Eq. 14–15 hold the receiver's cosine
+//!   constant over a light and eq. 16 drops the Jacobian between the sphere's surface and p's solid angle. For a
+//!   light near the receiver's horizon — a ground point seeing an object that stands on it — the cosine runs from 0
+//!   to its maximum across the light and correlates with the light's sky-lit upper half: the paper's product is 18 %
+//!   low for a unit sphere seen from 3 radii. We use the cosine-weighted average instead,
+//!   L̃ρ = Φ / Ṽ₀ with Φ = (1/π) ∫_cap L (n·ω) dω ([`spherebake_sh::cosine_weighted_radiance_rgb_f32`]: zonal tables
+//!   C_l(θ), D_l(θ) plus the light's gradient) and Ṽ₀ = (n·s) sin²θ the exact unoccluded cosine-weighted cap, so
+//!   the contribution is E_i = π L̃ρ Ṽ_i t_i. The paper's uniform average (eq. 15) is tabulated too
+//!   ([`spherebake_sh::average_radiance_rgb_f32`]).
+//! - **Visibility as a share (eq. 23–24).** Ṽ_i = Ṽ₀ · clamp(((exp*(A) − exp*(A + G_i)) · H) / ((1 − exp*(G_i)) · H),
+//!   0, 1): eq. 23's SH estimate of the visible part divided by the same estimate of the whole cap, times the exact
+//!   whole cap. This removes the truncation error of a single cap at order n (large for a receiver under an
+//!   object, where the cap is wide) and costs one exponential more where blockers exist; with no nearer blocker
+//!   Ṽ_i = Ṽ₀ and no exponential is evaluated.
 //! - **Blocker order (eq. 20–23).** "All SLs closer to p" is taken as the *power* of p with respect to each sphere,
 //!   |p − c|² − r²: for two disjoint balls the radical plane separates them, so every ray from p that meets both
 //!   meets the ball of smaller power first. Ties keep the cut order.
@@ -52,8 +68,8 @@
 //! # Cost (order n, K cut entries per receiver, m samples per sphere)
 //!
 //! Pass 1: per sample one log accumulation over the cut (K · n² multiply-adds), one SH exponential and one triple
-//! product (L_env ∗ H(n)); per sphere three triple products (albedo). Pass 2 per receiver: K log vectors, a sort of
-//! K powers, for each light ≤ K log additions and two exponentials (one when no blocker precedes it). Measured
+//! product (V ∗ L_env); per sphere three triple products (albedo). Pass 2 per receiver: K log vectors, a sort of
+//! K powers, and for each light ≤ K log additions and three exponentials (none when no blocker precedes it). Measured
 //! numbers: `docs/benchmarks.md`. Pass 2 is allocation-free per receiver; builds allocate only while buffers grow.
 
 // Index loops mirror the formulas (bands l, coefficients i, channels c).
