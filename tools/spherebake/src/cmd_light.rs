@@ -73,6 +73,9 @@ pub struct LightArgs {
     /// Print one JSON document instead of text
     #[arg(long)]
     pub json: bool,
+    /// Write every receiver (position, normal, proxy and reference irradiance) to this JSON file
+    #[arg(long, value_name = "VALUES.json")]
+    pub values_json: Option<PathBuf>,
     /// Ground receivers per edge [range 2..=1024]
     #[arg(long, default_value_t = 64)]
     pub resolution: usize,
@@ -114,6 +117,8 @@ type Values<T> = Vec<(usize, T)>;
 
 /// Everything one run measured.
 pub struct LightResult {
+    pub ground: Vec<Receiver>,
+    pub model: Vec<Receiver>,
     pub ground_direct_proxy: Vec<f64>,
     pub ground_direct_reference: Vec<f64>,
     pub ground_proxy: Vec<[f64; 3]>,
@@ -168,6 +173,12 @@ pub fn run(a: LightArgs) -> Result<ExitCode> {
         let mut read = imported.inputs.clone();
         read.push(a.file.clone());
         write_png(out, res, &r.ground_proxy, &r.ground_reference, &read)?;
+    }
+    if let Some(out) = &a.values_json {
+        let mut read = imported.inputs.clone();
+        read.push(a.file.clone());
+        let text = serde_json::to_string(&values_doc(&r))?;
+        crate::atomic::write_atomic(out, text.as_bytes(), &read)?;
     }
     let light = match a.light {
         LightArg::Uniform => "uniform",
@@ -253,6 +264,35 @@ pub fn run(a: LightArgs) -> Result<ExitCode> {
         r.pass1_seconds, r.pass2_seconds, r.direct_seconds, r.reference_seconds
     );
     Ok(ExitCode::SUCCESS)
+}
+
+/// Per receiver: `ground` entries `{position, normal, proxy, reference, direct_proxy,
+/// direct_reference}`, `model` entries `{position, normal, proxy, reference}` (irradiance, linear
+/// RGB; direct grey), in receiver order.
+fn values_doc(r: &LightResult) -> serde_json::Value {
+    let ground: Vec<_> = (0..r.ground.len())
+        .map(|k| {
+            json!({
+                "position": r.ground[k].position,
+                "normal": r.ground[k].normal,
+                "proxy": r.ground_proxy[k].map(finite),
+                "reference": r.ground_reference[k].map(finite),
+                "direct_proxy": finite(r.ground_direct_proxy[k]),
+                "direct_reference": finite(r.ground_direct_reference[k]),
+            })
+        })
+        .collect();
+    let model: Vec<_> = (0..r.model.len())
+        .map(|k| {
+            json!({
+                "position": r.model[k].position,
+                "normal": r.model[k].normal,
+                "proxy": r.model_proxy[k].map(finite),
+                "reference": r.model_reference[k].map(finite),
+            })
+        })
+        .collect();
+    json!({ "ground": ground, "model": model })
 }
 
 fn finite(v: f64) -> Option<f64> {
@@ -540,6 +580,8 @@ pub fn compute(a: &LightArgs, proxy: &Proxy, mesh: &spherebake_geom::Mesh) -> Re
     let direct_seconds = start.elapsed().as_secs_f64();
 
     Ok(LightResult {
+        ground,
+        model,
         ground_direct_proxy,
         ground_direct_reference,
         ground_proxy,

@@ -1,0 +1,250 @@
+//! `spherebake light`: the proxy's one-bounce indirect light against answers derived without it.
+//!
+//! - A finely tessellated sphere of one colour on the ground, baked into one sphere: the proxy's
+//!   ground irradiance against the deterministic quadrature of `sphere_one_bounce` (no Monte Carlo
+//!   in the comparison).
+//! - Two spheres of different colours: each colour bleeds on its own side (proxy and reference).
+//! - The JSON contract and the picture.
+//! - The Duck at 64 spheres against the path-traced reference (uses `../shared/models`: skipped
+//!   with a message when absent, a failure when `SPHEREBAKE_REQUIRE_MODELS=1`).
+
+use serde_json::Value;
+use spherebake_reference::analytic::{sphere_one_bounce, uv_sphere_mesh, DiffuseSphere};
+use spherebake_reference::Sky;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn run(args: &[&str], dir: &Path) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_spherebake")).args(args).current_dir(dir).output().expect("run spherebake")
+}
+
+fn ok(o: &Output) {
+    assert_eq!(o.status.code(), Some(0), "stderr: {}", String::from_utf8_lossy(&o.stderr));
+}
+
+fn json_of(o: &Output) -> Value {
+    ok(o);
+    serde_json::from_slice(&o.stdout).expect("JSON on stdout")
+}
+
+/// OBJ text of UV spheres (centre, radius, material name), one `usemtl` each.
+fn spheres_obj(parts: &[([f64; 3], f64, &str)], stacks: usize, slices: usize) -> String {
+    let mut s = String::from("mtllib m.mtl\n");
+    let mut base = 1;
+    for (c, r, mat) in parts {
+        let m = uv_sphere_mesh(*c, *r, stacks, slices, [1.0; 3]);
+        s += &format!("usemtl {mat}\n");
+        for p in &m.positions {
+            s += &format!("v {} {} {}\n", p.x, p.y, p.z);
+        }
+        for t in &m.triangles {
+            s += &format!("f {} {} {}\n", t[0] as usize + base, t[1] as usize + base, t[2] as usize + base);
+        }
+        base += m.positions.len();
+    }
+    s
+}
+
+fn bake(dir: &Path, obj: &str, mtl: &str, spheres: usize) {
+    std::fs::write(dir.join("m.obj"), obj).unwrap();
+    std::fs::write(dir.join("m.mtl"), mtl).unwrap();
+    ok(&run(&["bake", "m.obj", "-o", "m.sphb", "--spheres", &spheres.to_string(), "-q"], dir));
+}
+
+fn values(dir: &Path, name: &str) -> Value {
+    serde_json::from_slice(&std::fs::read(dir.join(name)).unwrap()).unwrap()
+}
+
+fn rgb(v: &Value) -> [f64; 3] {
+    [0, 1, 2].map(|k| v[k].as_f64().expect("finite value"))
+}
+
+#[test]
+fn one_coloured_sphere_matches_the_integrated_one_bounce() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    bake(d, &spheres_obj(&[([0.0, 1.0, 0.0], 1.0, "c")], 64, 128), "newmtl c\nKd 0.8 0.5 0.2\n", 1);
+    // The reference is not compared here: one ray keeps it cheap.
+    let args = [
+        "light",
+        "m.sphb",
+        "--model",
+        "m.obj",
+        "--resolution",
+        "16",
+        "--rays",
+        "1",
+        "--model-receivers",
+        "0",
+        "--values-json",
+        "v.json",
+        "--json",
+    ];
+    let j = json_of(&run(&args, d));
+    assert_eq!(j["spheres"], 1);
+    let v = values(d, "v.json");
+    let ground = v["ground"].as_array().unwrap();
+    assert_eq!(ground.len(), 256);
+    let pts: Vec<[f64; 3]> = ground.iter().map(|g| rgb(&g["position"])).collect();
+    let proxy: Vec<[f64; 3]> = ground.iter().map(|g| rgb(&g["proxy"])).collect();
+    // The mesh's lowest point is the pole at y = 0.
+    assert!(pts.iter().all(|p| p[1].abs() < 1e-6));
+    let sky = Sky::uniform(1.0).unwrap();
+    let sphere = DiffuseSphere { centre: [0.0, 1.0, 0.0], radius: 1.0, albedo: [0.8, 0.5, 0.2] };
+    let exact = sphere_one_bounce(&sky, &sphere, 0.0, &pts, 32).unwrap();
+    let (mut se, mut sum) = (0.0, 0.0);
+    for (p, x) in proxy.iter().zip(&exact) {
+        for k in 0..3 {
+            se += (p[k] - x[k]).powi(2);
+            sum += x[k];
+        }
+    }
+    let n = 3.0 * proxy.len() as f64;
+    let rel = (se / n).sqrt() / (sum / n);
+    eprintln!("one sphere, order 4, uniform sky: proxy vs integrated one-bounce, relative RMSE {rel:.5}");
+    assert!(rel <= 0.02, "relative RMSE {rel}");
+    // The direct light of the uniform sky on an open ground is π; under the ball it is darker.
+    let far = ground.iter().map(|g| g["direct_reference"].as_f64().unwrap()).fold(0.0, f64::max);
+    assert!((far - std::f64::consts::PI).abs() < 0.05, "{far}");
+}
+
+#[test]
+fn two_colours_bleed_on_their_own_sides() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let obj = spheres_obj(&[([-1.0, 0.5, 0.0], 0.5, "red"), ([1.0, 0.5, 0.0], 0.5, "green")], 24, 48);
+    bake(d, &obj, "newmtl red\nKd 0.8 0.1 0.1\nnewmtl green\nKd 0.1 0.8 0.1\n", 2);
+    let args = [
+        "light",
+        "m.sphb",
+        "--model",
+        "m.obj",
+        "--resolution",
+        "16",
+        "--rays",
+        "256",
+        "--model-receivers",
+        "64",
+        "--values-json",
+        "v.json",
+        "--json",
+        "-o",
+        "cmp.png",
+    ];
+    let j = json_of(&run(&args, d));
+    let v = values(d, "v.json");
+    for side in ["proxy", "reference"] {
+        let (mut left, mut right) = ([0.0; 3], [0.0; 3]);
+        for g in v["ground"].as_array().unwrap() {
+            let x = g["position"][0].as_f64().unwrap();
+            let e = rgb(&g[side]);
+            let acc = if x < 0.0 { &mut left } else { &mut right };
+            for k in 0..3 {
+                acc[k] += e[k];
+            }
+        }
+        eprintln!("{side}: left {left:?}, right {right:?}");
+        assert!(left[0] > 1.5 * left[1], "{side}: red must dominate at x < 0: {left:?}");
+        assert!(right[1] > 1.5 * right[0], "{side}: green must dominate at x > 0: {right:?}");
+        assert!(left[0] / left[1] > right[0] / right[1]);
+        assert!(right[1] / right[0] > left[1] / left[0]);
+    }
+
+    // The JSON contract: keys present and finite.
+    for key in ["direct", "indirect", "timings", "receivers"] {
+        assert!(j.get(key).is_some(), "missing {key}");
+    }
+    assert!(j["direct"]["rel_rmse"].as_f64().unwrap().is_finite());
+    for part in ["ground", "model"] {
+        let s = &j["indirect"][part];
+        for key in ["rel_rmse", "bias"] {
+            assert!(s[key].as_f64().is_some_and(f64::is_finite), "indirect.{part}.{key}: {s}");
+        }
+        for key in ["mean_proxy_rgb", "mean_reference_rgb"] {
+            let m = rgb(&s[key]);
+            assert!(m.iter().all(|v| v.is_finite() && *v > 0.0), "indirect.{part}.{key}: {m:?}");
+        }
+    }
+    assert_eq!(j["spheres"], 2);
+    assert_eq!(j["light"], "uniform");
+    assert_eq!(j["receivers"]["ground"], 256);
+    assert_eq!(j["receivers"]["model"], 64);
+    for key in ["pass1_seconds", "pass2_seconds", "reference_seconds"] {
+        assert!(j["timings"][key].as_f64().is_some_and(|t| t.is_finite() && t >= 0.0), "timings.{key}");
+    }
+    let img = image::open(d.join("cmp.png")).expect("cmp.png");
+    assert!(img.width() >= 1024, "width {}", img.width());
+}
+
+#[test]
+fn human_output_and_errors() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    bake(d, &spheres_obj(&[([0.0, 1.0, 0.0], 1.0, "c")], 12, 24), "newmtl c\nKd 0.5 0.5 0.5\n", 1);
+    let o = run(&["light", "m.sphb", "--model", "m.obj", "--resolution", "4", "--rays", "4", "--light", "lobe"], d);
+    ok(&o);
+    let text = String::from_utf8_lossy(&o.stdout);
+    assert!(text.contains("indirect, ground") && text.contains("lobe light"), "{text}");
+    // A missing file: one line naming it, exit 1.
+    let o = run(&["light", "nope.sphb", "--model", "m.obj"], d);
+    assert_eq!(o.status.code(), Some(1));
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(err.starts_with("spherebake: error: nope.sphb") && err.lines().count() == 1, "{err}");
+    // Out-of-range settings and a pose for a model without a skin are errors, not panics.
+    for bad in [&["--order", "9"][..], &["--resolution", "1"], &["--time", "0.5"], &["--animation", "Walk"]] {
+        let mut args = vec!["light", "m.sphb", "--model", "m.obj"];
+        args.extend_from_slice(bad);
+        let o = run(&args, d);
+        assert_eq!(o.status.code(), Some(1), "{bad:?}: {}", String::from_utf8_lossy(&o.stderr));
+    }
+}
+
+fn shared_model(rel: &str) -> Option<PathBuf> {
+    let p = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/models").join(rel);
+    if p.exists() {
+        return Some(p);
+    }
+    assert!(
+        std::env::var("SPHEREBAKE_REQUIRE_MODELS").as_deref() != Ok("1"),
+        "SPHEREBAKE_REQUIRE_MODELS=1 but {} is missing",
+        p.display()
+    );
+    eprintln!("skipping: {} not found (../shared/models absent)", p.display());
+    None
+}
+
+#[test]
+fn duck_at_64_spheres_is_within_20_percent_under_the_uniform_sky() {
+    let Some(duck) = shared_model("gltf/Duck.glb") else { return };
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let model = duck.to_str().unwrap();
+    ok(&run(&["bake", model, "-o", "duck.sphb", "--spheres", "64", "-q"], d));
+    let args = [
+        "light",
+        "duck.sphb",
+        "--model",
+        model,
+        "--resolution",
+        "24",
+        "--rays",
+        "2048",
+        "--model-receivers",
+        "256",
+        "--json",
+    ];
+    let j = json_of(&run(&args, d));
+    let g = &j["indirect"]["ground"];
+    let rel = g["rel_rmse"].as_f64().unwrap();
+    eprintln!(
+        "Duck, 64 spheres, uniform sky: ground indirect rel RMSE {rel:.4}, bias {:.4}; model rel RMSE {:.4}, bias {:.4}; direct rel RMSE {:.4}",
+        g["bias"].as_f64().unwrap(),
+        j["indirect"]["model"]["rel_rmse"].as_f64().unwrap_or(f64::NAN),
+        j["indirect"]["model"]["bias"].as_f64().unwrap_or(f64::NAN),
+        j["direct"]["rel_rmse"].as_f64().unwrap(),
+    );
+    assert!(rel <= 0.20, "Duck ground indirect relative RMSE {rel}");
+    // Yellow bleeding: the reference's ground light is redder than it is blue.
+    let m = rgb(&g["mean_reference_rgb"]);
+    assert!(m[0] > m[2] && m[1] > m[2], "{m:?}");
+}
