@@ -1,0 +1,216 @@
+//! Determinism of the light passes: the same inputs give bit-identical results across repeated calls, across
+//! fresh `LightContext` / `SphereLights` / `IndirectCluster` objects, after the objects served a proxy or a cluster
+//! of another size, and whatever receivers were evaluated before (no state carries from one receiver to the next).
+
+use spherebake_runtime::light::{
+    clip_below_horizon, light_spheres, ClusterSpec, IndirectCluster, LightContext, Pass1Settings, PosedProxy,
+    SphereLights,
+};
+use spherebake_runtime::shadow::{uniform_light, ExpMethod};
+use spherebake_runtime::{
+    refit, rest_node_spheres, AlbedoSh, Hierarchy, HierarchyNode, HierarchyPlan, Proxy, SamplePoint, Samples, SphbFile,
+    Sphere, GEODESIC_DIRECTIONS,
+};
+
+/// 5 × `groups` spheres in groups of 5 standing around the origin, samples on every other geodesic direction, albedo
+/// with a band-1 tilt; with `hierarchy`, one node per group under a root (node spheres refitted to the leaves).
+fn proxy_n(groups: usize, hierarchy: bool) -> Proxy {
+    let mut spheres = Vec::new();
+    for g in 0..groups {
+        let a = g as f32 * std::f32::consts::TAU / groups as f32;
+        for k in 0..5 {
+            let r = 0.15 + 0.03 * k as f32;
+            let rad = 1.5 + 0.35 * k as f32;
+            spheres.push(Sphere { center: [rad * a.cos(), r + 0.2 * (k % 2) as f32, rad * a.sin()], radius: r });
+        }
+    }
+    let order = 4;
+    let mut per_sphere = Vec::new();
+    let mut coefficients = Vec::new();
+    for (i, s) in spheres.iter().enumerate() {
+        per_sphere.push(
+            GEODESIC_DIRECTIONS
+                .iter()
+                .enumerate()
+                .filter(|(j, _)| (j + i) % 2 == 0)
+                .map(|(j, d)| SamplePoint {
+                    position: [0, 1, 2].map(|q| s.center[q] + s.radius * d[q]),
+                    normal: *d,
+                    direction: j as u8,
+                    rule: 1,
+                })
+                .collect(),
+        );
+        let t = i as f32 / (5 * groups) as f32;
+        coefficients.push([2.0 + t, 1.5, 2.5 - t]);
+        coefficients.push([0.1, -0.2, 0.05]);
+        coefficients.push([0.3 * t, 0.1, -0.1]);
+        coefficients.push([-0.05, 0.2 * t, 0.0]);
+        coefficients.extend(std::iter::repeat_n([0.01; 3], order * order - 4));
+    }
+    let hierarchy = hierarchy.then(|| {
+        let mut nodes: Vec<HierarchyNode> = (0..groups as u32)
+            .map(|g| HierarchyNode {
+                center: [0.0; 3],
+                radius: 1.0,
+                children: vec![],
+                leaf_children: (5 * g..5 * g + 5).collect(),
+            })
+            .collect();
+        nodes.push(HierarchyNode {
+            center: [0.0; 3],
+            radius: 1.0,
+            children: (0..groups as u32).collect(),
+            leaf_children: vec![],
+        });
+        let mut h = Hierarchy { root: groups as u32, nodes };
+        let plan = HierarchyPlan::new(&h).unwrap();
+        let mut ns = rest_node_spheres(&h);
+        refit(&plan, &spheres, &mut ns).unwrap();
+        for (n, s) in h.nodes.iter_mut().zip(&ns) {
+            n.center = s.center;
+            n.radius = s.radius;
+        }
+        h
+    });
+    let file = SphbFile {
+        spheres,
+        hierarchy,
+        samples: Some(Samples { per_sphere }),
+        albedo_sh: Some(AlbedoSh { order: order as u8, coefficients, ..AlbedoSh::default() }),
+        ..SphbFile::default()
+    };
+    Proxy::from_file(&file).expect("valid proxy")
+}
+
+fn sky(ctx: &LightContext) -> Vec<f64> {
+    let mut l = vec![0.0; 16];
+    uniform_light(4, &mut l);
+    let mut env = vec![0.0; 16];
+    clip_below_horizon(ctx, &l, [0.0, 1.0, 0.0], &mut env).unwrap();
+    env
+}
+
+/// A rotation about +Y by `a` radians, column-major.
+fn rot_y(a: f32) -> [f32; 9] {
+    let (s, c) = a.sin_cos();
+    [c, 0.0, -s, 0.0, 1.0, 0.0, s, 0.0, c]
+}
+
+/// Everything pass 1 produces, as bits: sample radiance, leaf and node lights.
+fn pass1_bits(lights: &SphereLights, leaves: usize, nodes: usize) -> Vec<u32> {
+    let mut out: Vec<u32> = lights.sample_radiance().iter().map(|v| v.to_bits()).collect();
+    for i in 0..leaves {
+        out.extend(lights.leaf(i).iter().flatten().map(|v| v.to_bits()));
+    }
+    for n in 0..nodes {
+        out.extend(lights.node(n).iter().flatten().map(|v| v.to_bits()));
+    }
+    out
+}
+
+/// The tiles of the ground (centre x, z; θmax): a cut of nodes and leaves, all leaves, and a far one.
+const TILES: [(f32, f32, f32); 3] = [(4.0, 1.0, 0.4363323), (0.5, 0.0, 0.0), (9.0, -3.0, 0.4363323)];
+
+fn receivers(x0: f32, z0: f32) -> Vec<[f32; 3]> {
+    (0..64).map(|k| [x0 - 1.0 + (k % 8) as f32 / 3.5, 0.0, z0 - 1.0 + (k / 8) as f32 / 3.5]).collect()
+}
+
+/// Pass 1 into `lights`, then pass 2 over the tiles through `cl`, receivers in order or reversed; all results as
+/// bits (pass 1's first).
+fn run(
+    ctx: &LightContext,
+    proxy: &Proxy,
+    lights: &mut SphereLights,
+    cl: &mut IndirectCluster,
+    reversed: bool,
+) -> (Vec<u32>, Vec<u64>) {
+    let plan = proxy.hierarchy_plan();
+    let nodes = proxy.hierarchy().map(rest_node_spheres);
+    let rotations: Vec<[f32; 9]> = (0..proxy.sphere_count()).map(|i| rot_y(0.05 * i as f32)).collect();
+    let posed = PosedProxy {
+        nodes: plan.as_ref().zip(nodes.as_deref()),
+        rotations: Some(&rotations),
+        ..PosedProxy::at_rest(proxy)
+    };
+    let env = sky(ctx);
+    light_spheres(ctx, &posed, &env, &[], &Pass1Settings::default(), lights).unwrap();
+    let p1 = pass1_bits(lights, proxy.sphere_count(), plan.as_ref().map_or(0, HierarchyPlan::node_count));
+    let sources = [(posed, &*lights)];
+    let up = [0.0f32, 1.0, 0.0];
+    let mut p2 = Vec::new();
+    for (x0, z0, theta) in TILES {
+        let spec = ClusterSpec { theta_max_rad: theta, ..ClusterSpec::new([x0, 0.0, z0], 1.5, Some(up)) };
+        cl.build(ctx, &sources, &spec).unwrap();
+        let mut xs = receivers(x0, z0);
+        if reversed {
+            xs.reverse();
+        }
+        let mut vals: Vec<[u64; 3]> =
+            xs.iter().map(|&x| cl.irradiance(ctx, &sources, x, up).unwrap().map(f64::to_bits)).collect();
+        if reversed {
+            vals.reverse();
+        }
+        p2.extend(vals.into_iter().flatten());
+    }
+    (p1, p2)
+}
+
+fn check(hierarchy: bool) {
+    let proxy = proxy_n(8, hierarchy);
+    let ctx = LightContext::new(4, ExpMethod::default()).unwrap();
+    let mut lights = SphereLights::new();
+    let mut cl = IndirectCluster::new();
+    let first = run(&ctx, &proxy, &mut lights, &mut cl, false);
+    assert!(first.1.iter().any(|&b| f64::from_bits(b) > 0.0), "something is lit");
+    // Repeated with the same objects.
+    let again = run(&ctx, &proxy, &mut lights, &mut cl, false);
+    assert!(first == again, "repeated call differs (hierarchy {hierarchy})");
+    // Receivers in reverse order.
+    let rev = run(&ctx, &proxy, &mut lights, &mut cl, true);
+    assert!(first == rev, "receiver order changes the values (hierarchy {hierarchy})");
+    // Fresh context and buffers.
+    let ctx2 = LightContext::new(4, ExpMethod::default()).unwrap();
+    let fresh = run(&ctx2, &proxy, &mut SphereLights::new(), &mut IndirectCluster::new(), false);
+    assert!(first == fresh, "fresh objects differ (hierarchy {hierarchy})");
+    // Reuse after a larger and after a smaller proxy (other sphere and sample counts, other cuts).
+    for groups in [12, 3] {
+        let other = proxy_n(groups, !hierarchy);
+        let mut l2 = SphereLights::new();
+        let mut c2 = IndirectCluster::new();
+        let o = run(&ctx, &other, &mut l2, &mut c2, false);
+        assert!(o.0.len() != first.0.len(), "the other proxy has another size");
+        let reused = run(&ctx, &proxy, &mut l2, &mut c2, false);
+        assert!(first == reused, "reuse after a {groups}-group proxy differs (hierarchy {hierarchy})");
+    }
+    // A cluster built larger (all leaves of a bigger proxy) and then smaller, interleaved in one object.
+    let big = proxy_n(12, hierarchy);
+    let mut lb = SphereLights::new();
+    let mut cb = IndirectCluster::new();
+    run(&ctx, &big, &mut lb, &mut cb, false);
+    let reused = run(&ctx, &proxy, &mut lights, &mut cb, false);
+    assert!(first == reused, "cluster reuse after a larger build differs (hierarchy {hierarchy})");
+}
+
+#[test]
+fn same_inputs_same_bits_without_hierarchy() {
+    check(false);
+}
+
+#[test]
+fn same_inputs_same_bits_with_hierarchy() {
+    check(true);
+}
+
+#[test]
+fn different_inputs_different_bits() {
+    // The comparison above can see a difference: move one sphere by 1e-3 and the values change.
+    let proxy = proxy_n(8, true);
+    let mut file = proxy.file().clone();
+    file.spheres[3].center[0] += 1e-3;
+    let moved = Proxy::from_file(&file).unwrap();
+    let ctx = LightContext::new(4, ExpMethod::default()).unwrap();
+    let a = run(&ctx, &proxy, &mut SphereLights::new(), &mut IndirectCluster::new(), false);
+    let b = run(&ctx, &moved, &mut SphereLights::new(), &mut IndirectCluster::new(), false);
+    assert!(a.1 != b.1, "moving a sphere must change pass 2");
+}
