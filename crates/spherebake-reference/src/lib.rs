@@ -189,7 +189,8 @@ pub struct Receiver {
     /// Unit shading normal (outward for model receivers, +Y on the ground).
     pub normal: [f64; 3],
     /// For model receivers: the triangle (index into `mesh.triangles`) and the barycentric
-    /// weights of its corners; `None` on the ground.
+    /// weights of its corners; `None` for free receivers (the ground, or any point whose normal
+    /// stands for its surface: directions below the plane of `normal` contribute 0).
     pub surface: Option<(usize, [f64; 3])>,
 }
 
@@ -499,7 +500,9 @@ impl<'a> Scene<'a> {
         for (k, r) in receivers.iter().enumerate() {
             let n = DVec3::from(r.normal).try_normalize().unwrap_or(DVec3::Y);
             let g = match r.surface {
-                None => DVec3::Y,
+                // A free receiver (the ground, or any point with a normal): its own plane is the
+                // one its normal spans.
+                None => n,
                 Some((t, _)) if t >= tc => {
                     return Err(ReferenceError::ReceiverTriangle { receiver: k, triangle: t, triangle_count: tc })
                 }

@@ -119,6 +119,9 @@ type Values<T> = Vec<(usize, T)>;
 pub struct LightResult {
     pub ground: Vec<Receiver>,
     pub model: Vec<Receiver>,
+    /// Pass 1's exit radiance per unit albedo of every sample, and the reference's E_d/π there.
+    pub sample_proxy: Vec<f64>,
+    pub sample_reference: Vec<f64>,
     pub ground_direct_proxy: Vec<f64>,
     pub ground_direct_reference: Vec<f64>,
     pub ground_proxy: Vec<[f64; 3]>,
@@ -187,6 +190,7 @@ pub fn run(a: LightArgs) -> Result<ExitCode> {
     let direct = scalar_stats(&r.ground_direct_proxy, &r.ground_direct_reference);
     let ground = rgb_stats(&r.ground_proxy, &r.ground_reference);
     let model = rgb_stats(&r.model_proxy, &r.model_reference);
+    let samples = scalar_stats(&r.sample_proxy, &r.sample_reference);
     let rays = strata(a.rays).pow(2);
     if a.json {
         let st = |s: &Stats| {
@@ -225,6 +229,13 @@ pub fn run(a: LightArgs) -> Result<ExitCode> {
                 "mean_reference": finite(direct.mean_reference_rgb[0]),
             },
             "indirect": { "ground": st(&ground), "model": st(&model) },
+            "pass1_samples": {
+                "samples": r.sample_proxy.len(),
+                "rel_rmse": finite(samples.rel_rmse),
+                "bias": finite(samples.bias),
+                "mean_proxy": finite(samples.mean_proxy_rgb[0]),
+                "mean_reference": finite(samples.mean_reference_rgb[0]),
+            },
             "timings": {
                 "pass1_seconds": r.pass1_seconds,
                 "pass2_seconds": r.pass2_seconds,
@@ -259,6 +270,12 @@ pub fn run(a: LightArgs) -> Result<ExitCode> {
         println!("      mean proxy         {}", rgb(s.mean_proxy_rgb));
         println!("      mean reference     {}", rgb(s.mean_reference_rgb));
     }
+    println!(
+        "  pass 1, {} samples    exit radiance per unit albedo vs reference E_d/π: rel RMSE {:.4}  bias {:+.4}",
+        r.sample_proxy.len(),
+        samples.rel_rmse,
+        samples.bias
+    );
     println!(
         "  time pass 1 / pass 2 / direct / reference   {:.4} s / {:.3} s / {:.3} s / {:.2} s",
         r.pass1_seconds, r.pass2_seconds, r.direct_seconds, r.reference_seconds
@@ -474,6 +491,33 @@ pub fn compute(a: &LightArgs, proxy: &Proxy, mesh: &spherebake_geom::Mesh) -> Re
     light_spheres(&ctx, &posed, &env[..nc], &[], &Pass1Settings::default(), &mut lights)?;
     let pass1_seconds = start.elapsed().as_secs_f64();
 
+    // Pass 1 against the reference: each sample's exit radiance per unit albedo L_pj against
+    // E_d(p_j)/π traced at the sample (moved as pass 1 moves it: rigidly with its sphere).
+    let start = Instant::now();
+    let mut sample_receivers = Vec::new();
+    let rest = proxy.spheres();
+    for (i, s) in leaves.iter().enumerate() {
+        let rot =
+            posed.rotations.and_then(|r| r.get(i)).copied().unwrap_or(spherebake_runtime::light::IDENTITY_ROTATION);
+        let c0 = rest.get(i).map_or(s.center, |r| r.center);
+        for sp in proxy.samples_of(i) {
+            let rel = [sp.position[0] - c0[0], sp.position[1] - c0[1], sp.position[2] - c0[2]];
+            let p = mat3(&rot, rel);
+            let n = mat3(&rot, sp.normal);
+            let len = (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt().max(1e-30);
+            sample_receivers.push(Receiver {
+                position: [0, 1, 2].map(|k| f64::from(p[k] + s.center[k])),
+                normal: n.map(|v| f64::from(v / len)),
+                surface: None,
+            });
+        }
+    }
+    let sample_settings = ReferenceSettings { rays: a.rays.min(256), shadow_rays: 1, seed: a.seed ^ 0x5341_4D50 };
+    let sample_reference: Vec<f64> =
+        scene.direct(&sky, &sample_receivers, &sample_settings)?.into_iter().map(|e| e / PI).collect();
+    let sample_proxy: Vec<f64> = lights.sample_radiance().iter().map(|&v| f64::from(v)).collect();
+    let reference_seconds = reference_seconds + start.elapsed().as_secs_f64();
+
     // Pass 2.
     let start = Instant::now();
     let sources: [LightSource<'_, '_>; 1] = [(posed, &lights)];
@@ -582,6 +626,8 @@ pub fn compute(a: &LightArgs, proxy: &Proxy, mesh: &spherebake_geom::Mesh) -> Re
     Ok(LightResult {
         ground,
         model,
+        sample_proxy,
+        sample_reference,
         ground_direct_proxy,
         ground_direct_reference,
         ground_proxy,
@@ -596,6 +642,15 @@ pub fn compute(a: &LightArgs, proxy: &Proxy, mesh: &spherebake_geom::Mesh) -> Re
         model_clusters: groups.len(),
         pose: pose.map(|(_, n, t)| (n, t)),
     })
+}
+
+/// Column-major 3×3 times a vector.
+fn mat3(m: &[f32; 9], v: [f32; 3]) -> [f32; 3] {
+    [
+        m[0] * v[0] + m[3] * v[1] + m[6] * v[2],
+        m[1] * v[0] + m[4] * v[1] + m[7] * v[2],
+        m[2] * v[0] + m[5] * v[1] + m[8] * v[2],
+    ]
 }
 
 fn f32x3(v: [f64; 3]) -> [f32; 3] {
