@@ -285,25 +285,53 @@ fn run_job(job: &Job, a: &BakeArgs, bar: &ProgressBar) -> AssetResult {
         error: None,
         report: None,
     };
+    // Refused before the (long) bake; checked again against every file the model references.
+    let early = std::slice::from_ref(&job.input);
+    let refused = crate::atomic::refuse_input_as_output(&job.output, early)
+        .and_then(|_| crate::atomic::refuse_input_as_output(&depfile_path(&job.output), early));
+    if let Err(e) = refused {
+        let msg = format!("{e:#}");
+        eprintln!("spherebake: error: {msg}");
+        r.error = Some(msg);
+        return r;
+    }
     if !a.force && spherebake_bake::is_up_to_date(&job.output, &job.input, &job.settings) {
-        r.status = "up-to-date";
+        let mut kept = Ok(());
         if a.depfile && !depfile_path(&job.output).exists() {
-            // Keep the depfile promise even when nothing is baked.
-            if let Ok(bytes) = std::fs::read(&job.output) {
-                if let Some(inputs) = spherebake_bake::recorded_inputs(&bytes, &job.input) {
-                    let _ = write_depfile(&job.output, &inputs);
-                }
-            }
+            // Keep the depfile promise even when nothing is baked; a failure fails the asset.
+            kept = std::fs::read(&job.output)
+                .ok()
+                .and_then(|bytes| spherebake_bake::recorded_inputs(&bytes, &job.input))
+                .map_or(Ok(()), |inputs| {
+                    let text = depfile_text(&job.output, &inputs);
+                    let path = depfile_path(&job.output);
+                    crate::atomic::write_atomic(&path, text.as_bytes(), &inputs)
+                        .with_context(|| format!("{}: writing depfile", path.display()))
+                });
         }
         r.seconds = t0.elapsed().as_secs_f64();
+        match kept {
+            Ok(()) => r.status = "up-to-date",
+            Err(e) => {
+                let msg = format!("{e:#}");
+                eprintln!("spherebake: error: {msg}");
+                r.error = Some(msg);
+            }
+        }
         return r;
     }
     let progress = |f: f32| bar.set_position((f.clamp(0.0, 1.0) * 1000.0) as u64);
     let outcome: Result<BakeOutput> = (|| {
         let out = spherebake_bake::bake_path(&job.input, &job.settings, &progress)?;
-        crate::atomic::write_atomic(&job.output, &out.bytes)?;
+        let inputs = &out.report.inputs;
         if a.depfile {
-            write_depfile(&job.output, &out.report.inputs)?;
+            // The output and its depfile succeed or fail together: a depfile that cannot be
+            // written leaves no new output behind (else the next run would call it up to date).
+            let text = depfile_text(&job.output, inputs);
+            let dep = depfile_path(&job.output);
+            crate::atomic::write_together(&[(&job.output, &out.bytes), (&dep, text.as_bytes())], inputs)?;
+        } else {
+            crate::atomic::write_atomic(&job.output, &out.bytes, inputs)?;
         }
         Ok(out)
     })();
@@ -348,15 +376,14 @@ fn make_escape(p: &Path) -> String {
     s
 }
 
-fn write_depfile(output: &Path, inputs: &[PathBuf]) -> Result<()> {
+fn depfile_text(output: &Path, inputs: &[PathBuf]) -> String {
     let mut text = format!("{}:", make_escape(output));
     for i in inputs {
         text.push_str(" \\\n  ");
         text.push_str(&make_escape(i));
     }
     text.push('\n');
-    let path = depfile_path(output);
-    crate::atomic::write_atomic(&path, text.as_bytes()).with_context(|| format!("{}: writing depfile", path.display()))
+    text
 }
 
 fn print_summary(results: &[AssetResult], verbose: bool) {

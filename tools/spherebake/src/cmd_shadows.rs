@@ -163,7 +163,9 @@ pub fn run(a: ShadowsArgs) -> Result<ExitCode> {
     let r = compute(&a, &proxy, &mesh.positions, &mesh.triangles)
         .with_context(|| format!("{}: shadows against {}", a.file.display(), a.model.display()))?;
     if let Some(out) = &a.output {
-        write_png(out, a.resolution, &r.truth, &r.proxy)?;
+        let mut read = imported.inputs.clone();
+        read.push(a.file.clone());
+        write_png(out, a.resolution, &r.truth, &r.proxy, &read)?;
     }
     let hierarchy = r.hierarchy;
     let light = match a.light {
@@ -419,7 +421,7 @@ fn srgb8(v: f64) -> u8 {
 /// Truth | proxy | difference, each `res`² pixels (row = z, column = x), 4 px gaps. Truth and
 /// proxy are scaled by the largest truth value (linear → sRGB grey); the difference is red where
 /// the proxy is brighter, blue where darker, at 4× that scale.
-fn write_png(path: &std::path::Path, res: usize, truth: &[f64], proxy: &[f64]) -> Result<()> {
+fn write_png(path: &std::path::Path, res: usize, truth: &[f64], proxy: &[f64], read: &[PathBuf]) -> Result<()> {
     let gap = 4;
     let w = 3 * res + 2 * gap;
     let mut img = image::RgbImage::from_pixel(w as u32, res as u32, image::Rgb([255, 255, 255]));
@@ -441,6 +443,6 @@ fn write_png(path: &std::path::Path, res: usize, truth: &[f64], proxy: &[f64]) -
     let mut bytes = Vec::new();
     img.write_to(&mut std::io::Cursor::new(&mut bytes), image::ImageFormat::Png)
         .with_context(|| format!("{}: encoding PNG", path.display()))?;
-    crate::atomic::write_atomic(path, &bytes)?;
+    crate::atomic::write_atomic(path, &bytes, read)?;
     Ok(())
 }

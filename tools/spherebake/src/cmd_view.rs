@@ -21,7 +21,7 @@ pub struct RenderArgs {
     /// The model it was baked from, drawn under the spheres
     #[arg(long)]
     pub model: PathBuf,
-    /// Output PNG: front, side and top views side by side
+    /// Output image (.png, or .jpg / .jpeg for JPEG): front, side and top views side by side
     #[arg(short, long, value_name = "VIEW.png")]
     pub output: PathBuf,
     /// Image size in pixels, WIDTHxHEIGHT [default: 1200x400]
@@ -47,7 +47,7 @@ pub fn read_sphb(path: &Path) -> Result<spherebake_runtime::Proxy> {
 pub fn run_export(a: ExportArgs) -> Result<ExitCode> {
     let proxy = read_sphb(&a.file)?;
     let (bytes, summary) = spherebake_bake::export::export_glb(proxy.file());
-    crate::atomic::write_atomic(&a.output, &bytes)?;
+    crate::atomic::write_atomic(&a.output, &bytes, std::slice::from_ref(&a.file))?;
     println!(
         "exported {} -> {} ({} levels, {} sample markers, {} nodes)",
         a.file.display(),
@@ -59,7 +59,24 @@ pub fn run_export(a: ExportArgs) -> Result<ExitCode> {
     Ok(ExitCode::SUCCESS)
 }
 
+#[derive(Clone, Copy, Debug)]
+enum ImageFormat {
+    Png,
+    Jpeg,
+}
+
+/// The image format by the output's extension: `.png` (or none, e.g. `/dev/stdout`) is PNG,
+/// `.jpg` / `.jpeg` JPEG; anything else is refused rather than written as mislabelled PNG.
+fn image_format(path: &Path) -> Result<ImageFormat> {
+    match path.extension().map(|e| e.to_string_lossy().to_ascii_lowercase()).as_deref() {
+        None | Some("png") => Ok(ImageFormat::Png),
+        Some("jpg" | "jpeg") => Ok(ImageFormat::Jpeg),
+        Some(e) => bail!("{}: unsupported image type .{e} (use .png, .jpg or .jpeg)", path.display()),
+    }
+}
+
 pub fn run_render(a: RenderArgs) -> Result<ExitCode> {
+    let format = image_format(&a.output)?;
     let proxy = read_sphb(&a.file)?;
     let imported = spherebake_io::load_mesh(&a.model)?;
     let m = &imported.mesh;
@@ -67,13 +84,24 @@ pub fn run_render(a: RenderArgs) -> Result<ExitCode> {
         proxy.spheres().iter().map(|s| [s.center[0], s.center[1], s.center[2], s.radius]).collect();
     let img = spherebake_bake::render::render_views(&m.positions, &m.triangles, &spheres, a.size.0, a.size.1);
     let mut png = Vec::new();
-    let enc = image::codecs::png::PngEncoder::new(&mut png);
-    image::ImageEncoder::write_image(enc, &img.rgb, img.width, img.height, image::ExtendedColorType::Rgb8)
-        .with_context(|| format!("{}: encoding PNG", a.output.display()))?;
+    let color = image::ExtendedColorType::Rgb8;
+    let encoded = match format {
+        ImageFormat::Png => {
+            let enc = image::codecs::png::PngEncoder::new(&mut png);
+            image::ImageEncoder::write_image(enc, &img.rgb, img.width, img.height, color)
+        }
+        ImageFormat::Jpeg => {
+            let enc = image::codecs::jpeg::JpegEncoder::new_with_quality(&mut png, 92);
+            image::ImageEncoder::write_image(enc, &img.rgb, img.width, img.height, color)
+        }
+    };
+    encoded.with_context(|| format!("{}: encoding {format:?}", a.output.display()))?;
     if png.is_empty() {
-        bail!("{}: empty PNG", a.output.display());
+        bail!("{}: empty image", a.output.display());
     }
-    crate::atomic::write_atomic(&a.output, &png)?;
+    let mut read = imported.inputs.clone();
+    read.push(a.file.clone());
+    crate::atomic::write_atomic(&a.output, &png, &read)?;
     println!(
         "rendered {} over {} -> {} ({}x{})",
         a.file.display(),

@@ -13,6 +13,7 @@ mod cmd_shadows;
 mod cmd_view;
 mod config;
 mod json;
+mod output;
 
 use clap::{Parser, Subcommand};
 use std::process::ExitCode;
@@ -47,6 +48,8 @@ enum Command {
 }
 
 fn main() -> ExitCode {
+    atomic::init();
+    output::install();
     let cli = match Cli::try_parse() {
         Ok(c) => c,
         Err(e) => {
@@ -67,7 +70,7 @@ fn main() -> ExitCode {
         Command::Light(a) => cmd_light::run(a),
     };
     match result {
-        Ok(code) => code,
+        Ok(code) => output::flush(code),
         Err(e) => {
             if is_broken_pipe(&e) {
                 return ExitCode::SUCCESS;

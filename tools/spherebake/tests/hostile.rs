@@ -1,0 +1,364 @@
+//! Hostile-user tests (issue 17): the tool runs unattended over assets from outside, so it must
+//! never destroy or half-write a file, never hang, never read outside the asset and fail with one
+//! line naming the file. Every input is generated here in a fresh temp directory.
+
+use std::path::Path;
+use std::process::{Command, Output, Stdio};
+
+fn bin() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_spherebake"))
+}
+
+fn run(args: &[&str], dir: &Path) -> Output {
+    bin().args(args).current_dir(dir).output().expect("run spherebake")
+}
+
+fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+/// Exit 1 and exactly one line `spherebake: error: ...` that names `named` and says `what`.
+fn assert_one_line_error(o: &Output, named: &str, what: &str) {
+    let err = stderr(o);
+    assert_eq!(o.status.code(), Some(1), "expected exit 1, stderr: {err}");
+    assert!(err.starts_with("spherebake: error: "), "{err}");
+    assert_eq!(err.trim_end().lines().count(), 1, "one line expected: {err}");
+    assert!(err.contains(named), "stderr must name {named}: {err}");
+    assert!(err.to_lowercase().contains(what), "stderr must say {what:?}: {err}");
+}
+
+/// Names in `dir` that are temp files of the writer.
+fn temps(dir: &Path) -> Vec<String> {
+    std::fs::read_dir(dir)
+        .unwrap()
+        .filter_map(|e| e.ok())
+        .map(|e| e.file_name().to_string_lossy().into_owned())
+        .filter(|n| n.ends_with(".tmp"))
+        .collect()
+}
+
+/// A closed unit cube as OBJ text (12 triangles, outward winding).
+const CUBE_OBJ: &str = "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv 0 0 1\nv 1 0 1\nv 1 1 1\nv 0 1 1\n\
+f 1 4 3\nf 1 3 2\nf 5 6 7\nf 5 7 8\nf 1 2 6\nf 1 6 5\nf 4 8 7\nf 4 7 3\nf 1 5 8\nf 1 8 4\nf 2 3 7\nf 2 7 6\n";
+
+const CUBE_TRIS: [[u16; 3]; 12] = [
+    [0, 3, 2],
+    [0, 2, 1],
+    [4, 5, 6],
+    [4, 6, 7],
+    [0, 1, 5],
+    [0, 5, 4],
+    [3, 7, 6],
+    [3, 6, 2],
+    [0, 4, 7],
+    [0, 7, 3],
+    [1, 2, 6],
+    [1, 6, 5],
+];
+
+/// Writes `cube.gltf` + `cube.bin` + `tex.png` (a textured cube with an external buffer and
+/// image, the shape of Duck/Duck0.bin) into `dir`.
+fn write_textured_gltf(dir: &Path) {
+    let mut bin = Vec::new();
+    for i in 0..8u32 {
+        for c in [i & 1, (i >> 1) & 1, (i >> 2) & 1] {
+            bin.extend_from_slice(&(c as f32).to_le_bytes());
+        }
+    }
+    for i in 0..8u32 {
+        for c in [(i & 1) as f32, ((i >> 1) & 1) as f32] {
+            bin.extend_from_slice(&c.to_le_bytes());
+        }
+    }
+    // Cube corners are numbered by bits here (x = bit 0, y = bit 1, z = bit 2); map the OBJ order.
+    let obj_to_bits = [0u16, 1, 3, 2, 4, 5, 7, 6];
+    for t in CUBE_TRIS {
+        for v in t {
+            bin.extend_from_slice(&obj_to_bits[v as usize].to_le_bytes());
+        }
+    }
+    std::fs::write(dir.join("cube.bin"), &bin).unwrap();
+    let json = format!(
+        r#"{{"asset":{{"version":"2.0"}},"scene":0,"scenes":[{{"nodes":[0]}}],"nodes":[{{"mesh":0}}],
+  "meshes":[{{"primitives":[{{"attributes":{{"POSITION":0,"TEXCOORD_0":1}},"indices":2,"material":0}}]}}],
+  "materials":[{{"pbrMetallicRoughness":{{"baseColorTexture":{{"index":0}}}}}}],
+  "textures":[{{"source":0}}],"images":[{{"uri":"tex.png"}}],
+  "buffers":[{{"uri":"cube.bin","byteLength":{}}}],
+  "bufferViews":[{{"buffer":0,"byteOffset":0,"byteLength":96}},{{"buffer":0,"byteOffset":96,"byteLength":64}},
+                 {{"buffer":0,"byteOffset":160,"byteLength":72}}],
+  "accessors":[{{"bufferView":0,"componentType":5126,"count":8,"type":"VEC3","min":[0,0,0],"max":[1,1,1]}},
+               {{"bufferView":1,"componentType":5126,"count":8,"type":"VEC2"}},
+               {{"bufferView":2,"componentType":5123,"count":36,"type":"SCALAR"}}]}}"#,
+        bin.len()
+    );
+    std::fs::write(dir.join("cube.gltf"), json).unwrap();
+    let img = image::RgbImage::from_fn(4, 4, |x, y| image::Rgb([(x * 60) as u8, (y * 60) as u8, 128]));
+    img.save(dir.join("tex.png")).unwrap();
+}
+
+fn tempdir() -> tempfile::TempDir {
+    tempfile::tempdir().unwrap()
+}
+
+/// Bakes the cube OBJ into `dir/cube.sphb` with few spheres (fast).
+fn bake_cube(dir: &Path) {
+    std::fs::write(dir.join("cube.obj"), CUBE_OBJ).unwrap();
+    let o = run(&["bake", "cube.obj", "-o", "cube.sphb", "--spheres", "8", "--method", "kmeans"], dir);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+}
+
+// ---- 1. Never destroy or half-write a file ----------------------------------------------------
+
+#[test]
+fn bake_refuses_to_write_over_its_own_input() {
+    let d = tempdir();
+    std::fs::write(d.path().join("in.obj"), CUBE_OBJ).unwrap();
+    for out in ["in.obj", "./in.obj", "../{dir}/in.obj"] {
+        let name = d.path().file_name().unwrap().to_string_lossy().into_owned();
+        let out = out.replace("{dir}", &name);
+        let o = run(&["bake", "in.obj", "-o", &out, "--spheres", "4", "--method", "kmeans"], d.path());
+        assert_one_line_error(&o, &out, "refusing");
+        assert_eq!(std::fs::read_to_string(d.path().join("in.obj")).unwrap(), CUBE_OBJ, "input changed");
+        assert!(temps(d.path()).is_empty());
+    }
+    // A hard link and a symlink to the input are the same file.
+    std::fs::hard_link(d.path().join("in.obj"), d.path().join("hard.sphb")).unwrap();
+    std::os::unix::fs::symlink("in.obj", d.path().join("soft.sphb")).unwrap();
+    for out in ["hard.sphb", "soft.sphb"] {
+        let o = run(&["bake", "in.obj", "-o", out, "--spheres", "4", "--method", "kmeans"], d.path());
+        assert_one_line_error(&o, out, "refusing");
+        assert_eq!(std::fs::read_to_string(d.path().join("in.obj")).unwrap(), CUBE_OBJ, "input changed");
+    }
+}
+
+#[test]
+fn bake_refuses_to_write_over_a_buffer_or_texture_the_model_uses() {
+    let d = tempdir();
+    write_textured_gltf(d.path());
+    let bin = std::fs::read(d.path().join("cube.bin")).unwrap();
+    let png = std::fs::read(d.path().join("tex.png")).unwrap();
+    // The model bakes (so it reads both files).
+    let o = run(&["bake", "cube.gltf", "-o", "ok.sphb", "--spheres", "4", "--method", "kmeans"], d.path());
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    for out in ["cube.bin", "tex.png"] {
+        let o = run(&["bake", "cube.gltf", "-o", out, "--spheres", "4", "--method", "kmeans"], d.path());
+        assert_one_line_error(&o, out, "refusing");
+        assert!(stderr(&o).contains("reads"), "{}", stderr(&o));
+    }
+    assert_eq!(std::fs::read(d.path().join("cube.bin")).unwrap(), bin);
+    assert_eq!(std::fs::read(d.path().join("tex.png")).unwrap(), png);
+    assert!(temps(d.path()).is_empty());
+}
+
+#[test]
+fn export_and_render_refuse_to_write_over_their_inputs() {
+    let d = tempdir();
+    bake_cube(d.path());
+    let before = std::fs::read(d.path().join("cube.sphb")).unwrap();
+    let o = run(&["export", "cube.sphb", "-o", "cube.sphb"], d.path());
+    assert_one_line_error(&o, "cube.sphb", "refusing");
+    let o = run(&["render", "cube.sphb", "--model", "cube.obj", "-o", "cube.obj", "--size", "30x10"], d.path());
+    assert_one_line_error(&o, "cube.obj", "unsupported image type");
+    std::os::unix::fs::symlink("cube.sphb", d.path().join("view.png")).unwrap();
+    let o = run(&["render", "cube.sphb", "--model", "cube.obj", "-o", "view.png", "--size", "30x10"], d.path());
+    assert_one_line_error(&o, "view.png", "refusing");
+    assert_eq!(std::fs::read(d.path().join("cube.sphb")).unwrap(), before);
+    assert_eq!(std::fs::read_to_string(d.path().join("cube.obj")).unwrap(), CUBE_OBJ);
+}
+
+#[test]
+fn dev_null_stays_a_device_and_a_symlink_is_written_through() {
+    use std::os::unix::fs::FileTypeExt;
+    let d = tempdir();
+    std::fs::write(d.path().join("cube.obj"), CUBE_OBJ).unwrap();
+    let o = run(&["bake", "cube.obj", "-o", "/dev/null", "--spheres", "4", "--method", "kmeans"], d.path());
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    assert!(std::fs::metadata("/dev/null").unwrap().file_type().is_char_device(), "/dev/null was replaced");
+
+    std::fs::create_dir(d.path().join("real")).unwrap();
+    std::fs::write(d.path().join("real/target.sphb"), b"old").unwrap();
+    std::os::unix::fs::symlink("real/target.sphb", d.path().join("link.sphb")).unwrap();
+    let o = run(&["bake", "cube.obj", "-o", "link.sphb", "--spheres", "4", "--method", "kmeans"], d.path());
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let m = std::fs::symlink_metadata(d.path().join("link.sphb")).unwrap();
+    assert!(m.file_type().is_symlink(), "the symlink was replaced");
+    let bytes = std::fs::read(d.path().join("real/target.sphb")).unwrap();
+    assert!(bytes.starts_with(b"SPHB") || bytes.len() > 100, "target not written");
+    assert!(temps(d.path()).is_empty() && temps(&d.path().join("real")).is_empty());
+
+    // A dangling link creates its target.
+    std::os::unix::fs::symlink("real/new.sphb", d.path().join("dangling.sphb")).unwrap();
+    let o = run(&["bake", "cube.obj", "-o", "dangling.sphb", "--spheres", "4", "--method", "kmeans"], d.path());
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    assert!(d.path().join("real/new.sphb").is_file());
+
+    // A directory is refused.
+    std::fs::create_dir(d.path().join("adir.sphb")).unwrap();
+    let o = run(&["bake", "cube.obj", "-o", "adir.sphb", "--spheres", "4", "--method", "kmeans", "--force"], d.path());
+    assert_one_line_error(&o, "adir.sphb", "directory");
+    assert!(temps(d.path()).is_empty());
+}
+
+#[test]
+fn output_mode_honours_the_umask_and_keeps_an_existing_mode() {
+    use std::os::unix::fs::PermissionsExt;
+    let d = tempdir();
+    std::fs::write(d.path().join("cube.obj"), CUBE_OBJ).unwrap();
+    let exe = env!("CARGO_BIN_EXE_spherebake");
+    let sh = |umask: &str, out: &str| {
+        Command::new("sh")
+            .arg("-c")
+            .arg(format!("umask {umask} && exec \"$0\" bake cube.obj -o {out} --spheres 4 --method kmeans --force"))
+            .arg(exe)
+            .current_dir(d.path())
+            .output()
+            .unwrap()
+    };
+    let mode = |n: &str| std::fs::metadata(d.path().join(n)).unwrap().permissions().mode() & 0o777;
+    let o = sh("022", "a.sphb");
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    assert_eq!(mode("a.sphb"), 0o644);
+    let o = sh("077", "b.sphb");
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    assert_eq!(mode("b.sphb"), 0o600);
+    std::fs::set_permissions(d.path().join("a.sphb"), std::fs::Permissions::from_mode(0o640)).unwrap();
+    let o = sh("022", "a.sphb");
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    assert_eq!(mode("a.sphb"), 0o640, "the existing mode must be kept");
+}
+
+#[test]
+fn a_failed_depfile_leaves_no_output_so_the_next_run_rebakes() {
+    let d = tempdir();
+    std::fs::write(d.path().join("cube.obj"), CUBE_OBJ).unwrap();
+    // The depfile path is a directory: it cannot be written.
+    std::fs::create_dir(d.path().join("out.sphb.d")).unwrap();
+    let o = run(&["bake", "cube.obj", "-o", "out.sphb", "--depfile", "--spheres", "4", "--method", "kmeans"], d.path());
+    assert_one_line_error(&o, "out.sphb.d", "directory");
+    assert!(!d.path().join("out.sphb").exists(), "the output must not exist without its depfile");
+    assert!(temps(d.path()).is_empty());
+
+    // Up to date without a depfile, then asked for one that cannot be written (a symlink into a
+    // directory that does not exist): the asset fails.
+    std::fs::remove_dir(d.path().join("out.sphb.d")).unwrap();
+    let o = run(&["bake", "cube.obj", "-o", "out.sphb", "--spheres", "4", "--method", "kmeans"], d.path());
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    std::os::unix::fs::symlink("no-such-dir/out.d", d.path().join("out.sphb.d")).unwrap();
+    let o = run(&["bake", "cube.obj", "-o", "out.sphb", "--depfile", "--spheres", "4", "--method", "kmeans"], d.path());
+    assert_one_line_error(&o, "out.sphb.d", "does not exist");
+    assert!(!d.path().join("no-such-dir").exists());
+
+    // Once the depfile can be written, both exist.
+    std::fs::remove_file(d.path().join("out.sphb.d")).unwrap();
+    let o = run(
+        &["bake", "cube.obj", "-o", "out.sphb", "--depfile", "--spheres", "4", "--method", "kmeans", "--force"],
+        d.path(),
+    );
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let dep = std::fs::read_to_string(d.path().join("out.sphb.d")).unwrap();
+    assert!(dep.starts_with("out.sphb:") && dep.contains("cube.obj"), "{dep}");
+}
+
+#[test]
+fn sigterm_and_sigint_during_the_write_remove_the_temp_file() {
+    for sig in ["TERM", "INT"] {
+        let d = tempdir();
+        std::fs::write(d.path().join("cube.obj"), CUBE_OBJ).unwrap();
+        let mut child = bin()
+            .args(["bake", "cube.obj", "-o", "out.sphb", "--spheres", "4", "--method", "kmeans", "--depfile"])
+            .current_dir(d.path())
+            .env("SPHEREBAKE_TEST_HOLD_TEMP_MS", "20000")
+            .stdout(Stdio::null())
+            .stderr(Stdio::null())
+            .spawn()
+            .unwrap();
+        let t0 = std::time::Instant::now();
+        while temps(d.path()).len() < 2 {
+            assert!(t0.elapsed().as_secs() < 60, "no temp files appeared");
+            std::thread::sleep(std::time::Duration::from_millis(20));
+        }
+        let st = Command::new("kill").arg(format!("-{sig}")).arg(child.id().to_string()).status().unwrap();
+        assert!(st.success());
+        let status = child.wait().unwrap();
+        assert!(!status.success(), "killed by SIG{sig}: {status:?}");
+        assert!(temps(d.path()).is_empty(), "SIG{sig} left {:?}", temps(d.path()));
+        assert!(!d.path().join("out.sphb").exists() && !d.path().join("out.sphb.d").exists());
+    }
+}
+
+#[test]
+fn stale_temp_files_older_than_the_run_are_removed() {
+    let d = tempdir();
+    std::fs::write(d.path().join("cube.obj"), CUBE_OBJ).unwrap();
+    let stale = d.path().join(".spherebake-AbC123.tmp");
+    std::fs::write(&stale, b"left by a killed run").unwrap();
+    let old = std::time::SystemTime::now() - std::time::Duration::from_secs(3600);
+    std::fs::File::options().write(true).open(&stale).unwrap().set_modified(old).unwrap();
+    let other = d.path().join("unrelated.tmp");
+    std::fs::write(&other, b"not ours").unwrap();
+    std::fs::File::options().write(true).open(&other).unwrap().set_modified(old).unwrap();
+    let o = run(&["bake", "cube.obj", "-o", "out.sphb", "--spheres", "4", "--method", "kmeans"], d.path());
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    assert!(!stale.exists(), "stale temp file kept");
+    assert!(other.exists(), "a file that is not ours was removed");
+}
+
+// ---- 2. Broken pipe and full disk, for every command ------------------------------------------
+
+/// Every command that prints, with its arguments, over a baked cube in `dir`.
+fn printing_commands() -> Vec<Vec<&'static str>> {
+    vec![
+        vec!["inspect", "cube.sphb"],
+        vec!["inspect", "cube.sphb", "--json"],
+        vec!["inspect", "cube.obj"],
+        vec!["eval", "cube.sphb", "cube.obj"],
+        vec!["export", "cube.sphb", "-o", "v.glb"],
+        vec!["render", "cube.sphb", "--model", "cube.obj", "-o", "v.png", "--size", "30x10"],
+        vec!["pose", "cube.sphb", "--model", "cube.obj", "--time", "0"],
+        vec!["shadows", "cube.sphb", "--model", "cube.obj", "--resolution", "4", "--rays", "16"],
+        vec!["bake", "cube.obj", "-o", "again.sphb", "--spheres", "4", "--method", "kmeans", "--force"],
+        vec!["bake", "cube.obj", "-o", "again.sphb", "--spheres", "4", "--method", "kmeans", "--force", "--json"],
+        vec!["--help"],
+    ]
+}
+
+#[test]
+fn a_closed_pipe_ends_the_output_quietly() {
+    let d = tempdir();
+    bake_cube(d.path());
+    for args in printing_commands() {
+        let mut child =
+            bin().args(&args).current_dir(d.path()).stdout(Stdio::piped()).stderr(Stdio::piped()).spawn().unwrap();
+        drop(child.stdout.take()); // the reader is gone before anything is written
+        let o = child.wait_with_output().unwrap();
+        assert_eq!(o.status.code(), Some(0), "{args:?}: {}", stderr(&o));
+        assert_eq!(stderr(&o), "", "{args:?}");
+    }
+}
+
+#[test]
+fn a_full_disk_on_stdout_is_a_one_line_io_error() {
+    let d = tempdir();
+    bake_cube(d.path());
+    for args in printing_commands() {
+        if args == ["--help"] {
+            continue; // clap's help: exit 0 by its own rules
+        }
+        let full = std::fs::OpenOptions::new().write(true).open("/dev/full").unwrap();
+        let o = bin().args(&args).current_dir(d.path()).stdout(full).output().unwrap();
+        assert_one_line_error(&o, "stdout", "no space");
+    }
+}
+
+#[test]
+fn render_writes_a_jpeg_for_jpg_and_refuses_unknown_types() {
+    let d = tempdir();
+    bake_cube(d.path());
+    let o = run(&["render", "cube.sphb", "--model", "cube.obj", "-o", "v.jpg", "--size", "30x10"], d.path());
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let bytes = std::fs::read(d.path().join("v.jpg")).unwrap();
+    assert_eq!(&bytes[..3], &[0xFF, 0xD8, 0xFF], "not a JPEG");
+    let o = run(&["render", "cube.sphb", "--model", "cube.obj", "-o", "v.bmp", "--size", "30x10"], d.path());
+    assert_one_line_error(&o, "v.bmp", "unsupported image type");
+    assert!(!d.path().join("v.bmp").exists());
+}
