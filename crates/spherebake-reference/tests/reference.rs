@@ -2,7 +2,7 @@
 //! irradiance under a sphere, the quadrature of `analytic::sphere_one_bounce` for the indirect
 //! irradiance of a diffuse sphere, and bit-identical results for 1 and 2 threads.
 
-use spherebake_reference::analytic::{sphere_one_bounce, uv_sphere_mesh, DiffuseSphere};
+use spherebake_reference::analytic::{sphere_one_bounce, sphere_one_bounce_at, uv_sphere_mesh, DiffuseSphere};
 use spherebake_reference::{Receiver, ReferenceSettings, Scene, Sky};
 use std::f64::consts::PI;
 
@@ -141,6 +141,38 @@ fn indirect_on_the_ground_matches_the_quadrature_of_a_diffuse_sphere() {
             assert!((e.value[0] / e.value[1] - 1.6).abs() < 1e-6, "{:?}", e.value);
         }
     }
+}
+
+#[test]
+fn indirect_at_tilted_free_receivers_matches_the_quadrature() {
+    // Receivers in the air beside the sphere, facing it at several tilts: the plane of each
+    // receiver cuts the sphere's visible cap for some of them (max(0, n·ω) inside the cap).
+    let (r, h) = (1.0, 1.0);
+    let mesh = uv_sphere_mesh([0.0, h, 0.0], r, 64, 128, ALBEDO);
+    let scene = Scene::new(&mesh).unwrap();
+    let sky = Sky::uniform(1.0).unwrap();
+    let tilts: [[f64; 3]; 4] = [[-1.0, 0.0, 0.0], [-0.6, -0.8, 0.0], [-0.6, 0.8, 0.0], [0.0, 0.0, 1.0]];
+    let pts = [[2.2, 1.0, 0.0], [1.6, 2.0, 0.3], [1.8, 0.4, -0.2], [0.2, 0.8, -1.7]];
+    let recv: Vec<Receiver> =
+        pts.iter().zip(&tilts).map(|(p, n)| Receiver { position: *p, normal: *n, surface: None }).collect();
+    let s = ReferenceSettings { rays: 16384, shadow_rays: 4, seed: 4 };
+    let est = scene.indirect_with_error(&sky, &recv, &s).unwrap();
+    let sphere = DiffuseSphere { centre: [0.0, h, 0.0], radius: r, albedo: ALBEDO.map(f64::from) };
+    let exact = sphere_one_bounce_at(&sky, &sphere, 0.0, &pts, &tilts, 96).unwrap();
+    let finer = sphere_one_bounce_at(&sky, &sphere, 0.0, &pts, &tilts, 192).unwrap();
+    for ((e, x), f) in est.iter().zip(&exact).zip(&finer) {
+        assert!(x[0] > 0.0);
+        assert!((x[0] - f[0]).abs() < 1e-4 * f[0], "quadrature not converged: {x:?} {f:?}");
+        for k in 0..3 {
+            let tol = 5.0 * e.std_error[k] + 0.01 * x[k];
+            assert!((e.value[k] - x[k]).abs() < tol, "{:?} vs {x:?} (σ {:?})", e.value, e.std_error);
+        }
+    }
+    // Facing away from the sphere: nothing.
+    let away = [Receiver { position: [2.2, 1.0, 0.0], normal: [1.0, 0.0, 0.0], surface: None }];
+    assert_eq!(scene.indirect(&sky, &away, &s).unwrap()[0], [0.0; 3]);
+    let none = sphere_one_bounce_at(&sky, &sphere, 0.0, &[[2.2, 1.0, 0.0]], &[[1.0, 0.0, 0.0]], 32).unwrap();
+    assert_eq!(none[0], [0.0; 3]);
 }
 
 #[test]
