@@ -119,7 +119,8 @@ type Values<T> = Vec<(usize, T)>;
 pub struct LightResult {
     pub ground: Vec<Receiver>,
     pub model: Vec<Receiver>,
-    /// Pass 1's exit radiance per unit albedo of every sample, and the reference's E_d/π there.
+    /// Pass 1's exit radiance per unit albedo of every sample, and the reference's E_d/π there
+    /// (empty when posed).
     pub sample_proxy: Vec<f64>,
     pub sample_reference: Vec<f64>,
     pub ground_direct_proxy: Vec<f64>,
@@ -270,12 +271,14 @@ pub fn run(a: LightArgs) -> Result<ExitCode> {
         println!("      mean proxy         {}", rgb(s.mean_proxy_rgb));
         println!("      mean reference     {}", rgb(s.mean_reference_rgb));
     }
-    println!(
-        "  pass 1, {} samples    exit radiance per unit albedo vs reference E_d/π: rel RMSE {:.4}  bias {:+.4}",
-        r.sample_proxy.len(),
-        samples.rel_rmse,
-        samples.bias
-    );
+    if !r.sample_proxy.is_empty() {
+        println!(
+            "  pass 1, {} samples    exit radiance per unit albedo vs reference E_d/π: rel RMSE {:.4}  bias {:+.4}",
+            r.sample_proxy.len(),
+            samples.rel_rmse,
+            samples.bias
+        );
+    }
     println!(
         "  time pass 1 / pass 2 / direct / reference   {:.4} s / {:.3} s / {:.3} s / {:.2} s",
         r.pass1_seconds, r.pass2_seconds, r.direct_seconds, r.reference_seconds
@@ -491,12 +494,14 @@ pub fn compute(a: &LightArgs, proxy: &Proxy, mesh: &spherebake_geom::Mesh) -> Re
     light_spheres(&ctx, &posed, &env[..nc], &[], &Pass1Settings::default(), &mut lights)?;
     let pass1_seconds = start.elapsed().as_secs_f64();
 
-    // Pass 1 against the reference: each sample's exit radiance per unit albedo L_pj against
-    // E_d(p_j)/π traced at the sample (moved as pass 1 moves it: rigidly with its sphere).
+    // Pass 1 against the reference (rest pose only: posed, pass 1 moves the samples rigidly with
+    // their spheres, off the skinned surface): each sample's exit radiance per unit albedo L_pj
+    // against E_d(p_j)/π traced at the sample.
     let start = Instant::now();
     let mut sample_receivers = Vec::new();
+    let check_samples = !posed_any;
     let rest = proxy.spheres();
-    for (i, s) in leaves.iter().enumerate() {
+    for (i, s) in leaves.iter().enumerate().filter(|_| check_samples) {
         let rot =
             posed.rotations.and_then(|r| r.get(i)).copied().unwrap_or(spherebake_runtime::light::IDENTITY_ROTATION);
         let c0 = rest.get(i).map_or(s.center, |r| r.center);
@@ -515,7 +520,8 @@ pub fn compute(a: &LightArgs, proxy: &Proxy, mesh: &spherebake_geom::Mesh) -> Re
     let sample_settings = ReferenceSettings { rays: a.rays.min(256), shadow_rays: 1, seed: a.seed ^ 0x5341_4D50 };
     let sample_reference: Vec<f64> =
         scene.direct(&sky, &sample_receivers, &sample_settings)?.into_iter().map(|e| e / PI).collect();
-    let sample_proxy: Vec<f64> = lights.sample_radiance().iter().map(|&v| f64::from(v)).collect();
+    let sample_proxy: Vec<f64> =
+        if check_samples { lights.sample_radiance().iter().map(|&v| f64::from(v)).collect() } else { Vec::new() };
     let reference_seconds = reference_seconds + start.elapsed().as_secs_f64();
 
     // Pass 2.

@@ -199,6 +199,38 @@ fn human_output_and_errors() {
     }
 }
 
+#[test]
+fn posing_moves_both_sides_and_the_soft_rotation_changes_the_proxy() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let arm = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../fixtures/skinned-arm.gltf");
+    let arm = arm.to_str().unwrap();
+    ok(&run(&["bake", arm, "-o", "arm.sphb", "--spheres", "8", "-q"], d));
+    let base =
+        ["light", "arm.sphb", "--model", arm, "--resolution", "8", "--rays", "64", "--model-receivers", "32", "--json"];
+    let go = |extra: &[&str]| {
+        let mut args = base.to_vec();
+        args.extend_from_slice(extra);
+        json_of(&run(&args, d))
+    };
+    let rest = go(&[]);
+    let bent = go(&["--animation", "bend", "--time", "0.5"]);
+    let rigid = go(&["--animation", "bend", "--time", "0.5", "--no-soft-rotation"]);
+    assert_eq!(rest["animation"], Value::Null);
+    assert_eq!(bent["animation"], "bend");
+    assert_eq!(bent["time_s"].as_f64(), Some(0.5));
+    assert_eq!(bent["soft_rotation"], true);
+    assert_eq!(rigid["soft_rotation"], false);
+    let mean = |j: &Value, side: &str| rgb(&j["indirect"]["ground"][side]);
+    // The pose moves the reference; the rotation switch changes the proxy only.
+    assert_ne!(mean(&rest, "mean_reference_rgb"), mean(&bent, "mean_reference_rgb"));
+    assert_eq!(mean(&bent, "mean_reference_rgb"), mean(&rigid, "mean_reference_rgb"));
+    assert_ne!(mean(&bent, "mean_proxy_rgb"), mean(&rigid, "mean_proxy_rgb"));
+    // The pass-1 sample check runs at rest only.
+    assert!(rest["pass1_samples"]["samples"].as_u64().unwrap() > 0);
+    assert_eq!(bent["pass1_samples"]["samples"], 0);
+}
+
 fn shared_model(rel: &str) -> Option<PathBuf> {
     let p = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/models").join(rel);
     if p.exists() {
