@@ -231,6 +231,28 @@ fn posing_moves_both_sides_and_the_soft_rotation_changes_the_proxy() {
     assert_eq!(bent["pass1_samples"]["samples"], 0);
 }
 
+#[test]
+fn results_do_not_depend_on_the_thread_count() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let obj = spheres_obj(&[([-1.0, 0.5, 0.0], 0.5, "red"), ([0.8, 0.6, 0.3], 0.6, "green")], 12, 24);
+    bake(d, &obj, "newmtl red\nKd 0.8 0.1 0.1\nnewmtl green\nKd 0.1 0.8 0.1\n", 4);
+    let mut outs = Vec::new();
+    for threads in ["1", "2"] {
+        let name = format!("v{threads}.json");
+        let o = Command::new(env!("CARGO_BIN_EXE_spherebake"))
+            .args(["light", "m.sphb", "--model", "m.obj", "--resolution", "12", "--rays", "16"])
+            .args(["--model-receivers", "40", "--cluster", "4", "--values-json", &name])
+            .env("RAYON_NUM_THREADS", threads)
+            .current_dir(d)
+            .output()
+            .unwrap();
+        ok(&o);
+        outs.push(std::fs::read(d.join(&name)).unwrap());
+    }
+    assert!(outs[0] == outs[1], "values differ between 1 and 2 threads");
+}
+
 fn shared_model(rel: &str) -> Option<PathBuf> {
     let p = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/models").join(rel);
     if p.exists() {
