@@ -798,6 +798,19 @@ pub fn fit(
         None => run_once(&prep, &pts, settings, settings.spheres, &mut timings),
     };
     progress(0.9);
+    if settings.max_outside_ratio.is_none() || settings.method != Method::Variational {
+        let (asked, got) = (settings.spheres, run.spheres.len());
+        if got < asked {
+            let distinct = distinct_points(&pts.points);
+            warnings.push(if distinct < asked {
+                format!(
+                    "{got} spheres instead of the {asked} asked: the mesh has only {distinct} distinct sample points"
+                )
+            } else {
+                format!("{got} spheres instead of the {asked} asked: more did not lower the outside volume")
+            });
+        }
+    }
     let t = Instant::now();
     let union = union_outside(&prep.solid, &run.spheres) / prep.solid.volume();
     timings.push(("union_estimate", t.elapsed().as_secs_f64()));
@@ -820,6 +833,15 @@ pub fn fit(
     };
     progress(1.0);
     Ok(FitResult { spheres: run.spheres, stats, warnings })
+}
+
+/// Number of distinct points (bit patterns, -0 = 0).
+fn distinct_points(p: &[DVec3]) -> usize {
+    let mut keys: Vec<[u64; 3]> =
+        p.iter().map(|p| [(p.x + 0.0).to_bits(), (p.y + 0.0).to_bits(), (p.z + 0.0).to_bits()]).collect();
+    keys.sort_unstable();
+    keys.dedup();
+    keys.len()
 }
 
 /// Settings of [`evaluate`].
@@ -1027,5 +1049,51 @@ mod tests {
         }
         // All three cases occur (balls fully inside, fully outside, and crossing the surface).
         assert!(inside > 20 && outside > 20 && crossing > 20, "{inside} {outside} {crossing}");
+    }
+}
+
+#[cfg(test)]
+mod few_points_tests {
+    use super::*;
+
+    /// Runs `fit` on a thread and fails (instead of hanging the suite) if it takes over 60 s.
+    fn fit_within_a_minute(pos: Vec<Vec3>, tris: Vec<[u32; 3]>, spheres: usize) -> FitResult {
+        let (tx, rx) = std::sync::mpsc::channel();
+        std::thread::spawn(move || {
+            let s = FitSettings { spheres, ..FitSettings::default() };
+            let _ = tx.send(fit(&pos, &tris, &s, &|_| {}));
+        });
+        rx.recv_timeout(std::time::Duration::from_secs(60)).expect("fit hung").expect("fit failed")
+    }
+
+    #[test]
+    fn three_equal_vertices_give_one_sphere_and_a_warning() {
+        let r = fit_within_a_minute(vec![Vec3::ONE; 3], vec![[0, 1, 2]], 2);
+        assert_eq!(r.spheres.len(), 1);
+        let w = r.warnings.iter().find(|w| w.contains("instead of the 2 asked")).expect("warning");
+        assert!(w.contains("1 distinct"), "{w}");
+        let s = r.spheres[0];
+        assert!((s[0] - 1.0).abs() <= s[3] + 1e-6, "the point is inside the sphere: {s:?}");
+    }
+
+    #[test]
+    fn ten_tiny_far_apart_triangles_at_64_spheres_end() {
+        let mut pos = Vec::new();
+        let mut tris = Vec::new();
+        for i in 0..10u32 {
+            let o = Vec3::new(100.0 * i as f32, 50.0 * (i % 3) as f32, 0.0);
+            pos.extend([o, o + Vec3::new(1e-4, 0.0, 0.0), o + Vec3::new(0.0, 1e-4, 0.0)]);
+            tris.push([3 * i, 3 * i + 1, 3 * i + 2]);
+        }
+        let r = fit_within_a_minute(pos.clone(), tris, 64);
+        assert!(r.spheres.len() < 64 && r.spheres.len() >= 10, "{}", r.spheres.len());
+        assert!(r.warnings.iter().any(|w| w.contains("instead of the 64 asked")), "{:?}", r.warnings);
+        for p in pos {
+            let inside = r.spheres.iter().any(|s| {
+                let d = (p - Vec3::new(s[0], s[1], s[2])).length();
+                d <= s[3]
+            });
+            assert!(inside, "vertex {p} is covered");
+        }
     }
 }

@@ -481,9 +481,25 @@ pub fn run(ctx: &Ctx, k: usize, seed: u64, max_iterations: usize, teleports: usi
     let start = crate::cover::start(&pts[..ctx.pts.surface_count], &pts[ctx.pts.surface_count..], k, ctx.pts.h, seed);
     let mut centres: Vec<DVec3> = start.iter().map(|x| x.0).collect();
     let mut radii0: Vec<f64> = start.iter().map(|x| x.1).collect();
+    // New centres at random points not yet used: a bounded number of random draws, then the
+    // first unused points in order. A point set with fewer distinct points than k (three equal
+    // vertices, tiny far-apart triangles, a node scaled to 0) gives fewer centres instead of
+    // looping forever; the caller reports the shortfall.
+    let key = |p: DVec3| [(p.x + 0.0).to_bits(), (p.y + 0.0).to_bits(), (p.z + 0.0).to_bits()]; // -0 == 0
+    let mut used: std::collections::BTreeSet<[u64; 3]> = centres.iter().map(|c| key(*c)).collect();
+    let mut draws = 0usize;
+    let mut scan = 0usize;
     while centres.len() < k {
-        let i = rng.below(pts.len() as u64) as usize;
-        if !centres.contains(&pts[i]) {
+        let i = if draws < 64 * k {
+            draws += 1;
+            rng.below(pts.len() as u64) as usize
+        } else if scan < pts.len() {
+            scan += 1;
+            scan - 1
+        } else {
+            break;
+        };
+        if used.insert(key(pts[i])) {
             centres.push(pts[i]);
             radii0.push(0.0);
         }

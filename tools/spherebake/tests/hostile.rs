@@ -59,6 +59,11 @@ const CUBE_TRIS: [[u16; 3]; 12] = [
 /// Writes `cube.gltf` + `cube.bin` + `tex.png` (a textured cube with an external buffer and
 /// image, the shape of Duck/Duck0.bin) into `dir`.
 fn write_textured_gltf(dir: &Path) {
+    write_textured_gltf_node(dir, "");
+}
+
+/// Like [`write_textured_gltf`], with `node_extra` (e.g. `,"scale":[0,0,0]`) added to the node.
+fn write_textured_gltf_node(dir: &Path, node_extra: &str) {
     let mut bin = Vec::new();
     for i in 0..8u32 {
         for c in [i & 1, (i >> 1) & 1, (i >> 2) & 1] {
@@ -79,7 +84,7 @@ fn write_textured_gltf(dir: &Path) {
     }
     std::fs::write(dir.join("cube.bin"), &bin).unwrap();
     let json = format!(
-        r#"{{"asset":{{"version":"2.0"}},"scene":0,"scenes":[{{"nodes":[0]}}],"nodes":[{{"mesh":0}}],
+        r#"{{"asset":{{"version":"2.0"}},"scene":0,"scenes":[{{"nodes":[0]}}],"nodes":[{{"mesh":0{node_extra}}}],
   "meshes":[{{"primitives":[{{"attributes":{{"POSITION":0,"TEXCOORD_0":1}},"indices":2,"material":0}}]}}],
   "materials":[{{"pbrMetallicRoughness":{{"baseColorTexture":{{"index":0}}}}}}],
   "textures":[{{"source":0}}],"images":[{{"uri":"tex.png"}}],
@@ -361,4 +366,48 @@ fn render_writes_a_jpeg_for_jpg_and_refuses_unknown_types() {
     let o = run(&["render", "cube.sphb", "--model", "cube.obj", "-o", "v.bmp", "--size", "30x10"], d.path());
     assert_one_line_error(&o, "v.bmp", "unsupported image type");
     assert!(!d.path().join("v.bmp").exists());
+}
+
+// ---- 4. Never hang ------------------------------------------------------------------------------
+
+/// Runs spherebake and kills it after `secs` (a hang fails the test instead of the suite).
+fn run_within(args: &[&str], dir: &Path, secs: u64) -> Output {
+    let mut child =
+        bin().args(args).current_dir(dir).stdout(Stdio::piped()).stderr(Stdio::piped()).spawn().expect("spawn");
+    let t0 = std::time::Instant::now();
+    while child.try_wait().unwrap().is_none() {
+        if t0.elapsed().as_secs() > secs {
+            let _ = child.kill();
+            let _ = child.wait();
+            panic!("{args:?} did not finish in {secs} s");
+        }
+        std::thread::sleep(std::time::Duration::from_millis(50));
+    }
+    child.wait_with_output().unwrap()
+}
+
+#[test]
+fn fewer_distinct_points_than_spheres_end_with_a_warning() {
+    let d = tempdir();
+    std::fs::write(d.path().join("eq.obj"), "v 0 0 0\nv 0 0 0\nv 0 0 0\nf 1 2 3\n").unwrap();
+    let mut tiny = String::new();
+    for i in 0..10 {
+        let (x, y) = (100.0 * i as f64, 50.0 * (i % 3) as f64);
+        tiny += &format!("v {x} {y} 0\nv {} {y} 0\nv {x} {} 0\n", x + 1e-4, y + 1e-4);
+    }
+    for i in 0..10 {
+        tiny += &format!("f {} {} {}\n", 3 * i + 1, 3 * i + 2, 3 * i + 3);
+    }
+    std::fs::write(d.path().join("tiny.obj"), tiny).unwrap();
+    write_textured_gltf_node(d.path(), r#","scale":[0,0,0]"#);
+    for (input, extra) in [("eq.obj", vec!["--spheres", "2"]), ("tiny.obj", vec![]), ("cube.gltf", vec![])] {
+        let mut args = vec!["bake", input, "-o", "out.sphb", "--force"];
+        args.extend(extra);
+        let o = run_within(&args, d.path(), 120);
+        assert_eq!(o.status.code(), Some(0), "{input}: {}", stderr(&o));
+        let out = String::from_utf8_lossy(&o.stdout);
+        assert!(out.contains("instead of the") && out.contains("distinct sample points"), "{input}: {out}");
+        let bytes = std::fs::read(d.path().join("out.sphb")).unwrap();
+        assert!(bytes.len() > 64, "{input}: a valid file is written");
+    }
 }
