@@ -134,7 +134,10 @@ fn irradiance(sc: &Scene, s: Sphere, b: Sphere) -> [f64; 3] {
     let sources = [(posed, &sc.lights)];
     let x = [0.0f32; 3];
     let n = [0.0f32, 1.0, 0.0];
-    let spec = ClusterSpec { theta_max_rad: 0.0, ..ClusterSpec::new(x, 0.0, Some(n)) };
+    // θmax = 0: both leaves are lights. No cluster normal: nothing is applied at the cluster centre (no reflection
+    // ratios — there are no nodes — and no other correction), so what is measured is eq. 23–24 alone.
+    let mut spec = ClusterSpec::new(x, 0.0, None);
+    spec.theta_max_rad = 0.0;
     let mut cl = IndirectCluster::new();
     cl.build(&sc.ctx, &sources, &spec).unwrap();
     assert_eq!(cl.light_count(), 2);
