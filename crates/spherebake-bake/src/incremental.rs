@@ -34,7 +34,8 @@ pub fn inputs_value(model: &Path, inputs: &[PathBuf]) -> String {
 /// `true` when `output` exists, is a valid file written by this tool version with these
 /// settings, and the files it records hash to the recorded input hash.
 pub fn is_up_to_date(output: &Path, model: &Path, settings: &BakeSettings) -> bool {
-    let Ok(bytes) = std::fs::read(output) else { return false };
+    let max = spherebake_io::default_options().max_input_bytes;
+    let Some(bytes) = spherebake_io::read_input_file(output, max) else { return false };
     let Ok(file) = spherebake_format::read(&bytes) else { return false };
     let Some(meta) = file.metadata else { return false };
     if meta.tool_version != crate::TOOL_VERSION || meta.settings != settings.to_json() {
@@ -46,9 +47,10 @@ pub fn is_up_to_date(output: &Path, model: &Path, settings: &BakeSettings) -> bo
     }
     let mut h = Fnv1a64::new();
     for p in &inputs {
-        match std::fs::read(p) {
-            Ok(b) => h.write(&b),
-            Err(_) => return false,
+        // Regular files within the input budget only: the paths come from the output file.
+        match spherebake_io::read_input_file(p, max) {
+            Some(b) => h.write(&b),
+            None => return false,
         }
     }
     format!("{:016x}", h.finish()) == meta.input_hash

@@ -17,6 +17,16 @@ pub enum IoError {
         #[source]
         source: std::io::Error,
     },
+    /// A referenced file (glTF buffer / image `uri`, OBJ `mtllib` / `map_Kd`) resolves outside
+    /// the model's folder tree and [`crate::ImportOptions::allow_outside_paths`] is off.
+    #[error("{}: {uri:?} is outside the model's folder; refused (--allow-outside-paths allows it)", path.display())]
+    OutsideAsset { path: PathBuf, uri: String },
+    /// A referenced file (or the model) is not a regular file (a device, FIFO, directory).
+    #[error("{}: {}not a regular file; refused", path.display(), uri.as_ref().map(|u| format!("{u:?} is ")).unwrap_or_default())]
+    NotRegularFile { path: PathBuf, uri: Option<String> },
+    /// Reading `what` would exceed a size limit (`budget`: the input budget of the whole model).
+    #[error("{}: {}exceeds {}{limit} bytes{}", path.display(), what.as_ref().map(|u| format!("{u:?} ")).unwrap_or_default(), if *budget { "the input budget of " } else { "the limit of " }, if *budget { " (--max-input-mb raises it)" } else { "" })]
+    TooLarge { path: PathBuf, what: Option<String>, limit: u64, budget: bool },
     /// The file name extension is not one the importer handles.
     #[error("{}: unknown file type {extension:?} (expected .gltf, .glb or .obj)", path.display())]
     UnknownFileType { path: PathBuf, extension: String },
@@ -87,4 +97,15 @@ pub enum IoError {
     /// The file imports but holds no triangles.
     #[error("{}: no triangles to import", path.display())]
     EmptyMesh { path: PathBuf },
+}
+
+impl IoError {
+    /// A file the model references was refused (outside the folder tree, not a regular file,
+    /// over the input budget): always an error, never downgraded to a warning.
+    pub fn is_refusal(&self) -> bool {
+        matches!(
+            self,
+            IoError::OutsideAsset { .. } | IoError::NotRegularFile { .. } | IoError::TooLarge { budget: true, .. }
+        )
+    }
 }

@@ -18,7 +18,7 @@ use spherebake_geom::{
 
 use crate::gltf_ext;
 use crate::texture::decode_srgb_texture;
-use crate::{Ctx, ImportedPart, IoError};
+use crate::{Ctx, ImportedPart, IoError, ReadLimit, MAX_IMAGE_BYTES};
 
 /// Most vertices one import may produce (all instances together): bounds memory for files whose
 /// instancing multiplies a large mesh, and keeps vertex indices within `u32`.
@@ -168,6 +168,9 @@ struct Source<'c> {
     undecodable_images: HashMap<usize, &'static str>,
     /// `EXT_mesh_gpu_instancing` accessors (TRANSLATION, ROTATION, SCALE) by node.
     instancing: HashMap<usize, [Option<usize>; 3]>,
+    /// A referenced image that must not be read (outside the folder, not a regular file, over
+    /// the input budget): the import fails with it.
+    refused: Option<IoError>,
 }
 
 pub(crate) fn import(ctx: &mut Ctx, bytes: &[u8], glb: bool) -> Result<(Mesh, Vec<ImportedPart>), IoError> {
@@ -268,7 +271,8 @@ pub(crate) fn import(ctx: &mut Ctx, bytes: &[u8], glb: bool) -> Result<(Mesh, Ve
             },
             gltf::buffer::Source::Uri(uri) => match resolve_uri(&ctx.dir, uri).map_err(berr)? {
                 UriData::Inline(d) => d,
-                UriData::File(p) => ctx.read_referenced(&p)?,
+                // At most the declared byteLength is read (`/dev/zero` is refused anyway).
+                UriData::File(p) => ctx.read_referenced(uri, &p, ReadLimit::Prefix(buffer.length() as u64))?,
             },
         };
         if data.len() < buffer.length() {
@@ -287,9 +291,20 @@ pub(crate) fn import(ctx: &mut Ctx, bytes: &[u8], glb: bool) -> Result<(Mesh, Ve
             });
         }
     }
-    let mut src =
-        Source { ctx, doc, buffers, decoded, undecodable_images: prep.undecodable_images, instancing: prep.instancing };
-    src.build()
+    let mut src = Source {
+        ctx,
+        doc,
+        buffers,
+        decoded,
+        undecodable_images: prep.undecodable_images,
+        instancing: prep.instancing,
+        refused: None,
+    };
+    let built = src.build();
+    match src.refused.take() {
+        Some(e) => Err(e),
+        None => built,
+    }
 }
 
 fn data_type_size(t: DataType) -> usize {
@@ -1180,8 +1195,12 @@ impl Source<'_> {
             }
             gltf::image::Source::Uri { uri, .. } => match resolve_uri(&self.ctx.dir, uri) {
                 Ok(UriData::Inline(b)) => (format!("image[{ii}] (data URI)"), b),
-                Ok(UriData::File(p)) => match self.ctx.read_referenced(&p) {
+                Ok(UriData::File(p)) => match self.ctx.read_referenced(uri, &p, ReadLimit::AtMost(MAX_IMAGE_BYTES)) {
                     Ok(b) => (p.file_name().map(|f| f.to_string_lossy().into_owned()).unwrap_or_default(), b),
+                    Err(e) if e.is_refusal() => {
+                        self.refused.get_or_insert(e);
+                        return None;
+                    }
                     Err(e) => {
                         self.ctx.warn(format!("material {material:?}: texture {e}; using the base colour factor"));
                         return None;

@@ -97,19 +97,82 @@ fn kind_of(path: &Path) -> Result<Kind, IoError> {
     }
 }
 
-/// Imports a `.gltf`, `.glb` or `.obj` file (dispatch by extension) with everything it references.
+/// Default [`ImportOptions::max_input_bytes`]: 1 GiB read per model, the model file and every
+/// file it references together.
+pub const DEFAULT_MAX_INPUT_BYTES: u64 = 1 << 30;
+/// Largest image file read for a texture (256 MiB); a larger one is a warning and the base
+/// colour factor is used.
+pub const MAX_IMAGE_BYTES: u64 = 256 << 20;
+/// Largest `.mtl` file read (16 MiB).
+pub const MAX_MTL_BYTES: u64 = 16 << 20;
+
+/// What an import may read.
+///
+/// By default every file a model references (glTF buffer and image `uri`s after
+/// percent-decoding, OBJ `mtllib` and `map_Kd`) must resolve, symlinks included, to a regular
+/// file inside the model's folder tree (the directory of the model path and its
+/// sub-directories); anything else is an error naming the URI, and the file is not opened.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct ImportOptions {
+    /// Allow referenced files outside the model's folder tree (trusted layouts that share
+    /// textures between folders). Default false.
+    pub allow_outside_paths: bool,
+    /// Bytes read per model in total (model + buffers + images + MTL); reading more is an error.
+    /// Default [`DEFAULT_MAX_INPUT_BYTES`].
+    pub max_input_bytes: u64,
+}
+
+impl Default for ImportOptions {
+    fn default() -> Self {
+        Self { allow_outside_paths: false, max_input_bytes: DEFAULT_MAX_INPUT_BYTES }
+    }
+}
+
+static DEFAULT_OPTIONS: std::sync::OnceLock<ImportOptions> = std::sync::OnceLock::new();
+
+/// Sets the options [`load_mesh`] and [`load_mesh_from_bytes`] use for the rest of the process
+/// (the CLI sets them once from its flags). Returns false if they were already set.
+pub fn set_default_options(opts: ImportOptions) -> bool {
+    DEFAULT_OPTIONS.set(opts).is_ok()
+}
+
+/// The options [`load_mesh`] uses: those given to [`set_default_options`], else the defaults.
+pub fn default_options() -> ImportOptions {
+    DEFAULT_OPTIONS.get().copied().unwrap_or_default()
+}
+
+/// Imports a `.gltf`, `.glb` or `.obj` file (dispatch by extension) with everything it
+/// references, under the process's default [`ImportOptions`].
 pub fn load_mesh(path: &Path) -> Result<Imported, IoError> {
+    load_mesh_with(path, &default_options())
+}
+
+/// [`load_mesh`] with explicit options.
+pub fn load_mesh_with(path: &Path, opts: &ImportOptions) -> Result<Imported, IoError> {
     kind_of(path)?;
-    let bytes = read_file(path)?;
-    load_mesh_from_bytes(path, &bytes)
+    let bytes = read_bounded(path, path, None, opts.max_input_bytes, ReadLimit::Whole)?;
+    load_mesh_from_bytes_with(path, &bytes, opts)
 }
 
 /// Imports model `bytes` as if read from `path`: the extension of `path` picks the format, and
 /// external buffers, images and `.mtl` files are resolved (and read) relative to its directory.
 /// `path` is listed first in [`Imported::inputs`] and `bytes` start the content hash.
 pub fn load_mesh_from_bytes(path: &Path, bytes: &[u8]) -> Result<Imported, IoError> {
+    load_mesh_from_bytes_with(path, bytes, &default_options())
+}
+
+/// [`load_mesh_from_bytes`] with explicit options.
+pub fn load_mesh_from_bytes_with(path: &Path, bytes: &[u8], opts: &ImportOptions) -> Result<Imported, IoError> {
     let kind = kind_of(path)?;
-    let mut ctx = Ctx::new(path);
+    if bytes.len() as u64 > opts.max_input_bytes {
+        return Err(IoError::TooLarge {
+            path: path.to_path_buf(),
+            what: None,
+            limit: opts.max_input_bytes,
+            budget: true,
+        });
+    }
+    let mut ctx = Ctx::new(path, *opts);
     ctx.record(path, bytes);
     let (mesh, parts) = match kind {
         Kind::Gltf => gltf_import::import(&mut ctx, bytes, false)?,
@@ -129,41 +192,170 @@ pub(crate) struct Ctx {
     pub inputs: Vec<PathBuf>,
     pub hash: Fnv1a64,
     pub warnings: Vec<Warning>,
+    pub opts: ImportOptions,
+    /// Bytes read so far (model included), against `opts.max_input_bytes`.
+    pub read_total: u64,
+}
+
+/// How much of a referenced file to read.
+#[derive(Clone, Copy, Debug)]
+pub(crate) enum ReadLimit {
+    /// The whole file (up to the input budget).
+    Whole,
+    /// At most this many bytes, the rest is not read (a glTF buffer's declared `byteLength`).
+    Prefix(u64),
+    /// The whole file, which must not be longer than this (images, MTL).
+    AtMost(u64),
 }
 
 impl Ctx {
-    fn new(path: &Path) -> Self {
+    fn new(path: &Path, opts: ImportOptions) -> Self {
         Self {
             path: path.to_path_buf(),
             dir: path.parent().map(Path::to_path_buf).unwrap_or_default(),
             inputs: Vec::new(),
             hash: Fnv1a64::new(),
             warnings: Vec::new(),
+            opts,
+            read_total: 0,
         }
     }
 
     fn record(&mut self, path: &Path, bytes: &[u8]) {
         self.inputs.push(path.to_path_buf());
         self.hash.write(bytes);
+        self.read_total += bytes.len() as u64;
     }
 
     pub fn warn(&mut self, msg: String) {
         self.warnings.push(Warning(msg));
     }
 
-    /// Reads a file referenced by the model, recording it as an input.
-    pub fn read_referenced(&mut self, path: &Path) -> Result<Vec<u8>, IoError> {
-        let bytes = read_file(path)?;
+    /// Reads the file `uri` (as written in the model) names, resolved to `path`, after checking
+    /// it is a regular file inside the model's folder tree (unless allowed); records it as an
+    /// input.
+    pub fn read_referenced(&mut self, uri: &str, path: &Path, limit: ReadLimit) -> Result<Vec<u8>, IoError> {
+        let budget = self.opts.max_input_bytes.saturating_sub(self.read_total);
+        let bytes = read_confined(&self.path, &self.dir, &self.opts, uri, path, budget, limit)?;
         self.record(path, &bytes);
         Ok(bytes)
     }
 }
 
-fn read_file(path: &Path) -> Result<Vec<u8>, IoError> {
-    std::fs::read(path).map_err(|e| match e.kind() {
+/// Lexically normalised `p`: `.` dropped, `..` removes the previous component (leading `..`
+/// kept).
+fn normalise(p: &Path) -> PathBuf {
+    use std::path::Component;
+    let mut out: Vec<Component> = Vec::new();
+    for c in p.components() {
+        match c {
+            Component::CurDir => {}
+            Component::ParentDir => match out.last() {
+                Some(Component::Normal(_)) => {
+                    out.pop();
+                }
+                Some(Component::RootDir | Component::Prefix(_)) => {}
+                _ => out.push(c),
+            },
+            c => out.push(c),
+        }
+    }
+    out.iter().map(|c| c.as_os_str()).collect()
+}
+
+/// Whether `path` lies inside `dir` lexically (after [`normalise`]).
+fn lexically_inside(dir: &Path, path: &Path) -> bool {
+    use std::path::Component;
+    let (nd, nf) = (normalise(dir), normalise(path));
+    match nf.strip_prefix(&nd) {
+        Ok(rest) => !rest.is_absolute() && !matches!(rest.components().next(), Some(Component::ParentDir) | None),
+        Err(_) => false,
+    }
+}
+
+/// The checks of [`Ctx::read_referenced`], usable without a `Ctx` (the OBJ `mtllib` callback).
+/// `model` is the model path (errors name it), `dir` its directory, `budget` what may still be
+/// read.
+pub(crate) fn read_confined(
+    model: &Path,
+    dir: &Path,
+    opts: &ImportOptions,
+    uri: &str,
+    path: &Path,
+    budget: u64,
+    limit: ReadLimit,
+) -> Result<Vec<u8>, IoError> {
+    let outside = || IoError::OutsideAsset { path: model.to_path_buf(), uri: uri.to_owned() };
+    if !opts.allow_outside_paths {
+        // Lexically first (an absolute URI or `../` is refused without touching the file system),
+        // then after symlink resolution.
+        if !lexically_inside(dir, path) {
+            return Err(outside());
+        }
+        let root = std::fs::canonicalize(if dir.as_os_str().is_empty() { Path::new(".") } else { dir })
+            .map_err(|e| IoError::Read { path: model.to_path_buf(), source: e })?;
+        match std::fs::canonicalize(path) {
+            Ok(c) if c.starts_with(&root) => {}
+            Ok(_) => return Err(outside()),
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => {
+                return Err(IoError::NotFound { path: path.to_path_buf() })
+            }
+            Err(e) => return Err(IoError::Read { path: path.to_path_buf(), source: e }),
+        }
+    }
+    read_bounded(model, path, Some(uri), budget, limit)
+}
+
+/// Reads a regular file under `limit` and the input `budget`, never more than one byte past
+/// either: a device (`/dev/zero`), FIFO or directory is refused before it is read.
+pub(crate) fn read_bounded(
+    model: &Path,
+    path: &Path,
+    what: Option<&str>,
+    budget: u64,
+    limit: ReadLimit,
+) -> Result<Vec<u8>, IoError> {
+    use std::io::Read;
+    let io = |e: std::io::Error| match e.kind() {
         std::io::ErrorKind::NotFound => IoError::NotFound { path: path.to_path_buf() },
         _ => IoError::Read { path: path.to_path_buf(), source: e },
-    })
+    };
+    let meta = std::fs::metadata(path).map_err(io)?;
+    if !meta.is_file() {
+        return Err(IoError::NotRegularFile { path: model.to_path_buf(), uri: what.map(str::to_owned) });
+    }
+    let (cap, prefix) = match limit {
+        ReadLimit::Whole => (budget, false),
+        ReadLimit::Prefix(n) => (n.min(budget), n <= budget),
+        ReadLimit::AtMost(n) => (n.min(budget), false),
+    };
+    let f = std::fs::File::open(path).map_err(io)?;
+    let mut bytes = Vec::with_capacity(meta.len().min(cap) as usize);
+    f.take(cap.saturating_add(1)).read_to_end(&mut bytes).map_err(io)?;
+    if bytes.len() as u64 > cap {
+        if prefix {
+            bytes.truncate(cap as usize);
+        } else {
+            let (limit, budget_hit) = match limit {
+                ReadLimit::AtMost(n) if n <= budget => (n, false),
+                _ => (budget, true),
+            };
+            let what = what.map(str::to_owned);
+            return Err(IoError::TooLarge { path: model.to_path_buf(), what, limit, budget: budget_hit });
+        }
+    }
+    Ok(bytes)
+}
+
+/// Reads any file a command takes (a `.sphb`, a recorded input): a regular file of at most
+/// `max` bytes, else an error naming it (never blocks on a FIFO nor reads a device).
+pub fn read_limited(path: &Path, max: u64) -> Result<Vec<u8>, IoError> {
+    read_bounded(path, path, None, max, ReadLimit::AtMost(max))
+}
+
+/// [`read_limited`] for the up-to-date check: `None` on any failure.
+pub fn read_input_file(path: &Path, max: u64) -> Option<Vec<u8>> {
+    read_limited(path, max).ok()
 }
 
 #[cfg(test)]

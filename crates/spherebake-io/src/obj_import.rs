@@ -9,7 +9,7 @@ use glam::Vec3;
 use spherebake_geom::{Material, Mesh, TextureRef};
 
 use crate::texture::decode_srgb_texture;
-use crate::{Ctx, ImportedPart, IoError};
+use crate::{Ctx, ImportedPart, IoError, ReadLimit, MAX_IMAGE_BYTES, MAX_MTL_BYTES};
 
 /// An MTL file tobj asked for: resolved path and its bytes (or why it could not be read).
 type MtlRead = (PathBuf, Result<Vec<u8>, IoError>);
@@ -20,9 +20,17 @@ pub(crate) fn import(ctx: &mut Ctx, bytes: &[u8]) -> Result<(Mesh, Vec<ImportedP
     // MTL files read by tobj's callback: (resolved path, bytes or the read error).
     let mtl_reads: RefCell<Vec<MtlRead>> = RefCell::new(Vec::new());
     let dir = ctx.dir.clone();
+    let (model, opts_in) = (ctx.path.clone(), ctx.opts);
+    let budget = RefCell::new(opts_in.max_input_bytes.saturating_sub(ctx.read_total));
     let (models, materials) = tobj::load_obj_buf(&mut std::io::Cursor::new(bytes), &opts, |p: &Path| {
         let full = dir.join(p);
-        let read = crate::read_file(&full);
+        let uri = p.to_string_lossy();
+        let limit = ReadLimit::AtMost(MAX_MTL_BYTES);
+        let read = crate::read_confined(&model, &dir, &opts_in, &uri, &full, *budget.borrow(), limit);
+        if let Ok(b) = &read {
+            let mut left = budget.borrow_mut();
+            *left = left.saturating_sub(b.len() as u64);
+        }
         let result = match &read {
             Ok(b) => tobj::load_mtl_buf(&mut std::io::Cursor::new(b.as_slice())),
             Err(_) => Err(tobj::LoadError::OpenFileFailed),
@@ -38,6 +46,7 @@ pub(crate) fn import(ctx: &mut Ctx, bytes: &[u8]) -> Result<(Mesh, Vec<ImportedP
                 ctx.record(&p, &b);
                 mtl_dir = p.parent().map(Path::to_path_buf).unwrap_or_default();
             }
+            Err(e) if e.is_refusal() => return Err(e),
             Err(e) => ctx.warn(format!("material library: {e}; using default materials")),
         }
     }
@@ -54,6 +63,8 @@ pub(crate) fn import(ctx: &mut Ctx, bytes: &[u8]) -> Result<(Mesh, Vec<ImportedP
     let mut mesh = Mesh::default();
     let mut material_map: HashMap<Option<usize>, u32> = HashMap::new();
     let mut texture_map: HashMap<PathBuf, Option<usize>> = HashMap::new();
+    // A texture that must not be read (outside the folder, not a regular file, over budget).
+    let mut refused: Option<IoError> = None;
     let mut parts = Vec::new();
     let mut has_uv = false;
     let mut uvs = Vec::new();
@@ -107,7 +118,7 @@ pub(crate) fn import(ctx: &mut Ctx, bytes: &[u8]) -> Result<(Mesh, Vec<ImportedP
             Some(&id) => id,
             None => {
                 let mat = match key {
-                    Some(i) => obj_material(ctx, &materials[i], &mtl_dir, &mut mesh, &mut texture_map),
+                    Some(i) => obj_material(ctx, &materials[i], &mtl_dir, &mut mesh, &mut texture_map, &mut refused),
                     None => Material { name: "default".into(), ..Default::default() },
                 };
                 mesh.materials.push(mat);
@@ -132,6 +143,9 @@ pub(crate) fn import(ctx: &mut Ctx, bytes: &[u8]) -> Result<(Mesh, Vec<ImportedP
             triangles: t0..mesh.triangles.len() as u32,
         });
     }
+    if let Some(e) = refused {
+        return Err(e);
+    }
     if has_uv {
         mesh.uvs = vec![uvs];
     }
@@ -145,6 +159,7 @@ fn obj_material(
     mtl_dir: &Path,
     mesh: &mut Mesh,
     texture_map: &mut HashMap<PathBuf, Option<usize>>,
+    refused: &mut Option<IoError>,
 ) -> Material {
     let kd = m.diffuse.unwrap_or([1.0; 3]);
     let mut out = Material {
@@ -161,7 +176,7 @@ fn obj_material(
         let slot = match texture_map.get(&p) {
             Some(s) => *s,
             None => {
-                let s = match ctx.read_referenced(&p) {
+                let s = match ctx.read_referenced(file, &p, ReadLimit::AtMost(MAX_IMAGE_BYTES)) {
                     Ok(bytes) => match decode_srgb_texture(file.to_owned(), &bytes) {
                         Ok(t) => {
                             mesh.textures.push(t);
@@ -172,6 +187,10 @@ fn obj_material(
                             None
                         }
                     },
+                    Err(e) if e.is_refusal() => {
+                        refused.get_or_insert(e);
+                        None
+                    }
                     Err(e) => {
                         ctx.warn(format!("material {:?}: texture {e}; using Kd", m.name));
                         None

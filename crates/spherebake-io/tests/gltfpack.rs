@@ -246,7 +246,12 @@ fn gpu_instancing_places_every_instance() {
     // step of the unit cube, times the largest instance scale (2), plus the 12-bit rotation
     // (about 1e-3 rad at up to 1.6 from the instance origin), plus 16-bit exponential
     // translations/scales (2^-16 relative, at most 4 units): about 1.8e-3.
-    let src = load("gltfpack/cubes.gltf");
+    // cubes.gltf shares ../textured-cube/textured-cube.bin, a file outside its folder: the
+    // default import refuses it (issue 17), a trusted layout opts in.
+    let e = load_mesh(&fixture("gltfpack/cubes.gltf")).unwrap_err();
+    assert!(matches!(e, IoError::OutsideAsset { ref uri, .. } if uri == "../textured-cube/textured-cube.bin"), "{e}");
+    let trusted = spherebake_io::ImportOptions { allow_outside_paths: true, ..Default::default() };
+    let src = spherebake_io::load_mesh_with(&fixture("gltfpack/cubes.gltf"), &trusted).unwrap();
     let imp = load("gltfpack/cubes.mi.cc.glb");
     assert!(imp.warnings.is_empty(), "{:?}", imp.warnings);
     assert_eq!(imp.parts.len(), 3);

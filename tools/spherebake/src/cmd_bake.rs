@@ -299,8 +299,7 @@ fn run_job(job: &Job, a: &BakeArgs, bar: &ProgressBar) -> AssetResult {
         let mut kept = Ok(());
         if a.depfile && !depfile_path(&job.output).exists() {
             // Keep the depfile promise even when nothing is baked; a failure fails the asset.
-            kept = std::fs::read(&job.output)
-                .ok()
+            kept = spherebake_io::read_input_file(&job.output, spherebake_io::default_options().max_input_bytes)
                 .and_then(|bytes| spherebake_bake::recorded_inputs(&bytes, &job.input))
                 .map_or(Ok(()), |inputs| {
                     let text = depfile_text(&job.output, &inputs);

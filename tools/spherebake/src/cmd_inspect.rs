@@ -70,7 +70,7 @@ fn inspect_mesh(path: &Path, as_json: bool) -> Result<ExitCode> {
 }
 
 fn inspect_sphb(path: &Path, as_json: bool) -> Result<ExitCode> {
-    let bytes = std::fs::read(path).with_context(|| format!("{}: reading", path.display()))?;
+    let bytes = spherebake_io::read_limited(path, spherebake_io::default_options().max_input_bytes)?;
     let (header, table) = spherebake_format::read_header_and_table(&bytes)
         .with_context(|| format!("{}: not a valid .sphb file", path.display()))?;
     let file =

@@ -40,7 +40,7 @@ fn parse_size(s: &str) -> std::result::Result<(u32, u32), String> {
 }
 
 pub fn read_sphb(path: &Path) -> Result<spherebake_runtime::Proxy> {
-    let bytes = std::fs::read(path).with_context(|| format!("{}: reading", path.display()))?;
+    let bytes = spherebake_io::read_limited(path, spherebake_io::default_options().max_input_bytes)?;
     spherebake_runtime::load(&bytes).with_context(|| format!("{}: not a valid .sphb file", path.display()))
 }
 

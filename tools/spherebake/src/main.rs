@@ -25,6 +25,12 @@ use std::process::ExitCode;
 struct Cli {
     #[command(subcommand)]
     command: Command,
+    /// Let models reference files outside their own folder tree (trusted layouts only)
+    #[arg(long, global = true)]
+    allow_outside_paths: bool,
+    /// Bytes read per model (model + buffers + images + MTL), in MiB [default: 1024]
+    #[arg(long, global = true, value_name = "MIB", value_parser = clap::value_parser!(u64).range(1..=1 << 20))]
+    max_input_mb: Option<u64>,
 }
 
 #[derive(Subcommand, Debug)]
@@ -59,6 +65,10 @@ fn main() -> ExitCode {
             return ExitCode::from(code as u8);
         }
     };
+    spherebake_io::set_default_options(spherebake_io::ImportOptions {
+        allow_outside_paths: cli.allow_outside_paths,
+        max_input_bytes: cli.max_input_mb.map_or(spherebake_io::DEFAULT_MAX_INPUT_BYTES, |m| m << 20),
+    });
     let result = match cli.command {
         Command::Bake(a) => cmd_bake::run(a),
         Command::Inspect(a) => cmd_inspect::run(a),

@@ -411,3 +411,145 @@ fn fewer_distinct_points_than_spheres_end_with_a_warning() {
         assert!(bytes.len() > 64, "{input}: a valid file is written");
     }
 }
+
+// ---- 3. Never read outside the asset, never read without a limit ----------------------------------
+
+/// Writes `dir/model/cube.gltf` whose buffer URI is `buffer_uri` (and image URI `image_uri`), the
+/// real buffer as `dir/model/cube.bin`, and a secret outside the model's folder as `dir/secret.bin`.
+fn gltf_with_uris(dir: &Path, buffer_uri: &str, image_uri: &str) -> std::path::PathBuf {
+    let m = dir.join("model");
+    std::fs::create_dir_all(&m).unwrap();
+    write_textured_gltf(&m);
+    std::fs::copy(m.join("cube.bin"), dir.join("outside.bin")).unwrap();
+    std::fs::write(dir.join("secret.bin"), "SECRET-CONTENTS-root:x:0:0:".repeat(20)).unwrap();
+    let json = std::fs::read_to_string(m.join("cube.gltf")).unwrap();
+    let json = json.replace(r#""uri":"cube.bin""#, &format!(r#""uri":"{buffer_uri}""#));
+    let json = json.replace(r#""uri":"tex.png""#, &format!(r#""uri":"{image_uri}""#));
+    std::fs::write(m.join("cube.gltf"), json).unwrap();
+    m.join("cube.gltf")
+}
+
+fn assert_refused(o: &Output, uri: &str, what: &str) {
+    assert_one_line_error(o, uri, what);
+    let err = stderr(o);
+    assert!(!err.contains("SECRET") && !err.contains("root:"), "file contents echoed: {err}");
+}
+
+#[test]
+fn gltf_uris_outside_the_model_folder_are_refused_by_default() {
+    let cases = [
+        ("/etc/passwd", "tex.png"),
+        ("../secret.bin", "tex.png"),
+        ("..%2fsecret.bin", "tex.png"),
+        ("%2e%2e/secret.bin", "tex.png"),
+        ("sub/../../secret.bin", "tex.png"),
+        ("cube.bin", "../secret.bin"),
+        ("cube.bin", "%2Fetc%2Fpasswd"),
+    ];
+    for (buf, img) in cases {
+        let d = tempdir();
+        gltf_with_uris(d.path(), buf, img);
+        let uri = if buf == "cube.bin" { img } else { buf };
+        let o = run_within(
+            &["bake", "model/cube.gltf", "-o", "out.sphb", "--depfile", "--spheres", "4", "--method", "kmeans"],
+            d.path(),
+            60,
+        );
+        assert_refused(&o, uri, "outside the model's folder");
+        assert!(stderr(&o).contains("model/cube.gltf"), "the error names the model: {}", stderr(&o));
+        assert!(!d.path().join("out.sphb").exists() && !d.path().join("out.sphb.d").exists());
+        assert!(temps(d.path()).is_empty());
+    }
+}
+
+#[test]
+fn a_symlink_inside_the_folder_to_a_file_outside_is_refused_and_allow_outside_paths_opts_in() {
+    let d = tempdir();
+    gltf_with_uris(d.path(), "link.bin", "tex.png");
+    std::os::unix::fs::symlink("../outside.bin", d.path().join("model/link.bin")).unwrap();
+    let args = ["bake", "model/cube.gltf", "-o", "out.sphb", "--depfile", "--spheres", "4", "--method", "kmeans"];
+    let o = run(&args, d.path());
+    assert_refused(&o, "link.bin", "outside the model's folder");
+    // Opting in: the same layout bakes, and the depfile lists the file outside.
+    let mut a = args.to_vec();
+    a.push("--allow-outside-paths");
+    let o = run(&a, d.path());
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let dep = std::fs::read_to_string(d.path().join("out.sphb.d")).unwrap();
+    assert!(dep.contains("link.bin"), "{dep}");
+    // A folder inside the tree is fine without the flag.
+    let d = tempdir();
+    gltf_with_uris(d.path(), "data/cube%20copy.bin", "tex.png");
+    std::fs::create_dir(d.path().join("model/data")).unwrap();
+    std::fs::copy(d.path().join("model/cube.bin"), d.path().join("model/data/cube copy.bin")).unwrap();
+    let o = run(&args, d.path());
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+}
+
+#[test]
+fn devices_are_never_read_and_buffers_read_at_most_their_byte_length() {
+    let d = tempdir();
+    gltf_with_uris(d.path(), "zero.bin", "tex.png");
+    std::os::unix::fs::symlink("/dev/zero", d.path().join("model/zero.bin")).unwrap();
+    let base = ["bake", "model/cube.gltf", "-o", "out.sphb", "--spheres", "4", "--method", "kmeans"];
+    // Outside the folder by default; with the opt-in, still no device.
+    let o = run_within(&base, d.path(), 60);
+    assert_refused(&o, "zero.bin", "outside");
+    let mut a = base.to_vec();
+    a.push("--allow-outside-paths");
+    let o = run_within(&a, d.path(), 60);
+    assert_refused(&o, "zero.bin", "not a regular file");
+    let o = run_within(&["bake", "/dev/zero", "-o", "out.sphb"], d.path(), 60);
+    assert_ne!(o.status.code(), Some(0));
+    std::os::unix::fs::symlink("/dev/zero", d.path().join("z.sphb")).unwrap();
+    let o = run_within(&["inspect", "z.sphb"], d.path(), 60);
+    assert_one_line_error(&o, "z.sphb", "not a regular file");
+
+    // A buffer file far larger than its byteLength: only byteLength is read, so a 1 MiB budget
+    // is enough; the model itself over the budget is refused.
+    let d = tempdir();
+    gltf_with_uris(d.path(), "cube.bin", "tex.png");
+    let mut big = std::fs::read(d.path().join("model/cube.bin")).unwrap();
+    big.resize(3 << 20, 0xAB);
+    std::fs::write(d.path().join("model/cube.bin"), &big).unwrap();
+    let mut a = base.to_vec();
+    a.extend(["--max-input-mb", "1"]);
+    let o = run_within(&a, d.path(), 60);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let mut obj = CUBE_OBJ.to_string();
+    while obj.len() < (2 << 20) {
+        obj.push_str("# padding padding padding padding padding padding padding padding\n");
+    }
+    std::fs::write(d.path().join("big.obj"), obj).unwrap();
+    let o = run_within(&["bake", "big.obj", "-o", "big.sphb", "--max-input-mb", "1"], d.path(), 60);
+    assert_one_line_error(&o, "big.obj", "input budget");
+    assert!(!d.path().join("big.sphb").exists());
+}
+
+#[test]
+fn obj_mtllib_and_map_kd_outside_the_model_folder_are_refused() {
+    let d = tempdir();
+    let m = d.path().join("model");
+    std::fs::create_dir(&m).unwrap();
+    std::fs::write(d.path().join("secret.mtl"), "newmtl SECRET-CONTENTS\nKd 1 0 0\n").unwrap();
+    std::fs::write(d.path().join("secret.png"), "SECRET-CONTENTS-root:x:0:0:").unwrap();
+    let obj = |mtllib: &str| format!("mtllib {mtllib}\nusemtl m\n{CUBE_OBJ}");
+    let args = ["bake", "model/a.obj", "-o", "out.sphb", "--spheres", "4", "--method", "kmeans"];
+    for lib in ["../secret.mtl", "/etc/passwd"] {
+        std::fs::write(m.join("a.obj"), obj(lib)).unwrap();
+        let o = run(&args, d.path());
+        assert_refused(&o, lib, "outside the model's folder");
+    }
+    for tex in ["../secret.png", "/etc/passwd", "sub/../../secret.png"] {
+        std::fs::write(m.join("a.obj"), obj("a.mtl")).unwrap();
+        std::fs::write(m.join("a.mtl"), format!("newmtl m\nKd 1 1 1\nmap_Kd {tex}\n")).unwrap();
+        let o = run(&args, d.path());
+        assert_refused(&o, tex, "outside the model's folder");
+        assert!(!d.path().join("out.sphb").exists());
+    }
+    // Inside the folder: fine.
+    image::RgbImage::from_pixel(2, 2, image::Rgb([200, 10, 10])).save(m.join("ok.png")).unwrap();
+    std::fs::write(m.join("a.mtl"), "newmtl m\nKd 1 1 1\nmap_Kd ok.png\n").unwrap();
+    let o = run(&args, d.path());
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+}
