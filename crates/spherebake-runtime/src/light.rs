@@ -86,7 +86,7 @@ use alloc::vec::Vec;
 use core::fmt;
 use spherebake_sh::{
     accumulate_log_visibility_f32, cap_zh, clamped_cosine_convolution, coeff_count, cosine_weighted_radiance_rgb_f32,
-    eval_sh_f64, voronoi_cell_basis, zh_rotate, MAX_COEFFS, MAX_ORDER,
+    eval_sh_f64, voronoi_cell_basis, zh_rotate, GEODESIC_DIRECTIONS, GEODESIC_DIRECTION_COUNT, MAX_COEFFS, MAX_ORDER,
 };
 
 /// The SH order of the light passes unless told otherwise (Guerrero 2008 §7.4 works with n = 4 bands).
@@ -367,6 +367,8 @@ pub struct SphereLights {
     root: Vec<[f32; 3]>,
     root_rotation: [f32; 9],
     sample_radiance: Vec<f32>,
+    /// Per leaf and geodesic direction: L_pj · c(ω_j) (0 where no sample).
+    leaf_cells: Vec<[f32; 3]>,
     // Scratch of pass 1.
     cluster: ClusterBlockers,
     others: ClusterBlockers,
@@ -483,6 +485,9 @@ pub fn light_spheres(
     out.leaf.resize(n_leaves * nc, [0.0; 3]);
     out.sample_radiance.clear();
     out.sample_radiance.resize(samples.per_sphere.iter().map(Vec::len).sum(), 0.0);
+    out.leaf_cells.clear();
+    out.leaf_cells.resize(n_leaves * GEODESIC_DIRECTION_COUNT, [0.0; 3]);
+
     let rest = proxy.spheres();
     let tp = ctx.shadow.triple_product();
     let mut stats = Pass1Stats::default();
@@ -550,6 +555,18 @@ pub fn light_spheres(
             tp.product(&l_i[..nc], &c[..nc], &mut prod[..nc])?;
             for k in 0..nc {
                 out.leaf[i * nc + k][ch] = prod[k] as f32;
+            }
+        }
+        // The Voronoi function itself, L_pj · c(ω_j), for lights seen from very close (pass 2).
+        let mut y = [0.0f64; MAX_COEFFS];
+        for (k, sp) in pts.iter().enumerate() {
+            let d = usize::from(sp.direction);
+            let Some(dir) = GEODESIC_DIRECTIONS.get(d) else { continue };
+            eval_sh_f64(order, [f64::from(dir[0]), f64::from(dir[1]), f64::from(dir[2])], &mut y)?;
+            let lp = f64::from(out.sample_radiance.get(first + k).copied().unwrap_or(0.0));
+            for ch in 0..3 {
+                let c: f64 = (0..nc).map(|q| f64::from(a[q][ch]) * y[q]).sum::<f64>().max(0.0);
+                out.leaf_cells[i * GEODESIC_DIRECTION_COUNT + d][ch] = (lp * c) as f32;
             }
         }
     }
@@ -766,6 +783,8 @@ struct Active {
     power: f32,
     theta: f32,
     sin_theta: f32,
+    /// The receiver is inside the original sphere (the self-shadowing rules shrank it to touch the tangent plane).
+    adjusted: bool,
     /// Unit direction from the (adjusted) centre to the receiver.
     axis: [f32; 3],
     log: [f32; MAX_COEFFS],
@@ -781,6 +800,7 @@ pub struct IndirectCluster {
     active: Vec<Active>,
     cb: ClusterBlockers,
     lights: Vec<(usize, usize)>,
+    stack: Vec<u32>,
 }
 
 /// A receiver cluster of pass 2: receivers sharing one hierarchy cut (a tile of a ground grid, a patch of a
@@ -797,13 +817,24 @@ pub struct ClusterSpec {
     pub theta_max_rad: f32,
     /// Compute the reflection ratios of eq. 25 (the default; off only to measure their effect).
     pub reflection_ratio: bool,
+    /// Scale each source's blocker logs by [`ClusterBlockers::correct_overlap`] at the cluster centre (needs
+    /// `normal`; not in the papers; off by default: its world-fixed directions and 0.05 steps make results depend
+    /// on the frame and jump between clusters).
+    pub overlap_correction: bool,
 }
 
 impl ClusterSpec {
     /// A cluster ball with normal `normal`, the default θmax and reflection ratios on.
     #[must_use]
     pub fn new(center: [f32; 3], radius: f32, normal: Option<[f32; 3]>) -> ClusterSpec {
-        ClusterSpec { center, radius, normal, theta_max_rad: crate::cut::DEFAULT_THETA_MAX_RAD, reflection_ratio: true }
+        ClusterSpec {
+            center,
+            radius,
+            normal,
+            theta_max_rad: crate::cut::DEFAULT_THETA_MAX_RAD,
+            reflection_ratio: true,
+            overlap_correction: false,
+        }
     }
 }
 
@@ -836,7 +867,7 @@ impl IndirectCluster {
         sources: &[LightSource<'_, '_>],
         cluster: &ClusterSpec,
     ) -> Result<(), LightError> {
-        let ClusterSpec { center, radius, normal, theta_max_rad, reflection_ratio } = *cluster;
+        let ClusterSpec { center, radius, normal, theta_max_rad, reflection_ratio, overlap_correction } = *cluster;
         let order = ctx.order();
         self.order = order;
         self.entries.clear();
@@ -849,6 +880,9 @@ impl IndirectCluster {
                 return Err(LightError::Mismatch { what: "sphere count" });
             }
             self.cb.build(order, posed.leaves, posed.nodes, center, radius, theta_max_rad)?;
+            if let (true, Some(n)) = (overlap_correction, normal) {
+                self.cb.correct_overlap(&ctx.shadow, center, n, 256)?;
+            }
             for b in self.cb.blockers() {
                 let rotation = match b.source {
                     CutEntry::Leaf(l) => posed.rotation(l as usize),
@@ -869,7 +903,7 @@ impl IndirectCluster {
             self.scratch_entries.extend(self.entries.iter().enumerate().filter(|&(k, _)| k != e).map(|(_, x)| *x));
             let first_leaf = self.scratch_entries.len();
             self.lights.clear();
-            collect_leaves(posed, node, &mut self.lights);
+            collect_leaves(posed, node, &mut self.stack, &mut self.lights);
             for &(leaf, _) in &self.lights {
                 let s = posed.leaves[leaf];
                 let mut w = [0.0f32; MAX_ORDER];
@@ -951,6 +985,10 @@ impl IndirectCluster {
                 power: d2 - r * r,
                 theta,
                 sin_theta: (r * inv).min(1.0),
+                adjusted: {
+                    let o = [e.blocker.center[0] - p[0], e.blocker.center[1] - p[1], e.blocker.center[2] - p[2]];
+                    o[0] * o[0] + o[1] * o[1] + o[2] * o[2] < e.blocker.radius * e.blocker.radius
+                },
                 axis: [-s[0], -s[1], -s[2]],
                 log: [0.0; MAX_COEFFS],
             };
@@ -968,6 +1006,8 @@ impl IndirectCluster {
         let mut h = [0.0f64; MAX_COEFFS];
         ctx.cosine_lobe([f64::from(normal[0]), f64::from(normal[1]), f64::from(normal[2])], &mut h);
         let mut total = [0.0f64; 3];
+        let mut adjusted = [0.0f64; 3];
+        let mut adjusted_share = 0.0f64;
         for i in 0..self.active.len() {
             let ai = &self.active[i];
             let k = ai.entry as usize;
@@ -992,13 +1032,35 @@ impl IndirectCluster {
             if v0.partial_cmp(&1e-12) != Some(core::cmp::Ordering::Greater) || phi.iter().all(|&v| v.abs() <= 0.0) {
                 continue;
             }
-            let lt = phi.map(|v| v / v0);
+            let mut lt = phi.map(|v| v / v0);
+            // Seen from very close (wide caps: the receiver is inside or under the light), the weights concentrate
+            // near the axis, where the order-n smearing of the light's empty directions (rule 2) and of its sharp
+            // light/dark edges would glow: blend towards a local fit of the Voronoi function itself.
+            if let (CutEntry::Leaf(leaf), true) = (e.blocker.source, ai.theta > CLOSE_THETA_START) {
+                let range = leaf as usize * GEODESIC_DIRECTION_COUNT..(leaf as usize + 1) * GEODESIC_DIRECTION_COUNT;
+                if let Some(fit) = lights.leaf_cells.get(range).and_then(|cells| close_fit(cells, axis, ai.theta)) {
+                    let phi_fit = cosine_weighted_radiance_rgb_f32(ai.theta, axis, n_local, &fit, 2)?;
+                    let t = ((ai.theta - CLOSE_THETA_START) / (CLOSE_THETA_FULL - CLOSE_THETA_START)).clamp(0.0, 1.0);
+                    for c in 0..3 {
+                        lt[c] = (1.0 - t) * lt[c] + t * (phi_fit[c] / v0).max(0.0);
+                    }
+                }
+            }
             // A = Σ of the logs of the nearer lights that do not intersect this one (same source).
             let mut acc = [0.0f32; MAX_COEFFS];
             let mut any = false;
+            let cos_i = crate::shadow::sqrt_f32((1.0 - ai.sin_theta * ai.sin_theta).max(0.0));
             for aj in &self.active[..i] {
                 let ej = &entries[aj.entry as usize];
                 if ej.source == e.source && intersect(&ej.blocker, &e.blocker) {
+                    continue;
+                }
+                // A nearer light whose cone misses this one's blocks nothing of it; its band-limited log would
+                // still darken it (SH leakage), so it is left out: the cones overlap iff the angle between their
+                // axes is below θ_i + θ_j, i.e. cos∠ > cos θ_i cos θ_j − sin θ_i sin θ_j.
+                let cos_j = crate::shadow::sqrt_f32((1.0 - aj.sin_theta * aj.sin_theta).max(0.0));
+                let dot_axes = ai.axis[0] * aj.axis[0] + ai.axis[1] * aj.axis[1] + ai.axis[2] * aj.axis[2];
+                if dot_axes <= cos_i * cos_j - ai.sin_theta * aj.sin_theta {
                     continue;
                 }
                 any = true;
@@ -1025,13 +1087,222 @@ impl IndirectCluster {
             } else {
                 f64::from(v0)
             };
+            let (sum, share) = if ai.adjusted { (&mut adjusted, &mut adjusted_share) } else { (&mut total, &mut 0.0) };
+            *share += v;
             for c in 0..3 {
-                total[c] += core::f64::consts::PI * f64::from(lt[c]) * v * f64::from(e.ratio[c]);
+                sum[c] += core::f64::consts::PI * f64::from(lt[c]) * v * f64::from(e.ratio[c]);
+            }
+        }
+        // One radiance per direction: the lights the self-shadowing rules moved next to the receiver (it was
+        // inside or under them) all touch its tangent plane and intersect, so none blocks another; their
+        // cosine-weighted shares cannot add up to more than the union of their caps covers.
+        if adjusted_share > 0.0 {
+            let union = union_of_adjusted(&self.active, &include, normal);
+            if adjusted_share > union {
+                let s = union / adjusted_share;
+                for c in 0..3 {
+                    total[c] += adjusted[c] * s;
+                }
+            } else {
+                for c in 0..3 {
+                    total[c] += adjusted[c];
+                }
             }
         }
         Ok(total)
     }
 }
+
+/// Angular radius (radians) from which pass 2 starts blending a leaf light's SH towards its Voronoi function (40°).
+pub const CLOSE_THETA_START: f32 = 0.698_131_7;
+/// Angular radius (radians) from which only the Voronoi function is used (60°).
+pub const CLOSE_THETA_FULL: f32 = core::f32::consts::FRAC_PI_3;
+/// Smallest half-angle of the cone of [`close_fit`] over the 92 directions (25°: four to eight directions inside).
+const CLOSE_KERNEL_MIN_RAD: f32 = 0.436_332_3;
+
+/// The light's Voronoi function near `axis` (unit, the light's frame) as seen from a receiver at angular radius
+/// `theta`, as a local band-0–1 model: the weighted least-squares fit L ≈ A + B·ω over the directions within a cone
+/// about the axis (half-angle max(π/2 − θ, 25°), weights falling linearly to the cone's edge; empty cells count as
+/// 0), returned as order-2 SH coefficients (RGB) for the same cosine-weighted integral as the light itself. Exact for
+/// band-1 emission (a sky-lit sphere); ill-conditioned fits drop terms down to the weighted mean. `None` when no
+/// cell is inside.
+fn close_fit(cells: &[[f32; 3]], axis: [f32; 3], theta: f32) -> Option<[[f32; 3]; 4]> {
+    let half = (core::f32::consts::FRAC_PI_2 - theta).max(CLOSE_KERNEL_MIN_RAD);
+    let cos_half = crate::shadow::sqrt_f32(1.0 - sin_sq(half));
+    let t = if axis[0].abs() < 0.9 { [1.0f32, 0.0, 0.0] } else { [0.0, 1.0, 0.0] };
+    let mut e1 = [t[1] * axis[2] - t[2] * axis[1], t[2] * axis[0] - t[0] * axis[2], t[0] * axis[1] - t[1] * axis[0]];
+    let inv = crate::shadow::rsqrt_f32(e1[0] * e1[0] + e1[1] * e1[1] + e1[2] * e1[2]);
+    e1 = e1.map(|x| x * inv);
+    let e2 = [axis[1] * e1[2] - axis[2] * e1[1], axis[2] * e1[0] - axis[0] * e1[2], axis[0] * e1[1] - axis[1] * e1[0]];
+    // Weighted least squares L ≈ a + b₁u + b₂v + c(u² + v²) (the curvature term makes band-1 emission exact: a
+    // linear function of ω is a + b·axis·√(1 − u² − v²) + …); ill-conditioned systems (cells on a ring) drop the
+    // curvature term, then the slopes, down to the weighted mean.
+    let mut rows: [[f64; 4]; GEODESIC_DIRECTION_COUNT] = [[0.0; 4]; GEODESIC_DIRECTION_COUNT];
+    let mut vals: [[f64; 3]; GEODESIC_DIRECTION_COUNT] = [[0.0; 3]; GEODESIC_DIRECTION_COUNT];
+    let mut ws = [0.0f64; GEODESIC_DIRECTION_COUNT];
+    let mut count = 0;
+    for (d, cell) in GEODESIC_DIRECTIONS.iter().zip(cells) {
+        let w = f64::from((d[0] * axis[0] + d[1] * axis[1] + d[2] * axis[2] - cos_half).max(0.0));
+        if w <= 0.0 {
+            continue;
+        }
+        let u = f64::from(d[0] * e1[0] + d[1] * e1[1] + d[2] * e1[2]);
+        let v = f64::from(d[0] * e2[0] + d[1] * e2[1] + d[2] * e2[2]);
+        let w_ax = f64::from(d[0] * axis[0] + d[1] * axis[1] + d[2] * axis[2]);
+        rows[count] = [1.0, u, v, w_ax - 1.0];
+        vals[count] = cell.map(f64::from);
+        ws[count] = w;
+        count += 1;
+    }
+    if count == 0 {
+        return None;
+    }
+    // L ≈ a + b₁u + b₂v + b₃(ω·axis − 1) = (a − b₃) + (b₁e₁ + b₂e₂ + b₃ axis)·ω: band 0–1 SH coefficients.
+    let c1 = crate::refit::sqrt(3.0 / (4.0 * core::f64::consts::PI));
+    let dc = crate::refit::sqrt(4.0 * core::f64::consts::PI);
+    for params in [4usize, 3, 1] {
+        if let Some(b) = weighted_fit(&rows[..count], &vals[..count], &ws[..count], params) {
+            let mut out = [[0.0f32; 3]; 4];
+            for ch in 0..3 {
+                let k = |i: usize| if i < params { b[i][ch] } else { 0.0 };
+                let konst = k(0) - k(3);
+                let vec =
+                    [0, 1, 2].map(|q| k(1) * f64::from(e1[q]) + k(2) * f64::from(e2[q]) + k(3) * f64::from(axis[q]));
+                // y_00 = 1/√(4π); y_1,−1 = −c₁y, y_1,0 = c₁z, y_1,1 = −c₁x (Condon–Shortley).
+                out[0][ch] = (konst * dc) as f32;
+                out[1][ch] = (-vec[1] / c1) as f32;
+                out[2][ch] = (vec[2] / c1) as f32;
+                out[3][ch] = (-vec[0] / c1) as f32;
+            }
+            return Some(out);
+        }
+    }
+    None
+}
+
+/// The weighted least-squares coefficients (`[param][channel]`) of `vals` on the first `params` columns of `rows`,
+/// by Gauss–Jordan elimination with partial pivoting on the normal equations; `None` when a pivot falls below 1e-9
+/// of the diagonal's scale (ill-conditioned).
+fn weighted_fit(rows: &[[f64; 4]], vals: &[[f64; 3]], ws: &[f64], params: usize) -> Option<[[f64; 3]; 4]> {
+    let n = params.min(4);
+    let mut m = [[0.0f64; 7]; 4];
+    for ((x, y), &w) in rows.iter().zip(vals).zip(ws) {
+        for r in 0..n {
+            for c in 0..n {
+                m[r][c] += w * x[r] * x[c];
+            }
+            for ch in 0..3 {
+                m[r][n + ch] += w * x[r] * y[ch];
+            }
+        }
+    }
+    let scale = (0..n).map(|k| m[k][k]).fold(0.0f64, f64::max);
+    if scale <= 0.0 {
+        return None;
+    }
+    for col in 0..n {
+        let piv = (col..n).max_by(|&a, &b| m[a][col].abs().total_cmp(&m[b][col].abs()))?;
+        if m[piv][col].abs() < 1e-9 * scale {
+            return None;
+        }
+        m.swap(col, piv);
+        for r in 0..n {
+            if r != col {
+                let f = m[r][col] / m[col][col];
+                for c in col..n + 3 {
+                    m[r][c] -= f * m[col][c];
+                }
+            }
+        }
+    }
+    let mut out = [[0.0f64; 3]; 4];
+    for r in 0..n {
+        for ch in 0..3 {
+            out[r][ch] = m[r][n + ch] / m[r][r];
+        }
+    }
+    Some(out)
+}
+
+/// sin²x for x in [0, π/2] (f32, Taylor to x⁹ of sin; enough for a kernel width).
+fn sin_sq(x: f32) -> f32 {
+    let x2 = x * x;
+    let s = x * (1.0 - x2 / 6.0 * (1.0 - x2 / 20.0 * (1.0 - x2 / 42.0 * (1.0 - x2 / 72.0))));
+    s * s
+}
+
+/// Rings × azimuths of the per-cap sample pattern of [`union_of_adjusted`].
+const CAP_RINGS: usize = 3;
+const CAP_AZIMUTHS: usize = 8;
+
+/// The cosine-weighted share (hemisphere = 1) of the union of the included adjusted lights' caps: each cap's exact
+/// share (n·s) sin²θ times the cosine-weighted fraction of a fixed pattern of 24 directions inside it (equal-area
+/// rings) that no nearer adjusted cap contains.
+fn union_of_adjusted(active: &[Active], include: &impl Fn(usize) -> bool, normal: [f32; 3]) -> f64 {
+    let mut union = 0.0f64;
+    for (i, a) in active.iter().enumerate() {
+        if !a.adjusted || !include(a.entry as usize) {
+            continue;
+        }
+        let s = [-a.axis[0], -a.axis[1], -a.axis[2]];
+        let v0 = f64::from((s[0] * normal[0] + s[1] * normal[1] + s[2] * normal[2]) * a.sin_theta * a.sin_theta);
+        if v0 <= 0.0 {
+            continue;
+        }
+        // Does any nearer included adjusted cap overlap this one at all?
+        let cos_i = crate::shadow::sqrt_f32((1.0 - a.sin_theta * a.sin_theta).max(0.0));
+        let overlaps = active[..i].iter().any(|b| b.adjusted && include(b.entry as usize));
+        if !overlaps {
+            union += v0;
+            continue;
+        }
+        // Frame (u, v, s).
+        let t = if s[0].abs() < 0.9 { [1.0f32, 0.0, 0.0] } else { [0.0, 1.0, 0.0] };
+        let mut u = [t[1] * s[2] - t[2] * s[1], t[2] * s[0] - t[0] * s[2], t[0] * s[1] - t[1] * s[0]];
+        let un = crate::shadow::rsqrt_f32(u[0] * u[0] + u[1] * u[1] + u[2] * u[2]);
+        u = u.map(|x| x * un);
+        let v = [s[1] * u[2] - s[2] * u[1], s[2] * u[0] - s[0] * u[2], s[0] * u[1] - s[1] * u[0]];
+        let (mut free, mut all) = (0.0f64, 0.0f64);
+        for ring in 0..CAP_RINGS {
+            let cz = 1.0 - (1.0 - cos_i) * (ring as f32 + 0.5) / CAP_RINGS as f32;
+            let sz = crate::shadow::sqrt_f32((1.0 - cz * cz).max(0.0));
+            for k in 0..CAP_AZIMUTHS {
+                let (sn, cs) = CAP_TRIG[(k + ring) % CAP_AZIMUTHS];
+                let d = [0, 1, 2].map(|q| cz * s[q] + sz * (cs * u[q] + sn * v[q]));
+                let c = (d[0] * normal[0] + d[1] * normal[1] + d[2] * normal[2]).max(0.0);
+                all += f64::from(c);
+                let covered = active[..i].iter().any(|b| {
+                    if !b.adjusted || !include(b.entry as usize) {
+                        return false;
+                    }
+                    // Inside b's cap: the angle to b's centre direction is below b's angular radius.
+                    let sb = [-b.axis[0], -b.axis[1], -b.axis[2]];
+                    let cb = crate::shadow::sqrt_f32((1.0 - b.sin_theta * b.sin_theta).max(0.0));
+                    d[0] * sb[0] + d[1] * sb[1] + d[2] * sb[2] > cb
+                });
+                if !covered {
+                    free += f64::from(c);
+                }
+            }
+        }
+        if all > 0.0 {
+            union += v0 * free / all;
+        }
+    }
+    union
+}
+
+/// (sin, cos) of the azimuths 2πk/8 of the cap pattern.
+const CAP_TRIG: [(f32, f32); CAP_AZIMUTHS] = [
+    (0.0, 1.0),
+    (core::f32::consts::FRAC_1_SQRT_2, core::f32::consts::FRAC_1_SQRT_2),
+    (1.0, 0.0),
+    (core::f32::consts::FRAC_1_SQRT_2, -core::f32::consts::FRAC_1_SQRT_2),
+    (0.0, -1.0),
+    (-core::f32::consts::FRAC_1_SQRT_2, -core::f32::consts::FRAC_1_SQRT_2),
+    (-1.0, 0.0),
+    (-core::f32::consts::FRAC_1_SQRT_2, core::f32::consts::FRAC_1_SQRT_2),
+];
 
 #[derive(Clone, Copy)]
 enum Which {
@@ -1051,10 +1322,10 @@ fn intersect(a: &Blocker, b: &Blocker) -> bool {
 }
 
 /// The leaves below `node` (or all leaves for the implicit root) as (leaf, depth-first position).
-fn collect_leaves(posed: &PosedProxy<'_>, node: u32, out: &mut Vec<(usize, usize)>) {
+fn collect_leaves(posed: &PosedProxy<'_>, node: u32, stack: &mut Vec<u32>, out: &mut Vec<(usize, usize)>) {
     match posed.nodes {
         Some((plan, _)) if node != IMPLICIT_ROOT => {
-            let mut stack: Vec<u32> = Vec::new();
+            stack.clear();
             stack.push(node);
             while let Some(k) = stack.pop() {
                 for c in plan.refs_of(k) {

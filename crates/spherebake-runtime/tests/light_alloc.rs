@@ -279,3 +279,10 @@ fn the_counter_sees_allocations() {
     };
     assert!(fresh > 0, "a first build grows its buffers");
 }
+
+#[test]
+fn rebuilding_a_hierarchy_cluster_of_the_same_size_does_not_allocate() {
+    let (n, allocations) = rebuild_allocations(true);
+    assert_eq!(n, 8);
+    assert_eq!(allocations, 0);
+}

@@ -367,3 +367,17 @@ fn truncated_share(n: usize, x: [f64; 3], normal: [f64; 3], s: Sphere, b: Sphere
     }
     num / den
 }
+
+/// A nearer light whose cone does not overlap the light's cone blocks nothing of it (no ray meets both), so it must
+/// not darken it: without the cone test its band-limited log leaked 4–9.5 % of darkening into the other light.
+#[test]
+fn a_nearer_light_whose_cone_misses_is_no_blocker() {
+    let s = sphere([3.0, 1.0, 0.0], 1.0);
+    let mut worst = 0.0f64;
+    for b in [sphere([-2.9, 1.0, 0.0], 1.0), sphere([-1.5, 0.8, 1.0], 0.6), sphere([0.0, 1.2, -2.5], 0.8)] {
+        assert_eq!(ray_cast_share(ORIGIN, UP, s, b).0, 1.0);
+        let sc = scene(s, 4, ExpMethod::default());
+        worst = worst.max((ratio(&sc, s, b) - 1.0).abs());
+    }
+    assert!(worst < 1e-6, "{worst}");
+}

@@ -554,6 +554,7 @@ pub fn compute(a: &LightArgs, proxy: &Proxy, mesh: &spherebake_geom::Mesh) -> Re
                 normal: Some([0.0, 1.0, 0.0]),
                 theta_max_rad: theta_max,
                 reflection_ratio: reflection,
+                overlap_correction: false,
             };
             cl.build(&ctx, &sources, &spec)?;
             let mut out = Vec::with_capacity((i1 - i0) * (j1 - j0));
@@ -578,8 +579,14 @@ pub fn compute(a: &LightArgs, proxy: &Proxy, mesh: &spherebake_geom::Mesh) -> Re
         .par_iter()
         .map_init(IndirectCluster::new, |cl, g| {
             let (centre, radius, normal) = receiver_ball(&model, g);
-            let spec =
-                ClusterSpec { center: centre, radius, normal, theta_max_rad: theta_max, reflection_ratio: reflection };
+            let spec = ClusterSpec {
+                center: centre,
+                radius,
+                normal,
+                theta_max_rad: theta_max,
+                reflection_ratio: reflection,
+                overlap_correction: false,
+            };
             cl.build(&ctx, &sources, &spec)?;
             let mut out = Vec::with_capacity(g.len());
             for &k in g {
