@@ -633,8 +633,16 @@ pub fn grid_divisions(l: f64, spacing: f64, min: usize) -> usize {
 pub fn seam_points(spheres: &[(DVec3, f64)], pos: &[DVec3], tris: &[[u32; 3]], spacing: f64) -> Vec<DVec3> {
     use rayon::prelude::*;
     let inside = |p: DVec3, s: &(DVec3, f64)| p.distance_squared(s.0) <= s.1 * s.1;
+    let plan = crate::points::grid_plan(
+        pos,
+        tris,
+        |l| grid_divisions(l, spacing, SEAM_GRID),
+        SEAM_GRID,
+        crate::points::GRID_BUDGET,
+    );
     tris.par_iter()
-        .flat_map_iter(|t| {
+        .zip(&plan)
+        .flat_map_iter(|(t, &m)| {
             let (a, b, c) = (pos[t[0] as usize], pos[t[1] as usize], pos[t[2] as usize]);
             let mut out = Vec::new();
             if spheres.iter().any(|s| inside(a, s) && inside(b, s) && inside(c, s)) {
@@ -643,8 +651,6 @@ pub fn seam_points(spheres: &[(DVec3, f64)], pos: &[DVec3], tris: &[[u32; 3]], s
             let (lo, hi) = (a.min(b).min(c), a.max(b).max(c));
             let near: Vec<&(DVec3, f64)> =
                 spheres.iter().filter(|s| s.0.clamp(lo, hi).distance_squared(s.0) <= s.1 * s.1).collect();
-            let l = (b - a).length().max((c - b).length()).max((a - c).length());
-            let m = grid_divisions(l, spacing, SEAM_GRID);
             for i in 0..=m {
                 for j in 0..=(m - i) {
                     let (u, v) = (i as f64 / m as f64, j as f64 / m as f64);

@@ -543,7 +543,14 @@ fn run_once(
     // Edge midpoints too (each edge once): the exactness pass then has far less to grow
     // (measured: bunny 64 E 0.305 → 0.294, armadillo 64 0.544 → 0.539).
     let edge_mids = true;
-    for t in &prep.tris {
+    let plan = points::grid_plan(
+        &prep.pos,
+        &prep.tris,
+        |l| (2.0 * l / pts.h).ceil().min(256.0) as usize,
+        0,
+        points::GRID_BUDGET,
+    );
+    for (t, &m) in prep.tris.iter().zip(&plan) {
         for &v in t {
             if !used[v as usize] {
                 used[v as usize] = true;
@@ -561,8 +568,6 @@ fn run_once(
         }
         // Triangles larger than the sample spacing also get a barycentric grid, so the polish
         // sees their interiors too (real scans never need it; coarse CAD-like meshes do).
-        let l = (b - a).length().max((c - b).length()).max((a - c).length());
-        let m = (2.0 * l / pts.h).ceil().min(256.0) as usize;
         if m > 1 {
             for i in 0..=m {
                 for j in 0..=(m - i) {
@@ -604,10 +609,11 @@ fn run_once(
                 }
             }
             let mut dpts: Vec<DVec3> = prep.pos.iter().zip(&referenced).filter(|(_, &r)| r).map(|(p, _)| *p).collect();
-            for t in &prep.tris {
+            let h2 = 2.0 * prep.solid.h;
+            let plan =
+                points::grid_plan(&prep.pos, &prep.tris, |l| descent::grid_divisions(l, h2, 1), 1, points::GRID_BUDGET);
+            for (t, &m) in prep.tris.iter().zip(&plan) {
                 let (a, b, c) = (prep.pos[t[0] as usize], prep.pos[t[1] as usize], prep.pos[t[2] as usize]);
-                let l = (b - a).length().max((c - b).length()).max((a - c).length());
-                let m = descent::grid_divisions(l, 2.0 * prep.solid.h, 1);
                 for i in 0..=m {
                     for j in 0..=(m - i) {
                         if (i == 0 || i == m) && j == 0 || i == 0 && j == m {

@@ -85,17 +85,61 @@ pub fn lattice_points(solid: &Solid, lo: DVec3, hi: DVec3, h: f64) -> Vec<DVec3>
 }
 
 /// Builds the clustering point set. `h` = lattice spacing.
+/// Points a barycentric grid of `m` divisions per edge holds.
+fn grid_points(m: usize) -> usize {
+    (m + 1) * (m + 2) / 2
+}
+
+/// Grid divisions per triangle so that point sets grow with the surface, not with edge length
+/// (issue 17: one OBJ face of 30 000 vertices, a fan of slivers, asked for a 6 GB point set).
+/// `want(l)` gives the divisions the caller would use for a triangle of longest edge `l`; a
+/// triangle flatter than about 1 : 30 gets fewer, in proportion to the square root of its area
+/// (a well-shaped triangle keeps `want(l)`), never below `min`; and if the whole mesh would still
+/// exceed `budget` grid points, every count is scaled down by the same factor. Deterministic.
+pub fn grid_plan(
+    positions: &[DVec3],
+    triangles: &[[u32; 3]],
+    want: impl Fn(f64) -> usize,
+    min: usize,
+    budget: usize,
+) -> Vec<usize> {
+    let mut ms: Vec<usize> = triangles
+        .iter()
+        .map(|t| {
+            let (a, b, c) = (positions[t[0] as usize], positions[t[1] as usize], positions[t[2] as usize]);
+            let l = (b - a).length().max((c - b).length()).max((a - c).length());
+            let m = want(l);
+            let area = 0.5 * (b - a).cross(c - a).length();
+            if l.is_nan() || l <= 0.0 || !area.is_finite() {
+                return m.min(min.max(1));
+            }
+            let cap = (m as f64 * 8.0 * area.sqrt() / l).ceil() as usize;
+            m.min(cap.max(min))
+        })
+        .collect();
+    let total: usize = ms.iter().map(|&m| grid_points(m)).sum();
+    if total > budget {
+        let f = (budget as f64 / total as f64).sqrt();
+        for m in &mut ms {
+            *m = ((*m as f64 * f).floor() as usize).max(min);
+        }
+    }
+    ms
+}
+
+/// Grid points per mesh for the point sets (about 100 MB at most for the largest set).
+pub const GRID_BUDGET: usize = 2_000_000;
+
 pub fn build(positions: &[DVec3], triangles: &[[u32; 3]], solid: &Solid, lo: DVec3, hi: DVec3, h: f64) -> PointSet {
     let fine = h * SURFACE_SPACING;
     let mut samples: Vec<DVec3> = Vec::with_capacity(triangles.len() * 2);
     let mut normals: Vec<DVec3> = Vec::with_capacity(triangles.len() * 2);
-    for t in triangles {
+    let plan = grid_plan(positions, triangles, |l| (l / fine).ceil().clamp(1.0, 256.0) as usize, 1, GRID_BUDGET);
+    for (t, &m) in triangles.iter().zip(&plan) {
         let a = positions[t[0] as usize];
         let b = positions[t[1] as usize];
         let c = positions[t[2] as usize];
         let first = samples.len();
-        let l = (b - a).length().max((c - b).length()).max((a - c).length());
-        let m = (l / fine).ceil().clamp(1.0, 256.0) as usize;
         if m <= 1 {
             samples.push(a);
             samples.push((a + b + c) / 3.0);

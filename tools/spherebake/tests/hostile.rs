@@ -553,3 +553,46 @@ fn obj_mtllib_and_map_kd_outside_the_model_folder_are_refused() {
     let o = run(&args, d.path());
     assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
 }
+
+/// One OBJ face of `n` vertices on the unit circle: a fan of n − 2 slivers.
+fn fan_obj(n: usize) -> String {
+    let mut s = String::new();
+    for i in 0..n {
+        let a = std::f64::consts::TAU * i as f64 / n as f64;
+        s += &format!("v {:.9} {:.9} 0\n", a.cos(), a.sin());
+    }
+    s += "f";
+    for i in 1..=n {
+        s += &format!(" {i}");
+    }
+    s + "\n"
+}
+
+#[test]
+fn a_fan_of_slivers_bakes_in_bounded_memory_and_time() {
+    // n = 1000 took 22 s / 481 MB (point sets grew with triangle size, not count), so n = 3000
+    // needed well over 1 GB; now 8 s and 38 MB peak. Run under a 300 MB address-space limit
+    // and a deadline.
+    let d = tempdir();
+    std::fs::write(d.path().join("fan.obj"), fan_obj(3000)).unwrap();
+    let exe = env!("CARGO_BIN_EXE_spherebake");
+    let mut child = Command::new("sh")
+        .arg("-c")
+        .arg("ulimit -v 300000 && exec \"$0\" bake fan.obj -o fan.sphb -q")
+        .arg(exe)
+        .current_dir(d.path())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let t0 = std::time::Instant::now();
+    while child.try_wait().unwrap().is_none() {
+        if t0.elapsed().as_secs() > 180 {
+            let _ = child.kill();
+            panic!("the fan did not bake in 180 s");
+        }
+        std::thread::sleep(std::time::Duration::from_millis(100));
+    }
+    let o = child.wait_with_output().unwrap();
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    assert!(d.path().join("fan.sphb").is_file());
+}
