@@ -2,7 +2,9 @@
 //! irradiance under a sphere, the quadrature of `analytic::sphere_one_bounce` for the indirect
 //! irradiance of a diffuse sphere, and bit-identical results for 1 and 2 threads.
 
-use spherebake_reference::analytic::{sphere_one_bounce, sphere_one_bounce_at, uv_sphere_mesh, DiffuseSphere};
+use spherebake_reference::analytic::{
+    sky_irradiance, sphere_one_bounce, sphere_one_bounce_at, uv_sphere_mesh, DiffuseSphere,
+};
 use spherebake_reference::{Receiver, ReferenceSettings, Scene, Sky};
 use std::f64::consts::PI;
 
@@ -27,6 +29,36 @@ fn unoccluded_ground_point_under_the_uniform_sky_gets_pi() {
     }
     for e in scene.indirect(&sky, &far, &s).unwrap() {
         assert_eq!(e, [0.0; 3]);
+    }
+}
+
+#[test]
+fn unoccluded_direct_light_of_a_varying_sky_matches_the_quadrature() {
+    // An order-3 sky with negative lobes (clamped at 0) and a strong horizon term: on receivers
+    // far from the mesh, with several normals, the stratified Monte Carlo estimate matches the
+    // deterministic hemisphere quadrature of ∫_{ω_y>0} sky(ω) max(0, n·ω) dω.
+    let mesh = uv_sphere_mesh([0.0, 1.0, 0.0], 1.0, 8, 16, ALBEDO);
+    let scene = Scene::new(&mesh).unwrap();
+    let mut c = [0.0; 9];
+    c[0] = 2.0;
+    c[1] = 0.9;
+    c[3] = -1.2;
+    c[6] = 0.8;
+    let sky = Sky::new(3, &c).unwrap();
+    let normals = [[0.0, 1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.6, -0.8], [0.48, -0.6, 0.64]];
+    let recv: Vec<Receiver> = normals
+        .iter()
+        .enumerate()
+        .map(|(k, n)| Receiver { position: [200.0 + 10.0 * k as f64, 3.0, -150.0], normal: *n, surface: None })
+        .collect();
+    let s = ReferenceSettings { rays: 65536, shadow_rays: 1, seed: 21 };
+    let est = scene.direct_with_error(&sky, &recv, &s).unwrap();
+    for (n, e) in normals.iter().zip(&est) {
+        let exact = sky_irradiance(&sky, *n, 256);
+        assert!(exact > 0.0);
+        // The naive standard error (~0.5 %) ignores the stratification; the stratified estimate
+        // was measured within 5e-4 relative of the quadrature at every normal here.
+        assert!((e.value[0] - exact).abs() < 2e-3 * exact, "n {n:?}: {} vs {exact} (σ {})", e.value[0], e.std_error[0]);
     }
 }
 
