@@ -72,6 +72,46 @@
 //! K powers, and for each light ≤ K log additions and three exponentials (none when no blocker precedes it). Measured
 //! numbers: `docs/benchmarks.md`. Pass 2 is allocation-free per receiver; builds allocate only while buffers grow.
 
+//! # Example: one frame
+//!
+//! ```
+//! use spherebake_runtime::light::{
+//!     clip_below_horizon, light_spheres, ClusterSpec, IndirectCluster, LightContext, Pass1Settings, PosedProxy,
+//!     SphereLights,
+//! };
+//! use spherebake_runtime::shadow::{uniform_light, ExpMethod};
+//! # use spherebake_runtime::{AlbedoSh, SamplePoint, Samples, SphbFile, Sphere, GEODESIC_DIRECTIONS};
+//! # // A one-sphere proxy standing on the ground: samples on its surface, a grey albedo.
+//! # let s = Sphere { center: [0.0, 1.0, 0.0], radius: 1.0 };
+//! # let pts = GEODESIC_DIRECTIONS.iter().enumerate().map(|(j, d)| SamplePoint {
+//! #     position: [d[0], 1.0 + d[1], d[2]], normal: *d, direction: j as u8, rule: 1 }).collect();
+//! # let mut coefficients = vec![[0.0f32; 3]; 16];
+//! # coefficients[0] = [0.5 * 3.5449077; 3];
+//! # let file = SphbFile { spheres: vec![s], samples: Some(Samples { per_sphere: vec![pts] }),
+//! #     albedo_sh: Some(AlbedoSh { order: 4, coefficients, ..AlbedoSh::default() }), ..SphbFile::default() };
+//! # let bytes = spherebake_runtime::Proxy::from_file(&file)?.to_bytes();
+//! let proxy = spherebake_runtime::load(&bytes)?;
+//! let ctx = LightContext::new(4, ExpMethod::default())?; // once
+//!
+//! // Per frame: the environment (here a uniform white sky over a ground plane), then pass 1 per proxy.
+//! let mut sky = [0.0; 16];
+//! uniform_light(4, &mut sky);
+//! let mut env = [0.0; 16];
+//! clip_below_horizon(&ctx, &sky, [0.0, 1.0, 0.0], &mut env)?;
+//! let posed = PosedProxy::at_rest(&proxy); // or posed leaves, refitted nodes and `sphere_rotations`
+//! let mut lights = SphereLights::new();
+//! light_spheres(&ctx, &posed, &env, &[], &Pass1Settings::default(), &mut lights)?;
+//!
+//! // Pass 2: per receiver cluster (here one ground point), then per receiver.
+//! let sources = [(posed, &lights)];
+//! let p = [2.0, 0.0, 0.0];
+//! let mut cluster = IndirectCluster::new();
+//! cluster.build(&ctx, &sources, &ClusterSpec::new(p, 0.0, Some([0.0, 1.0, 0.0])))?;
+//! let e = cluster.irradiance(&ctx, &sources, p, [0.0, 1.0, 0.0])?; // indirect irradiance, linear RGB
+//! assert!(e[0] > 0.0 && (e[0] - e[2]).abs() < 1e-6); // grey light bounced onto the ground
+//! # Ok::<(), Box<dyn core::error::Error>>(())
+//! ```
+
 // Index loops mirror the formulas (bands l, coefficients i, channels c).
 #![allow(clippy::needless_range_loop)]
 
