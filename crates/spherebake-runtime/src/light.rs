@@ -3,7 +3,7 @@
 //!
 //! # Per frame, in order
 //!
-//! 1. [`crate::pose`] / [`crate::pose_and_refit`] the proxy (skinned models), and [`sphere_rotations`] for the soft
+//! 1. [`crate::pose()`] / [`crate::pose_and_refit`] the proxy (skinned models), and [`sphere_rotations`] for the soft
 //!    deformation (§7.1).
 //! 2. **Pass 1** ([`light_spheres`], per proxy): the diffuse exit radiance of every surface sample point p_j of every
 //!    leaf sphere S_i, L_pj = V_p,env · L_env,ρn (eq. 3–8): V by log-SH accumulation over the hierarchy cut seen from
@@ -44,6 +44,18 @@
 //! - **Blocker order (eq. 20–23).** "All SLs closer to p" is taken as the *power* of p with respect to each sphere,
 //!   |p − c|² − r²: for two disjoint balls the radical plane separates them, so every ray from p that meets both
 //!   meets the ball of smaller power first. Ties keep the cut order.
+//! - **Cones that miss are no blockers (departure).** A nearer light whose cone from p does not overlap the light's
+//!   cone (angle between the axes ≥ θ_i + θ_j) blocks none of it, but its band-limited log still darkens it by
+//!   SH leakage (measured 4–10 % for two unit spheres 143° apart); such pairs are skipped.
+//! - **Lights seen from very close (departure).** For a receiver inside or under a light (angular radius θ > 40°),
+//!   the weights concentrate near the axis, where the order-n SH smears the light's empty directions (rule 2) and
+//!   its sharp light/dark edges: the ground under the Duck glowed (rel RMSE 0.65 at 64 spheres). From θ = 40° to
+//!   60° the light's SH is blended into a local band-0–1 least-squares fit of its Voronoi function (the 92 sampled
+//!   values, empty directions as 0) within a cone about the axis, integrated with the same cosine weights; the fit
+//!   is exact for band-1 emission, so the known-answer cases keep their exactness (Duck: 0.65 → 0.36).
+//! - **One radiance per direction.** Lights that contain the receiver all touch its tangent plane after the
+//!   self-shadowing rules and intersect, so none blocks another; their cosine-weighted shares are scaled down to the
+//!   union of their caps (24 fixed directions per cap) when they add up to more.
 //! - **Intersecting spheres of the same proxy** (§6.2) are not blockers of each other (|c_i − c_j| < r_i + r_j on the
 //!   posed, unadjusted spheres): their mutual occlusion is already in the emission (rule 2). Spheres of different
 //!   proxies always block (the paper forbids them to intersect).
