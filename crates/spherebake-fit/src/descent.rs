@@ -28,6 +28,9 @@ type SplitMove = Option<(f64, Ball, Ball)>;
 /// A deletion: (Δ outside volume, grown spheres and their new radii).
 type DeleteMove = (f64, Vec<(usize, f64)>);
 
+/// Cells of a [`Grid`] at most.
+const MAX_GRID_CELLS: usize = 4 << 20;
+
 /// Uniform grid over the points for ball queries (CSR by cell).
 struct Grid {
     origin: DVec3,
@@ -47,6 +50,13 @@ impl Grid {
             hi = hi.max(*p);
         }
         let ext = (hi - lo).max(DVec3::splat(cell));
+        // At most MAX_GRID_CELLS cells (2 × 16 MB of counts): at --voxels 1024 the cell of two
+        // voxels gave 512³ cells and 1 GB of counts (issue 17); queries stay exact, with
+        // larger cells. Inactive up to --voxels 256, so results there are unchanged.
+        let cells = (ext.x / cell + 1.0) * (ext.y / cell + 1.0) * (ext.z / cell + 1.0);
+        let cell =
+            if cells > MAX_GRID_CELLS as f64 { cell * (cells / MAX_GRID_CELLS as f64).cbrt() * 1.001 } else { cell };
+        let ext = ext.max(DVec3::splat(cell));
         let dims = [
             ((ext.x / cell) as usize + 1).min(1024),
             ((ext.y / cell) as usize + 1).min(1024),
@@ -773,7 +783,7 @@ mod tests {
         let dims = [16, 16, 16];
         let h = 0.5;
         let centre = DVec3::splat(4.0);
-        let cells: Vec<bool> = (0..16 * 16 * 16)
+        let cells: crate::solid::Bits = (0..16 * 16 * 16)
             .map(|i| {
                 let p = DVec3::new((i % 16) as f64 + 0.5, ((i / 16) % 16) as f64 + 0.5, (i / 256) as f64 + 0.5) * h;
                 p.distance(centre) < 3.0

@@ -445,7 +445,7 @@ fn closed_intersection(
 /// against the wrong model, say) cannot stall the estimate.
 fn union_outside(solid: &Solid, spheres: &[Sphere32]) -> f64 {
     let [nx, ny, nz] = solid.dims;
-    let mut mark = vec![false; nx * ny * nz];
+    let mut mark = solid::Bits::new(nx * ny * nz);
     let mut extra = 0.0;
     for s in spheres {
         let c = DVec3::new(s[0] as f64, s[1] as f64, s[2] as f64);
@@ -464,7 +464,7 @@ fn union_outside(solid: &Solid, spheres: &[Sphere32]) -> f64 {
                 for j in lo.y as usize..=hi.y as usize {
                     for i in lo.x as usize..=hi.x as usize {
                         if centre(i as i64, j as i64, k as i64).distance_squared(c) <= r * r {
-                            mark[solid.index(i, j, k)] = true;
+                            mark.set(solid.index(i, j, k));
                         }
                     }
                 }
@@ -492,7 +492,7 @@ fn union_outside(solid: &Solid, spheres: &[Sphere32]) -> f64 {
             }
         }
     }
-    let cnt = mark.iter().zip(&solid.solid).filter(|(m, s)| **m && !**s).count() as f64;
+    let cnt = mark.count_and_not(&solid.solid) as f64;
     (cnt + extra) * solid.h.powi(3)
 }
 
@@ -1013,7 +1013,7 @@ mod tests {
     fn union_outside_of_a_sphere_far_larger_than_the_grid_is_sampled() {
         // 8³ solid cells of size 1; one ball of radius 400 cells around them: 2.7e8 cells in
         // its box, sampled (stride 6) instead of visited one by one.
-        let solid = Solid::from_cells(DVec3::ZERO, 1.0, [8, 8, 8], vec![true; 512]);
+        let solid = Solid::from_cells(DVec3::ZERO, 1.0, [8, 8, 8], std::iter::repeat_n(true, 512).collect());
         let ball = [4.0f32, 4.0, 4.0, 400.0];
         let got = union_outside(&solid, &[ball]);
         let want = volume::ball_volume_f64(400.0) - 512.0;

@@ -84,7 +84,6 @@ pub fn lattice_points(solid: &Solid, lo: DVec3, hi: DVec3, h: f64) -> Vec<DVec3>
     out
 }
 
-/// Builds the clustering point set. `h` = lattice spacing.
 /// Points a barycentric grid of `m` divisions per edge holds.
 fn grid_points(m: usize) -> usize {
     (m + 1) * (m + 2) / 2
@@ -130,6 +129,7 @@ pub fn grid_plan(
 /// Grid points per mesh for the point sets (about 100 MB at most for the largest set).
 pub const GRID_BUDGET: usize = 2_000_000;
 
+/// Builds the clustering point set. `h` = lattice spacing.
 pub fn build(positions: &[DVec3], triangles: &[[u32; 3]], solid: &Solid, lo: DVec3, hi: DVec3, h: f64) -> PointSet {
     let fine = h * SURFACE_SPACING;
     let mut samples: Vec<DVec3> = Vec::with_capacity(triangles.len() * 2);

@@ -8,6 +8,69 @@
 
 use glam::DVec3;
 
+/// A fixed-length bit vector (one bit per voxel cell: 128 MB at 1024³ instead of 1 GB).
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct Bits {
+    words: Vec<u64>,
+    len: usize,
+}
+
+impl Bits {
+    pub fn new(len: usize) -> Self {
+        Bits { words: vec![0; len.div_ceil(64)], len }
+    }
+    #[inline]
+    pub fn get(&self, i: usize) -> bool {
+        debug_assert!(i < self.len);
+        self.words[i >> 6] >> (i & 63) & 1 == 1
+    }
+    #[inline]
+    pub fn set(&mut self, i: usize) {
+        debug_assert!(i < self.len);
+        self.words[i >> 6] |= 1 << (i & 63);
+    }
+    pub fn len(&self) -> usize {
+        self.len
+    }
+    pub fn is_empty(&self) -> bool {
+        self.len == 0
+    }
+    pub fn count_ones(&self) -> usize {
+        self.words.iter().map(|w| w.count_ones() as usize).sum()
+    }
+    /// Number of bits set in both `self` and not in `other` (same length).
+    pub fn count_and_not(&self, other: &Bits) -> usize {
+        self.words.iter().zip(&other.words).map(|(a, b)| (a & !b).count_ones() as usize).sum()
+    }
+}
+
+impl FromIterator<bool> for Bits {
+    fn from_iter<I: IntoIterator<Item = bool>>(it: I) -> Self {
+        let mut b = Bits::default();
+        for (i, v) in it.into_iter().enumerate() {
+            if i % 64 == 0 {
+                b.words.push(0);
+            }
+            if v {
+                b.words[i >> 6] |= 1 << (i & 63);
+            }
+            b.len = i + 1;
+        }
+        b
+    }
+}
+
+impl std::ops::Index<usize> for Bits {
+    type Output = bool;
+    fn index(&self, i: usize) -> &bool {
+        if self.get(i) {
+            &true
+        } else {
+            &false
+        }
+    }
+}
+
 /// Solid state of a 3×3×3 block of cells.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Neighbourhood {
@@ -23,10 +86,14 @@ pub struct Solid {
     /// Cell edge length, model units.
     pub h: f64,
     pub dims: [usize; 3],
-    /// x-fastest, `true` = cell centre inside the solid.
-    pub solid: Vec<bool>,
-    /// Per x row (j, k): `dims[0] + 1` prefix counts of solid cells (exact in f32: ≤ 2²⁴).
-    prefix: Vec<f32>,
+    /// x-fastest, set = cell centre inside the solid.
+    pub solid: Bits,
+    /// Runs `[a, b)` of solid cells of the rows listed in `multi`, in that order; row n's runs
+    /// are `runs[run_start[n]..run_start[n + 1]]`, with `run_before[r]` the solid cells of the
+    /// row before run r (the prefix counts, exact, without a (dims[0] + 1) array per row).
+    runs: Vec<[u32; 2]>,
+    run_before: Vec<u32>,
+    run_start: Vec<usize>,
     /// Per x row: [a, b] when its solid cells form one run [a, b); [0, 0] when none or when
     /// they form several runs (those rows are listed in `multi` and use the prefix).
     span: Vec<[f32; 2]>,
@@ -120,6 +187,7 @@ impl Solid {
         }
         let j1 = (j1f as usize).min(self.dims[1].saturating_sub(1));
         let mut sum = 0.0;
+        let _ = nx;
         let ny = self.dims[1];
         for k in k0..=k1 {
             let dz = k as f64 + 0.5 - u.z;
@@ -164,9 +232,10 @@ impl Solid {
                 acc += row(base + n, sp) as f64;
             }
             sum += acc;
-            let multi = &self.multi[self.multi_start[k]..self.multi_start[k + 1]];
+            let (ms, me) = (self.multi_start[k], self.multi_start[k + 1]);
+            let multi = &self.multi[ms..me];
             let m0 = multi.partition_point(|&j| (j as usize) < ja);
-            for &j in &multi[m0..] {
+            for (mi, &j) in multi.iter().enumerate().skip(m0) {
                 let j = j as usize;
                 if j > jb {
                     break;
@@ -177,9 +246,10 @@ impl Solid {
                     continue;
                 }
                 let half = rem.sqrt();
-                let rj = j + ny * k;
-                let pre = &self.prefix[rj * (nx + 1)..(rj + 1) * (nx + 1)];
-                sum += prefix_at(pre, u.x + half) - prefix_at(pre, u.x - half);
+                let n = ms + mi;
+                let (r0, r1) = (self.run_start[n], self.run_start[n + 1]);
+                let (runs, before) = (&self.runs[r0..r1], &self.run_before[r0..r1]);
+                sum += prefix_at(runs, before, nx, u.x + half) - prefix_at(runs, before, nx, u.x - half);
             }
         }
         sum * h * h * h
@@ -246,18 +316,28 @@ impl Solid {
 }
 
 /// The row's prefix count at x (cells), linear inside a cell: P(i) + (x − i)(P(i+1) − P(i)),
-/// i.e. the solid length of the row left of x.
+/// i.e. the solid length of the row left of x; the row (of `n` cells) is given by its solid
+/// runs and the solid cells before each. P values are exact integers, so this is bit-identical
+/// to a lookup in a full prefix array.
 #[inline]
-fn prefix_at(pre: &[f32], x: f64) -> f64 {
-    let n = pre.len() - 1;
+fn prefix_at(runs: &[[u32; 2]], before: &[u32], n: usize, x: f64) -> f64 {
+    let p = |i: usize| -> u32 {
+        // Solid cells in [0, i): runs starting before i.
+        let r = runs.partition_point(|run| (run[0] as usize) < i);
+        if r == 0 {
+            return 0;
+        }
+        let [a, b] = runs[r - 1];
+        before[r - 1] + (i.min(b as usize) - a as usize) as u32
+    };
     if x <= 0.0 {
         return 0.0;
     }
     if x >= n as f64 {
-        return pre[n] as f64;
+        return p(n) as f64;
     }
     let i = x as usize;
-    let (a, b) = (pre[i] as f64, pre[i + 1] as f64);
+    let (a, b) = (p(i) as f64, p(i + 1) as f64);
     a + (x - i as f64) * (b - a)
 }
 
@@ -282,7 +362,8 @@ pub fn voxelize(positions: &[DVec3], triangles: &[[u32; 3]], resolution: u32, cl
     }
     let n = dims[0] * dims[1] * dims[2];
     let axes: &[usize] = if closed { &[0] } else { &[0, 1, 2] };
-    let mut votes = vec![0u8; n];
+    // Votes per cell as bits (one axis' parity each): at least one, at least two.
+    let (mut once, mut twice) = (Bits::new(n), Bits::new(n));
     for &axis in axes {
         let u = (axis + 1) % 3;
         let v = (axis + 2) % 3;
@@ -342,47 +423,56 @@ pub fn voxelize(positions: &[DVec3], triangles: &[[u32; 3]], resolution: u32, cl
                     c[axis] = ia;
                     c[u] = iu;
                     c[v] = jv;
-                    votes[c[0] + dims[0] * (c[1] + dims[1] * c[2])] += 1;
+                    let idx = c[0] + dims[0] * (c[1] + dims[1] * c[2]);
+                    if once.get(idx) {
+                        twice.set(idx);
+                    } else {
+                        once.set(idx);
+                    }
                 }
             }
             s = e;
         }
     }
-    let need = if closed { 1 } else { 2 };
-    let solid: Vec<bool> = votes.iter().map(|&x| x >= need).collect();
+    let solid = if closed { once } else { twice };
     Solid::from_cells(origin, h, dims, solid)
 }
 
 impl Solid {
     /// Builds the row prefix sums for a given cell classification.
-    pub fn from_cells(origin: DVec3, h: f64, dims: [usize; 3], solid: Vec<bool>) -> Solid {
+    pub fn from_cells(origin: DVec3, h: f64, dims: [usize; 3], solid: Bits) -> Solid {
         let nx = dims[0];
         let rows = dims[1] * dims[2];
-        let mut prefix = vec![0f32; rows * (nx + 1)];
         let mut span = vec![[0f32; 2]; rows];
         let mut multi_rows: Vec<usize> = Vec::new();
+        let (mut runs_all, mut run_before, mut run_start) = (Vec::new(), Vec::new(), vec![0usize]);
+        let mut row_runs: Vec<[u32; 2]> = Vec::new();
         let mut count = 0usize;
-        for row in 0..rows {
+        for (row, sp) in span.iter_mut().enumerate() {
             let mut acc = 0u32;
-            let (mut first, mut last, mut runs) = (0usize, 0usize, 0usize);
+            row_runs.clear();
             for i in 0..nx {
-                if solid[row * nx + i] {
-                    if acc == 0 {
-                        first = i;
+                if solid.get(row * nx + i) {
+                    if i == 0 || !solid.get(row * nx + i - 1) {
+                        row_runs.push([i as u32, i as u32 + 1]);
+                    } else if let Some(r) = row_runs.last_mut() {
+                        r[1] = i as u32 + 1;
                     }
-                    if i == 0 || !solid[row * nx + i - 1] {
-                        runs += 1;
-                    }
-                    last = i;
                     acc += 1;
                 }
-                prefix[row * (nx + 1) + i + 1] = acc as f32;
             }
-            span[row] = match runs {
+            *sp = match row_runs.len() {
                 0 => [0.0, 0.0],
-                1 => [first as f32, (last + 1) as f32],
+                1 => [row_runs[0][0] as f32, row_runs[0][1] as f32],
                 _ => {
                     multi_rows.push(row);
+                    let mut before = 0u32;
+                    for r in &row_runs {
+                        runs_all.push(*r);
+                        run_before.push(before);
+                        before += r[1] - r[0];
+                    }
+                    run_start.push(runs_all.len());
                     [0.0, 0.0]
                 }
             };
@@ -398,7 +488,19 @@ impl Solid {
             multi_start[k + 1] += multi_start[k];
         }
         let multi: Vec<u32> = multi_rows.iter().map(|&row| (row % ny) as u32).collect();
-        Solid { origin, h, dims, solid, prefix, span, multi, multi_start, solid_count: count }
+        Solid {
+            origin,
+            h,
+            dims,
+            solid,
+            runs: runs_all,
+            run_before,
+            run_start,
+            span,
+            multi,
+            multi_start,
+            solid_count: count,
+        }
     }
 
     /// The same grid with every cell that contains a surface sample (barycentric grid of
@@ -415,7 +517,7 @@ impl Solid {
                     let p = a + (b - a) * (i as f64 / m as f64) + (c - a) * (j as f64 / m as f64);
                     if let Some([x, y, z]) = self.cell_of(p) {
                         let idx = self.index(x, y, z);
-                        solid[idx] = true;
+                        solid.set(idx);
                     }
                 }
             }

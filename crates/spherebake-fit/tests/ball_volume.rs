@@ -38,7 +38,7 @@ fn ball_volume_matches_brute_force_inside_and_outside_the_grid() {
         let dims = [7 + case * 3, 9 + case * 2, 8 + case];
         let n = dims[0] * dims[1] * dims[2];
         let centre = DVec3::new(dims[0] as f64, dims[1] as f64, dims[2] as f64) * 0.5;
-        let solid: Vec<bool> = (0..n)
+        let solid: spherebake_fit::solid::Bits = (0..n)
             .map(|idx| {
                 let (i, j, k) = (idx % dims[0], (idx / dims[0]) % dims[1], idx / (dims[0] * dims[1]));
                 let p = DVec3::new(i as f64 + 0.5, j as f64 + 0.5, k as f64 + 0.5);

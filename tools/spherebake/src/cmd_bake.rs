@@ -6,7 +6,6 @@ use crate::config::{Config, Overrides};
 use anyhow::{Context, Result};
 use clap::{Args, ValueEnum};
 use indicatif::{MultiProgress, ProgressBar, ProgressDrawTarget, ProgressStyle};
-use rayon::prelude::*;
 use serde::Serialize;
 use spherebake_bake::{BakeOutput, BakeSettings, Method, PoseMargin};
 use std::io::IsTerminal;
@@ -77,6 +76,11 @@ pub struct BakeArgs {
     /// Also write a Make-style dependency file <OUTPUT>.d listing every file read
     #[arg(long)]
     pub depfile: bool,
+    /// Assets baked at the same time (each uses every core for its own stages) [default: the
+    /// number of cores, lowered so the estimated peak memory of the bakes fits in half the
+    /// available memory]
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(1..=1024))]
+    pub jobs: Option<u32>,
     /// Print the result as one JSON document instead of the human summary
     #[arg(long)]
     pub json: bool,
@@ -127,17 +131,27 @@ pub fn run(a: BakeArgs) -> Result<ExitCode> {
         .unwrap_or_else(|_| ProgressStyle::default_bar())
         .progress_chars("=> ");
 
-    let results: Vec<AssetResult> = jobs
-        .par_iter()
-        .map(|job| {
-            let bar = multi.add(ProgressBar::new(1000));
-            bar.set_style(style.clone());
-            bar.set_prefix(job.input.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default());
-            let r = run_job(job, &a, &bar);
-            bar.finish_and_clear();
-            r
-        })
-        .collect();
+    let parallel = JobPlan::new(a.jobs, &jobs);
+    // `parallel.jobs` worker threads take assets in order; each asset's own stages run on the
+    // global rayon pool. Results are kept in input order.
+    let next = std::sync::atomic::AtomicUsize::new(0);
+    let slots: Vec<std::sync::Mutex<Option<AssetResult>>> = jobs.iter().map(|_| std::sync::Mutex::new(None)).collect();
+    std::thread::scope(|scope| {
+        for _ in 0..parallel.jobs.min(jobs.len()) {
+            scope.spawn(|| loop {
+                let i = next.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+                let Some(job) = jobs.get(i) else { break };
+                let bar = multi.add(ProgressBar::new(1000));
+                bar.set_style(style.clone());
+                bar.set_prefix(job.input.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default());
+                let r = run_job(job, &a, &bar);
+                bar.finish_and_clear();
+                *slots[i].lock().unwrap_or_else(|p| p.into_inner()) = Some(r);
+            });
+        }
+    });
+    let results: Vec<AssetResult> =
+        slots.into_iter().filter_map(|m| m.into_inner().unwrap_or_else(|p| p.into_inner())).collect();
 
     let failed = results.iter().filter(|r| r.status == "failed").count();
     if a.json {
@@ -146,10 +160,12 @@ pub fn run(a: BakeArgs) -> Result<ExitCode> {
             "baked": results.iter().filter(|r| r.status == "baked").count(),
             "up_to_date": results.iter().filter(|r| r.status == "up-to-date").count(),
             "failed": failed,
+            "jobs": parallel.jobs,
+            "jobs_reason": parallel.reason,
         });
         println!("{}", serde_json::to_string_pretty(&doc)?);
     } else if !a.quiet {
-        print_summary(&results, a.verbose);
+        print_summary(&results, a.verbose, &parallel);
     }
     Ok(if failed > 0 { ExitCode::from(1) } else { ExitCode::SUCCESS })
 }
@@ -385,7 +401,57 @@ fn depfile_text(output: &Path, inputs: &[PathBuf]) -> String {
     text
 }
 
-fn print_summary(results: &[AssetResult], verbose: bool) {
+/// How many assets bake at once, and why.
+struct JobPlan {
+    jobs: usize,
+    reason: String,
+}
+
+/// Estimated peak memory of one bake at `voxels` cells along the longest axis: the measured
+/// ~300 MB of a 1024³ cube (bit-packed solid and marks, run lists) plus a margin for the mesh,
+/// point sets and textures.
+fn bake_memory_estimate(voxels: u32) -> u64 {
+    let cells = (voxels as u64).pow(3);
+    (256 << 20) + cells / 2
+}
+
+/// Available memory (Linux `MemAvailable`), if known.
+fn available_memory() -> Option<u64> {
+    let text = std::fs::read_to_string("/proc/meminfo").ok()?;
+    let line = text.lines().find(|l| l.starts_with("MemAvailable:"))?;
+    let kb: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
+    Some(kb * 1024)
+}
+
+impl JobPlan {
+    fn new(asked: Option<u32>, jobs: &[Job]) -> JobPlan {
+        let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
+        if let Some(n) = asked {
+            return JobPlan { jobs: n as usize, reason: "--jobs".into() };
+        }
+        let per = jobs.iter().map(|j| bake_memory_estimate(j.settings.voxels)).max().unwrap_or(0);
+        match available_memory() {
+            Some(avail) if per > 0 => {
+                let by_memory = ((avail / 2) / per).max(1) as usize;
+                if by_memory < cores {
+                    JobPlan {
+                        jobs: by_memory,
+                        reason: format!(
+                            "{cores} cores, limited by memory: {} MiB available, ~{} MiB per bake",
+                            avail >> 20,
+                            per >> 20
+                        ),
+                    }
+                } else {
+                    JobPlan { jobs: cores, reason: format!("{cores} cores") }
+                }
+            }
+            _ => JobPlan { jobs: cores, reason: format!("{cores} cores") },
+        }
+    }
+}
+
+fn print_summary(results: &[AssetResult], verbose: bool, parallel: &JobPlan) {
     if results.len() == 1 && results[0].status == "baked" {
         if let Some(r) = &results[0].report {
             print_single(&results[0].output, r);
@@ -420,7 +486,14 @@ fn print_summary(results: &[AssetResult], verbose: bool) {
         }
     }
     let n = |s: &str| results.iter().filter(|r| r.status == s).count();
-    println!("{} baked, {} up to date, {} failed", n("baked"), n("up-to-date"), n("failed"));
+    println!(
+        "{} baked, {} up to date, {} failed ({} at a time: {})",
+        n("baked"),
+        n("up-to-date"),
+        n("failed"),
+        parallel.jobs,
+        parallel.reason
+    );
 }
 
 fn print_single(output: &Path, r: &spherebake_bake::BakeReport) {

@@ -596,3 +596,50 @@ fn a_fan_of_slivers_bakes_in_bounded_memory_and_time() {
     assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
     assert!(d.path().join("fan.sphb").is_file());
 }
+
+#[test]
+fn batches_bake_jobs_assets_at_a_time_and_say_so() {
+    let d = tempdir();
+    std::fs::create_dir(d.path().join("in")).unwrap();
+    for n in ["a", "b", "c"] {
+        std::fs::write(d.path().join(format!("in/{n}.obj")), CUBE_OBJ).unwrap();
+    }
+    let base = ["bake", "in", "--out-dir", "out", "--spheres", "4", "--method", "kmeans", "--force"];
+    let mut a = base.to_vec();
+    a.extend(["--jobs", "2"]);
+    let o = run(&a, d.path());
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let out = String::from_utf8_lossy(&o.stdout);
+    assert!(out.contains("3 baked, 0 up to date, 0 failed (2 at a time: --jobs)"), "{out}");
+    let mut a = base.to_vec();
+    a.push("--json");
+    let o = run(&a, d.path());
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    let jobs = v["jobs"].as_u64().unwrap();
+    let cores = std::thread::available_parallelism().unwrap().get() as u64;
+    assert!((1..=cores).contains(&jobs), "{v}");
+    assert!(v["jobs_reason"].as_str().unwrap().contains("cores"), "{v}");
+    let o = run(&["bake", "in", "--out-dir", "out", "--jobs", "0"], d.path());
+    assert_eq!(o.status.code(), Some(2), "--jobs 0 is a usage error");
+    for n in ["a", "b", "c"] {
+        assert!(d.path().join(format!("out/{n}.sphb")).is_file());
+    }
+}
+
+#[test]
+fn voxels_1024_bakes_in_under_1_gb() {
+    // Was 6.4 GB on this 12-triangle cube (bool per cell, an f32 prefix per cell, u8 votes, a
+    // 512³ point grid); bit-packed cells and run lists: ~300 MB peak (kmeans and variational).
+    let d = tempdir();
+    std::fs::write(d.path().join("cube.obj"), CUBE_OBJ).unwrap();
+    let exe = env!("CARGO_BIN_EXE_spherebake");
+    let o = Command::new("sh")
+        .arg("-c")
+        .arg("ulimit -v 1000000 && exec \"$0\" bake cube.obj -o c.sphb --voxels 1024 --method kmeans --spheres 8 -q")
+        .arg(exe)
+        .current_dir(d.path())
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    assert!(d.path().join("c.sphb").is_file());
+}
