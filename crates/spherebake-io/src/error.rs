@@ -11,12 +11,10 @@ pub enum IoError {
     #[error("{}: file not found", path.display())]
     NotFound { path: PathBuf },
     /// The file exists but could not be read.
-    #[error("{}: cannot read: {source}", path.display())]
-    Read {
-        path: PathBuf,
-        #[source]
-        source: std::io::Error,
-    },
+    /// The OS error is part of the message and deliberately not a `source`, so a printed
+    /// error chain (`{:#}`) names it once.
+    #[error("{}: cannot read: {cause}", path.display())]
+    Read { path: PathBuf, cause: std::io::Error },
     /// A referenced file (glTF buffer / image `uri`, OBJ `mtllib` / `map_Kd`) resolves outside
     /// the model's folder tree and [`crate::ImportOptions::allow_outside_paths`] is off.
     #[error("{}: {uri:?} is outside the model's folder; refused (--allow-outside-paths allows it)", path.display())]
@@ -94,6 +92,9 @@ pub enum IoError {
     /// The OBJ parser failed.
     #[error("{}: cannot parse OBJ: {message}", path.display())]
     Obj { path: PathBuf, message: String },
+    /// A position is beyond what f32 bounding spheres can bound.
+    #[error("{}: coordinate {value:e} is beyond the supported range ±{limit:e} (f32 spheres could not bound the model)", path.display())]
+    CoordinateRange { path: PathBuf, value: f32, limit: f32 },
     /// The file imports but holds no triangles.
     #[error("{}: no triangles to import", path.display())]
     EmptyMesh { path: PathBuf },

@@ -106,6 +106,25 @@ pub(crate) fn prepare(path: &Path, root: &mut Value) -> Result<Prepared, IoError
             prep.required.push(ext.to_owned());
         }
     }
+    // Draco only listed in extensionsUsed (optional): a primitive that carries it and whose
+    // POSITION accessor has no data can only be read through Draco, so name it.
+    const DRACO: &str = "KHR_draco_mesh_compression";
+    if let Some(meshes) = obj.get("meshes").and_then(Value::as_array) {
+        let accessors = obj.get("accessors").and_then(Value::as_array);
+        for m in meshes {
+            for prim in m.get("primitives").and_then(Value::as_array).into_iter().flatten() {
+                if prim.pointer(&format!("/extensions/{DRACO}")).is_none() {
+                    continue;
+                }
+                let pos = prim.pointer("/attributes/POSITION").and_then(as_index);
+                let has_data =
+                    pos.and_then(|i| accessors.and_then(|a| a.get(i))).is_some_and(|a| a.get("bufferView").is_some());
+                if !has_data {
+                    return Err(IoError::UnsupportedExtension { path: path.to_path_buf(), extension: DRACO.into() });
+                }
+            }
+        }
+    }
     if let Some(buffers) = obj.get("buffers").and_then(Value::as_array) {
         prep.fallback = buffers
             .iter()

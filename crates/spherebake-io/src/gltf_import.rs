@@ -793,11 +793,13 @@ impl Source<'_> {
                     }
                     _ => {
                         if indices.len() % 3 != 0 {
-                            self.ctx.warn(format!(
-                                "{ctx_name}: {} indices is not a multiple of 3; the last {} ignored",
-                                indices.len(),
-                                indices.len() % 3
-                            ));
+                            return Err(IoError::Invalid {
+                                path,
+                                message: format!(
+                                    "{ctx_name}: TRIANGLES with {} indices, not a multiple of 3",
+                                    indices.len()
+                                ),
+                            });
                         }
                         indices.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect()
                     }

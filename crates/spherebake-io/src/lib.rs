@@ -100,6 +100,9 @@ fn kind_of(path: &Path) -> Result<Kind, IoError> {
 /// Default [`ImportOptions::max_input_bytes`]: 1 GiB read per model, the model file and every
 /// file it references together.
 pub const DEFAULT_MAX_INPUT_BYTES: u64 = 1 << 30;
+/// Largest |coordinate| accepted (scene space): squared distances of bounding spheres must stay
+/// finite in f32 (max 3.4e38, so distances up to about 1.8e19).
+pub const MAX_COORDINATE: f32 = 1e18;
 /// Largest image file read for a texture (256 MiB); a larger one is a warning and the base
 /// colour factor is used.
 pub const MAX_IMAGE_BYTES: u64 = 256 << 20;
@@ -181,6 +184,9 @@ pub fn load_mesh_from_bytes_with(path: &Path, bytes: &[u8], opts: &ImportOptions
     };
     if mesh.triangles.is_empty() {
         return Err(IoError::EmptyMesh { path: path.to_path_buf() });
+    }
+    if let Some(v) = mesh.positions.iter().flat_map(|p| p.to_array()).find(|c| c.abs() > MAX_COORDINATE) {
+        return Err(IoError::CoordinateRange { path: path.to_path_buf(), value: v, limit: MAX_COORDINATE });
     }
     Ok(Imported { mesh, warnings: ctx.warnings, inputs: ctx.inputs, content_hash: ctx.hash.finish(), parts })
 }
@@ -293,14 +299,14 @@ pub(crate) fn read_confined(
             return Err(outside());
         }
         let root = std::fs::canonicalize(if dir.as_os_str().is_empty() { Path::new(".") } else { dir })
-            .map_err(|e| IoError::Read { path: model.to_path_buf(), source: e })?;
+            .map_err(|e| IoError::Read { path: model.to_path_buf(), cause: e })?;
         match std::fs::canonicalize(path) {
             Ok(c) if c.starts_with(&root) => {}
             Ok(_) => return Err(outside()),
             Err(e) if e.kind() == std::io::ErrorKind::NotFound => {
                 return Err(IoError::NotFound { path: path.to_path_buf() })
             }
-            Err(e) => return Err(IoError::Read { path: path.to_path_buf(), source: e }),
+            Err(e) => return Err(IoError::Read { path: path.to_path_buf(), cause: e }),
         }
     }
     read_bounded(model, path, Some(uri), budget, limit)
@@ -318,7 +324,7 @@ pub(crate) fn read_bounded(
     use std::io::Read;
     let io = |e: std::io::Error| match e.kind() {
         std::io::ErrorKind::NotFound => IoError::NotFound { path: path.to_path_buf() },
-        _ => IoError::Read { path: path.to_path_buf(), source: e },
+        _ => IoError::Read { path: path.to_path_buf(), cause: e },
     };
     let meta = std::fs::metadata(path).map_err(io)?;
     if !meta.is_file() {

@@ -14,8 +14,70 @@ use crate::{Ctx, ImportedPart, IoError, ReadLimit, MAX_IMAGE_BYTES, MAX_MTL_BYTE
 /// An MTL file tobj asked for: resolved path and its bytes (or why it could not be read).
 type MtlRead = (PathBuf, Result<Vec<u8>, IoError>);
 
+/// Checks what tobj reports without a line number (or not at all): faces with fewer than three
+/// vertices, vertex / texture / normal indices out of range, unparsable `v` lines. Errors name
+/// the line (1-based; a `\`-continued line by its first line).
+fn check_lines(path: &Path, bytes: &[u8]) -> Result<(), IoError> {
+    let text = String::from_utf8_lossy(bytes);
+    let err = |line: usize, message: String| IoError::Obj {
+        path: path.to_path_buf(),
+        message: format!("line {line}: {message}"),
+    };
+    let (mut nv, mut nt, mut nn) = (0i64, 0i64, 0i64);
+    let mut joined = String::new();
+    let mut start = 0usize;
+    for (i, raw) in text.lines().enumerate() {
+        if joined.is_empty() {
+            start = i + 1;
+        }
+        if let Some(head) = raw.strip_suffix('\\') {
+            joined.push_str(head);
+            joined.push(' ');
+            continue;
+        }
+        joined.push_str(raw);
+        let line = std::mem::take(&mut joined);
+        let line = line.split('#').next().unwrap_or("");
+        let mut tok = line.split_whitespace();
+        match tok.next() {
+            Some("v") => {
+                let ok = tok.take(3).filter(|t| t.parse::<f32>().is_ok()).count() == 3;
+                if !ok {
+                    return Err(err(start, "vertex needs three numbers".into()));
+                }
+                nv += 1;
+            }
+            Some("vt") => nt += 1,
+            Some("vn") => nn += 1,
+            Some("f") => {
+                let corners: Vec<&str> = tok.collect();
+                if corners.len() < 3 {
+                    return Err(err(start, format!("face with {} vertices (a face needs at least 3)", corners.len())));
+                }
+                for c in corners {
+                    for (slot, (what, count)) in c.split('/').zip([("vertex", nv), ("texture", nt), ("normal", nn)]) {
+                        if slot.is_empty() && what != "vertex" {
+                            continue;
+                        }
+                        let Ok(x) = slot.parse::<i64>() else {
+                            return Err(err(start, format!("bad {what} index {slot:?} in face corner {c:?}")));
+                        };
+                        let resolved = if x < 0 { count + x + 1 } else { x };
+                        if x == 0 || resolved < 1 || resolved > count {
+                            return Err(err(start, format!("{what} index {x} out of range ({count} defined so far)")));
+                        }
+                    }
+                }
+            }
+            _ => {}
+        }
+    }
+    Ok(())
+}
+
 pub(crate) fn import(ctx: &mut Ctx, bytes: &[u8]) -> Result<(Mesh, Vec<ImportedPart>), IoError> {
     let path = ctx.path.clone();
+    check_lines(&path, bytes)?;
     let opts = tobj::LoadOptions { triangulate: true, single_index: true, ..Default::default() };
     // MTL files read by tobj's callback: (resolved path, bytes or the read error).
     let mtl_reads: RefCell<Vec<MtlRead>> = RefCell::new(Vec::new());

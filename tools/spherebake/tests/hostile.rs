@@ -643,3 +643,108 @@ fn voxels_1024_bakes_in_under_1_gb() {
     assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
     assert!(d.path().join("c.sphb").is_file());
 }
+
+// ---- 5. Inputs that are valid but hostile -------------------------------------------------------
+
+#[test]
+fn obj_errors_name_the_line() {
+    let d = tempdir();
+    let cases: [(&str, &str, &str); 6] = [
+        ("v 0 0 0\nv 1 0 0\nv 0 1 0\n# two corners\nf 1 2\n", "line 5", "at least 3"),
+        ("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\nf 1 2 9\n", "line 5", "vertex index 9 out of range"),
+        ("v 0 0 0\nv 1 0 0\nv 0 1 0\nvn 0 0 1\nf 1//1 2//1 3//4\n", "line 5", "normal index 4 out of range"),
+        ("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1/3 2/1 3/1\n", "line 4", "texture index 3 out of range"),
+        ("v 0 0 0\nv 1 zero 0\nv 0 1 0\nf 1 2 3\n", "line 2", "vertex needs three numbers"),
+        ("v 0 0 0\nv 1 0 0\nv 0 1 0\nf -1 -2 -4\n", "line 4", "vertex index -4 out of range"),
+    ];
+    for (i, (text, line, what)) in cases.iter().enumerate() {
+        let name = format!("bad{i}.obj");
+        std::fs::write(d.path().join(&name), text).unwrap();
+        let o = run(&["bake", &name, "-o", "out.sphb"], d.path());
+        assert_one_line_error(&o, &name, what);
+        assert!(stderr(&o).contains(line), "{name}: {}", stderr(&o));
+        assert!(!d.path().join("out.sphb").exists());
+    }
+}
+
+/// A one-triangle-per-3-indices glTF with a data-URI buffer; `extra` goes into the top level,
+/// `prim_extra` into the primitive.
+fn gltf_tri(positions: &[[f32; 3]], indices: &[u16], extra: &str, prim_extra: &str) -> String {
+    let mut bin = Vec::new();
+    for p in positions {
+        for c in p {
+            bin.extend_from_slice(&c.to_le_bytes());
+        }
+    }
+    let pos_len = bin.len();
+    for i in indices {
+        bin.extend_from_slice(&i.to_le_bytes());
+    }
+    while bin.len() % 4 != 0 {
+        bin.push(0);
+    }
+    const B64: &[u8] = b"ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+    let mut b64 = String::new();
+    for ch in bin.chunks(3) {
+        let n = (ch[0] as u32) << 16 | (*ch.get(1).unwrap_or(&0) as u32) << 8 | *ch.get(2).unwrap_or(&0) as u32;
+        for k in 0..4 {
+            if k <= ch.len() {
+                b64.push(B64[(n >> (18 - 6 * k) & 63) as usize] as char);
+            } else {
+                b64.push('=');
+            }
+        }
+    }
+    let (mn, mx) = positions.iter().fold(([f32::MAX; 3], [f32::MIN; 3]), |(a, b), p| {
+        ([a[0].min(p[0]), a[1].min(p[1]), a[2].min(p[2])], [b[0].max(p[0]), b[1].max(p[1]), b[2].max(p[2])])
+    });
+    format!(
+        r#"{{"asset":{{"version":"2.0"}}{extra},"scene":0,"scenes":[{{"nodes":[0]}}],"nodes":[{{"mesh":0}}],
+  "meshes":[{{"primitives":[{{"attributes":{{"POSITION":0}},"indices":1{prim_extra}}}]}}],
+  "buffers":[{{"byteLength":{},"uri":"data:application/octet-stream;base64,{b64}"}}],
+  "bufferViews":[{{"buffer":0,"byteOffset":0,"byteLength":{pos_len}}},{{"buffer":0,"byteOffset":{pos_len},"byteLength":{}}}],
+  "accessors":[{{"bufferView":0,"componentType":5126,"count":{},"type":"VEC3","min":{mn:?},"max":{mx:?}}},
+               {{"bufferView":1,"componentType":5123,"count":{},"type":"SCALAR"}}]}}"#,
+        bin.len(),
+        indices.len() * 2,
+        positions.len(),
+        indices.len()
+    )
+}
+
+#[test]
+fn gltf_index_counts_draco_and_huge_coordinates_are_named_errors() {
+    let d = tempdir();
+    let tri = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]];
+    std::fs::write(d.path().join("ok.gltf"), gltf_tri(&tri, &[0, 1, 2], "", "")).unwrap();
+    let o = run(&["inspect", "ok.gltf"], d.path());
+    assert_eq!(o.status.code(), Some(0), "the generator is right: {}", stderr(&o));
+
+    std::fs::write(d.path().join("four.gltf"), gltf_tri(&tri, &[0, 1, 2, 0], "", "")).unwrap();
+    let o = run(&["bake", "four.gltf", "-o", "out.sphb"], d.path());
+    assert_one_line_error(&o, "four.gltf", "not a multiple of 3");
+
+    // Draco only in extensionsUsed, its POSITION without data: still named.
+    let json = gltf_tri(
+        &tri,
+        &[0, 1, 2],
+        r#","extensionsUsed":["KHR_draco_mesh_compression"]"#,
+        r#","extensions":{"KHR_draco_mesh_compression":{"bufferView":0,"attributes":{"POSITION":0}}}"#,
+    )
+    .replace(r#"{"bufferView":0,"componentType":5126"#, r#"{"componentType":5126"#);
+    std::fs::write(d.path().join("draco.gltf"), json).unwrap();
+    let o = run(&["bake", "draco.gltf", "-o", "out.sphb"], d.path());
+    assert_one_line_error(&o, "draco.gltf", "khr_draco_mesh_compression");
+
+    for v in [3.0e38f32, -3.4e38] {
+        let big = [[0.0, 0.0, 0.0], [v, 0.0, 0.0], [0.0, 1.0, 0.0]];
+        std::fs::write(d.path().join("big.gltf"), gltf_tri(&big, &[0, 1, 2], "", "")).unwrap();
+        let o = run(&["bake", "big.gltf", "-o", "out.sphb"], d.path());
+        assert_one_line_error(&o, "big.gltf", "beyond the supported range");
+        assert!(stderr(&o).contains("1e18"), "names the limit: {}", stderr(&o));
+    }
+    std::fs::write(d.path().join("big.obj"), "v 0 0 0\nv 3.3e38 0 0\nv 0 1 0\nf 1 2 3\n").unwrap();
+    let o = run(&["bake", "big.obj", "-o", "out.sphb"], d.path());
+    assert_one_line_error(&o, "big.obj", "beyond the supported range");
+    assert!(!d.path().join("out.sphb").exists());
+}
