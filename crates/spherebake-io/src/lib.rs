@@ -166,6 +166,37 @@ pub fn load_mesh_from_bytes(path: &Path, bytes: &[u8]) -> Result<Imported, IoErr
 
 /// [`load_mesh_from_bytes`] with explicit options.
 pub fn load_mesh_from_bytes_with(path: &Path, bytes: &[u8], opts: &ImportOptions) -> Result<Imported, IoError> {
+    import_bytes(path, bytes, opts, None)
+}
+
+/// Imports model `bytes` as if read from `path`, with every referenced file taken from `files`
+/// (keys: paths as the model would resolve them, i.e. joined onto `path`'s directory; `..` and
+/// `.` are normalised) instead of the file system: nothing is opened. The folder, byte-length
+/// and budget rules of [`ImportOptions`] apply as for files. For fuzzing and for callers that
+/// hold assets in memory.
+pub fn load_mesh_from_memory(
+    path: &Path,
+    bytes: &[u8],
+    files: std::collections::BTreeMap<PathBuf, Vec<u8>>,
+    opts: &ImportOptions,
+) -> Result<Imported, IoError> {
+    let files: std::collections::BTreeMap<PathBuf, Vec<u8>> =
+        files.into_iter().map(|(k, v)| (normalise(&k), v)).collect();
+    let resolver: Resolver = std::sync::Arc::new(move |p: &Path| files.get(&normalise(p)).cloned());
+    import_bytes(path, bytes, opts, Some(resolver))
+}
+
+/// Referenced-file bytes by resolved path (in-memory imports).
+pub(crate) type Resolver = std::sync::Arc<ResolveFn>;
+/// What a [`Resolver`] calls: resolved path → bytes, `None` when there is no such file.
+pub(crate) type ResolveFn = dyn Fn(&Path) -> Option<Vec<u8>> + Send + Sync;
+
+fn import_bytes(
+    path: &Path,
+    bytes: &[u8],
+    opts: &ImportOptions,
+    resolver: Option<Resolver>,
+) -> Result<Imported, IoError> {
     let kind = kind_of(path)?;
     if bytes.len() as u64 > opts.max_input_bytes {
         return Err(IoError::TooLarge {
@@ -176,6 +207,7 @@ pub fn load_mesh_from_bytes_with(path: &Path, bytes: &[u8], opts: &ImportOptions
         });
     }
     let mut ctx = Ctx::new(path, *opts);
+    ctx.resolver = resolver;
     ctx.record(path, bytes);
     let (mesh, parts) = match kind {
         Kind::Gltf => gltf_import::import(&mut ctx, bytes, false)?,
@@ -201,6 +233,8 @@ pub(crate) struct Ctx {
     pub opts: ImportOptions,
     /// Bytes read so far (model included), against `opts.max_input_bytes`.
     pub read_total: u64,
+    /// In-memory referenced files instead of the file system ([`load_mesh_from_memory`]).
+    pub resolver: Option<Resolver>,
 }
 
 /// How much of a referenced file to read.
@@ -224,6 +258,7 @@ impl Ctx {
             warnings: Vec::new(),
             opts,
             read_total: 0,
+            resolver: None,
         }
     }
 
@@ -242,7 +277,8 @@ impl Ctx {
     /// input.
     pub fn read_referenced(&mut self, uri: &str, path: &Path, limit: ReadLimit) -> Result<Vec<u8>, IoError> {
         let budget = self.opts.max_input_bytes.saturating_sub(self.read_total);
-        let bytes = read_confined(&self.path, &self.dir, &self.opts, uri, path, budget, limit)?;
+        let r = self.resolver.as_deref();
+        let bytes = read_confined(&self.path, &self.dir, &self.opts, uri, path, budget, limit, r)?;
         self.record(path, &bytes);
         Ok(bytes)
     }
@@ -282,6 +318,7 @@ fn lexically_inside(dir: &Path, path: &Path) -> bool {
 /// The checks of [`Ctx::read_referenced`], usable without a `Ctx` (the OBJ `mtllib` callback).
 /// `model` is the model path (errors name it), `dir` its directory, `budget` what may still be
 /// read.
+#[allow(clippy::too_many_arguments)]
 pub(crate) fn read_confined(
     model: &Path,
     dir: &Path,
@@ -290,14 +327,37 @@ pub(crate) fn read_confined(
     path: &Path,
     budget: u64,
     limit: ReadLimit,
+    resolver: Option<&ResolveFn>,
 ) -> Result<Vec<u8>, IoError> {
     let outside = || IoError::OutsideAsset { path: model.to_path_buf(), uri: uri.to_owned() };
-    if !opts.allow_outside_paths {
-        // Lexically first (an absolute URI or `../` is refused without touching the file system),
-        // then after symlink resolution.
-        if !lexically_inside(dir, path) {
-            return Err(outside());
+    if !opts.allow_outside_paths && !lexically_inside(dir, path) {
+        // Lexically first: an absolute URI or `../` is refused without touching the file system.
+        return Err(outside());
+    }
+    if let Some(resolve) = resolver {
+        let mut bytes = resolve(path).ok_or_else(|| IoError::NotFound { path: path.to_path_buf() })?;
+        let (cap, prefix) = match limit {
+            ReadLimit::Whole => (budget, false),
+            ReadLimit::Prefix(n) => (n.min(budget), n <= budget),
+            ReadLimit::AtMost(n) => (n.min(budget), false),
+        };
+        if bytes.len() as u64 > cap {
+            if !prefix {
+                let budget_hit = !matches!(limit, ReadLimit::AtMost(n) if n <= budget);
+                let limit = if budget_hit { budget } else { cap };
+                return Err(IoError::TooLarge {
+                    path: model.to_path_buf(),
+                    what: Some(uri.to_owned()),
+                    limit,
+                    budget: budget_hit,
+                });
+            }
+            bytes.truncate(cap as usize);
         }
+        return Ok(bytes);
+    }
+    if !opts.allow_outside_paths {
+        // Then after symlink resolution.
         let root = std::fs::canonicalize(if dir.as_os_str().is_empty() { Path::new(".") } else { dir })
             .map_err(|e| IoError::Read { path: model.to_path_buf(), cause: e })?;
         match std::fs::canonicalize(path) {
@@ -367,6 +427,21 @@ pub fn read_input_file(path: &Path, max: u64) -> Option<Vec<u8>> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn in_memory_imports_open_no_file_and_keep_the_folder_rule() {
+        let obj = b"mtllib m.mtl\nusemtl red\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n";
+        let mut files = std::collections::BTreeMap::new();
+        files.insert(PathBuf::from("/virtual/dir/./m.mtl"), b"newmtl red\nKd 1 0 0\n".to_vec());
+        let opts = ImportOptions::default();
+        let imp = load_mesh_from_memory(Path::new("/virtual/dir/a.obj"), obj, files.clone(), &opts).unwrap();
+        assert_eq!(imp.mesh.materials[0].base_color_factor_linear[..3], [1.0, 0.0, 0.0]);
+        assert_eq!(imp.inputs.len(), 2, "{:?}", imp.inputs);
+        let outside = b"mtllib ../m.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n";
+        files.insert(PathBuf::from("/virtual/m.mtl"), b"newmtl x\n".to_vec());
+        let e = load_mesh_from_memory(Path::new("/virtual/dir/a.obj"), outside, files, &opts).unwrap_err();
+        assert!(matches!(e, IoError::OutsideAsset { .. }), "{e}");
+    }
 
     #[test]
     fn dispatch_rejects_unknown_extension() {

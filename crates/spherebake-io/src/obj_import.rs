@@ -82,13 +82,14 @@ pub(crate) fn import(ctx: &mut Ctx, bytes: &[u8]) -> Result<(Mesh, Vec<ImportedP
     // MTL files read by tobj's callback: (resolved path, bytes or the read error).
     let mtl_reads: RefCell<Vec<MtlRead>> = RefCell::new(Vec::new());
     let dir = ctx.dir.clone();
-    let (model, opts_in) = (ctx.path.clone(), ctx.opts);
+    let (model, opts_in, resolver) = (ctx.path.clone(), ctx.opts, ctx.resolver.clone());
     let budget = RefCell::new(opts_in.max_input_bytes.saturating_sub(ctx.read_total));
     let (models, materials) = tobj::load_obj_buf(&mut std::io::Cursor::new(bytes), &opts, |p: &Path| {
         let full = dir.join(p);
         let uri = p.to_string_lossy();
         let limit = ReadLimit::AtMost(MAX_MTL_BYTES);
-        let read = crate::read_confined(&model, &dir, &opts_in, &uri, &full, *budget.borrow(), limit);
+        let read =
+            crate::read_confined(&model, &dir, &opts_in, &uri, &full, *budget.borrow(), limit, resolver.as_deref());
         if let Ok(b) = &read {
             let mut left = budget.borrow_mut();
             *left = left.saturating_sub(b.len() as u64);
