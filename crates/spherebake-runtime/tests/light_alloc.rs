@@ -3,11 +3,13 @@
 //! without a hierarchy, around a second `light_spheres` frame of the same size, and around the rebuild of a cluster
 //! of the same size. The counter is per thread, so the parallel tests do not see each other's allocations.
 
+mod common;
+use common::uniform_sky as sky;
+
 use spherebake_runtime::light::{
-    clip_below_horizon, light_spheres, ClusterSpec, IndirectCluster, LightContext, Pass1Settings, PosedProxy,
-    SphereLights,
+    light_spheres, ClusterSpec, IndirectCluster, LightContext, Pass1Settings, PosedProxy, SphereLights,
 };
-use spherebake_runtime::shadow::{uniform_light, ExpMethod};
+use spherebake_runtime::shadow::ExpMethod;
 use spherebake_runtime::{
     refit, rest_node_spheres, AlbedoSh, Hierarchy, HierarchyNode, HierarchyPlan, Proxy, SamplePoint, Samples, SphbFile,
     Sphere, GEODESIC_DIRECTIONS,
@@ -112,14 +114,6 @@ fn proxy40(hierarchy: bool) -> Proxy {
         ..SphbFile::default()
     };
     Proxy::from_file(&file).expect("valid proxy")
-}
-
-fn sky(ctx: &LightContext) -> Vec<f64> {
-    let mut l = vec![0.0; 16];
-    uniform_light(4, &mut l);
-    let mut env = vec![0.0; 16];
-    clip_below_horizon(ctx, &l, [0.0, 1.0, 0.0], &mut env).unwrap();
-    env
 }
 
 /// Ground receivers of a 2 × 2 tile centred at (x0, 0, z0).

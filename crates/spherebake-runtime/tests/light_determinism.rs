@@ -2,11 +2,13 @@
 //! fresh `LightContext` / `SphereLights` / `IndirectCluster` objects, after the objects served a proxy or a cluster
 //! of another size, and whatever receivers were evaluated before (no state carries from one receiver to the next).
 
+mod common;
+use common::uniform_sky as sky;
+
 use spherebake_runtime::light::{
-    clip_below_horizon, light_spheres, ClusterSpec, IndirectCluster, LightContext, Pass1Settings, PosedProxy,
-    SphereLights,
+    light_spheres, ClusterSpec, IndirectCluster, LightContext, Pass1Settings, PosedProxy, SphereLights,
 };
-use spherebake_runtime::shadow::{uniform_light, ExpMethod};
+use spherebake_runtime::shadow::ExpMethod;
 use spherebake_runtime::{
     refit, rest_node_spheres, AlbedoSh, Hierarchy, HierarchyNode, HierarchyPlan, Proxy, SamplePoint, Samples, SphbFile,
     Sphere, GEODESIC_DIRECTIONS,
@@ -81,14 +83,6 @@ fn proxy_n(groups: usize, hierarchy: bool) -> Proxy {
         ..SphbFile::default()
     };
     Proxy::from_file(&file).expect("valid proxy")
-}
-
-fn sky(ctx: &LightContext) -> Vec<f64> {
-    let mut l = vec![0.0; 16];
-    uniform_light(4, &mut l);
-    let mut env = vec![0.0; 16];
-    clip_below_horizon(ctx, &l, [0.0, 1.0, 0.0], &mut env).unwrap();
-    env
 }
 
 /// A rotation about +Y by `a` radians, column-major.

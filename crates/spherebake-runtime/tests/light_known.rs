@@ -4,44 +4,15 @@
 
 #![allow(clippy::needless_range_loop)] // index loops mirror the formulas
 
-use spherebake_runtime::light::{
-    clip_below_horizon, light_spheres, ClusterSpec, IndirectCluster, LightContext, Pass1Settings, PosedProxy,
-    SphereLights,
-};
-use spherebake_runtime::shadow::{uniform_light, ExpMethod};
-use spherebake_runtime::{AlbedoSh, Proxy, SamplePoint, Samples, SphbFile, Sphere, GEODESIC_DIRECTIONS};
-use std::f64::consts::PI;
+mod common;
+use common::{sphere_proxy, uniform_sky};
 
-/// A proxy of diffuse spheres: sample j of each sphere on its surface in geodesic direction j, outward normal,
-/// constant albedo (DC only, order `order`).
-fn sphere_proxy(spheres: &[(Sphere, [f32; 3])], order: usize) -> Proxy {
-    let nc = order * order;
-    let mut per_sphere = Vec::new();
-    let mut coefficients = Vec::new();
-    for (s, albedo) in spheres {
-        let pts = GEODESIC_DIRECTIONS
-            .iter()
-            .enumerate()
-            .map(|(j, d)| SamplePoint {
-                position: [s.center[0] + s.radius * d[0], s.center[1] + s.radius * d[1], s.center[2] + s.radius * d[2]],
-                normal: *d,
-                direction: j as u8,
-                rule: 1,
-            })
-            .collect();
-        per_sphere.push(pts);
-        let dc = (4.0 * PI).sqrt() as f32;
-        coefficients.push(albedo.map(|a| a * dc));
-        coefficients.extend(std::iter::repeat_n([0.0; 3], nc - 1));
-    }
-    let file = SphbFile {
-        spheres: spheres.iter().map(|(s, _)| *s).collect(),
-        samples: Some(Samples { per_sphere }),
-        albedo_sh: Some(AlbedoSh { order: order as u8, coefficients, ..AlbedoSh::default() }),
-        ..SphbFile::default()
-    };
-    Proxy::from_file(&file).expect("valid proxy")
-}
+use spherebake_runtime::light::{
+    light_spheres, ClusterSpec, IndirectCluster, LightContext, Pass1Settings, PosedProxy, SphereLights,
+};
+use spherebake_runtime::shadow::ExpMethod;
+use spherebake_runtime::{Proxy, Sphere, GEODESIC_DIRECTIONS};
+use std::f64::consts::PI;
 
 /// One-bounce ground irradiance from a diffuse sphere (centre `c`, radius `r`, albedo `a`) under a uniform sky of
 /// radiance 1 above the horizon: the sphere's exit radiance is L(n) = a (1 + n_y)/2 (its sky irradiance is
@@ -84,15 +55,6 @@ fn analytic_ground(c: [f64; 3], r: f64, a: f64, x: [f64; 3]) -> f64 {
         }
     }
     e * (1.0 - cos_t) * 2.0 * PI / (nz * nphi) as f64
-}
-
-fn uniform_sky(ctx: &LightContext) -> Vec<f64> {
-    let nc = ctx.order() * ctx.order();
-    let mut l = vec![0.0; nc];
-    uniform_light(ctx.order(), &mut l);
-    let mut env = vec![0.0; nc];
-    clip_below_horizon(ctx, &l, [0.0, 1.0, 0.0], &mut env).unwrap();
-    env
 }
 
 #[test]

@@ -5,49 +5,25 @@
 
 #![allow(clippy::needless_range_loop)] // channel loops
 
+mod common;
+use common::sphere_proxy as sphere_proxy_of_order;
+
+fn sphere_proxy(spheres: &[(Sphere, [f32; 3])]) -> Proxy {
+    sphere_proxy_of_order(spheres, 4)
+}
+
 use spherebake_runtime::light::{
     clip_below_horizon, light_spheres, ClusterSpec, IndirectCluster, LightContext, Pass1Settings, PosedProxy,
     SphereLights,
 };
 use spherebake_runtime::shadow::{uniform_light, ExpMethod};
-use spherebake_runtime::{AlbedoSh, Proxy, SamplePoint, Samples, SphbFile, Sphere, GEODESIC_DIRECTIONS};
+use spherebake_runtime::{Proxy, Sphere};
 use std::f64::consts::PI;
 
 const RED: [f32; 3] = [0.8, 0.1, 0.05];
 const GREEN: [f32; 3] = [0.1, 0.8, 0.05];
 const SPHERES: [Sphere; 2] =
     [Sphere { center: [-3.0, 1.0, 0.0], radius: 1.0 }, Sphere { center: [3.0, 1.0, 0.0], radius: 1.0 }];
-
-/// A proxy of diffuse spheres: sample j of each sphere on its surface in geodesic direction j, outward normal,
-/// constant albedo (DC only, order 4).
-fn sphere_proxy(spheres: &[(Sphere, [f32; 3])]) -> Proxy {
-    let nc = 16;
-    let mut per_sphere = Vec::new();
-    let mut coefficients = Vec::new();
-    for (s, albedo) in spheres {
-        let pts = GEODESIC_DIRECTIONS
-            .iter()
-            .enumerate()
-            .map(|(j, d)| SamplePoint {
-                position: [0, 1, 2].map(|q| s.center[q] + s.radius * d[q]),
-                normal: *d,
-                direction: j as u8,
-                rule: 1,
-            })
-            .collect();
-        per_sphere.push(pts);
-        let dc = (4.0 * PI).sqrt() as f32;
-        coefficients.push(albedo.map(|a| a * dc));
-        coefficients.extend(std::iter::repeat_n([0.0; 3], nc - 1));
-    }
-    let file = SphbFile {
-        spheres: spheres.iter().map(|(s, _)| *s).collect(),
-        samples: Some(Samples { per_sphere }),
-        albedo_sh: Some(AlbedoSh { order: 4, coefficients, ..AlbedoSh::default() }),
-        ..SphbFile::default()
-    };
-    Proxy::from_file(&file).expect("valid proxy")
-}
 
 fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
     [a[0] - b[0], a[1] - b[1], a[2] - b[2]]

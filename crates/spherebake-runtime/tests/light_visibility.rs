@@ -8,43 +8,15 @@
 //! radiance a); pass 2 then sees the posed leaves [S, B] with B between, or below the ground ("without B": a sphere
 //! entirely behind the receiver's tangent plane is removed by the self-shadowing rules).
 
+mod common;
+use common::sphere_proxy;
+
 use spherebake_runtime::light::{
     light_spheres, ClusterSpec, IndirectCluster, LightContext, Pass1Settings, PosedProxy, SphereLights,
 };
 use spherebake_runtime::shadow::{uniform_light, ExpMethod};
-use spherebake_runtime::{AlbedoSh, Proxy, SamplePoint, Samples, SphbFile, Sphere, GEODESIC_DIRECTIONS};
+use spherebake_runtime::{Proxy, Sphere};
 use std::f64::consts::PI;
-
-/// A proxy of diffuse spheres: sample j of each sphere on its surface in geodesic direction j, outward normal,
-/// constant albedo (DC only, order `order`).
-fn sphere_proxy(spheres: &[(Sphere, [f32; 3])], order: usize) -> Proxy {
-    let nc = order * order;
-    let mut per_sphere = Vec::new();
-    let mut coefficients = Vec::new();
-    for (s, albedo) in spheres {
-        let pts = GEODESIC_DIRECTIONS
-            .iter()
-            .enumerate()
-            .map(|(j, d)| SamplePoint {
-                position: [s.center[0] + s.radius * d[0], s.center[1] + s.radius * d[1], s.center[2] + s.radius * d[2]],
-                normal: *d,
-                direction: j as u8,
-                rule: 1,
-            })
-            .collect();
-        per_sphere.push(pts);
-        let dc = (4.0 * PI).sqrt() as f32;
-        coefficients.push(albedo.map(|a| a * dc));
-        coefficients.extend(std::iter::repeat_n([0.0; 3], nc - 1));
-    }
-    let file = SphbFile {
-        spheres: spheres.iter().map(|(s, _)| *s).collect(),
-        samples: Some(Samples { per_sphere }),
-        albedo_sh: Some(AlbedoSh { order: order as u8, coefficients, ..AlbedoSh::default() }),
-        ..SphbFile::default()
-    };
-    Proxy::from_file(&file).expect("valid proxy")
-}
 
 fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
     [a[0] - b[0], a[1] - b[1], a[2] - b[2]]

@@ -1,0 +1,51 @@
+//! Builders shared by the light tests: in-memory proxies of diffuse spheres and the uniform sky over a ground plane.
+#![allow(dead_code)] // each test file uses a part
+
+use spherebake_runtime::light::{clip_below_horizon, LightContext};
+use spherebake_runtime::shadow::uniform_light;
+use spherebake_runtime::{AlbedoSh, Proxy, SamplePoint, Samples, SphbFile, Sphere, GEODESIC_DIRECTIONS};
+
+/// Sample j of sphere `s` on its surface in geodesic direction j, outward normal, rule 1.
+pub fn surface_samples(s: &Sphere) -> Vec<SamplePoint> {
+    GEODESIC_DIRECTIONS
+        .iter()
+        .enumerate()
+        .map(|(j, d)| SamplePoint {
+            position: [0, 1, 2].map(|q| s.center[q] + s.radius * d[q]),
+            normal: *d,
+            direction: j as u8,
+            rule: 1,
+        })
+        .collect()
+}
+
+/// A proxy of diffuse spheres: [`surface_samples`] per sphere, constant linear albedo (DC only, order `order`).
+pub fn sphere_proxy(spheres: &[(Sphere, [f32; 3])], order: usize) -> Proxy {
+    let nc = order * order;
+    let mut per_sphere = Vec::new();
+    let mut coefficients = Vec::new();
+    for (s, albedo) in spheres {
+        per_sphere.push(surface_samples(s));
+        let dc = (4.0 * std::f64::consts::PI).sqrt() as f32;
+        coefficients.push(albedo.map(|a| a * dc));
+        coefficients.extend(std::iter::repeat_n([0.0; 3], nc - 1));
+    }
+    let file = SphbFile {
+        spheres: spheres.iter().map(|(s, _)| *s).collect(),
+        samples: Some(Samples { per_sphere }),
+        albedo_sh: Some(AlbedoSh { order: order as u8, coefficients, ..AlbedoSh::default() }),
+        ..SphbFile::default()
+    };
+    Proxy::from_file(&file).expect("valid proxy")
+}
+
+/// Uniform white sky of radiance 1 above the horizon of +Y (an infinite ground hides the rest), at the context's
+/// order.
+pub fn uniform_sky(ctx: &LightContext) -> Vec<f64> {
+    let nc = ctx.order() * ctx.order();
+    let mut l = vec![0.0; nc];
+    uniform_light(ctx.order(), &mut l);
+    let mut env = vec![0.0; nc];
+    clip_below_horizon(ctx, &l, [0.0, 1.0, 0.0], &mut env).expect("order fits");
+    env
+}
