@@ -75,6 +75,18 @@ fn check_lines(path: &Path, bytes: &[u8]) -> Result<(), IoError> {
     Ok(())
 }
 
+/// Whether every `Ka` / `Kd` / `Ks` / `Ke` line of an MTL file has three numbers (tobj takes
+/// the first three and panics when there are fewer).
+fn mtl_colours_ok(bytes: &[u8]) -> bool {
+    String::from_utf8_lossy(bytes).lines().all(|line| {
+        let mut tok = line.split_whitespace();
+        match tok.next() {
+            Some("Ka" | "Kd" | "Ks" | "Ke") => tok.take(3).filter(|t| t.parse::<f32>().is_ok()).count() == 3,
+            _ => true,
+        }
+    })
+}
+
 pub(crate) fn import(ctx: &mut Ctx, bytes: &[u8]) -> Result<(Mesh, Vec<ImportedPart>), IoError> {
     let path = ctx.path.clone();
     check_lines(&path, bytes)?;
@@ -95,6 +107,9 @@ pub(crate) fn import(ctx: &mut Ctx, bytes: &[u8]) -> Result<(Mesh, Vec<ImportedP
             *left = left.saturating_sub(b.len() as u64);
         }
         let result = match &read {
+            // tobj 4.0.5 panics on `Kd` (Ka, Ks, Ke) with fewer than three numbers (found by the
+            // obj fuzz target): such a library is a parse error here instead.
+            Ok(b) if !mtl_colours_ok(b) => Err(tobj::LoadError::MaterialParseError),
             Ok(b) => tobj::load_mtl_buf(&mut std::io::Cursor::new(b.as_slice())),
             Err(_) => Err(tobj::LoadError::OpenFileFailed),
         };

@@ -748,3 +748,16 @@ fn gltf_index_counts_draco_and_huge_coordinates_are_named_errors() {
     assert_one_line_error(&o, "big.obj", "beyond the supported range");
     assert!(!d.path().join("out.sphb").exists());
 }
+
+#[test]
+fn an_mtl_colour_with_too_few_numbers_is_a_warning_not_a_crash() {
+    // Found by the obj fuzz target: tobj panicked (exit 101) on `Kd` without three numbers.
+    let d = tempdir();
+    std::fs::write(d.path().join("a.obj"), format!("mtllib a.mtl\nusemtl m\n{CUBE_OBJ}")).unwrap();
+    for kd in ["Kd", "Kd 1", "Ka 0.5 0.5", "Ks x y z"] {
+        std::fs::write(d.path().join("a.mtl"), format!("newmtl m\n{kd}\n")).unwrap();
+        let o = run(&["bake", "a.obj", "-o", "a.sphb", "--spheres", "4", "--method", "kmeans", "--force"], d.path());
+        assert_eq!(o.status.code(), Some(0), "{kd}: {}", stderr(&o));
+        assert!(String::from_utf8_lossy(&o.stdout).contains("material library"), "{kd}: a warning says so");
+    }
+}
