@@ -117,15 +117,38 @@ fn cover_piece(spheres: &mut [Sphere32], t: [DVec3; 3], depth: u32, rep: &mut Bo
     let l = (t[1] - t[0]).length().max((t[2] - t[1]).length()).max((t[0] - t[2]).length());
     // Splitting is free (no sphere grows), so split down to pieces small next to the sphere
     // that would grow before growing anything.
-    if depth < 10 && (depth < 5 || l > 0.02 * spheres[i][3] as f64) {
+    // `depth` counts half levels: a four-way split halves every edge (+2), a sliver bisection
+    // halves one (+1), so both reach the same piece sizes.
+    if depth < 20 && (depth < 10 || l > 0.02 * spheres[i][3] as f64) {
         if depth == 0 {
             rep.split_triangles += 1;
+        }
+        // A sliver (longest edge² over twice the area above 30) is bisected across its longest
+        // edge: two pieces per level instead of four, so a fan of slivers costs pieces in
+        // proportion to its length, not its length squared (issue 17). Other triangles split
+        // into four as before.
+        let area2 = (t[1] - t[0]).cross(t[2] - t[0]).length();
+        if l * l > 30.0 * area2 {
+            let e = [(t[1] - t[0]).length(), (t[2] - t[1]).length(), (t[0] - t[2]).length()];
+            let k = if e[0] >= e[1] && e[0] >= e[2] {
+                0
+            } else if e[1] >= e[2] {
+                1
+            } else {
+                2
+            };
+            let (a, b, c) = (t[k], t[(k + 1) % 3], t[(k + 2) % 3]);
+            let m = (a + b) * 0.5;
+            for piece in [[a, m, c], [m, b, c]] {
+                cover_piece(spheres, piece, depth + 1, rep, weights);
+            }
+            return;
         }
         let m01 = (t[0] + t[1]) * 0.5;
         let m12 = (t[1] + t[2]) * 0.5;
         let m20 = (t[2] + t[0]) * 0.5;
         for piece in [[t[0], m01, m20], [m01, t[1], m12], [m20, m12, t[2]], [m01, m12, m20]] {
-            cover_piece(spheres, piece, depth + 1, rep, weights);
+            cover_piece(spheres, piece, depth + 2, rep, weights);
         }
         return;
     }
