@@ -11,8 +11,7 @@ use spherebake_runtime::light::{
 };
 use spherebake_runtime::shadow::ExpMethod;
 use spherebake_runtime::{
-    refit, rest_node_spheres, AlbedoSh, Hierarchy, HierarchyNode, HierarchyPlan, Proxy, SamplePoint, Samples, SphbFile,
-    Sphere, GEODESIC_DIRECTIONS,
+    refit, rest_node_spheres, AlbedoSh, Proxy, SamplePoint, Samples, SphbFile, Sphere, GEODESIC_DIRECTIONS,
 };
 use std::alloc::{GlobalAlloc, Layout, System};
 use std::cell::Cell;
@@ -86,26 +85,8 @@ fn proxy40(hierarchy: bool) -> Proxy {
         coefficients.push([-0.05, 0.2 * t, 0.0]);
         coefficients.extend(std::iter::repeat_n([0.01; 3], order * order - 4));
     }
-    let hierarchy = hierarchy.then(|| {
-        let mut nodes: Vec<HierarchyNode> = (0..8)
-            .map(|g| HierarchyNode {
-                center: [0.0; 3],
-                radius: 1.0,
-                children: vec![],
-                leaf_children: (5 * g..5 * g + 5).collect(),
-            })
-            .collect();
-        nodes.push(HierarchyNode { center: [0.0; 3], radius: 1.0, children: (0..8).collect(), leaf_children: vec![] });
-        let mut h = Hierarchy { root: 8, nodes };
-        let plan = HierarchyPlan::new(&h).unwrap();
-        let mut ns = rest_node_spheres(&h);
-        refit(&plan, &spheres, &mut ns).unwrap();
-        for (n, s) in h.nodes.iter_mut().zip(&ns) {
-            n.center = s.center;
-            n.radius = s.radius;
-        }
-        h
-    });
+    let groups: Vec<Vec<u32>> = (0..8u32).map(|g| (5 * g..5 * g + 5).collect()).collect();
+    let hierarchy = hierarchy.then(|| common::grouped_hierarchy(&groups, &spheres));
     let file = SphbFile {
         spheres,
         hierarchy,

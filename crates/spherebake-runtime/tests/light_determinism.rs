@@ -10,8 +10,7 @@ use spherebake_runtime::light::{
 };
 use spherebake_runtime::shadow::ExpMethod;
 use spherebake_runtime::{
-    refit, rest_node_spheres, AlbedoSh, Hierarchy, HierarchyNode, HierarchyPlan, Proxy, SamplePoint, Samples, SphbFile,
-    Sphere, GEODESIC_DIRECTIONS,
+    rest_node_spheres, AlbedoSh, HierarchyPlan, Proxy, SamplePoint, Samples, SphbFile, Sphere, GEODESIC_DIRECTIONS,
 };
 
 /// 5 × `groups` spheres in groups of 5 standing around the origin, samples on every other geodesic direction, albedo
@@ -50,31 +49,8 @@ fn proxy_n(groups: usize, hierarchy: bool) -> Proxy {
         coefficients.push([-0.05, 0.2 * t, 0.0]);
         coefficients.extend(std::iter::repeat_n([0.01; 3], order * order - 4));
     }
-    let hierarchy = hierarchy.then(|| {
-        let mut nodes: Vec<HierarchyNode> = (0..groups as u32)
-            .map(|g| HierarchyNode {
-                center: [0.0; 3],
-                radius: 1.0,
-                children: vec![],
-                leaf_children: (5 * g..5 * g + 5).collect(),
-            })
-            .collect();
-        nodes.push(HierarchyNode {
-            center: [0.0; 3],
-            radius: 1.0,
-            children: (0..groups as u32).collect(),
-            leaf_children: vec![],
-        });
-        let mut h = Hierarchy { root: groups as u32, nodes };
-        let plan = HierarchyPlan::new(&h).unwrap();
-        let mut ns = rest_node_spheres(&h);
-        refit(&plan, &spheres, &mut ns).unwrap();
-        for (n, s) in h.nodes.iter_mut().zip(&ns) {
-            n.center = s.center;
-            n.radius = s.radius;
-        }
-        h
-    });
+    let leaf_groups: Vec<Vec<u32>> = (0..groups as u32).map(|g| (5 * g..5 * g + 5).collect()).collect();
+    let hierarchy = hierarchy.then(|| common::grouped_hierarchy(&leaf_groups, &spheres));
     let file = SphbFile {
         spheres,
         hierarchy,

@@ -7,15 +7,14 @@
 
 #![allow(clippy::needless_range_loop)] // channel loops
 
+mod common;
+
 use spherebake_runtime::light::{
     clip_below_horizon, light_spheres, ClusterSpec, IndirectCluster, LightContext, Pass1Settings, PosedProxy,
     SphereLights,
 };
 use spherebake_runtime::shadow::{uniform_light, ExpMethod};
-use spherebake_runtime::{
-    refit, rest_node_spheres, AlbedoSh, Hierarchy, HierarchyNode, HierarchyPlan, Proxy, SamplePoint, Samples, SphbFile,
-    Sphere, GEODESIC_DIRECTIONS,
-};
+use spherebake_runtime::{rest_node_spheres, AlbedoSh, Proxy, Samples, SphbFile, Sphere};
 use std::f64::consts::PI;
 
 /// A proxy of diffuse spheres (samples on all 92 directions, constant albedo, order 4) with one hierarchy node per
@@ -25,40 +24,20 @@ fn proxy(groups: &[Vec<(Sphere, [f32; 3])>]) -> Proxy {
     let mut spheres = Vec::new();
     let mut per_sphere = Vec::new();
     let mut coefficients = Vec::new();
-    let mut nodes = Vec::new();
+    let mut leaf_groups = Vec::new();
     for g in groups {
         let mut leaf_children = Vec::new();
         for (s, a) in g {
             leaf_children.push(spheres.len() as u32);
             spheres.push(*s);
-            per_sphere.push(
-                GEODESIC_DIRECTIONS
-                    .iter()
-                    .enumerate()
-                    .map(|(j, d)| SamplePoint {
-                        position: [0, 1, 2].map(|q| s.center[q] + s.radius * d[q]),
-                        normal: *d,
-                        direction: j as u8,
-                        rule: 1,
-                    })
-                    .collect(),
-            );
+            per_sphere.push(common::surface_samples(s));
             let dc = (4.0 * PI).sqrt() as f32;
             coefficients.push(a.map(|v| v * dc));
             coefficients.extend(std::iter::repeat_n([0.0; 3], order * order - 1));
         }
-        nodes.push(HierarchyNode { center: [0.0; 3], radius: 1.0, children: vec![], leaf_children });
+        leaf_groups.push(leaf_children);
     }
-    let k = nodes.len() as u32;
-    nodes.push(HierarchyNode { center: [0.0; 3], radius: 1.0, children: (0..k).collect(), leaf_children: vec![] });
-    let mut h = Hierarchy { root: k, nodes };
-    let plan = HierarchyPlan::new(&h).unwrap();
-    let mut ns = rest_node_spheres(&h);
-    refit(&plan, &spheres, &mut ns).unwrap();
-    for (n, s) in h.nodes.iter_mut().zip(&ns) {
-        n.center = s.center;
-        n.radius = s.radius;
-    }
+    let h = common::grouped_hierarchy(&leaf_groups, &spheres);
     let file = SphbFile {
         spheres,
         hierarchy: Some(h),

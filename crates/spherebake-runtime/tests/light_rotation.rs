@@ -3,14 +3,15 @@
 
 #![allow(clippy::needless_range_loop)] // matrix index loops
 
+mod common;
+
 use spherebake_runtime::light::{
     light_spheres, polar_rotation, sphere_rotations, ClusterSpec, IndirectCluster, LightContext, Pass1Settings,
     PosedProxy, SphereLights, IDENTITY_ROTATION,
 };
 use spherebake_runtime::shadow::{eval_sh_f64, uniform_light, ExpMethod};
 use spherebake_runtime::{
-    pose, AlbedoSh, BoneRecord, Proxy, SamplePoint, Samples, SkinEntry, SkinTerms, SphbFile, Sphere,
-    GEODESIC_DIRECTIONS, UNUSED_BONE,
+    pose, AlbedoSh, BoneRecord, Proxy, Samples, SkinEntry, SkinTerms, SphbFile, Sphere, UNUSED_BONE,
 };
 use std::f64::consts::PI;
 
@@ -127,19 +128,7 @@ fn bone(name: &str) -> BoneRecord {
     BoneRecord { name: name.into(), parent: None, inverse_bind: identity4() }
 }
 
-/// Samples of a sphere on all 92 directions (outward normals).
-fn samples_of(s: &Sphere) -> Vec<SamplePoint> {
-    GEODESIC_DIRECTIONS
-        .iter()
-        .enumerate()
-        .map(|(j, d)| SamplePoint {
-            position: [0, 1, 2].map(|q| s.center[q] + s.radius * d[q]),
-            normal: *d,
-            direction: j as u8,
-            rule: 1,
-        })
-        .collect()
-}
+use common::surface_samples as samples_of;
 
 /// A skinned proxy: sphere i's slots are `weights[i]` (bone, b) with q = b · c_i (rest joint matrices are the
 /// identity, so the rest pose gives c_i back), padded with unused slots; albedo `albedo[i]` (order² coefficients).

@@ -3,7 +3,10 @@
 
 use spherebake_runtime::light::{clip_below_horizon, LightContext};
 use spherebake_runtime::shadow::uniform_light;
-use spherebake_runtime::{AlbedoSh, Proxy, SamplePoint, Samples, SphbFile, Sphere, GEODESIC_DIRECTIONS};
+use spherebake_runtime::{
+    refit, rest_node_spheres, AlbedoSh, Hierarchy, HierarchyNode, HierarchyPlan, Proxy, SamplePoint, Samples, SphbFile,
+    Sphere, GEODESIC_DIRECTIONS,
+};
 
 /// Sample j of sphere `s` on its surface in geodesic direction j, outward normal, rule 1.
 pub fn surface_samples(s: &Sphere) -> Vec<SamplePoint> {
@@ -48,4 +51,24 @@ pub fn uniform_sky(ctx: &LightContext) -> Vec<f64> {
     let mut env = vec![0.0; nc];
     clip_below_horizon(ctx, &l, [0.0, 1.0, 0.0], &mut env).expect("order fits");
     env
+}
+
+/// A two-level hierarchy over `spheres`: one node per group of leaf indices, all under a root (the last node), node
+/// spheres refitted to their leaves.
+pub fn grouped_hierarchy(groups: &[Vec<u32>], spheres: &[Sphere]) -> Hierarchy {
+    let mut nodes: Vec<HierarchyNode> = groups
+        .iter()
+        .map(|g| HierarchyNode { center: [0.0; 3], radius: 1.0, children: vec![], leaf_children: g.clone() })
+        .collect();
+    let k = nodes.len() as u32;
+    nodes.push(HierarchyNode { center: [0.0; 3], radius: 1.0, children: (0..k).collect(), leaf_children: vec![] });
+    let mut h = Hierarchy { root: k, nodes };
+    let plan = HierarchyPlan::new(&h).expect("a valid tree");
+    let mut ns = rest_node_spheres(&h);
+    refit(&plan, spheres, &mut ns).expect("one sphere per leaf");
+    for (n, s) in h.nodes.iter_mut().zip(&ns) {
+        n.center = s.center;
+        n.radius = s.radius;
+    }
+    h
 }
