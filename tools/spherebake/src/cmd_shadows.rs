@@ -110,17 +110,8 @@ pub struct ShadowsArgs {
     pub seed: u64,
 }
 
-/// SplitMix64: the per-stratum jitter (deterministic, independent of thread count).
-fn mix(mut z: u64) -> u64 {
-    z = z.wrapping_add(0x9E37_79B9_7F4A_7C15);
-    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-    z ^ (z >> 31)
-}
-
-fn unit(z: u64) -> f64 {
-    (z >> 11) as f64 / (1u64 << 53) as f64
-}
+// SplitMix64 per-stratum jitter (deterministic, independent of thread count): the reference crate's.
+use spherebake_reference::{mix, unit};
 
 /// Per tile: (receiver index, shaded value) pairs and the tile's blocker count.
 type TileResult = Result<(Vec<(usize, f64)>, usize)>;
