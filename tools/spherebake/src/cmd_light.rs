@@ -100,6 +100,10 @@ pub struct LightArgs {
     /// Seed of the reference's jitter and of the model receivers
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
+    /// Development aid: keep the path-traced reference of each (model, pose, light, receivers,
+    /// rays, seed) in this folder and reuse it on the next run instead of tracing it again
+    #[arg(long, value_name = "DIR", hide = true)]
+    pub reference_cache: Option<PathBuf>,
 }
 
 /// Error statistics of one quantity over receivers and channels.
@@ -458,10 +462,42 @@ pub fn compute(a: &LightArgs, proxy: &Proxy, mesh: &spherebake_geom::Mesh) -> Re
     // Reference.
     let start = Instant::now();
     let settings = ReferenceSettings { rays: a.rays, shadow_rays: a.shadow_rays, seed: a.seed };
-    let ground_direct_reference = scene.direct(&sky, &ground, &settings)?;
-    let ground_reference = scene.indirect(&sky, &ground, &settings)?;
-    let model_reference =
-        scene.indirect(&sky, &model, &ReferenceSettings { seed: a.seed ^ 0x4D4F_4445_4C00, ..settings })?;
+    let cached = a.reference_cache.as_ref().map(|dir| {
+        let key = format!(
+            "{}|{:?}|{:?}|{}|{}|{}|{}|{}|{}",
+            a.model.display(),
+            a.light,
+            pose.as_ref().map(|(i, n, t)| (i, n, t.to_bits())),
+            res,
+            a.model_receivers,
+            a.rays,
+            a.shadow_rays,
+            a.seed,
+            order
+        );
+        let mut h: u64 = 0xcbf2_9ce4_8422_2325;
+        for b in key.bytes() {
+            h = (h ^ u64::from(b)).wrapping_mul(0x0100_0000_01b3);
+        }
+        dir.join(format!("light-reference-{h:016x}.json"))
+    });
+    type Cached = (Vec<f64>, Vec<[f64; 3]>, Vec<[f64; 3]>);
+    let from_cache: Option<Cached> =
+        cached.as_ref().and_then(|p| std::fs::read(p).ok()).and_then(|b| serde_json::from_slice(&b).ok());
+    let (ground_direct_reference, ground_reference, model_reference) = match from_cache {
+        Some(c) => c,
+        None => {
+            let c: Cached = (
+                scene.direct(&sky, &ground, &settings)?,
+                scene.indirect(&sky, &ground, &settings)?,
+                scene.indirect(&sky, &model, &ReferenceSettings { seed: a.seed ^ 0x4D4F_4445_4C00, ..settings })?,
+            );
+            if let Some(p) = &cached {
+                std::fs::write(p, serde_json::to_vec(&c)?)?;
+            }
+            c
+        }
+    };
     let reference_seconds = start.elapsed().as_secs_f64();
 
     // Proxy: pose, hierarchy, rotations.

@@ -24,6 +24,12 @@ pub fn surface_samples(s: &Sphere) -> Vec<SamplePoint> {
 
 /// A proxy of diffuse spheres: [`surface_samples`] per sphere, constant linear albedo (DC only, order `order`).
 pub fn sphere_proxy(spheres: &[(Sphere, [f32; 3])], order: usize) -> Proxy {
+    Proxy::from_file(&sphere_file(spheres, order)).expect("valid proxy")
+}
+
+/// The file behind [`sphere_proxy`] (to edit before loading).
+#[allow(dead_code)] // not every test binary uses it
+pub fn sphere_file(spheres: &[(Sphere, [f32; 3])], order: usize) -> SphbFile {
     let nc = order * order;
     let mut per_sphere = Vec::new();
     let mut coefficients = Vec::new();
@@ -33,13 +39,12 @@ pub fn sphere_proxy(spheres: &[(Sphere, [f32; 3])], order: usize) -> Proxy {
         coefficients.push(albedo.map(|a| a * dc));
         coefficients.extend(std::iter::repeat_n([0.0; 3], nc - 1));
     }
-    let file = SphbFile {
+    SphbFile {
         spheres: spheres.iter().map(|(s, _)| *s).collect(),
         samples: Some(Samples { per_sphere }),
         albedo_sh: Some(AlbedoSh { order: order as u8, coefficients, ..AlbedoSh::default() }),
         ..SphbFile::default()
-    };
-    Proxy::from_file(&file).expect("valid proxy")
+    }
 }
 
 /// Uniform white sky of radiance 1 above the horizon of +Y (an infinite ground hides the rest), at the context's
