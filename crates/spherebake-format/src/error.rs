@@ -22,11 +22,16 @@ pub enum SectionKind {
     Bones,
     /// Metadata key/value strings.
     Metadata,
+    /// Surface sample points per sphere, quantised (format minor 1): 16-bit positions in a
+    /// per-sphere box, octahedral 2 × 16-bit normals.
+    CompactSamples,
+    /// Albedo spherical harmonics per sphere as binary16 floats (format minor 1).
+    CompactAlbedoSh,
 }
 
 impl SectionKind {
     /// Every known kind, in file order (ascending kind code).
-    pub const ALL: [SectionKind; 7] = [
+    pub const ALL: [SectionKind; 9] = [
         SectionKind::Spheres,
         SectionKind::Hierarchy,
         SectionKind::Samples,
@@ -34,6 +39,8 @@ impl SectionKind {
         SectionKind::Skin,
         SectionKind::Bones,
         SectionKind::Metadata,
+        SectionKind::CompactSamples,
+        SectionKind::CompactAlbedoSh,
     ];
 
     /// The `kind` code stored in the section table.
@@ -47,6 +54,8 @@ impl SectionKind {
             SectionKind::Skin => 5,
             SectionKind::Bones => 6,
             SectionKind::Metadata => 7,
+            SectionKind::CompactSamples => 8,
+            SectionKind::CompactAlbedoSh => 9,
         }
     }
 
@@ -61,6 +70,8 @@ impl SectionKind {
             5 => Some(SectionKind::Skin),
             6 => Some(SectionKind::Bones),
             7 => Some(SectionKind::Metadata),
+            8 => Some(SectionKind::CompactSamples),
+            9 => Some(SectionKind::CompactAlbedoSh),
             _ => None,
         }
     }
@@ -76,6 +87,20 @@ impl SectionKind {
             SectionKind::Skin => "skin",
             SectionKind::Bones => "bones",
             SectionKind::Metadata => "metadata",
+            SectionKind::CompactSamples => "samples_q16",
+            SectionKind::CompactAlbedoSh => "albedo_sh_f16",
+        }
+    }
+
+    /// The lossless kind whose data this kind carries in compact form (itself when lossless):
+    /// samples for `samples_q16`, albedo SH for `albedo_sh_f16`. A file holds at most one
+    /// section of each lossless kind's family (rule 2011).
+    #[must_use]
+    pub const fn family(self) -> SectionKind {
+        match self {
+            SectionKind::CompactSamples => SectionKind::Samples,
+            SectionKind::CompactAlbedoSh => SectionKind::AlbedoSh,
+            k => k,
         }
     }
 }
@@ -123,7 +148,7 @@ rules! {
     /// The major version is not one this reader knows.
     UnsupportedMajor = 1003, "major version is 1";
     /// The header size field is invalid.
-    HeaderSize = 1004, "header size is 64 for minor 0, a multiple of 16 and at least 64 for newer minors, and fits in the file";
+    HeaderSize = 1004, "header size is 64 for minors 0 and 1, a multiple of 16 and at least 64 for newer minors, and fits in the file";
     /// The header checksum does not match.
     HeaderChecksum = 1005, "header CRC-32 matches bytes 0..44";
     /// The file size field does not equal the number of bytes.
@@ -150,6 +175,8 @@ rules! {
     MissingSpheres = 2009, "the spheres section is present";
     /// A byte outside header, table and sections is not zero.
     NonZeroPadding = 2010, "every byte outside the header, the table and the sections is zero";
+    /// Both the lossless and the compact section of the same data are present.
+    SectionConflict = 2011, "a file holds at most one of samples and samples_q16 and at most one of albedo_sh and albedo_sh_f16";
     /// The sphere section length does not match its count.
     SpheresLength = 3001, "spheres section length is 16 + 16 x sphere count";
     /// The sphere count is zero.
@@ -202,6 +229,12 @@ rules! {
     SampleRule = 5007, "sample rule is 1, 2 or 3";
     /// Sample directions of one sphere are not strictly increasing.
     SampleDirectionOrder = 5008, "direction indices of one sphere's samples strictly increase";
+    /// The compact samples section length does not match its counts.
+    CompactSamplesLength = 5009, "samples_q16 section length is 16 + pad16(4 x (sphere count + 1)) + 24 x sphere count + 12 x sample count";
+    /// A sample quantisation box is invalid.
+    SampleBox = 5010, "sample box origin and step are finite, step >= 0, and origin + 65535 x step is finite";
+    /// An octahedral normal component is -32768.
+    SampleOctNormal = 5011, "octahedral normal components are in -32767..=32767";
     /// The SH section length does not match its counts.
     ShLength = 6001, "albedo SH section length is 16 + 12 x sphere count x order squared";
     /// The SH section's sphere count differs from the sphere set.
@@ -214,6 +247,8 @@ rules! {
     ShBasis = 6005, "SH basis is 0 (real orthonormal, Condon-Shortley phase, i = l(l+1)+m)";
     /// An SH coefficient is not finite.
     ShCoefficient = 6006, "SH coefficients are finite";
+    /// The compact SH section length does not match its counts.
+    CompactShLength = 6007, "albedo_sh_f16 section length is 16 + 6 x sphere count x order squared";
     /// The skin section length does not match its counts.
     SkinLength = 7001, "skin section length is 16 + 20 x sphere count x bones per sphere";
     /// The skin section's sphere count differs from the sphere set.

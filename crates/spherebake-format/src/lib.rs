@@ -36,7 +36,8 @@
 //!
 //! # Architecture invariant
 //!
-//! `no_std` + `alloc`; the only dependency is `crc32fast` (no default features).
+//! `no_std` + `alloc`; the dependencies are `crc32fast` (no default features) and `libm` (the
+//! square root of the octahedral normal decoding).
 //! No Rust-only encoding: every byte is defined by the specification so that C or C++ can read it.
 //! The reader never panics and never reads out of bounds, for any byte string.
 
@@ -48,6 +49,7 @@ extern crate alloc;
 
 mod error;
 mod model;
+pub mod quant;
 mod read;
 mod write;
 
@@ -57,7 +59,7 @@ pub use model::{
     SkinTerms, SphbFile, Sphere, DIRECTION_COUNT, MAX_BONES_PER_SPHERE, MAX_SH_ORDER, NO_PARENT, UNUSED_BONE,
 };
 pub use read::{read, read_header_and_table, repair_checksums, Header, SectionEntry};
-pub use write::write;
+pub use write::{write, write_compact, EncodeError};
 
 /// The 8 magic bytes at offset 0: `89 'S' 'P' 'H' 'B' 0D 0A 1A` (PNG-style: catches text-mode
 /// transfers and 7-bit channels).
@@ -66,8 +68,10 @@ pub const MAGIC: [u8; 8] = [0x89, b'S', b'P', b'H', b'B', 0x0D, 0x0A, 0x1A];
 /// Major format version this crate reads and writes; other majors are refused.
 pub const FORMAT_MAJOR: u16 = 1;
 
-/// Minor format version this crate writes; every minor of [`FORMAT_MAJOR`] is accepted.
-pub const FORMAT_MINOR: u16 = 0;
+/// Newest minor format version this crate knows (1: the compact sections `samples_q16` and
+/// `albedo_sh_f16`); every minor of [`FORMAT_MAJOR`] is accepted. [`write`] writes minor 0
+/// (a lossless file has no minor-1 section), [`write_compact`] writes minor 1.
+pub const FORMAT_MINOR: u16 = 1;
 
 /// Size of the v1.0 header in bytes.
 pub const HEADER_SIZE: usize = 64;

@@ -13,6 +13,7 @@ use crate::model::{
     AlbedoSh, BoneRecord, ColourSpace, Hierarchy, HierarchyNode, Metadata, SamplePoint, Samples, ShBasis, SkinEntry,
     SkinTerms, SphbFile, Sphere, DIRECTION_COUNT, MAX_BONES_PER_SPHERE, MAX_SH_ORDER, NO_PARENT, UNUSED_BONE,
 };
+use crate::quant::{f16_is_finite, f32_from_f16, oct_decode, SampleBox};
 use crate::{ALIGN, FORMAT_MAJOR, FORMAT_MINOR, HEADER_CRC_RANGE_END, HEADER_SIZE, MAGIC, SECTION_ENTRY_SIZE};
 
 type Result<T> = core::result::Result<T, ValidationError>;
@@ -190,6 +191,8 @@ pub fn read_header_and_table(bytes: &[u8]) -> Result<(Header, Vec<SectionEntry>)
 
     let mut entries = Vec::with_capacity(section_count as usize);
     let mut seen_known = [false; SectionKind::ALL.len()];
+    // Lossless and compact sections of the same data (samples / samples_q16, albedo_sh / albedo_sh_f16).
+    let mut seen_family = [false; SectionKind::ALL.len()];
     // End of the previous region (table or section); also where zero padding starts.
     let mut prev_end = table_end;
     // Zero-padding check of the gap between the header and the table.
@@ -221,6 +224,18 @@ pub fn read_header_and_table(bytes: &[u8]) -> Result<(Header, Vec<SectionEntry>)
                         Rule::DuplicateSection,
                         field(0),
                         Detail::Text("kind at most once"),
+                        Detail::Int(u64::from(kind)),
+                    ));
+                }
+                *seen = true;
+            }
+            let family = SectionKind::ALL.iter().position(|&x| x == k.family()).unwrap_or(0);
+            if let Some(seen) = seen_family.get_mut(family) {
+                if *seen {
+                    return Err(hdr(
+                        Rule::SectionConflict,
+                        field(0),
+                        Detail::Text("one section per family"),
                         Detail::Int(u64::from(kind)),
                     ));
                 }
@@ -286,6 +301,10 @@ impl<'a> Sec<'a> {
 
     fn u8(&self, rel: usize) -> Result<u8> {
         self.data.get(rel).copied().ok_or_else(|| self.short(rel))
+    }
+
+    fn u16(&self, rel: usize) -> Result<u16> {
+        u16_at(self.data, rel).ok_or_else(|| self.short(rel))
     }
 
     fn u32(&self, rel: usize) -> Result<u32> {
@@ -588,6 +607,120 @@ fn read_samples(s: &Sec<'_>, sphere_count: usize) -> Result<Samples> {
     Ok(Samples { per_sphere })
 }
 
+/// Rules 5006–5008 of one sample (shared by the lossless and the compact samples sections).
+fn check_direction_rule(
+    s: &Sec<'_>,
+    direction: u8,
+    rule: u8,
+    prev_direction: Option<u8>,
+    rel_direction: usize,
+    rel_rule: usize,
+) -> Result<()> {
+    if direction >= DIRECTION_COUNT {
+        return Err(s.err(
+            Rule::SampleDirection,
+            rel_direction,
+            Detail::Int(u64::from(DIRECTION_COUNT)),
+            Detail::Int(u64::from(direction)),
+        ));
+    }
+    if !(1..=3).contains(&rule) {
+        return Err(s.err(Rule::SampleRule, rel_rule, Detail::Text("1, 2 or 3"), Detail::Int(u64::from(rule))));
+    }
+    if let Some(p) = prev_direction {
+        if direction <= p {
+            return Err(s.err(
+                Rule::SampleDirectionOrder,
+                rel_direction,
+                Detail::Int(u64::from(p) + 1),
+                Detail::Int(u64::from(direction)),
+            ));
+        }
+    }
+    Ok(())
+}
+
+/// Rule 5003 on the offsets table at +16 (shared by both samples sections): the end offset of
+/// every sphere, after checking offsets[0] = 0, monotonicity and offsets[N] = total.
+fn sample_offsets(s: &Sec<'_>, sphere_count: usize, total: u32) -> Result<Vec<u32>> {
+    let first = s.u32(16)?;
+    if first != 0 {
+        return Err(s.err(Rule::SampleOffsets, 16, Detail::Int(0), Detail::Int(u64::from(first))));
+    }
+    let mut ends = Vec::with_capacity(sphere_count);
+    let mut start = 0u32;
+    for sphere in 0..sphere_count {
+        let at = 16 + 4 * (sphere + 1);
+        let end = s.u32(at)?;
+        if end < start || end > total || (sphere + 1 == sphere_count && end != total) {
+            return Err(s.err(
+                Rule::SampleOffsets,
+                at,
+                Detail::Text("non-decreasing, last equals the sample count"),
+                Detail::Int(u64::from(end)),
+            ));
+        }
+        ends.push(end);
+        start = end;
+    }
+    Ok(ends)
+}
+
+/// The compact samples section (kind 8, spec §7.1), dequantised into the same model as kind 3.
+fn read_compact_samples(s: &Sec<'_>, sphere_count: usize) -> Result<Samples> {
+    s.need_subheader()?;
+    let sc = s.u32(0)?;
+    let total = s.u32(4)?;
+    let offsets_len = pad16(4 * (u64::from(sc) + 1));
+    let required = add(add(add(Some(16), Some(offsets_len)), mul(u64::from(sc), 24)), mul(u64::from(total), 12));
+    s.check_length(required)?;
+    if sc as usize != sphere_count {
+        return Err(s.err(Rule::SamplesSphereCount, 0, Detail::Int(as_u64(sphere_count)), Detail::Int(u64::from(sc))));
+    }
+    // Bounded by the section length checked above.
+    let boxes_base = 16 + offsets_len as usize;
+    let records_base = boxes_base + 24 * sphere_count;
+    let ends = sample_offsets(s, sphere_count, total)?;
+    let mut per_sphere = Vec::with_capacity(sphere_count);
+    let mut start = 0usize;
+    for (sphere, &end) in ends.iter().enumerate() {
+        let rel_box = boxes_base + 24 * sphere;
+        let b = SampleBox { origin: s.f32s::<3>(rel_box)?, step: s.f32s::<3>(rel_box + 12)? };
+        if !b.is_valid() {
+            return Err(s.err(
+                Rule::SampleBox,
+                rel_box,
+                Detail::Text("finite origin, finite step >= 0, finite far corner"),
+                Detail::Text("invalid box"),
+            ));
+        }
+        let end = end as usize;
+        let mut points = Vec::with_capacity(end.saturating_sub(start));
+        let mut prev_direction: Option<u8> = None;
+        for j in start..end {
+            let rel = records_base + 12 * j;
+            let q = [s.u16(rel)?, s.u16(rel + 2)?, s.u16(rel + 4)?];
+            let oct = [s.u16(rel + 6)? as i16, s.u16(rel + 8)? as i16];
+            let direction = s.u8(rel + 10)?;
+            let rule = s.u8(rel + 11)?;
+            if let Some(k) = oct.iter().position(|&c| c == i16::MIN) {
+                return Err(s.err(
+                    Rule::SampleOctNormal,
+                    rel + 6 + 2 * k,
+                    Detail::Text("-32767..=32767"),
+                    Detail::Text("-32768"),
+                ));
+            }
+            check_direction_rule(s, direction, rule, prev_direction, rel + 10, rel + 11)?;
+            prev_direction = Some(direction);
+            points.push(SamplePoint { position: b.decode(q), normal: oct_decode(oct), direction, rule });
+        }
+        per_sphere.push(points);
+        start = end;
+    }
+    Ok(Samples { per_sphere })
+}
+
 fn read_albedo_sh(s: &Sec<'_>, sphere_count: usize) -> Result<AlbedoSh> {
     s.need_subheader()?;
     let sc = s.u32(0)?;
@@ -615,6 +748,49 @@ fn read_albedo_sh(s: &Sec<'_>, sphere_count: usize) -> Result<AlbedoSh> {
         let c = s.f32s::<3>(rel)?;
         if let Some((k, v)) = first_nonfinite(&c) {
             return Err(s.err(Rule::ShCoefficient, rel + 4 * k, Detail::Text("finite"), Detail::Float(v)));
+        }
+        coefficients.push(c);
+    }
+    Ok(AlbedoSh { order, colour_space, basis, coefficients })
+}
+
+/// The compact albedo SH section (kind 9, spec §8.1): the kind-4 sub-header, binary16 coefficients.
+fn read_compact_albedo_sh(s: &Sec<'_>, sphere_count: usize) -> Result<AlbedoSh> {
+    s.need_subheader()?;
+    let sc = s.u32(0)?;
+    let order = s.u8(4)?;
+    let colour = s.u8(5)?;
+    let basis = s.u8(6)?;
+    if !(1..=MAX_SH_ORDER).contains(&order) {
+        return Err(s.err(Rule::ShOrder, 4, Detail::Text("1..=8"), Detail::Int(u64::from(order))));
+    }
+    let per_sphere = u64::from(order) * u64::from(order);
+    s.check_length(add(Some(16), mul(u64::from(sc), 6 * per_sphere)))?;
+    if sc as usize != sphere_count {
+        return Err(s.err(Rule::ShSphereCount, 0, Detail::Int(as_u64(sphere_count)), Detail::Int(u64::from(sc))));
+    }
+    let Some(colour_space) = ColourSpace::from_code(colour) else {
+        return Err(s.err(Rule::ShColourSpace, 5, Detail::Int(0), Detail::Int(u64::from(colour))));
+    };
+    let Some(basis) = ShBasis::from_code(basis) else {
+        return Err(s.err(Rule::ShBasis, 6, Detail::Int(0), Detail::Int(u64::from(basis))));
+    };
+    let count = sphere_count * per_sphere as usize;
+    let mut coefficients = Vec::with_capacity(count);
+    for i in 0..count {
+        let rel = 16 + 6 * i;
+        let mut c = [0.0f32; 3];
+        for (k, v) in c.iter_mut().enumerate() {
+            let bits = s.u16(rel + 2 * k)?;
+            if !f16_is_finite(bits) {
+                return Err(s.err(
+                    Rule::ShCoefficient,
+                    rel + 2 * k,
+                    Detail::Text("finite"),
+                    Detail::Float(f32_from_f16(bits)),
+                ));
+            }
+            *v = f32_from_f16(bits);
         }
         coefficients.push(c);
     }
@@ -854,8 +1030,19 @@ pub fn read(bytes: &[u8]) -> Result<SphbFile> {
     let bones = section(SectionKind::Bones, Rule::BonesLength).map(|s| read_bones(&s)).transpose()?;
     let hierarchy =
         section(SectionKind::Hierarchy, Rule::HierarchyLength).map(|s| read_hierarchy(&s, n)).transpose()?;
-    let samples = section(SectionKind::Samples, Rule::SamplesLength).map(|s| read_samples(&s, n)).transpose()?;
-    let albedo_sh = section(SectionKind::AlbedoSh, Rule::ShLength).map(|s| read_albedo_sh(&s, n)).transpose()?;
+    // Rule 2011 allows at most one of each pair, so at most one of these is `Some`.
+    let samples = match section(SectionKind::Samples, Rule::SamplesLength) {
+        Some(s) => Some(read_samples(&s, n)?),
+        None => section(SectionKind::CompactSamples, Rule::CompactSamplesLength)
+            .map(|s| read_compact_samples(&s, n))
+            .transpose()?,
+    };
+    let albedo_sh = match section(SectionKind::AlbedoSh, Rule::ShLength) {
+        Some(s) => Some(read_albedo_sh(&s, n)?),
+        None => section(SectionKind::CompactAlbedoSh, Rule::CompactShLength)
+            .map(|s| read_compact_albedo_sh(&s, n))
+            .transpose()?,
+    };
     let skin = section(SectionKind::Skin, Rule::SkinLength)
         .map(|s| read_skin(&s, n, bones.as_ref().map(Vec::len)))
         .transpose()?;

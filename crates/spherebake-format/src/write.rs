@@ -3,7 +3,8 @@
 use alloc::vec::Vec;
 
 use crate::model::{AlbedoSh, BoneRecord, Hierarchy, Metadata, Samples, SkinTerms, SphbFile, Sphere, NO_PARENT};
-use crate::{SectionKind, ALIGN, FORMAT_MAJOR, FORMAT_MINOR, HEADER_SIZE, MAGIC, SECTION_ENTRY_SIZE};
+use crate::quant::{f16_from_f32, oct_encode, SampleBox};
+use crate::{SectionKind, ALIGN, FORMAT_MAJOR, HEADER_SIZE, MAGIC, SECTION_ENTRY_SIZE};
 
 /// Saturating conversion of a length to the u32 stored in the file.
 ///
@@ -181,19 +182,7 @@ fn metadata_section(m: &Metadata) -> Vec<u8> {
     out
 }
 
-/// Encodes `file` as `.sphb` v1 bytes (format version [`FORMAT_MAJOR`].[`FORMAT_MINOR`]).
-///
-/// The output is deterministic: the same model gives the same bytes, sections are written in
-/// ascending kind order, every padding and reserved byte is zero.
-/// Floats are stored bit for bit.
-/// The writer does not validate; a model that breaks a rule (say a radius of 0 or a leaf index
-/// past the sphere count) gives bytes that [`read`](crate::read) rejects with that rule.
-///
-/// # Panics
-///
-/// Never.
-#[must_use]
-pub fn write(file: &SphbFile) -> Vec<u8> {
+fn lossless_sections(file: &SphbFile) -> Vec<(SectionKind, Vec<u8>)> {
     let mut sections: Vec<(SectionKind, Vec<u8>)> = Vec::with_capacity(7);
     sections.push((SectionKind::Spheres, spheres_section(&file.spheres)));
     if let Some(h) = &file.hierarchy {
@@ -214,13 +203,17 @@ pub fn write(file: &SphbFile) -> Vec<u8> {
     if let Some(m) = &file.metadata {
         sections.push((SectionKind::Metadata, metadata_section(m)));
     }
+    sections
+}
 
+/// Header, table and the given sections (in the given order) with zero padding.
+fn assemble(minor: u16, sections: &[(SectionKind, Vec<u8>)]) -> Vec<u8> {
     let table_offset = HEADER_SIZE;
     let table_len = SECTION_ENTRY_SIZE * sections.len();
     let mut out = alloc::vec![0; table_offset + table_len];
     pad_to_align(&mut out);
     let mut entries: Vec<u8> = Vec::with_capacity(table_len);
-    for (kind, body) in &sections {
+    for (kind, body) in sections {
         let offset = out.len() as u64;
         put_u32(&mut entries, kind.code());
         put_u32(&mut entries, 0);
@@ -239,7 +232,7 @@ pub fn write(file: &SphbFile) -> Vec<u8> {
     let mut header: Vec<u8> = Vec::with_capacity(HEADER_SIZE);
     header.extend_from_slice(&MAGIC);
     header.extend_from_slice(&FORMAT_MAJOR.to_le_bytes());
-    header.extend_from_slice(&FORMAT_MINOR.to_le_bytes());
+    header.extend_from_slice(&minor.to_le_bytes());
     put_u32(&mut header, len_u32(HEADER_SIZE));
     put_u32(&mut header, 0);
     put_u32(&mut header, len_u32(sections.len()));
@@ -253,6 +246,161 @@ pub fn write(file: &SphbFile) -> Vec<u8> {
         h.copy_from_slice(&header);
     }
     out
+}
+
+/// Encodes `file` as lossless `.sphb` v1 bytes, format version 1.0 (no minor-1 section is used,
+/// so v1.0 readers read everything).
+///
+/// The output is deterministic: the same model gives the same bytes, sections are written in
+/// ascending kind order, every padding and reserved byte is zero.
+/// Floats are stored bit for bit.
+/// The writer does not validate; a model that breaks a rule (say a radius of 0 or a leaf index
+/// past the sphere count) gives bytes that [`read`](crate::read) rejects with that rule.
+///
+/// # Panics
+///
+/// Never.
+#[must_use]
+pub fn write(file: &SphbFile) -> Vec<u8> {
+    assemble(0, &lossless_sections(file))
+}
+
+/// Why [`write_compact`] cannot encode a model: a value the compact sections cannot hold.
+#[non_exhaustive]
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum EncodeError {
+    /// A sample position is not finite, or its sphere's box step overflows f32.
+    SamplePosition {
+        /// Sphere index.
+        sphere: usize,
+    },
+    /// A sample normal is zero or not finite.
+    SampleNormal {
+        /// Sphere index.
+        sphere: usize,
+        /// Index of the sample within the sphere.
+        sample: usize,
+    },
+    /// An SH coefficient is not finite or outside the f16 range (|x| < 65520).
+    ShCoefficient {
+        /// Index into [`AlbedoSh::coefficients`].
+        index: usize,
+        /// The value.
+        value: f32,
+    },
+}
+
+impl core::fmt::Display for EncodeError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        match self {
+            EncodeError::SamplePosition { sphere } => {
+                write!(
+                    f,
+                    "compact samples: sphere {sphere} has a non-finite sample position or a box too large for f32"
+                )
+            }
+            EncodeError::SampleNormal { sphere, sample } => {
+                write!(f, "compact samples: sample {sample} of sphere {sphere} has a zero or non-finite normal")
+            }
+            EncodeError::ShCoefficient { index, value } => {
+                write!(f, "compact albedo SH: coefficient {index} is {value:?}, outside the f16 range (|x| < 65520)")
+            }
+        }
+    }
+}
+
+impl core::error::Error for EncodeError {}
+
+/// The `samples_q16` section (spec §7.1).
+fn compact_samples_section(s: &Samples) -> Result<Vec<u8>, EncodeError> {
+    let total = s.total();
+    let n = s.per_sphere.len();
+    let mut out = Vec::with_capacity(16 + 4 * (n + 1) + 16 + 24 * n + 12 * total);
+    put_u32(&mut out, len_u32(n));
+    put_u32(&mut out, len_u32(total));
+    out.extend_from_slice(&[0; 8]);
+    let mut offset = 0usize;
+    put_u32(&mut out, 0);
+    for points in &s.per_sphere {
+        offset = offset.saturating_add(points.len());
+        put_u32(&mut out, len_u32(offset));
+    }
+    pad_to_align(&mut out);
+    let mut boxes = Vec::with_capacity(n);
+    for (sphere, points) in s.per_sphere.iter().enumerate() {
+        let b = SampleBox::enclosing(points.iter().map(|p| p.position))
+            .filter(SampleBox::is_valid)
+            .ok_or(EncodeError::SamplePosition { sphere })?;
+        put_f32s(&mut out, &b.origin);
+        put_f32s(&mut out, &b.step);
+        boxes.push(b);
+    }
+    for (sphere, (points, b)) in s.per_sphere.iter().zip(&boxes).enumerate() {
+        for (sample, p) in points.iter().enumerate() {
+            for q in b.quantise(p.position) {
+                out.extend_from_slice(&q.to_le_bytes());
+            }
+            let oct = oct_encode(p.normal).ok_or(EncodeError::SampleNormal { sphere, sample })?;
+            for c in oct {
+                out.extend_from_slice(&c.to_le_bytes());
+            }
+            out.push(p.direction);
+            out.push(p.rule);
+        }
+    }
+    Ok(out)
+}
+
+/// The `albedo_sh_f16` section (spec §8.1).
+fn compact_albedo_sh_section(sh: &AlbedoSh) -> Result<Vec<u8>, EncodeError> {
+    let sphere_count = sh.coefficients.len().checked_div(sh.coefficients_per_sphere()).unwrap_or(0);
+    let mut out = Vec::with_capacity(16 + 6 * sh.coefficients.len());
+    put_u32(&mut out, len_u32(sphere_count));
+    out.push(sh.order);
+    out.push(sh.colour_space.code());
+    out.push(sh.basis.code());
+    out.extend_from_slice(&[0; 9]);
+    for (i, c) in sh.coefficients.iter().enumerate() {
+        for &v in c {
+            let bits = f16_from_f32(v).ok_or(EncodeError::ShCoefficient { index: i, value: v })?;
+            out.extend_from_slice(&bits.to_le_bytes());
+        }
+    }
+    Ok(out)
+}
+
+/// Encodes `file` as compact `.sphb` bytes, format version 1.1: like [`write`], but samples go
+/// to a `samples_q16` section (kind 8: positions in 16 bits per axis within a per-sphere box,
+/// octahedral 2 × 16-bit normals) and the albedo SH to an `albedo_sh_f16` section (kind 9:
+/// binary16 coefficients). Every other section is the lossless one, byte for byte.
+///
+/// A v1.0 reader skips the two compact sections and reads the rest: it sees a valid file
+/// without samples and albedo (the shadow query needs neither). [`read`](crate::read) of this
+/// crate decodes them back into [`Samples`] and [`AlbedoSh`] within the error bounds of
+/// [`quant`](crate::quant).
+///
+/// Deterministic like [`write`].
+///
+/// # Errors
+///
+/// A value the compact sections cannot hold: a non-finite sample position, a zero or
+/// non-finite normal, an SH coefficient outside the f16 range.
+///
+/// # Panics
+///
+/// Never.
+pub fn write_compact(file: &SphbFile) -> Result<Vec<u8>, EncodeError> {
+    let mut sections: Vec<(SectionKind, Vec<u8>)> = lossless_sections(file)
+        .into_iter()
+        .filter(|(k, _)| !matches!(k, SectionKind::Samples | SectionKind::AlbedoSh))
+        .collect();
+    if let Some(s) = &file.samples {
+        sections.push((SectionKind::CompactSamples, compact_samples_section(s)?));
+    }
+    if let Some(sh) = &file.albedo_sh {
+        sections.push((SectionKind::CompactAlbedoSh, compact_albedo_sh_section(sh)?));
+    }
+    Ok(assemble(1, &sections))
 }
 
 impl SphbFile {

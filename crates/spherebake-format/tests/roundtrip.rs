@@ -118,17 +118,21 @@ fn newer_minor_is_accepted() {
 
 #[test]
 fn newer_minor_may_grow_header_and_sections() {
-    // Minor 1: an 80-byte header and a spheres section with 16 trailing bytes a v1.0 reader ignores.
+    // A minor newer than the reader's: an 80-byte header and a spheres section with 16 trailing
+    // bytes this reader ignores.
+    let newer = FORMAT_MINOR + 1;
     let mut body = spheres_body(&[[0.0, 1.0, 2.0, 3.0]]);
     body.extend_from_slice(&[7; 16]);
-    let b = assemble(1, 1, 80, &[(1, body.clone())]);
+    let b = assemble(1, newer, 80, &[(1, body.clone())]);
     let f = read(&b).unwrap();
     assert_eq!(f.spheres, vec![Sphere { center: [0.0, 1.0, 2.0], radius: 3.0 }]);
-    // The same growth in a minor-0 file is refused.
-    let b0 = assemble(1, 0, 80, &[(1, body.clone())]);
-    assert_eq!(read(&b0).unwrap_err().rule, Rule::HeaderSize);
-    let b0 = assemble(1, 0, 64, &[(1, body)]);
-    assert_eq!(read(&b0).unwrap_err().rule, Rule::SpheresLength);
+    // The same growth in a file of a minor the reader knows (0 and 1) is refused.
+    for known in 0..=FORMAT_MINOR {
+        let b0 = assemble(1, known, 80, &[(1, body.clone())]);
+        assert_eq!(read(&b0).unwrap_err().rule, Rule::HeaderSize);
+        let b0 = assemble(1, known, 64, &[(1, body.clone())]);
+        assert_eq!(read(&b0).unwrap_err().rule, Rule::SpheresLength);
+    }
 }
 
 #[test]

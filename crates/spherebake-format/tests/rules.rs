@@ -5,12 +5,39 @@
 mod common;
 
 use common::*;
-use spherebake_format::{read, write, HierarchyNode, Rule, SectionKind, SkinEntry, SphbFile, UNUSED_BONE};
+use spherebake_format::{
+    read, repair_checksums, write, write_compact, HierarchyNode, Rule, SectionKind, SkinEntry, SphbFile, UNUSED_BONE,
+};
 use SectionKind as K;
 
 /// Absolute offset of section `k` in the valid fixture (patches never move sections).
 fn off(k: SectionKind) -> usize {
     section_offset(&write(&full_file()), k)
+}
+
+/// The compact encoding of the fixture (samples_q16 and albedo_sh_f16 instead of kinds 3 and 4).
+fn compact() -> Vec<u8> {
+    write_compact(&full_file()).expect("the fixture is encodable")
+}
+
+/// Absolute offset of section `k` in the compact fixture.
+fn coff(k: SectionKind) -> usize {
+    section_offset(&compact(), k)
+}
+
+/// The compact fixture with `patch` applied and the checksums repaired.
+fn cpatched(patch: impl FnOnce(&mut Vec<u8>)) -> Vec<u8> {
+    let mut b = compact();
+    patch(&mut b);
+    repair_checksums(&mut b);
+    b
+}
+
+/// `full_file()` changed by `f`, compact-encoded.
+fn cmodel(f: impl FnOnce(&mut SphbFile)) -> Vec<u8> {
+    let mut file = full_file();
+    f(&mut file);
+    write_compact(&file).expect("encodable")
 }
 
 fn model(f: impl FnOnce(&mut SphbFile)) -> Vec<u8> {
@@ -212,6 +239,91 @@ fn cases() -> Vec<(Rule, Vec<u8>, Option<u64>)> {
     }
     c.push((Rule::SampleDirectionOrder, patched(|b| put_u8(b, off(K::Samples) + 64 + 24, 0)), None));
 
+    // 5xxx compact samples (spec §7.1; 3 spheres, 3 samples: offsets at +16 [0, 2, 2, 3],
+    // boxes at +32 (24 bytes each: origin, step), records at +104 (12 bytes: q[3], oct[2],
+    // direction, rule)).
+    let cs = coff(K::CompactSamples);
+    c.push((Rule::CompactSamplesLength, cpatched(|b| put_u32(b, cs + 4, 4)), Some(cs as u64)));
+    c.push((Rule::CompactSamplesLength, cpatched(|b| put_u32(b, cs, u32::MAX)), Some(cs as u64)));
+    // Truncated: the table says the section ends 12 bytes early (one record short).
+    c.push((
+        Rule::CompactSamplesLength,
+        cpatched(|b| {
+            let e = entry_offset(b, K::CompactSamples);
+            let (start, len) = (get_u32(b, e + 8) as usize, get_u32(b, e + 16) as usize);
+            put_u64(b, e + 16, (len - 12) as u64);
+            b[start + len - 12..start + len].fill(0); // the cut-off bytes become zero padding
+        }),
+        Some(cs as u64),
+    ));
+    c.push((
+        Rule::SamplesSphereCount,
+        cmodel(|f| {
+            f.samples.as_mut().unwrap().per_sphere.pop();
+        }),
+        Some(cs as u64),
+    ));
+    c.push((Rule::SampleOffsets, cpatched(|b| put_u32(b, cs + 16, 1)), Some(cs as u64 + 16)));
+    c.push((Rule::SampleOffsets, cpatched(|b| put_u32(b, cs + 24, 1)), Some(cs as u64 + 24)));
+    c.push((Rule::SampleBox, cpatched(|b| put_f32(b, cs + 32 + 24 + 4, f32::NAN)), Some(cs as u64 + 56)));
+    c.push((Rule::SampleBox, cpatched(|b| put_f32(b, cs + 32 + 12, -1.0)), Some(cs as u64 + 32)));
+    c.push((Rule::SampleBox, cpatched(|b| put_f32(b, cs + 32 + 16, f32::INFINITY)), Some(cs as u64 + 32)));
+    // Finite origin and step whose far corner origin + 65535 · step overflows f32.
+    c.push((
+        Rule::SampleBox,
+        cpatched(|b| {
+            put_f32(b, cs + 32, 3.0e38);
+            put_f32(b, cs + 32 + 12, 1.0e34);
+        }),
+        Some(cs as u64 + 32),
+    ));
+    c.push((
+        Rule::SampleOctNormal,
+        cpatched(|b| put_u16(b, cs + 104 + 12 + 8, 0x8000)),
+        Some(cs as u64 + 104 + 12 + 8),
+    ));
+    c.push((Rule::SampleDirection, cpatched(|b| put_u8(b, cs + 104 + 24 + 10, 92)), Some(cs as u64 + 138)));
+    c.push((Rule::SampleRule, cpatched(|b| put_u8(b, cs + 104 + 11, 0)), Some(cs as u64 + 115)));
+    c.push((Rule::SampleDirectionOrder, cpatched(|b| put_u8(b, cs + 104 + 12 + 10, 0)), Some(cs as u64 + 126)));
+
+    // 2011: lossless and compact samples (or SH) in one file.
+    // The skin (bones) entry relabelled as lossless samples (SH): the table then lists kinds 3
+    // and 8 (4 and 9); the error points at the second one's kind field.
+    for (relabel, lossless, compact_kind) in
+        [(K::Skin, K::Samples, K::CompactSamples), (K::Bones, K::AlbedoSh, K::CompactAlbedoSh)]
+    {
+        let at = entry_offset(&compact(), compact_kind) as u64;
+        c.push((
+            Rule::SectionConflict,
+            cpatched(|b| {
+                let e = entry_offset(b, relabel);
+                put_u32(b, e, lossless.code());
+            }),
+            Some(at),
+        ));
+    }
+
+    // 6xxx compact albedo SH (order 2, 3 spheres: 12 coefficients of 3 × f16 at +16 + 6i)
+    let csh = coff(K::CompactAlbedoSh);
+    c.push((Rule::CompactShLength, cpatched(|b| put_u8(b, csh + 4, 3)), Some(csh as u64)));
+    c.push((
+        Rule::CompactShLength,
+        cpatched(|b| {
+            let e = entry_offset(b, K::CompactAlbedoSh);
+            let start = get_u32(b, e + 8) as usize;
+            put_u64(b, e + 16, 16 + 6 * 12 - 2);
+            b[start + 16 + 6 * 12 - 2..start + 16 + 6 * 12].fill(0);
+        }),
+        Some(csh as u64),
+    ));
+    c.push((Rule::ShSphereCount, cmodel(|f| f.albedo_sh.as_mut().unwrap().coefficients.truncate(8)), None));
+    c.push((Rule::ShOrder, cpatched(|b| put_u8(b, csh + 4, 9)), None));
+    c.push((Rule::ShColourSpace, cpatched(|b| put_u8(b, csh + 5, 1)), None));
+    c.push((Rule::ShBasis, cpatched(|b| put_u8(b, csh + 6, 1)), None));
+    for bits in [0x7c00u16, 0xfc00, 0x7e00] {
+        c.push((Rule::ShCoefficient, cpatched(|b| put_u16(b, csh + 16 + 6 * 7 + 2, bits)), Some(csh as u64 + 60)));
+    }
+
     // 6xxx albedo SH
     c.push((Rule::ShLength, patched(|b| put_u8(b, off(K::AlbedoSh) + 4, 3)), None));
     c.push((Rule::ShSphereCount, model(|f| f.albedo_sh.as_mut().unwrap().coefficients.truncate(8)), None));
@@ -299,7 +411,7 @@ fn every_case_reports_its_rule() {
         let group = rule.id() / 1000;
         match e.section {
             None => assert!(group <= 2, "case {i}: {e}"),
-            Some(k) => assert_eq!(u32::from(group) - 2, k.code(), "case {i}: {e}"),
+            Some(k) => assert_eq!(u32::from(group) - 2, k.family().code(), "case {i}: {e}"),
         }
     }
 }
