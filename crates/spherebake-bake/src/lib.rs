@@ -284,16 +284,29 @@ pub fn bake_imported(
         }),
     };
     let t = Instant::now();
-    let bytes = file.to_bytes();
-    // Never hand out a file the reader would refuse: a violated rule here is a bug in a stage,
-    // reported as an error rather than written.
-    if let Err(e) = spherebake_format::read(&bytes) {
-        return Err(BakeError::Stage {
+    let bytes = if settings.compact {
+        spherebake_format::write_compact(&file).map_err(|e| BakeError::Stage {
             path: path.to_path_buf(),
             stage: "write",
-            message: format!("internal error, invalid output: {e}"),
-        });
-    }
+            message: e.to_string(),
+        })?
+    } else {
+        file.to_bytes()
+    };
+    // Never hand out a file the reader would refuse: a violated rule here is a bug in a stage,
+    // reported as an error rather than written.
+    let file = match spherebake_format::read(&bytes) {
+        // A compact file is returned as it reads back (dequantised), so `file` and `bytes` agree.
+        Ok(back) if settings.compact => back,
+        Ok(_) => file,
+        Err(e) => {
+            return Err(BakeError::Stage {
+                path: path.to_path_buf(),
+                stage: "write",
+                message: format!("internal error, invalid output: {e}"),
+            })
+        }
+    };
     timings.push(StageTime { stage: "write", seconds: t.elapsed().as_secs_f64() });
     progress(1.0);
 

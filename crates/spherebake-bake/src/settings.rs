@@ -40,6 +40,11 @@ pub struct BakeSettings {
     pub sh_order: usize,
     /// Albedo cube-map face size in texels. Default 32, range 4..=512.
     pub cubemap_size: usize,
+    /// Write the compact encoding (format 1.1: samples quantised to 12 bytes, albedo SH as f16;
+    /// `spherebake_format::write_compact`) instead of the lossless one. Default false. Recorded
+    /// in the settings only when set, so lossless files keep their bytes.
+    #[serde(skip_serializing_if = "is_false")]
+    pub compact: bool,
     /// When set, each sphere's albedo cube map and its SH reconstruction are written here as PNG
     /// crosses. Not part of the recorded settings (it does not change the file).
     #[serde(skip)]
@@ -59,9 +64,15 @@ impl Default for BakeSettings {
             pose_margin: crate::PoseMargin::None,
             sh_order: 4,
             cubemap_size: 32,
+            compact: false,
             debug_cubemaps: None,
         }
     }
+}
+
+#[allow(clippy::trivially_copy_pass_by_ref)] // serde's skip_serializing_if passes a reference
+fn is_false(b: &bool) -> bool {
+    !*b
 }
 
 impl BakeSettings {

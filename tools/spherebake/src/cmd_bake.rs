@@ -64,6 +64,11 @@ pub struct BakeArgs {
     /// Albedo cube-map face size in texels [default: 32, range 4..=512]
     #[arg(long)]
     pub cubemap_size: Option<usize>,
+    /// Write the compact encoding (format 1.1): samples in 12 bytes (16-bit positions in a box per
+    /// sphere, octahedral 2x16-bit normals), albedo SH as f16; about half the size. Readers of
+    /// format 1.0 load such a file without samples and albedo [default: lossless]
+    #[arg(long)]
+    pub compact: bool,
     /// Write each sphere's albedo cube map and SH reconstruction as PNG crosses into DIR
     #[arg(long, value_name = "DIR")]
     pub debug_cubemaps: Option<PathBuf>,
@@ -225,6 +230,7 @@ fn plan(a: &BakeArgs) -> std::result::Result<Vec<Job>, Usage> {
         branching: a.branching,
         bones_per_sphere: a.bones_per_sphere,
         pose_margin: a.pose_margin.clone(),
+        compact: a.compact.then_some(true),
     };
     let n_inputs = inputs.len();
     inputs
@@ -266,6 +272,7 @@ fn to_settings(o: &Overrides) -> std::result::Result<BakeSettings, String> {
             Some("auto") => PoseMargin::Auto,
             Some(m) => return Err(format!("unknown --pose-margin {m:?} (none, auto)")),
         },
+        compact: o.compact.unwrap_or(d.compact),
         debug_cubemaps: None,
     };
     s.validate()?;

@@ -32,6 +32,7 @@ pub struct Overrides {
     pub branching: Option<f64>,
     pub bones_per_sphere: Option<usize>,
     pub pose_margin: Option<String>,
+    pub compact: Option<bool>,
 }
 
 impl Overrides {
@@ -48,6 +49,7 @@ impl Overrides {
             branching: over.branching.or(self.branching),
             bones_per_sphere: over.bones_per_sphere.or(self.bones_per_sphere),
             pose_margin: over.pose_margin.clone().or_else(|| self.pose_margin.clone()),
+            compact: over.compact.or(self.compact),
         }
     }
 }
