@@ -119,6 +119,10 @@ pub struct Proxy {
 /// Reads and validates a `.sphb` file.
 ///
 /// Accepts every minor version of format major 1, skips unknown sections.
+/// Compact files (format 1.1, `bake --compact`) are dequantised here, once: their samples and
+/// albedo SH come out as the same f32 records as a lossless file's, so every accessor and view
+/// is the same for both (chosen by measurement: a compact file loads faster than its lossless
+/// twin, since it has fewer bytes to checksum; docs/benchmarks.md, "File size").
 ///
 /// # Errors
 ///

@@ -76,6 +76,15 @@ fn compact_bake_of_the_capsule_is_deterministic_and_keeps_everything_but_samples
     // The recorded settings say so, and an up-to-date check sees the difference.
     assert!(c.metadata.unwrap().settings.contains("\"compact\":true"));
     assert!(!l.metadata.unwrap().settings.contains("compact"));
+    // `inspect` names the format version and the compact sections with their lengths.
+    let j = json_of(&run(&["inspect", "compact.sphb", "--json"], d));
+    assert_eq!(j["format_version"], "1.1");
+    let names: Vec<&str> = j["sections"].as_array().unwrap().iter().map(|s| s["kind"].as_str().unwrap()).collect();
+    assert_eq!(names, vec!["spheres", "hierarchy", "metadata", "samples_q16", "albedo_sh_f16"]);
+    let n = cs.per_sphere.len() as u64;
+    let total: u64 = cs.per_sphere.iter().map(|v| v.len() as u64).sum();
+    // Spec §7.1: 16 + pad16(4(N+1)) + 24N + 12S.
+    assert_eq!(j["sections"][3]["length"], 16 + (4 * (n + 1)).div_ceil(16) * 16 + 24 * n + 12 * total);
     // Same input and settings: the same bytes again.
     ok(&run(&["bake", model.to_str().unwrap(), "-o", "again.sphb", "-q", "--compact", "--spheres", "16"], d));
     assert!(std::fs::read(d.join("again.sphb")).unwrap() == compact);
