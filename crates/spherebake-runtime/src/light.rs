@@ -53,20 +53,29 @@
 //!   60° the light's SH is blended into a local band-0–1 least-squares fit of its Voronoi function (the 92 sampled
 //!   values, empty directions as 0) within a cone about the axis, integrated with the same cosine weights; the fit
 //!   is exact for band-1 emission, so the known-answer cases keep their exactness (Duck: 0.65 → 0.36).
-//! - **Loose lights seen from close: the samples as small emitters (departure).** Where a bounding sphere stands
-//!   away from the surface it bounds (a limb in a fat sphere), its surface is the wrong emitter for receivers
-//!   near it: light leaves the sphere's underside instead of the sides of the foot. For a leaf with *fill* f =
-//!   mean(t_j / r) of its samples below 0.98, seen at an angular radius θ above 20° (or containing the receiver),
-//!   its emission is blended into the *splat* of its own samples ([`splat_irradiance`]): each sample a facing disk
-//!   of the area its Voronoi cell covers on the surface (t² Ω_cell / |n·ω|, Ω_cell = 4π/92), with the pass-1
-//!   radiance L_pj c(ω_j), irradiance L A cos_e cos_r / (d² + A/π), times the light's visible share. The weight is
-//!   ramp(θ: 20° → 40°) × ramp(f: 0.98 → 0.90) ([`SPLAT_THETA_START`], [`SPLAT_THETA_FULL`]); a tight leaf (f ≥
-//!   0.98, the known-answer spheres) keeps the SH light, whose answer is exact there, while 92 disks are not (0.4 %
-//!   RMSE for a floating sphere, 21 % for one touching the ground, where receivers come closer than the samples'
-//!   spacing). Measured (4096 rays, uniform sky; ground / model receivers rel RMSE, 16 | 64 | 256 spheres): Duck
-//!   0.371 | 0.375 | 0.457 → 0.308 | 0.332 | 0.434, spot 0.394 | 0.176 | 0.291 → 0.252 | 0.133 | 0.289, CesiumMan
-//!   1.751 | 0.761 | 0.530 → 1.468 | 0.667 | 0.466; model receivers at 64: Duck 1.68 → 1.46, spot 1.35 → 1.01,
-//!   CesiumMan 0.495 → 0.453.
+//! - **Loose lights: area weights and the samples as small emitters (departure).** Where a bounding sphere stands
+//!   away from the surface it bounds (a limb in a fat sphere), its surface is the wrong emitter: it has far more
+//!   area than the surface it stands for (CesiumMan at 64 spheres: 2.35 vs the mesh's 1.46, so the ground was 44 %
+//!   too bright), and up close light leaves the sphere's underside instead of the sides of the foot. A leaf's
+//!   *fill* f = mean(t_j / r) over its samples (t_j the sample's distance from the centre) measures it.
+//!   - *Far field, pass 1*: each sample's radiance enters the projection (eq. 9) weighted by
+//!     1 + w_a ((t/r)² / max(|n·ω|, 0.2) − 1), the ratio of the surface area its Voronoi cell covers (t² Ω / |n·ω|)
+//!     to the sphere's (r² Ω), so the light emits the power of its surface; w_a ramps from 0 at f = 0.85 to 1 at
+//!     f = 0.70. Summed over all leaves the full weights reproduce the mesh area (Duck 6.87–7.10 vs 7.02, CesiumMan
+//!     1.44–1.50 vs 1.46, spot 5.63–5.79 vs 5.6 at 16–256 spheres), but applied to tight leaves too they darken
+//!     blob-like models (Duck 0.375 → 0.442, spot 0.176 → 0.323 at 64): there the bounding spheres' mutual
+//!     blocking (they occlude more than the surface inside them) already removes light, and the sphere surface's
+//!     excess area (9 % on the Duck) had balanced it. Tight leaves are therefore left unweighted.
+//!   - *Near field, pass 2*: for a leaf with f < 0.98 seen at an angular radius θ above 20° (or containing the
+//!     receiver), its emission is blended into the *splat* of its own samples ([`splat_irradiance`]): each sample a
+//!     facing disk of the area its cell covers on the surface, with the pass-1 radiance L_pj c(ω_j), irradiance
+//!     L A cos_e cos_r / (d² + A/π), times the light's visible share; weight ramp(θ: 20° → 40°) ×
+//!     ramp(f: 0.98 → 0.90) ([`SPLAT_THETA_START`], [`SPLAT_THETA_FULL`]). A tight leaf keeps the SH light, which is
+//!     exact for the known-answer spheres, while 92 disks are not (0.4 % RMSE for a floating sphere, 21 % for one
+//!     touching the ground, where receivers come closer than the samples' spacing).
+//!   - Measured (4096 rays, uniform sky; ground rel RMSE at 16 | 64 | 256 spheres): Duck 0.371 | 0.375 | 0.457 →
+//!     0.307 | 0.338 | 0.437, spot 0.394 | 0.176 | 0.291 → 0.209 | 0.146 | 0.291, CesiumMan 1.751 | 0.761 | 0.530
+//!     → 0.421 | 0.265 | 0.332. A unit ball in a 1.4× bounding sphere: 0.93 → 0.047 (`tests/light_known.rs`).
 //! - **One radiance per direction.** Lights that contain the receiver all touch its tangent plane after the
 //!   self-shadowing rules and intersect, so none blocks another; their cosine-weighted shares are scaled down to the
 //!   union of their caps (24 fixed directions per cap) when they add up to more.
@@ -147,7 +156,7 @@ use crate::shadow::{
     accumulate_log_visibility, asin_f32, implicit_root, rsqrt_f32, self_shadow_sphere, Blocker, ClusterBlockers,
     ExpMethod, ShadowContext, ShadowError, IMPLICIT_ROOT,
 };
-use crate::{Proxy, Sphere};
+use crate::{Proxy, SamplePoint, Sphere};
 use alloc::vec::Vec;
 use core::fmt;
 use spherebake_sh::{
@@ -435,6 +444,8 @@ pub struct SphereLights {
     sample_radiance: Vec<f32>,
     /// Per leaf and geodesic direction: L_pj · c(ω_j) (0 where no sample).
     leaf_cells: Vec<[f32; 3]>,
+    /// Per leaf: its fill, mean t_j / r of its samples at rest ([`leaf_fill`]).
+    leaf_fill: Vec<f32>,
     // Scratch of pass 1.
     cluster: ClusterBlockers,
     others: ClusterBlockers,
@@ -553,6 +564,8 @@ pub fn light_spheres(
     out.sample_radiance.resize(samples.per_sphere.iter().map(Vec::len).sum(), 0.0);
     out.leaf_cells.clear();
     out.leaf_cells.resize(n_leaves * GEODESIC_DIRECTION_COUNT, [0.0; 3]);
+    out.leaf_fill.clear();
+    out.leaf_fill.resize(n_leaves, 1.0);
 
     let rest = proxy.spheres();
     let tp = ctx.shadow.triple_product();
@@ -575,9 +588,21 @@ pub fn light_spheres(
         }
         let rot = posed.rotation(i);
         let c_rest = rest.get(i).map_or(s.center, |r| r.center);
+        let r_rest = f64::from(rest.get(i).map_or(s.radius, |r| r.radius)).max(1e-30);
+        let fill = leaf_fill(pts, c_rest, r_rest);
+        out.leaf_fill[i] = fill as f32;
+        let loose = ((AREA_FILL_TIGHT - fill) / (AREA_FILL_TIGHT - AREA_FILL_LOOSE)).clamp(0.0, 1.0);
         let mut l_i = [0.0f64; MAX_COEFFS];
         for (k, sp) in pts.iter().enumerate() {
             let rel = [sp.position[0] - c_rest[0], sp.position[1] - c_rest[1], sp.position[2] - c_rest[2]];
+            let area_w = if loose > 0.0 {
+                let t2 = f64::from(rel[0] * rel[0] + rel[1] * rel[1] + rel[2] * rel[2]);
+                let t = spherebake_sh::sqrt_f64(t2).max(1e-30);
+                let nd = (f64::from(rel[0] * sp.normal[0] + rel[1] * sp.normal[1] + rel[2] * sp.normal[2]) / t).abs();
+                1.0 + loose * (t2 / (r_rest * r_rest) / nd.max(SPLAT_MIN_COS) - 1.0)
+            } else {
+                1.0
+            };
             let r = rotate(&rot, rel);
             let p = [r[0] + s.center[0], r[1] + s.center[1], r[2] + s.center[2]];
             let n = rotate(&rot, sp.normal);
@@ -597,7 +622,7 @@ pub fn light_spheres(
             stats.samples += 1;
             if let Some(y) = voronoi_cell_basis(usize::from(sp.direction), order) {
                 for c in 0..nc {
-                    l_i[c] += lp * f64::from(y[c]);
+                    l_i[c] += area_w * lp * f64::from(y[c]);
                 }
             }
         }
@@ -640,23 +665,35 @@ pub fn light_spheres(
     Ok(stats)
 }
 
+/// Mean t_j / r of a leaf's samples (t_j: distance from the rest centre), 1 without samples.
+fn leaf_fill(pts: &[SamplePoint], c: [f32; 3], r: f64) -> f64 {
+    if pts.is_empty() {
+        return 1.0;
+    }
+    let sum: f64 = pts
+        .iter()
+        .map(|sp| {
+            let rel = [sp.position[0] - c[0], sp.position[1] - c[1], sp.position[2] - c[2]];
+            spherebake_sh::sqrt_f64(f64::from(rel[0] * rel[0] + rel[1] * rel[1] + rel[2] * rel[2])) / r
+        })
+        .sum();
+    sum / pts.len() as f64
+}
+
+/// Fill at and above which pass 1 weights no sample by the surface area it stands for (module docs, "Loose lights").
+const AREA_FILL_TIGHT: f64 = 0.85;
+/// Fill at and below which every sample is weighted by its area ratio (t/r)² / |n·ω|.
+const AREA_FILL_LOOSE: f64 = 0.70;
+
 /// Irradiance (linear RGB) at `p` (unit normal `n`) from leaf `leaf`'s own samples as small Lambertian emitters
 /// (module docs, "Close lights"): sample j at x_j with outward normal n_j stands for the surface its Voronoi cell
 /// sees from the sphere's centre, area A_j = t_j² Ω_cell / max(|n_j·ω_j|, 0.2) (t_j its distance from the centre,
 /// Ω_cell = 4π/92), radiance L_pj c(ω_j); its irradiance is that of a facing disk of area A_j,
 /// L A_j cos_e cos_r / (d² + A_j/π), exact on the disk's axis and bounded (π L) as d → 0. No visibility inside the
 /// leaf's own segment; the caller multiplies by the light's visible share. Allocation-free.
-fn splat_irradiance(
-    posed: &PosedProxy<'_>,
-    lights: &SphereLights,
-    leaf: usize,
-    p: [f32; 3],
-    n: [f32; 3],
-) -> ([f64; 3], f64) {
+fn splat_irradiance(posed: &PosedProxy<'_>, lights: &SphereLights, leaf: usize, p: [f32; 3], n: [f32; 3]) -> [f64; 3] {
     let mut out = [0.0f64; 3];
-    let mut fill = 0.0f64;
-    let mut count = 0usize;
-    let Some(s) = posed.leaves.get(leaf) else { return (out, 1.0) };
+    let Some(s) = posed.leaves.get(leaf) else { return out };
     let rot = posed.rotation(leaf);
     let c_rest = posed.proxy.spheres().get(leaf).map_or(s.center, |r| r.center);
     let cell = 4.0 * core::f64::consts::PI / GEODESIC_DIRECTION_COUNT as f64;
@@ -667,8 +704,6 @@ fn splat_irradiance(
         let rel = [sp.position[0] - c_rest[0], sp.position[1] - c_rest[1], sp.position[2] - c_rest[2]];
         let t2 = f64::from(rel[0] * rel[0] + rel[1] * rel[1] + rel[2] * rel[2]);
         let t = spherebake_sh::sqrt_f64(t2).max(1e-30);
-        fill += t / f64::from(s.radius).max(1e-30);
-        count += 1;
         let nd = (f64::from(rel[0] * sp.normal[0] + rel[1] * sp.normal[1] + rel[2] * sp.normal[2]) / t).abs();
         let area = t2 * cell / nd.max(SPLAT_MIN_COS);
         let r = rotate(&rot, rel);
@@ -687,7 +722,7 @@ fn splat_irradiance(
             out[c] += k * f64::from(v[c]);
         }
     }
-    (out, if count > 0 { fill / count as f64 } else { 1.0 })
+    out
 }
 
 /// Node lights from their leaves: L^c_N = Σ_j (r_j / r_N)² L^c_j, rotation polar(Σ_j r_j² R_j) (module docs).
@@ -1159,10 +1194,12 @@ impl IndirectCluster {
                 let r = e.blocker.radius;
                 let theta_raw = if d2 <= r * r { core::f32::consts::FRAC_PI_2 } else { asin_f32(r * rsqrt_f32(d2)) };
                 if theta_raw > lo {
-                    let (e_splat, fill) = splat_irradiance(posed_src, lights, leaf as usize, p, normal);
+                    let fill = f64::from(lights.leaf_fill.get(leaf as usize).copied().unwrap_or(1.0));
                     let fw = ((SPLAT_FILL_TIGHT - fill) / (SPLAT_FILL_TIGHT - SPLAT_FILL_LOOSE)).clamp(0.0, 1.0) as f32;
                     splat_t = fw * ((theta_raw - lo) / (hi - lo)).clamp(0.0, 1.0);
-                    splat = e_splat;
+                    if splat_t > 0.0 {
+                        splat = splat_irradiance(posed_src, lights, leaf as usize, p, normal);
+                    }
                 }
             }
             // Seen from very close (wide caps: the receiver is inside or under the light), the weights concentrate

@@ -123,10 +123,11 @@ fn one_sphere_on_the_ground_matches_the_integrated_one_bounce() {
 }
 
 /// A loose light: a unit ball of one colour inside a bounding sphere 1.4 times larger (fill 0.71, as a limb in a fat
-/// sphere), floating at height 2. Its samples lie on the ball, so the close-range splat of the samples (module
-/// docs) must bring the near ground towards the ball's own one-bounce answer. Far off, the SH light still emits
-/// from the bounding sphere ((1.4)² ≈ 2 × the ball's power: the open part of the far field, see docs/benchmarks.md),
-/// so the whole square is held to a ceiling relative to the bounding sphere as the emitter (measured 0.58 vs 0.93).
+/// sphere), floating at height 2. Its samples lie on the ball, so the area weights of pass 1 (far field: the
+/// bounding sphere's surface would emit (1.4)² ≈ 2 × the ball's power) and the close-range splat of the samples
+/// (module docs, "Loose lights") must give the ball's own one-bounce answer: measured 0.047 relative RMSE, against
+/// 0.93 for the bounding sphere as the emitter. The ceiling is the measured value plus half (92 samples are a
+/// coarse surface up close).
 #[test]
 fn a_loose_sphere_lights_the_ground_as_the_surface_it_bounds() {
     let albedo = [0.8f32, 0.5, 0.2];
@@ -158,5 +159,6 @@ fn a_loose_sphere_lights_the_ground_as_the_surface_it_bounds() {
     let rel = (se_ball / count).sqrt() / (sum / count);
     let rel_big = (se_big / count).sqrt() / (sum / count);
     println!("loose sphere: relative RMSE {rel:.4} (the bounding sphere as the emitter: {rel_big:.4})");
-    assert!(rel < 0.7 * rel_big, "loose sphere: {rel} vs {rel_big} for the bounding sphere as the emitter");
+    assert!(rel_big > 0.5, "the bounding sphere is a poor emitter here: {rel_big}");
+    assert!(rel <= 0.07, "loose sphere: {rel} (the bounding sphere as the emitter: {rel_big})");
 }
