@@ -15,6 +15,14 @@ pub enum IoError {
     /// error chain (`{:#}`) names it once.
     #[error("{}: cannot read: {cause}", path.display())]
     Read { path: PathBuf, cause: std::io::Error },
+    /// A file the model references (glTF buffer / image `uri`, OBJ `mtllib` / `map_Kd`) does
+    /// not exist; `path` is the model, `resolved` where the reference was looked for.
+    #[error("{}: referenced file {uri:?} not found (looked for {})", path.display(), resolved.display())]
+    ReferenceNotFound { path: PathBuf, uri: String, resolved: PathBuf },
+    /// A file the model references exists but could not be read (OS error in the message
+    /// only, as for [`IoError::Read`]).
+    #[error("{}: cannot read referenced file {uri:?}: {cause}", path.display())]
+    ReferenceRead { path: PathBuf, uri: String, cause: std::io::Error },
     /// A referenced file (glTF buffer / image `uri`, OBJ `mtllib` / `map_Kd`) resolves outside
     /// the model's folder tree and [`crate::ImportOptions::allow_outside_paths`] is off.
     #[error("{}: {uri:?} is outside the model's folder; refused (--allow-outside-paths allows it)", path.display())]

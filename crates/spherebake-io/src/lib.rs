@@ -335,7 +335,11 @@ pub(crate) fn read_confined(
         return Err(outside());
     }
     if let Some(resolve) = resolver {
-        let mut bytes = resolve(path).ok_or_else(|| IoError::NotFound { path: path.to_path_buf() })?;
+        let mut bytes = resolve(path).ok_or_else(|| IoError::ReferenceNotFound {
+            path: model.to_path_buf(),
+            uri: uri.to_owned(),
+            resolved: path.to_path_buf(),
+        })?;
         let (cap, prefix) = match limit {
             ReadLimit::Whole => (budget, false),
             ReadLimit::Prefix(n) => (n.min(budget), n <= budget),
@@ -363,13 +367,23 @@ pub(crate) fn read_confined(
         match std::fs::canonicalize(path) {
             Ok(c) if c.starts_with(&root) => {}
             Ok(_) => return Err(outside()),
-            Err(e) if e.kind() == std::io::ErrorKind::NotFound => {
-                return Err(IoError::NotFound { path: path.to_path_buf() })
-            }
-            Err(e) => return Err(IoError::Read { path: path.to_path_buf(), cause: e }),
+            Err(e) => return Err(read_error(model, path, Some(uri), e)),
         }
     }
     read_bounded(model, path, Some(uri), budget, limit)
+}
+
+/// The error for an OS error reading `path`: naming the file itself, or for a file the model
+/// references (`uri` given) naming the model and the reference.
+fn read_error(model: &Path, path: &Path, uri: Option<&str>, e: std::io::Error) -> IoError {
+    match (uri, e.kind()) {
+        (None, std::io::ErrorKind::NotFound) => IoError::NotFound { path: path.to_path_buf() },
+        (None, _) => IoError::Read { path: path.to_path_buf(), cause: e },
+        (Some(u), std::io::ErrorKind::NotFound) => {
+            IoError::ReferenceNotFound { path: model.to_path_buf(), uri: u.to_owned(), resolved: path.to_path_buf() }
+        }
+        (Some(u), _) => IoError::ReferenceRead { path: model.to_path_buf(), uri: u.to_owned(), cause: e },
+    }
 }
 
 /// Reads a regular file under `limit` and the input `budget`, never more than one byte past
@@ -382,10 +396,7 @@ pub(crate) fn read_bounded(
     limit: ReadLimit,
 ) -> Result<Vec<u8>, IoError> {
     use std::io::Read;
-    let io = |e: std::io::Error| match e.kind() {
-        std::io::ErrorKind::NotFound => IoError::NotFound { path: path.to_path_buf() },
-        _ => IoError::Read { path: path.to_path_buf(), cause: e },
-    };
+    let io = |e: std::io::Error| read_error(model, path, what, e);
     let meta = std::fs::metadata(path).map_err(io)?;
     if !meta.is_file() {
         return Err(IoError::NotRegularFile { path: model.to_path_buf(), uri: what.map(str::to_owned) });

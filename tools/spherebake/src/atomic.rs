@@ -182,7 +182,7 @@ pub fn write_together(files: &[(&Path, &[u8])], inputs: &[PathBuf]) -> Result<()
     dirs.sort();
     dirs.dedup();
     for d in dirs {
-        sync_dir(&d).with_context(|| format!("{}: syncing directory", d.display()))?;
+        sync_dir(&d).with_context(|| format!("{}: syncing the directory", shown_dir(&d)))?;
     }
     Ok(())
 }
@@ -191,6 +191,15 @@ fn dir_of(path: &Path) -> PathBuf {
     match path.parent() {
         Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
         _ => PathBuf::from("."),
+    }
+}
+
+/// A directory for messages: never a bare `.`.
+fn shown_dir(dir: &Path) -> String {
+    if dir == Path::new(".") {
+        "the current directory".to_string()
+    } else {
+        dir.display().to_string()
     }
 }
 
@@ -232,7 +241,8 @@ fn prepare(path: &Path, bytes: &[u8]) -> Result<Prepared> {
         if target != path {
             bail!("{}: symlink to {}, whose directory does not exist", path.display(), target.display());
         }
-        std::fs::create_dir_all(&dir).with_context(|| format!("{}: creating output directory", dir.display()))?;
+        std::fs::create_dir_all(&dir)
+            .with_context(|| format!("{}: creating its directory {}", path.display(), dir.display()))?;
     }
     remove_stale_temps(&dir);
     let mut builder = tempfile::Builder::new();
@@ -244,7 +254,9 @@ fn prepare(path: &Path, bytes: &[u8]) -> Result<Prepared> {
         builder.permissions(std::fs::Permissions::from_mode(0o666));
     }
     let mut live = LIVE_TEMPS.lock().unwrap_or_else(|p| p.into_inner());
-    let mut tmp = builder.tempfile_in(&dir).with_context(|| format!("{}: creating temporary file", dir.display()))?;
+    let mut tmp = builder
+        .tempfile_in(&dir)
+        .with_context(|| format!("{}: creating a temporary file in {}", path.display(), shown_dir(&dir)))?;
     live.push(tmp.path().to_path_buf());
     drop(live);
     let result = (|| -> std::io::Result<()> {

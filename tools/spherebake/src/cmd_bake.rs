@@ -351,9 +351,11 @@ fn run_job(job: &Job, a: &BakeArgs, bar: &ProgressBar) -> AssetResult {
             // written leaves no new output behind (else the next run would call it up to date).
             let text = depfile_text(&job.output, inputs);
             let dep = depfile_path(&job.output);
-            crate::atomic::write_together(&[(&job.output, &out.bytes), (&dep, text.as_bytes())], inputs)?;
+            crate::atomic::write_together(&[(&job.output, &out.bytes), (&dep, text.as_bytes())], inputs)
+                .with_context(|| format!("{}: writing its output", job.input.display()))?;
         } else {
-            crate::atomic::write_atomic(&job.output, &out.bytes, inputs)?;
+            crate::atomic::write_atomic(&job.output, &out.bytes, inputs)
+                .with_context(|| format!("{}: writing its output", job.input.display()))?;
         }
         Ok(out)
     })();
@@ -368,7 +370,8 @@ fn run_job(job: &Job, a: &BakeArgs, bar: &ProgressBar) -> AssetResult {
         }
         Err(e) => {
             let msg = format!("{e:#}");
-            // Printed as it happens so a long batch shows failures early; the table repeats it.
+            // Printed once, as it happens, so a long batch shows failures early; the table
+            // says only "failed" (the JSON report carries it as `error`).
             eprintln!("spherebake: error: {msg}");
             r.error = Some(msg);
         }
@@ -432,28 +435,29 @@ fn available_memory() -> Option<u64> {
 
 impl JobPlan {
     fn new(asked: Option<u32>, jobs: &[Job]) -> JobPlan {
-        let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
         if let Some(n) = asked {
             return JobPlan { jobs: n as usize, reason: "--jobs".into() };
         }
+        let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
         let per = jobs.iter().map(|j| bake_memory_estimate(j.settings.voxels)).max().unwrap_or(0);
-        match available_memory() {
+        JobPlan::from_budget(cores, available_memory(), per)
+    }
+
+    /// The default: one bake per core, but no more at a time than fit in half the available
+    /// memory at `per` bytes each (at least one). The reason names both budgets.
+    fn from_budget(cores: usize, available: Option<u64>, per: u64) -> JobPlan {
+        let cores = cores.max(1);
+        match available {
             Some(avail) if per > 0 => {
                 let by_memory = ((avail / 2) / per).max(1) as usize;
+                let budget = format!("{} MiB available, ~{} MiB per bake", avail >> 20, per >> 20);
                 if by_memory < cores {
-                    JobPlan {
-                        jobs: by_memory,
-                        reason: format!(
-                            "{cores} cores, limited by memory: {} MiB available, ~{} MiB per bake",
-                            avail >> 20,
-                            per >> 20
-                        ),
-                    }
+                    JobPlan { jobs: by_memory, reason: format!("{cores} cores, limited by memory: {budget}") }
                 } else {
-                    JobPlan { jobs: cores, reason: format!("{cores} cores") }
+                    JobPlan { jobs: cores, reason: format!("{cores} cores, memory: {budget}") }
                 }
             }
-            _ => JobPlan { jobs: cores, reason: format!("{cores} cores") },
+            _ => JobPlan { jobs: cores, reason: format!("{cores} cores, memory unknown") },
         }
     }
 }
@@ -464,6 +468,10 @@ fn print_summary(results: &[AssetResult], verbose: bool, parallel: &JobPlan) {
             print_single(&results[0].output, r);
             return;
         }
+    }
+    if results.len() == 1 && results[0].status == "failed" {
+        // The one-line error on stderr says it all.
+        return;
     }
     let w = results.iter().map(|r| r.input.display().to_string().chars().count()).max().unwrap_or(0).max(5);
     println!("{:<w$} {:>10} {:>8} {:>8} {:>9}  status", "asset", "triangles", "spheres", "E", "time (s)");
@@ -477,10 +485,8 @@ fn print_summary(results: &[AssetResult], verbose: bool, parallel: &JobPlan) {
             opt(r.spheres.map(|t| t.to_string())),
             opt(r.outside_ratio_e.map(|e| format!("{e:.4}"))),
             r.seconds,
-            match &r.error {
-                Some(e) => format!("failed: {e}"),
-                None => r.status.to_string(),
-            }
+            // The cause was printed once, on stderr, as it happened.
+            r.status
         );
         if verbose {
             if let Some(rep) = &r.report {
@@ -555,5 +561,27 @@ fn print_single(output: &Path, r: &spherebake_bake::BakeReport) {
     println!("  file      {} bytes, input hash {}", r.file_bytes, r.input_hash);
     for w in &r.warnings {
         println!("  warning   {w}");
+    }
+}
+
+#[cfg(test)]
+mod job_tests {
+    use super::*;
+
+    #[test]
+    fn the_default_is_one_bake_per_core_within_half_the_memory() {
+        const MIB: u64 = 1 << 20;
+        // 8 cores, 4 GiB free, 768 MiB per bake (--voxels 1024): 2048 / 768 = 2 at a time.
+        let p = JobPlan::from_budget(8, Some(4096 * MIB), bake_memory_estimate(1024));
+        assert_eq!(bake_memory_estimate(1024), 768 * MIB);
+        assert_eq!(p.jobs, 2);
+        assert_eq!(p.reason, "8 cores, limited by memory: 4096 MiB available, ~768 MiB per bake");
+        // Plenty of memory: the cores decide.
+        let p = JobPlan::from_budget(2, Some(64 * 1024 * MIB), bake_memory_estimate(128));
+        assert_eq!(p.jobs, 2);
+        assert!(p.reason.starts_with("2 cores, memory: 65536 MiB available"), "{}", p.reason);
+        // Less than one bake's worth: still one.
+        assert_eq!(JobPlan::from_budget(4, Some(100 * MIB), 768 * MIB).jobs, 1);
+        assert_eq!(JobPlan::from_budget(3, None, 768 * MIB).reason, "3 cores, memory unknown");
     }
 }
