@@ -126,12 +126,8 @@ pub fn hierarchy_levels(file: &SphbFile) -> Vec<Vec<([f32; 3], f32)>> {
         changed = false;
         guard += 1;
         for i in 0..n {
-            let hgt = 1 + h.nodes[i]
-                .children
-                .iter()
-                .map(|&c| height.get(c as usize).copied().unwrap_or(0))
-                .max()
-                .unwrap_or(0);
+            let hgt =
+                1 + h.children_of(i).iter().map(|&c| height.get(c as usize).copied().unwrap_or(0)).max().unwrap_or(0);
             if hgt != height[i] {
                 height[i] = hgt;
                 changed = true;
@@ -200,7 +196,7 @@ pub fn export_glb(file: &SphbFile) -> (Vec<u8>, ExportSummary) {
             [[1.0, 0.0, 0.0], [-1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, -1.0, 0.0], [0.0, 0.0, 1.0], [0.0, 0.0, -1.0]];
         let faces: [[u32; 3]; 8] =
             [[0, 2, 4], [2, 1, 4], [1, 3, 4], [3, 0, 4], [2, 0, 5], [1, 2, 5], [3, 1, 5], [0, 3, 5]];
-        for (si, list) in s.per_sphere.iter().enumerate() {
+        for (si, list) in s.per_sphere().enumerate() {
             for p in list {
                 let base = m.positions.len() as u32;
                 for d in &oct {

@@ -114,13 +114,13 @@ pub fn place_samples(mesh: &Mesh, bvh: &TriangleBvh, flip: &[bool], spheres: &[[
     let per: Vec<(Vec<SamplePoint>, RuleCounts)> =
         (0..spheres.len()).into_par_iter().map_init(Vec::new, |hits, i| ctx.sphere_samples(bvh, i, hits)).collect();
     let mut stats = SampleStats::default();
-    let mut samples = Samples { per_sphere: Vec::with_capacity(per.len()) };
+    let mut samples = Samples::default();
     let mut min = u32::MAX;
     for (s, c) in per {
         min = min.min(s.len() as u32);
         stats.counts.add(&c);
         stats.per_sphere.push(c);
-        samples.per_sphere.push(s);
+        samples.push_sphere(&s);
     }
     let n = spheres.len();
     if n > 0 {

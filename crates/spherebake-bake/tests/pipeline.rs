@@ -33,7 +33,7 @@ fn the_seed_changes_the_start_and_the_file_is_complete() {
     let file = spherebake_format::read(&a.bytes).unwrap();
     assert_eq!(file.spheres.len(), a.report.sphere_count);
     let samples = file.samples.as_ref().expect("samples section");
-    assert_eq!(samples.per_sphere.len(), file.spheres.len());
+    assert_eq!(samples.sphere_count(), file.spheres.len());
     let sh = file.albedo_sh.as_ref().expect("albedo SH section");
     assert_eq!(sh.order, 4);
     assert_eq!(sh.coefficients.len(), 16 * file.spheres.len());

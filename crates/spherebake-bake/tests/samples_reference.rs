@@ -187,7 +187,7 @@ fn degenerate_spheres_are_skipped() {
     let with = [[0.5, 0.5, 0.5, 0.0], [0.2, 0.1, -0.05, 1.0], [f32::NAN, 0.0, 0.0, 1.0]];
     let (a, _, _) = run(&mesh, &alone);
     let (b, st, _) = run(&mesh, &with);
-    assert_eq!(b.per_sphere.len(), 3);
+    assert_eq!(b.sphere_count(), 3);
     assert!(b.of(0).is_empty() && b.of(2).is_empty());
     assert_eq!(b.of(1), a.of(0));
     assert_eq!((st.per_sphere[0].skipped, st.per_sphere[2].skipped, st.per_sphere[1].skipped), (92, 92, 0));

@@ -13,7 +13,7 @@
 //!
 //! **Node order.** Nodes are listed level by level from the leaves up; the root is the last node,
 //! and every child node has a smaller index than its parent (so a forward pass is a bottom-up
-//! refit). A node holds either child nodes (`children`) or leaves (`leaf_children`), never both.
+//! refit). A node holds either child nodes or leaves, never both.
 //!
 //! Determinism: randomness from [`SplitMix64`] seeded by (seed, level); parallel work collects in
 //! order, so the result does not depend on the rayon thread count.
@@ -21,7 +21,7 @@
 use crate::rng::SplitMix64;
 use glam::DVec3;
 use rayon::prelude::*;
-use spherebake_format::{Hierarchy, HierarchyNode};
+use spherebake_format::{Hierarchy, HierarchyNode, NodeLists};
 use spherebake_geom::sphere::min_enclosing_ball_of_balls;
 
 /// Hierarchy build settings.
@@ -96,7 +96,7 @@ fn node_ball(n: &HierarchyNode) -> Ball {
 
 /// Builds the hierarchy over `leaves` (x, y, z, radius; model space).
 ///
-/// Every leaf is the `leaf_children` entry of exactly one node; see the module docs for the node
+/// Every leaf is in the leaf range of exactly one node; see the module docs for the node
 /// order and the f32 containment guarantee.
 ///
 /// # Errors
@@ -119,7 +119,7 @@ pub fn build_hierarchy(leaves: &[[f32; 4]], settings: &HierarchySettings) -> Res
         }
     }
     let plan = plan_levels(leaves.len(), b);
-    let mut nodes: Vec<HierarchyNode> = Vec::new();
+    let mut nodes: Vec<NodeLists> = Vec::new();
     // Current level: balls (stored f32 values as f64) and their ids (leaf or node index).
     let mut level: Vec<Ball> = leaves.iter().map(leaf_ball).collect();
     let mut level_is_leaf = true;
@@ -131,23 +131,23 @@ pub fn build_hierarchy(leaves: &[[f32; 4]], settings: &HierarchySettings) -> Res
         for (i, &c) in assignment.iter().enumerate() {
             members[c as usize].push(i as u32);
         }
-        let parents: Vec<HierarchyNode> = members
+        let parents: Vec<NodeLists> = members
             .par_iter()
             .map(|m| {
                 let balls: Vec<Ball> = m.iter().map(|&i| level[i as usize]).collect();
                 let (center, radius) = store_enclosing(&balls);
                 let ids: Vec<u32> = m.iter().map(|&i| level_first_id + i).collect();
                 let (children, leaf_children) = if level_is_leaf { (Vec::new(), ids) } else { (ids, Vec::new()) };
-                HierarchyNode { center, radius, children, leaf_children }
+                NodeLists { center, radius, children, leaf_children }
             })
             .collect();
         level_first_id = nodes.len() as u32;
-        level = parents.iter().map(node_ball).collect();
+        level = parents.iter().map(|n| leaf_ball(&[n.center[0], n.center[1], n.center[2], n.radius])).collect();
         level_is_leaf = false;
         nodes.extend(parents);
     }
     let root = nodes.len().saturating_sub(1) as u32;
-    Ok(Hierarchy { root, nodes })
+    Ok(Hierarchy::from_lists(root, nodes))
 }
 
 /// Node counts per level, bottom-up, ending with 1 (the root): repeated division by `b`
@@ -356,10 +356,11 @@ pub fn hierarchy_stats(h: &Hierarchy, leaves: &[[f32; 4]]) -> HierarchyStats {
     let per_node: Vec<f64> = h
         .nodes
         .par_iter()
-        .map(|n| {
+        .enumerate()
+        .map(|(i, n)| {
             let mut balls: Vec<Ball> =
-                n.children.iter().filter_map(|&c| h.nodes.get(c as usize)).map(node_ball).collect();
-            balls.extend(n.leaf_children.iter().filter_map(|&l| leaves.get(l as usize)).map(leaf_ball));
+                h.children_of(i).iter().filter_map(|&c| h.nodes.get(c as usize)).map(node_ball).collect();
+            balls.extend(h.leaves_of(i).iter().filter_map(|&l| leaves.get(l as usize)).map(leaf_ball));
             if balls.is_empty() {
                 return 1.0;
             }
@@ -372,7 +373,7 @@ pub fn hierarchy_stats(h: &Hierarchy, leaves: &[[f32; 4]]) -> HierarchyStats {
         })
         .collect();
     let count = per_node.len().max(1) as f64;
-    let edges: usize = h.nodes.iter().map(|n| n.children.len() + n.leaf_children.len()).sum();
+    let edges: usize = (0..h.nodes.len()).map(|i| h.children_of(i).len() + h.leaves_of(i).len()).sum();
     HierarchyStats {
         levels: depth_levels(h),
         mean_branching: edges as f64 / count,
@@ -393,8 +394,7 @@ fn depth_levels(h: &Hierarchy) -> usize {
         levels += 1;
         frontier = frontier
             .iter()
-            .filter_map(|&n| h.nodes.get(n as usize))
-            .flat_map(|n| n.children.iter().copied())
+            .flat_map(|&n| h.children_of(n as usize).iter().copied())
             .filter(|&c| (c as usize) < h.nodes.len())
             .collect();
     }

@@ -49,10 +49,11 @@ fn check_invariants(name: &str, h: &Hierarchy, leaves: &[[f32; 4]]) -> f64 {
     let mut node_seen = vec![0u32; n];
     let mut leaf_seen = vec![0u32; leaves.len()];
     let mut stack = vec![h.root];
+    let lists = h.to_lists();
     while let Some(i) = stack.pop() {
         node_seen[i as usize] += 1;
         assert!(node_seen[i as usize] == 1, "{name}: node {i} reached twice");
-        let node = &h.nodes[i as usize];
+        let node = &lists[i as usize];
         assert!(!(node.children.is_empty() && node.leaf_children.is_empty()), "{name}: empty node {i}");
         stack.extend(&node.children);
         for &l in &node.leaf_children {
@@ -62,7 +63,7 @@ fn check_invariants(name: &str, h: &Hierarchy, leaves: &[[f32; 4]]) -> f64 {
     assert!(node_seen.iter().all(|&c| c == 1), "{name}: unreachable node");
     assert!(leaf_seen.iter().all(|&c| c == 1), "{name}: leaf not reached exactly once");
     // Containment of the stored f32 values, evaluated in f64.
-    for (i, node) in h.nodes.iter().enumerate() {
+    for (i, node) in lists.iter().enumerate() {
         assert!(node.radius > 0.0 && node.radius.is_finite(), "{name}: node {i}");
         let (pc, pr) = ball(node.center, node.radius);
         let kids = node.children.iter().map(|&c| ball(h.nodes[c as usize].center, h.nodes[c as usize].radius)).chain(
@@ -155,13 +156,14 @@ fn analytic_two_level_configuration() {
     let h = build_hierarchy(&leaves, &HierarchySettings::default()).unwrap();
     check_invariants("analytic", &h, &leaves);
     assert_eq!(h.nodes.len(), 5);
-    let root = &h.nodes[h.root as usize];
+    let lists = h.to_lists();
+    let root = &lists[h.root as usize];
     assert_eq!(root.children.len(), 4);
     let want_root = l * 3f64.sqrt() + a + r;
     assert!((f64::from(root.radius) - want_root).abs() < 1e-5 * want_root, "{}", root.radius);
     assert!(ball(root.center, 0.0).0.length() < 1e-5);
     for &c in &root.children {
-        let p = &h.nodes[c as usize];
+        let p = &lists[c as usize];
         assert!((f64::from(p.radius) - (a + r)).abs() < 1e-6, "{}", p.radius);
         let g = groups.iter().map(|g| *g * l).find(|g| g.distance(ball(p.center, 0.0).0) < 1e-5);
         assert!(g.is_some(), "parent at a group centre");
@@ -216,7 +218,7 @@ fn branching_setting_is_followed() {
 fn small_inputs_and_errors() {
     let h = build_hierarchy(&[[1.0, 2.0, 3.0, 0.5]], &HierarchySettings::default()).unwrap();
     assert_eq!(h.nodes.len(), 1);
-    assert_eq!(h.nodes[0].leaf_children, vec![0]);
+    assert_eq!(h.leaves_of(0), [0]);
     assert_eq!(h.nodes[0].center, [1.0, 2.0, 3.0]);
     assert!(h.nodes[0].radius >= 0.5 && h.nodes[0].radius < 0.500_001);
     // Math reference §9 pair: the parent is the pair bound R = 1.058276253.
@@ -336,7 +338,7 @@ fn largest_sphere_count() {
     assert!(stats.tightness_mean <= 1.0 + 1e-6);
     // Per node: inflation over the reference within 1e-6 of the radius, or within the f32
     // spacing at the centre (small parents far from the origin cannot do better in f32).
-    for (i, n) in h.nodes.iter().enumerate() {
+    for (i, n) in h.to_lists().iter().enumerate() {
         let kids: Vec<(DVec3, f64)> = n
             .children
             .iter()
@@ -375,7 +377,7 @@ fn baked_hierarchies_load_and_refit_in_the_runtime() {
         refit(&plan, proxy.spheres(), &mut nodes).unwrap();
         let mut growth: f64 = 1.0;
         let mut growth_sum = 0.0;
-        for (i, (n, r)) in h.nodes.iter().zip(&nodes).enumerate() {
+        for (i, (n, r)) in h.to_lists().iter().zip(&nodes).enumerate() {
             if n.children.is_empty() {
                 // Same children as the bake: a sequential pair bound is never below the exact ball.
                 assert!(f64::from(r.radius) >= f64::from(n.radius) * (1.0 - 1e-6), "{}: node {i}", path.display());

@@ -55,8 +55,9 @@ mod write;
 
 pub use error::{Detail, Rule, SectionKind, ValidationError};
 pub use model::{
-    AlbedoSh, BoneRecord, ColourSpace, Hierarchy, HierarchyNode, Metadata, SamplePoint, Samples, ShBasis, SkinEntry,
-    SkinTerms, SphbFile, Sphere, DIRECTION_COUNT, MAX_BONES_PER_SPHERE, MAX_SH_ORDER, NO_PARENT, UNUSED_BONE,
+    AlbedoSh, BoneRecord, ColourSpace, Hierarchy, HierarchyNode, Metadata, NodeLists, SamplePoint, Samples, ShBasis,
+    SkinEntry, SkinTerms, SphbFile, Sphere, DIRECTION_COUNT, MAX_BONES_PER_SPHERE, MAX_SH_ORDER, NO_PARENT,
+    UNUSED_BONE,
 };
 pub use read::{read, read_header_and_table, repair_checksums, Header, SectionEntry};
 pub use write::{write, write_compact, EncodeError};

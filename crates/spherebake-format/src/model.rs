@@ -30,28 +30,117 @@ pub struct Sphere {
     pub radius: f32,
 }
 
-/// One node of the sphere hierarchy: a bounding sphere over its children and leaves.
-#[derive(Clone, Debug, PartialEq, Default)]
+/// One node of the sphere hierarchy: a bounding sphere over its children and leaves, stored as
+/// the file stores it (index ranges into [`Hierarchy::children`] and [`Hierarchy::leaves`]).
+#[derive(Clone, Copy, Debug, PartialEq, Default)]
 pub struct HierarchyNode {
     /// Centre (x, y, z), model space.
     pub center: [f32; 3],
     /// Radius, model units; finite and greater than 0.
     pub radius: f32,
-    /// Child nodes, as indices into [`Hierarchy::nodes`].
+    /// Start of this node's child nodes in [`Hierarchy::children`].
+    pub first_child: u32,
+    /// Number of child nodes.
+    pub child_count: u32,
+    /// Start of this node's leaf spheres in [`Hierarchy::leaves`].
+    pub first_leaf: u32,
+    /// Number of leaf spheres.
+    pub leaf_count: u32,
+}
+
+/// A hierarchy node given by its own lists, for building a [`Hierarchy`] ([`Hierarchy::from_lists`]).
+#[derive(Clone, Debug, PartialEq, Default)]
+pub struct NodeLists {
+    /// Centre (x, y, z), model space.
+    pub center: [f32; 3],
+    /// Radius, model units.
+    pub radius: f32,
+    /// Child nodes, as node indices.
     pub children: Vec<u32>,
     /// Leaf spheres, as indices into [`SphbFile::spheres`].
     pub leaf_children: Vec<u32>,
 }
 
-/// A tree of bounding spheres whose leaves are the spheres of the sphere set.
+/// A tree of bounding spheres whose leaves are the spheres of the sphere set, in the file's flat
+/// layout: one node array, one child-index array and one leaf-index array; each node names a
+/// range of each array.
 ///
-/// Every node is reachable from `root` exactly once, and every sphere is the leaf of exactly one node.
+/// Every node is reachable from `root` exactly once, and every sphere is the leaf of exactly one
+/// node (checked by the reader; a hand-built value may break it, and then the reader rejects
+/// what the writer makes of it).
 #[derive(Clone, Debug, PartialEq, Default)]
 pub struct Hierarchy {
     /// Index of the root node in `nodes`.
     pub root: u32,
     /// All nodes.
     pub nodes: Vec<HierarchyNode>,
+    /// Child node indices; node `i` owns `children[first_child .. first_child + child_count]`.
+    pub children: Vec<u32>,
+    /// Leaf sphere indices; node `i` owns `leaves[first_leaf .. first_leaf + leaf_count]`.
+    pub leaves: Vec<u32>,
+}
+
+fn range_of(items: &[u32], first: u32, count: u32) -> &[u32] {
+    let (Ok(first), Ok(count)) = (usize::try_from(first), usize::try_from(count)) else {
+        return &[];
+    };
+    first.checked_add(count).and_then(|end| items.get(first..end)).unwrap_or(&[])
+}
+
+impl Hierarchy {
+    /// Builds the flat layout from per-node lists, ranges laid out in node order.
+    #[must_use]
+    pub fn from_lists(root: u32, nodes: impl IntoIterator<Item = NodeLists>) -> Hierarchy {
+        let mut h = Hierarchy { root, ..Hierarchy::default() };
+        for n in nodes {
+            h.push_node(n.center, n.radius, &n.children, &n.leaf_children);
+        }
+        h
+    }
+
+    /// Appends a node with these children and leaves; returns its index.
+    pub fn push_node(&mut self, center: [f32; 3], radius: f32, children: &[u32], leaves: &[u32]) -> u32 {
+        let len = |v: usize| u32::try_from(v).unwrap_or(u32::MAX);
+        self.nodes.push(HierarchyNode {
+            center,
+            radius,
+            first_child: len(self.children.len()),
+            child_count: len(children.len()),
+            first_leaf: len(self.leaves.len()),
+            leaf_count: len(leaves.len()),
+        });
+        self.children.extend_from_slice(children);
+        self.leaves.extend_from_slice(leaves);
+        len(self.nodes.len() - 1)
+    }
+
+    /// The per-node lists (for editing; rebuild with [`Hierarchy::from_lists`]).
+    #[must_use]
+    pub fn to_lists(&self) -> Vec<NodeLists> {
+        (0..self.nodes.len())
+            .map(|i| {
+                let n = self.nodes.get(i).copied().unwrap_or_default();
+                NodeLists {
+                    center: n.center,
+                    radius: n.radius,
+                    children: self.children_of(i).to_vec(),
+                    leaf_children: self.leaves_of(i).to_vec(),
+                }
+            })
+            .collect()
+    }
+
+    /// Child node indices of node `node`; empty when out of range.
+    #[must_use]
+    pub fn children_of(&self, node: usize) -> &[u32] {
+        self.nodes.get(node).map_or(&[], |n| range_of(&self.children, n.first_child, n.child_count))
+    }
+
+    /// Leaf sphere indices of node `node`; empty when out of range.
+    #[must_use]
+    pub fn leaves_of(&self, node: usize) -> &[u32] {
+        self.nodes.get(node).map_or(&[], |n| range_of(&self.leaves, n.first_leaf, n.leaf_count))
+    }
 }
 
 /// One surface sample point of a sphere (Guerrero et al. 2008, §4.2).
@@ -67,24 +156,71 @@ pub struct SamplePoint {
     pub rule: u8,
 }
 
-/// Surface sample points, grouped per sphere.
-#[derive(Clone, Debug, PartialEq, Default)]
+/// Surface sample points of all spheres in the file's flat layout: one point array, and per
+/// sphere a range of it given by `offsets` (`sphere_count + 1` entries, starting at 0).
+#[derive(Clone, Debug, PartialEq)]
 pub struct Samples {
-    /// `per_sphere[i]` holds sphere `i`'s samples in strictly increasing direction order.
-    pub per_sphere: Vec<Vec<SamplePoint>>,
+    /// Sphere `i` owns `points[offsets[i] .. offsets[i + 1]]`, in strictly increasing direction order.
+    pub offsets: Vec<u32>,
+    /// All samples, sphere after sphere.
+    pub points: Vec<SamplePoint>,
+}
+
+impl Default for Samples {
+    /// No spheres: `offsets == [0]`.
+    fn default() -> Self {
+        Samples { offsets: alloc::vec![0], points: Vec::new() }
+    }
 }
 
 impl Samples {
+    /// Builds the flat layout from one list per sphere.
+    #[must_use]
+    pub fn from_per_sphere(per_sphere: impl IntoIterator<Item = Vec<SamplePoint>>) -> Samples {
+        let mut s = Samples::default();
+        for list in per_sphere {
+            s.push_sphere(&list);
+        }
+        s
+    }
+
+    /// Appends the samples of the next sphere.
+    pub fn push_sphere(&mut self, points: &[SamplePoint]) {
+        self.points.extend_from_slice(points);
+        self.offsets.push(u32::try_from(self.points.len()).unwrap_or(u32::MAX));
+    }
+
+    /// Number of spheres (`offsets.len() - 1`).
+    #[must_use]
+    pub fn sphere_count(&self) -> usize {
+        self.offsets.len().saturating_sub(1)
+    }
+
+    /// Index range of sphere `sphere`'s samples in [`Samples::points`], empty when out of range.
+    #[must_use]
+    pub fn range_of(&self, sphere: usize) -> core::ops::Range<usize> {
+        let bound = |i: usize| self.offsets.get(i).and_then(|&o| usize::try_from(o).ok());
+        match (bound(sphere), sphere.checked_add(1).and_then(bound)) {
+            (Some(a), Some(b)) if a <= b && b <= self.points.len() => a..b,
+            _ => 0..0,
+        }
+    }
+
     /// Samples of sphere `sphere`, empty when out of range.
     #[must_use]
     pub fn of(&self, sphere: usize) -> &[SamplePoint] {
-        self.per_sphere.get(sphere).map_or(&[], Vec::as_slice)
+        self.points.get(self.range_of(sphere)).unwrap_or(&[])
+    }
+
+    /// The samples of each sphere in turn.
+    pub fn per_sphere(&self) -> impl ExactSizeIterator<Item = &[SamplePoint]> + '_ {
+        (0..self.sphere_count()).map(|i| self.of(i))
     }
 
     /// Total number of samples over all spheres.
     #[must_use]
     pub fn total(&self) -> usize {
-        self.per_sphere.iter().map(Vec::len).sum()
+        self.points.len()
     }
 }
 

@@ -311,6 +311,13 @@ impl<'a> Sec<'a> {
         u32_at(self.data, rel).ok_or_else(|| self.short(rel))
     }
 
+    /// `count` consecutive u32 values from `rel` (bounded by the section length).
+    fn u32s(&self, rel: usize, count: usize) -> Result<Vec<u32>> {
+        let end = count.checked_mul(4).and_then(|l| rel.checked_add(l)).ok_or_else(|| self.short(rel))?;
+        let raw = self.data.get(rel..end).ok_or_else(|| self.short(rel))?;
+        Ok(raw.chunks_exact(4).map(|c| c.try_into().map_or(0, u32::from_le_bytes)).collect())
+    }
+
     fn f32(&self, rel: usize) -> Result<f32> {
         bytes_at::<4>(self.data, rel).map(f32::from_le_bytes).ok_or_else(|| self.short(rel))
     }
@@ -415,6 +422,8 @@ fn read_hierarchy(s: &Sec<'_>, sphere_count: usize) -> Result<Hierarchy> {
     let n = node_count as usize;
     let children_base = 16 + 32 * n;
     let leaves_base = children_base + 4 * child_total as usize;
+    let children = s.u32s(children_base, child_total as usize)?;
+    let leaves = s.u32s(leaves_base, leaf_total as usize)?;
     let mut nodes = Vec::with_capacity(n);
     for i in 0..n {
         let rel = 16 + 32 * i;
@@ -451,10 +460,11 @@ fn read_hierarchy(s: &Sec<'_>, sphere_count: usize) -> Result<Hierarchy> {
         if child_count == 0 && leaf_count == 0 {
             return Err(s.err(Rule::NodeEmpty, rel + 20, Detail::Text(">= 1 child or leaf"), Detail::Int(0)));
         }
-        let mut children = Vec::with_capacity(child_count as usize);
+        // Ranges were checked against the array lengths above.
         for c in 0..child_count as usize {
-            let at = children_base + 4 * (first_child as usize + c);
-            let idx = s.u32(at)?;
+            let k = first_child as usize + c;
+            let at = children_base + 4 * k;
+            let idx = children.get(k).copied().ok_or_else(|| s.short(at))?;
             if idx >= node_count {
                 return Err(s.err(
                     Rule::ChildIndex,
@@ -463,34 +473,33 @@ fn read_hierarchy(s: &Sec<'_>, sphere_count: usize) -> Result<Hierarchy> {
                     Detail::Int(u64::from(idx)),
                 ));
             }
-            children.push(idx);
         }
-        let mut leaf_children = Vec::with_capacity(leaf_count as usize);
         for l in 0..leaf_count as usize {
-            let at = leaves_base + 4 * (first_leaf as usize + l);
-            let idx = s.u32(at)?;
+            let k = first_leaf as usize + l;
+            let at = leaves_base + 4 * k;
+            let idx = leaves.get(k).copied().ok_or_else(|| s.short(at))?;
             if idx as usize >= sphere_count {
                 return Err(s.err(Rule::LeafIndex, at, Detail::Int(as_u64(sphere_count)), Detail::Int(u64::from(idx))));
             }
-            leaf_children.push(idx);
         }
-        nodes.push(HierarchyNode { center, radius, children, leaf_children });
+        nodes.push(HierarchyNode { center, radius, first_child, child_count, first_leaf, leaf_count });
     }
 
+    let h = Hierarchy { root, nodes, children, leaves };
     // Iterative depth-first walk: no recursion, so no stack overflow on deep trees.
     let mut node_seen = vec![false; n];
     let mut leaf_seen = vec![false; sphere_count];
     let mut stack = vec![root];
     while let Some(i) = stack.pop() {
         let rel = 16 + 32 * i as usize;
-        let (Some(seen), Some(node)) = (node_seen.get_mut(i as usize), nodes.get(i as usize)) else {
+        let Some(seen) = node_seen.get_mut(i as usize) else {
             return Err(s.short(rel));
         };
         if *seen {
             return Err(s.err(Rule::NodeRevisited, rel, Detail::Text("reached once"), Detail::Int(u64::from(i))));
         }
         *seen = true;
-        for &leaf in &node.leaf_children {
+        for &leaf in h.leaves_of(i as usize) {
             match leaf_seen.get_mut(leaf as usize) {
                 Some(l) if !*l => *l = true,
                 _ => {
@@ -503,7 +512,7 @@ fn read_hierarchy(s: &Sec<'_>, sphere_count: usize) -> Result<Hierarchy> {
                 }
             }
         }
-        stack.extend(node.children.iter().rev());
+        stack.extend(h.children_of(i as usize).iter().rev());
     }
     if let Some(i) = node_seen.iter().position(|&v| !v) {
         return Err(s.err(
@@ -521,7 +530,7 @@ fn read_hierarchy(s: &Sec<'_>, sphere_count: usize) -> Result<Hierarchy> {
             Detail::Int(as_u64(i)),
         ));
     }
-    Ok(Hierarchy { root, nodes })
+    Ok(h)
 }
 
 const fn pad16(v: u64) -> u64 {
@@ -539,8 +548,10 @@ fn read_samples(s: &Sec<'_>, sphere_count: usize) -> Result<Samples> {
         return Err(s.err(Rule::SamplesSphereCount, 0, Detail::Int(as_u64(sphere_count)), Detail::Int(u64::from(sc))));
     }
     let base = 16 + offsets_len as usize;
-    let mut per_sphere = Vec::with_capacity(sphere_count);
+    let mut offsets = Vec::with_capacity(sphere_count + 1);
+    let mut points = Vec::with_capacity(total as usize);
     let mut start = s.u32(16)?;
+    offsets.push(start);
     if start != 0 {
         return Err(s.err(Rule::SampleOffsets, 16, Detail::Int(0), Detail::Int(u64::from(start))));
     }
@@ -555,7 +566,6 @@ fn read_samples(s: &Sec<'_>, sphere_count: usize) -> Result<Samples> {
                 Detail::Int(u64::from(end)),
             ));
         }
-        let mut points = Vec::with_capacity((end - start) as usize);
         let mut prev_direction: Option<u8> = None;
         for j in start as usize..end as usize {
             let rel = base + 32 * j;
@@ -601,10 +611,10 @@ fn read_samples(s: &Sec<'_>, sphere_count: usize) -> Result<Samples> {
             prev_direction = Some(direction);
             points.push(SamplePoint { position, normal, direction, rule });
         }
-        per_sphere.push(points);
+        offsets.push(end);
         start = end;
     }
-    Ok(Samples { per_sphere })
+    Ok(Samples { offsets, points })
 }
 
 /// Rules 5006–5008 of one sample (shared by the lossless and the compact samples sections).

@@ -45,57 +45,43 @@ fn spheres_section(spheres: &[Sphere]) -> Vec<u8> {
 }
 
 fn hierarchy_section(h: &Hierarchy) -> Vec<u8> {
-    let child_total: usize = h.nodes.iter().map(|n| n.children.len()).sum();
-    let leaf_total: usize = h.nodes.iter().map(|n| n.leaf_children.len()).sum();
-    let mut out = Vec::new();
+    let mut out = Vec::with_capacity(16 + 32 * h.nodes.len() + 4 * (h.children.len() + h.leaves.len()));
     put_u32(&mut out, len_u32(h.nodes.len()));
     put_u32(&mut out, h.root);
-    put_u32(&mut out, len_u32(child_total));
-    put_u32(&mut out, len_u32(leaf_total));
-    let (mut first_child, mut first_leaf) = (0usize, 0usize);
+    put_u32(&mut out, len_u32(h.children.len()));
+    put_u32(&mut out, len_u32(h.leaves.len()));
     for n in &h.nodes {
         put_f32s(&mut out, &n.center);
         put_f32(&mut out, n.radius);
-        put_u32(&mut out, len_u32(first_child));
-        put_u32(&mut out, len_u32(n.children.len()));
-        put_u32(&mut out, len_u32(first_leaf));
-        put_u32(&mut out, len_u32(n.leaf_children.len()));
-        first_child = first_child.saturating_add(n.children.len());
-        first_leaf = first_leaf.saturating_add(n.leaf_children.len());
+        put_u32(&mut out, n.first_child);
+        put_u32(&mut out, n.child_count);
+        put_u32(&mut out, n.first_leaf);
+        put_u32(&mut out, n.leaf_count);
     }
-    for n in &h.nodes {
-        for &c in &n.children {
-            put_u32(&mut out, c);
-        }
-    }
-    for n in &h.nodes {
-        for &l in &n.leaf_children {
-            put_u32(&mut out, l);
-        }
+    for &c in h.children.iter().chain(&h.leaves) {
+        put_u32(&mut out, c);
     }
     out
 }
 
 fn samples_section(s: &Samples) -> Vec<u8> {
-    let mut out = Vec::new();
-    put_u32(&mut out, len_u32(s.per_sphere.len()));
+    let mut out = Vec::with_capacity(32 + 4 * s.offsets.len() + 32 * s.points.len());
+    put_u32(&mut out, len_u32(s.sphere_count()));
     put_u32(&mut out, len_u32(s.total()));
     out.extend_from_slice(&[0; 8]);
-    let mut offset = 0usize;
-    put_u32(&mut out, 0);
-    for points in &s.per_sphere {
-        offset = offset.saturating_add(points.len());
-        put_u32(&mut out, len_u32(offset));
+    if s.offsets.is_empty() {
+        put_u32(&mut out, 0);
+    }
+    for &o in &s.offsets {
+        put_u32(&mut out, o);
     }
     pad_to_align(&mut out);
-    for points in &s.per_sphere {
-        for p in points {
-            put_f32s(&mut out, &p.position);
-            put_f32s(&mut out, &p.normal);
-            out.push(p.direction);
-            out.push(p.rule);
-            out.extend_from_slice(&[0; 6]);
-        }
+    for p in &s.points {
+        put_f32s(&mut out, &p.position);
+        put_f32s(&mut out, &p.normal);
+        out.push(p.direction);
+        out.push(p.rule);
+        out.extend_from_slice(&[0; 6]);
     }
     out
 }

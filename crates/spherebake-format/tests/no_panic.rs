@@ -4,9 +4,7 @@ mod common;
 
 use common::*;
 use proptest::prelude::*;
-use spherebake_format::{
-    read, repair_checksums, write, Hierarchy, HierarchyNode, SamplePoint, Samples, SphbFile, Sphere,
-};
+use spherebake_format::{read, repair_checksums, write, Hierarchy, NodeLists, SamplePoint, Samples, SphbFile, Sphere};
 
 /// When a (possibly mutated) file reads back, writing it is a fixpoint: write → read → write
 /// gives the same bytes and the same model.
@@ -76,13 +74,8 @@ fn valid_model() -> impl Strategy<Value = SphbFile> {
                 spheres.into_iter().map(|(x, y, z, r)| Sphere { center: [x, y, z], radius: r }).collect();
             // Nodes 0..m; node i > 0 hangs under a random earlier node; sphere i < m is a leaf of
             // node i (so no node is empty), the rest of random nodes.
-            let mut nodes: Vec<HierarchyNode> = (0..m)
-                .map(|i| HierarchyNode {
-                    center: spheres[i].center,
-                    radius: 20.0,
-                    children: vec![],
-                    leaf_children: vec![],
-                })
+            let mut nodes: Vec<NodeLists> = (0..m)
+                .map(|i| NodeLists { center: spheres[i].center, radius: 20.0, children: vec![], leaf_children: vec![] })
                 .collect();
             for (i, &pick) in picks.iter().enumerate().take(m).skip(1) {
                 let parent = pick as usize % i;
@@ -92,7 +85,7 @@ fn valid_model() -> impl Strategy<Value = SphbFile> {
                 let node = if s < m { s } else { picks[n + s] as usize % m };
                 nodes[node].leaf_children.push(s as u32);
             }
-            let per_sphere = dirs
+            let per_sphere: Vec<Vec<SamplePoint>> = dirs
                 .iter()
                 .enumerate()
                 .map(|(s, set)| {
@@ -108,8 +101,8 @@ fn valid_model() -> impl Strategy<Value = SphbFile> {
                 .collect();
             SphbFile {
                 spheres,
-                hierarchy: Some(Hierarchy { root: 0, nodes }),
-                samples: Some(Samples { per_sphere }),
+                hierarchy: Some(Hierarchy::from_lists(0, nodes)),
+                samples: Some(Samples::from_per_sphere(per_sphere)),
                 ..SphbFile::default()
             }
         })

@@ -6,11 +6,20 @@ mod common;
 
 use common::*;
 use spherebake_format::{
-    read, repair_checksums, write, write_compact, HierarchyNode, Rule, SectionKind, SkinEntry, SphbFile, UNUSED_BONE,
+    read, repair_checksums, write, write_compact, Hierarchy, HierarchyNode, NodeLists, Rule, SectionKind, SkinEntry,
+    SphbFile, UNUSED_BONE,
 };
 use SectionKind as K;
 
 /// Absolute offset of section `k` in the valid fixture (patches never move sections).
+/// Edits the hierarchy as per-node lists and stores it back in the flat layout.
+fn edit_nodes(f: &mut SphbFile, edit: impl FnOnce(&mut Vec<NodeLists>)) {
+    let h = f.hierarchy.as_mut().unwrap();
+    let mut lists = h.to_lists();
+    edit(&mut lists);
+    *h = Hierarchy::from_lists(h.root, lists);
+}
+
 fn off(k: SectionKind) -> usize {
     section_offset(&write(&full_file()), k)
 }
@@ -189,23 +198,21 @@ fn cases() -> Vec<(Rule, Vec<u8>, Option<u64>)> {
     c.push((
         Rule::NodeUnreachable,
         model(|f| {
-            f.hierarchy.as_mut().unwrap().nodes.push(HierarchyNode {
-                center: [0.0; 3],
-                radius: 1.0,
-                children: vec![1],
-                leaf_children: vec![],
+            edit_nodes(f, |nodes| {
+                nodes.push(NodeLists { center: [0.0; 3], radius: 1.0, children: vec![1], leaf_children: vec![] })
             })
         }),
         None,
     ));
     c.push((Rule::LeafRevisited, patched(|b| put_u32(b, off(K::Hierarchy) + 92, 2)), None));
-    c.push((Rule::LeafUnreachable, model(|f| f.hierarchy.as_mut().unwrap().nodes[0].leaf_children.clear()), None));
+    c.push((Rule::LeafUnreachable, model(|f| edit_nodes(f, |nodes| nodes[0].leaf_children.clear())), None));
     c.push((
         Rule::NodeEmpty,
         model(|f| {
-            let h = f.hierarchy.as_mut().unwrap();
-            h.nodes[0].children.push(2);
-            h.nodes.push(HierarchyNode { center: [0.0; 3], radius: 1.0, children: vec![], leaf_children: vec![] });
+            edit_nodes(f, |nodes| {
+                nodes[0].children.push(2);
+                nodes.push(NodeLists { center: [0.0; 3], radius: 1.0, children: vec![], leaf_children: vec![] });
+            });
         }),
         None,
     ));
@@ -215,7 +222,9 @@ fn cases() -> Vec<(Rule, Vec<u8>, Option<u64>)> {
     c.push((
         Rule::SamplesSphereCount,
         model(|f| {
-            f.samples.as_mut().unwrap().per_sphere.pop();
+            let s = f.samples.as_mut().unwrap();
+            s.offsets.pop();
+            s.points.truncate(*s.offsets.last().unwrap() as usize);
         }),
         Some(off(K::Samples) as u64),
     ));

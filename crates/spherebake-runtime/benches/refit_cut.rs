@@ -8,7 +8,7 @@
 
 use criterion::{criterion_group, criterion_main, Criterion};
 use spherebake_runtime::{
-    cut, refit, rest_node_spheres, Hierarchy, HierarchyNode, HierarchyPlan, Sphere, DEFAULT_THETA_MAX_RAD,
+    cut, refit, rest_node_spheres, Hierarchy, HierarchyPlan, NodeLists, Sphere, DEFAULT_THETA_MAX_RAD,
 };
 use std::hint::black_box;
 
@@ -52,12 +52,12 @@ fn setup() -> (Hierarchy, Vec<Sphere>) {
         let first = nodes.len() as u32;
         for group in level.chunks(4) {
             let (children, leaf_children) = if is_leaf { (vec![], group.to_vec()) } else { (group.to_vec(), vec![]) };
-            nodes.push(HierarchyNode { center: [0.0; 3], radius: 1.0, children, leaf_children });
+            nodes.push(NodeLists { center: [0.0; 3], radius: 1.0, children, leaf_children });
         }
         level = (first..nodes.len() as u32).collect();
         is_leaf = false;
     }
-    (Hierarchy { root: nodes.len() as u32 - 1, nodes }, leaves)
+    (Hierarchy::from_lists(nodes.len() as u32 - 1, nodes), leaves)
 }
 
 fn bench(c: &mut Criterion) {

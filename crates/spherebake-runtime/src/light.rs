@@ -118,11 +118,11 @@
 //! # use spherebake_runtime::{AlbedoSh, SamplePoint, Samples, SphbFile, Sphere, GEODESIC_DIRECTIONS};
 //! # // A one-sphere proxy standing on the ground: samples on its surface, a grey albedo.
 //! # let s = Sphere { center: [0.0, 1.0, 0.0], radius: 1.0 };
-//! # let pts = GEODESIC_DIRECTIONS.iter().enumerate().map(|(j, d)| SamplePoint {
+//! # let pts: Vec<SamplePoint> = GEODESIC_DIRECTIONS.iter().enumerate().map(|(j, d)| SamplePoint {
 //! #     position: [d[0], 1.0 + d[1], d[2]], normal: *d, direction: j as u8, rule: 1 }).collect();
 //! # let mut coefficients = vec![[0.0f32; 3]; 16];
 //! # coefficients[0] = [0.5 * 3.5449077; 3];
-//! # let file = SphbFile { spheres: vec![s], samples: Some(Samples { per_sphere: vec![pts] }),
+//! # let file = SphbFile { spheres: vec![s], samples: Some(Samples::from_per_sphere([pts])),
 //! #     albedo_sh: Some(AlbedoSh { order: 4, coefficients, ..AlbedoSh::default() }), ..SphbFile::default() };
 //! # let bytes = spherebake_runtime::Proxy::from_file(&file)?.to_bytes();
 //! let proxy = spherebake_runtime::load(&bytes)?;
@@ -561,7 +561,7 @@ pub fn light_spheres(
     out.leaf.clear();
     out.leaf.resize(n_leaves * nc, [0.0; 3]);
     out.sample_radiance.clear();
-    out.sample_radiance.resize(samples.per_sphere.iter().map(Vec::len).sum(), 0.0);
+    out.sample_radiance.resize(samples.total(), 0.0);
     out.leaf_cells.clear();
     out.leaf_cells.resize(n_leaves * GEODESIC_DIRECTION_COUNT, [0.0; 3]);
     out.leaf_fill.clear();

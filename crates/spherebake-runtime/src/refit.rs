@@ -67,6 +67,11 @@ pub enum QueryError {
         /// The node.
         node: u32,
     },
+    /// A node's child or leaf range runs past the end of the hierarchy's index array.
+    RangeOutOfBounds {
+        /// The node.
+        node: u32,
+    },
     /// A node has neither child nodes nor leaves.
     NodeEmpty {
         /// The node.
@@ -99,6 +104,9 @@ impl fmt::Display for QueryError {
             QueryError::NodeReachedTwice { node } => write!(f, "node {node} is reached twice from the root"),
             QueryError::NodeUnreachable { node } => write!(f, "node {node} is not reachable from the root"),
             QueryError::NodeEmpty { node } => write!(f, "node {node} has no children and no leaves"),
+            QueryError::RangeOutOfBounds { node } => {
+                write!(f, "node {node} has a child or leaf range past the end of its index array")
+            }
             QueryError::SliceLength { argument, expected, actual } => {
                 write!(f, "{argument} has length {actual}, expected {expected}")
             }
@@ -153,17 +161,21 @@ impl HierarchyPlan {
         let mut leaf_bound = 0usize;
         for (i, n) in nodes.iter().enumerate() {
             let node = i as u32;
-            if n.children.is_empty() && n.leaf_children.is_empty() {
+            let (children, leaves) = (hierarchy.children_of(i), hierarchy.leaves_of(i));
+            if children.len() != n.child_count as usize || leaves.len() != n.leaf_count as usize {
+                return Err(QueryError::RangeOutOfBounds { node });
+            }
+            if children.is_empty() && leaves.is_empty() {
                 return Err(QueryError::NodeEmpty { node });
             }
             let start = refs.len();
-            for &c in &n.children {
+            for &c in children {
                 if c as usize >= node_count {
                     return Err(QueryError::ChildOutOfRange { node, child: c, node_count });
                 }
                 refs.push(c);
             }
-            for &l in &n.leaf_children {
+            for &l in leaves {
                 if l & LEAF_BIT != 0 {
                     return Err(QueryError::IndexTooLarge { node, index: l });
                 }
@@ -488,10 +500,10 @@ mod tests {
             ((*seed >> 33) % n as u64) as usize
         };
         let mut pool: Vec<(bool, u32)> = (0..leaf_count).map(|l| (true, l)).collect();
-        let mut nodes: Vec<crate::HierarchyNode> = Vec::new();
+        let mut nodes: Vec<crate::NodeLists> = Vec::new();
         while pool.len() != 1 || pool[0].0 {
             let take = (1 + next(6)).min(pool.len());
-            let mut node = crate::HierarchyNode::default();
+            let mut node = crate::NodeLists::default();
             for _ in 0..take {
                 let (is_leaf, i) = pool.swap_remove(next(pool.len()));
                 if is_leaf {
@@ -508,7 +520,7 @@ mod tests {
             n.children.iter_mut().for_each(|c| *c = m - 1 - *c);
         }
         nodes.reverse();
-        Hierarchy { root: 0, nodes }
+        Hierarchy::from_lists(0, nodes)
     }
 
     #[test]

@@ -54,7 +54,7 @@ fn proxy_n(groups: usize, hierarchy: bool) -> Proxy {
     let file = SphbFile {
         spheres,
         hierarchy,
-        samples: Some(Samples { per_sphere }),
+        samples: Some(Samples::from_per_sphere(per_sphere)),
         albedo_sh: Some(AlbedoSh { order: order as u8, coefficients, ..AlbedoSh::default() }),
         ..SphbFile::default()
     };

@@ -41,7 +41,7 @@ fn proxy(groups: &[Vec<(Sphere, [f32; 3])>]) -> Proxy {
     let file = SphbFile {
         spheres,
         hierarchy: Some(h),
-        samples: Some(Samples { per_sphere }),
+        samples: Some(Samples::from_per_sphere(per_sphere)),
         albedo_sh: Some(AlbedoSh { order: order as u8, coefficients, ..AlbedoSh::default() }),
         ..SphbFile::default()
     };

@@ -146,7 +146,7 @@ fn skinned(spheres: &[Sphere], weights: &[Vec<(u32, f32)>], bones: usize, albedo
     let order = (albedo[0].len() as f64).sqrt() as u8;
     let file = SphbFile {
         spheres: spheres.to_vec(),
-        samples: Some(Samples { per_sphere: spheres.iter().map(samples_of).collect() }),
+        samples: Some(Samples::from_per_sphere(spheres.iter().map(samples_of))),
         albedo_sh: Some(AlbedoSh { order, coefficients: albedo.concat(), ..AlbedoSh::default() }),
         skin: Some(SkinTerms { bones_per_sphere: k as u32, entries }),
         bones: Some((0..bones).map(|b| bone(&format!("b{b}"))).collect()),

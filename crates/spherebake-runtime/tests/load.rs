@@ -4,7 +4,7 @@
 use proptest::prelude::*;
 use spherebake_format::{repair_checksums, write};
 use spherebake_runtime::{
-    direction, load, AlbedoSh, BoneRecord, ColourSpace, Hierarchy, HierarchyNode, Metadata, Proxy, Rule, SamplePoint,
+    direction, load, AlbedoSh, BoneRecord, ColourSpace, Hierarchy, Metadata, NodeLists, Proxy, Rule, SamplePoint,
     Samples, ShBasis, SkinEntry, SkinTerms, SphbFile, Sphere, UNUSED_BONE,
 };
 
@@ -19,21 +19,14 @@ fn file() -> SphbFile {
     }
     SphbFile {
         spheres: vec![Sphere { center: [0.0, 0.0, 0.0], radius: 1.0 }, Sphere { center: [2.0, 0.0, 0.0], radius: 0.5 }],
-        hierarchy: Some(Hierarchy {
-            root: 0,
-            nodes: vec![HierarchyNode {
-                center: [1.0, 0.0, 0.0],
-                radius: 2.0,
-                children: vec![],
-                leaf_children: vec![0, 1],
-            }],
-        }),
-        samples: Some(Samples {
-            per_sphere: vec![
-                vec![SamplePoint { position: [0.0, 0.0, 1.0], normal: [0.0, 0.0, 1.0], direction: 72, rule: 1 }],
-                vec![],
-            ],
-        }),
+        hierarchy: Some(Hierarchy::from_lists(
+            0,
+            vec![NodeLists { center: [1.0, 0.0, 0.0], radius: 2.0, children: vec![], leaf_children: vec![0, 1] }],
+        )),
+        samples: Some(Samples::from_per_sphere(vec![
+            vec![SamplePoint { position: [0.0, 0.0, 1.0], normal: [0.0, 0.0, 1.0], direction: 72, rule: 1 }],
+            vec![],
+        ])),
         albedo_sh: Some(AlbedoSh {
             order: 2,
             colour_space: ColourSpace::LinearRgb,
@@ -75,7 +68,9 @@ fn load_gives_views_of_every_section() {
     let p = load(&bytes).unwrap();
     assert_eq!(p.sphere_count(), 2);
     assert_eq!(p.spheres()[1].center, [2.0, 0.0, 0.0]);
-    assert_eq!(p.hierarchy().unwrap().nodes[0].leaf_children, vec![0, 1]);
+    assert_eq!(p.hierarchy().unwrap().leaves_of(0), [0, 1]);
+    assert_eq!(p.sample_offsets(), [0, 1, 1]);
+    assert_eq!(p.sample_points().len(), 1);
     assert_eq!(p.samples_of(0).len(), 1);
     assert!(p.samples_of(1).is_empty());
     assert!(p.samples_of(2).is_empty());
@@ -140,7 +135,7 @@ fn invalid_models_are_refused_with_their_rule() {
     f.spheres[1].radius = 0.0;
     assert_eq!(Proxy::from_file(&f).unwrap_err().rule.id(), 3004);
     let mut f = file();
-    f.hierarchy.as_mut().unwrap().nodes[0].leaf_children = vec![0, 0];
+    f.hierarchy.as_mut().unwrap().leaves = vec![0, 0];
     assert_eq!(Proxy::from_file(&f).unwrap_err().rule, Rule::LeafRevisited);
 }
 

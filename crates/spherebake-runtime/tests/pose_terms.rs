@@ -166,19 +166,14 @@ proptest! {
 
 #[test]
 fn pose_and_refit_updates_the_hierarchy() {
-    use spherebake_runtime::{pose_and_refit, Hierarchy, HierarchyNode};
+    use spherebake_runtime::{pose_and_refit, Hierarchy, NodeLists};
     // Two leaves under one root; bone 1 moves the second sphere by +3 in x.
     let mut file = SphbFile {
         spheres: vec![Sphere { center: [0.0; 3], radius: 1.0 }, Sphere { center: [2.0, 0.0, 0.0], radius: 1.0 }],
-        hierarchy: Some(Hierarchy {
-            root: 0,
-            nodes: vec![HierarchyNode {
-                center: [1.0, 0.0, 0.0],
-                radius: 2.0,
-                children: vec![],
-                leaf_children: vec![0, 1],
-            }],
-        }),
+        hierarchy: Some(Hierarchy::from_lists(
+            0,
+            vec![NodeLists { center: [1.0, 0.0, 0.0], radius: 2.0, children: vec![], leaf_children: vec![0, 1] }],
+        )),
         skin: Some(SkinTerms {
             bones_per_sphere: 1,
             entries: vec![

@@ -4,7 +4,7 @@
 
 use spherebake_format::{write, SphbFile};
 use spherebake_runtime::{
-    cut, cut_accepts, cut_threshold, load, refit, rest_node_spheres, CutEntry, Hierarchy, HierarchyNode, HierarchyPlan,
+    cut, cut_accepts, cut_threshold, load, refit, rest_node_spheres, CutEntry, Hierarchy, HierarchyPlan, NodeLists,
     QueryError, Sphere, DEFAULT_THETA_MAX_RAD,
 };
 
@@ -32,15 +32,15 @@ fn leaf(c: [f32; 3], r: f32) -> Sphere {
     Sphere { center: c, radius: r }
 }
 
-fn one_node(leaves: Vec<u32>) -> HierarchyNode {
-    HierarchyNode { center: [0.0; 3], radius: 1.0, children: vec![], leaf_children: leaves }
+fn one_node(leaves: Vec<u32>) -> NodeLists {
+    NodeLists { center: [0.0; 3], radius: 1.0, children: vec![], leaf_children: leaves }
 }
 
 /// Math reference §9: L1 = ((−0.5,0,0), 0.5), L2 = ((0.7,0.2,0), 0.4), parent = their pair bound.
 #[test]
 fn worked_example_of_math_reference_section_9() {
     let leaves = [leaf([-0.5, 0.0, 0.0], 0.5), leaf([0.7, 0.2, 0.0], 0.4)];
-    let h = Hierarchy { root: 0, nodes: vec![one_node(vec![0, 1])] };
+    let h = Hierarchy::from_lists(0, vec![one_node(vec![0, 1])]);
     let plan = HierarchyPlan::new(&h).unwrap();
     let mut nodes = rest_node_spheres(&h);
     refit(&plan, &leaves, &mut nodes).unwrap();
@@ -102,10 +102,10 @@ fn random_tree(rng: &mut Rng, leaf_count: usize) -> Hierarchy {
         Leaf(u32),
     }
     let mut pool: Vec<Item> = (0..leaf_count as u32).map(Item::Leaf).collect();
-    let mut nodes: Vec<HierarchyNode> = Vec::new();
+    let mut nodes: Vec<NodeLists> = Vec::new();
     while !(pool.len() == 1 && matches!(pool[0], Item::Node(_))) {
         let take = (2 + rng.below(4)).min(pool.len());
-        let mut node = HierarchyNode { center: [0.0; 3], radius: 1.0, children: vec![], leaf_children: vec![] };
+        let mut node = NodeLists { center: [0.0; 3], radius: 1.0, children: vec![], leaf_children: vec![] };
         for _ in 0..take {
             match pool.swap_remove(rng.below(pool.len())) {
                 Item::Node(n) => node.children.push(n),
@@ -121,14 +121,14 @@ fn random_tree(rng: &mut Rng, leaf_count: usize) -> Hierarchy {
     for i in (1..m).rev() {
         perm.swap(i, rng.below(i + 1));
     }
-    let mut out = vec![HierarchyNode::default(); m];
+    let mut out = vec![NodeLists::default(); m];
     for (old, mut n) in nodes.into_iter().enumerate() {
         for c in &mut n.children {
             *c = perm[*c as usize];
         }
         out[perm[old] as usize] = n;
     }
-    Hierarchy { root: perm[m - 1], nodes: out }
+    Hierarchy::from_lists(perm[m - 1], out)
 }
 
 fn random_leaves(rng: &mut Rng, n: usize, scale: f64) -> Vec<Sphere> {
@@ -176,10 +176,11 @@ fn reference_refit(
     if let Some(b) = memo[node as usize] {
         return b;
     }
-    let n = &h.nodes[node as usize];
-    let mut balls: Vec<([f64; 3], f64)> = n.children.iter().map(|&c| reference_refit(h, leaves, c, memo)).collect();
+    let n = node as usize;
+    let mut balls: Vec<([f64; 3], f64)> =
+        h.children_of(n).iter().map(|&c| reference_refit(h, leaves, c, memo)).collect();
     balls.extend(
-        n.leaf_children
+        h.leaves_of(n)
             .iter()
             .map(|&l| (leaves[l as usize].center.map(f64::from), f64::from(leaves[l as usize].radius))),
     );
@@ -214,16 +215,16 @@ fn refitted_parents_contain_children_for_random_poses() {
             let posed: Vec<Sphere> = rest.iter().map(|s| rigid_motion(&mut rng, s, scale)).collect();
             refit(&plan, &posed, &mut nodes).unwrap();
             let mut memo = vec![None; h.nodes.len()];
-            for (i, n) in h.nodes.iter().enumerate() {
+            for i in 0..h.nodes.len() {
                 let p = nodes[i];
-                for &c in &n.children {
+                for &c in h.children_of(i) {
                     let cs = nodes[c as usize];
                     assert!(
                         dist(p.center, cs.center) + f64::from(cs.radius) <= f64::from(p.radius),
                         "trial {trial}: node {c} sticks out of {i}"
                     );
                 }
-                for &l in &n.leaf_children {
+                for &l in h.leaves_of(i) {
                     let ls = posed[l as usize];
                     assert!(
                         dist(p.center, ls.center) + f64::from(ls.radius) <= f64::from(p.radius),
@@ -247,17 +248,15 @@ fn brute_cut(h: &Hierarchy, nodes: &[Sphere], node: u32, pr: [f32; 3], rr: f32, 
         out.push(CutEntry::Node(node));
         return;
     }
-    let n = &h.nodes[node as usize];
-    for &c in &n.children {
+    for &c in h.children_of(node as usize) {
         brute_cut(h, nodes, c, pr, rr, theta, out);
     }
-    out.extend(n.leaf_children.iter().map(|&l| CutEntry::Leaf(l)));
+    out.extend(h.leaves_of(node as usize).iter().map(|&l| CutEntry::Leaf(l)));
 }
 
 fn leaves_below(h: &Hierarchy, node: u32, out: &mut Vec<u32>) {
-    let n = &h.nodes[node as usize];
-    out.extend(&n.leaf_children);
-    for &c in &n.children {
+    out.extend(h.leaves_of(node as usize));
+    for &c in h.children_of(node as usize) {
         leaves_below(h, c, out);
     }
 }
@@ -311,12 +310,16 @@ fn cut_matches_brute_force_and_covers_every_leaf_once() {
 
 #[test]
 fn plan_rejects_malformed_trees_and_queries_check_lengths() {
-    let mk = |root: u32, nodes: Vec<(Vec<u32>, Vec<u32>)>| Hierarchy {
-        root,
-        nodes: nodes
-            .into_iter()
-            .map(|(children, leaf_children)| HierarchyNode { center: [0.0; 3], radius: 1.0, children, leaf_children })
-            .collect(),
+    let mk = |root: u32, nodes: Vec<(Vec<u32>, Vec<u32>)>| {
+        Hierarchy::from_lists(
+            root,
+            nodes.into_iter().map(|(children, leaf_children)| NodeLists {
+                center: [0.0; 3],
+                radius: 1.0,
+                children,
+                leaf_children,
+            }),
+        )
     };
     assert_eq!(HierarchyPlan::new(&Hierarchy::default()), Err(QueryError::Empty));
     assert_eq!(
@@ -374,13 +377,13 @@ fn plan_rejects_malformed_trees_and_queries_check_lengths() {
 
 #[test]
 fn degenerate_inputs_still_cover_every_leaf() {
-    let h = Hierarchy {
-        root: 0,
-        nodes: vec![
-            HierarchyNode { center: [0.0; 3], radius: 1.0, children: vec![1], leaf_children: vec![0] },
-            HierarchyNode { center: [0.0; 3], radius: 1.0, children: vec![], leaf_children: vec![1, 2] },
+    let h = Hierarchy::from_lists(
+        0,
+        vec![
+            NodeLists { center: [0.0; 3], radius: 1.0, children: vec![1], leaf_children: vec![0] },
+            NodeLists { center: [0.0; 3], radius: 1.0, children: vec![], leaf_children: vec![1, 2] },
         ],
-    };
+    );
     let plan = HierarchyPlan::new(&h).unwrap();
     // Identical leaves (pair bound of coincident spheres), a NaN leaf.
     let leaves = [leaf([1.0; 3], 0.5), leaf([1.0; 3], 0.5), leaf([f32::NAN, 0.0, 0.0], 0.5)];
@@ -411,15 +414,10 @@ fn proxy_gives_a_plan_for_its_hierarchy() {
     let spheres = vec![leaf([-0.5, 0.0, 0.0], 0.5), leaf([0.7, 0.2, 0.0], 0.4)];
     let file = SphbFile {
         spheres: spheres.clone(),
-        hierarchy: Some(Hierarchy {
-            root: 0,
-            nodes: vec![HierarchyNode {
-                center: [0.05, 0.09, 0.0],
-                radius: 1.06,
-                children: vec![],
-                leaf_children: vec![0, 1],
-            }],
-        }),
+        hierarchy: Some(Hierarchy::from_lists(
+            0,
+            vec![NodeLists { center: [0.05, 0.09, 0.0], radius: 1.06, children: vec![], leaf_children: vec![0, 1] }],
+        )),
         ..SphbFile::default()
     };
     let proxy = load(&write(&file)).unwrap();

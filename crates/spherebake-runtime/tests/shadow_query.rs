@@ -7,7 +7,7 @@ use spherebake_runtime::shadow::{
     accumulate_log_visibility, eval_sh_f64, self_shadow_sphere, shade, uniform_light, ClusterBlockers, ExpMethod,
     ShadowContext, ShadowError, IMPLICIT_ROOT,
 };
-use spherebake_runtime::{CutEntry, Hierarchy, HierarchyNode, HierarchyPlan, Sphere};
+use spherebake_runtime::{CutEntry, Hierarchy, HierarchyPlan, NodeLists, Sphere};
 use std::f64::consts::PI;
 
 /// exp*(log g) of a 30° cap, zonal l = 0..3 (math reference §3 worked example).
@@ -94,15 +94,15 @@ fn shading_of_uniform_light() {
 #[test]
 fn ratio_vector_of_the_reference_example() {
     let leaves = [Sphere { center: [-0.5, 0.0, 0.0], radius: 0.5 }, Sphere { center: [0.7, 0.2, 0.0], radius: 0.4 }];
-    let h = Hierarchy {
-        root: 0,
-        nodes: vec![HierarchyNode {
+    let h = Hierarchy::from_lists(
+        0,
+        vec![NodeLists {
             center: [0.050_680_304, 0.091_780_05, 0.0],
             radius: 1.058_276_3,
             children: vec![],
             leaf_children: vec![0, 1],
         }],
-    };
+    );
     let plan = HierarchyPlan::new(&h).unwrap();
     let nodes = [Sphere { center: h.nodes[0].center, radius: h.nodes[0].radius }];
     let mut cb = ClusterBlockers::new();
@@ -203,10 +203,10 @@ fn errors_not_panics() {
     let mut cb = ClusterBlockers::new();
     let leaves = [Sphere { center: [0.0; 3], radius: 1.0 }];
     assert!(matches!(cb.build(9, &leaves, None, [0.0; 3], 0.0, 0.4), Err(ShadowError::Order { order: 9 })));
-    let h = Hierarchy {
-        root: 0,
-        nodes: vec![HierarchyNode { center: [0.0; 3], radius: 2.0, children: vec![], leaf_children: vec![0, 3] }],
-    };
+    let h = Hierarchy::from_lists(
+        0,
+        vec![NodeLists { center: [0.0; 3], radius: 2.0, children: vec![], leaf_children: vec![0, 3] }],
+    );
     let plan = HierarchyPlan::new(&h).unwrap();
     let nodes = [Sphere { center: [0.0; 3], radius: 2.0 }];
     assert!(matches!(

@@ -12,16 +12,16 @@ pub fn sphb_to_json(file: &SphbFile) -> Value {
         let nodes: Vec<Value> = h
             .nodes
             .iter()
-            .map(|n| {
-                json!({ "center": n.center, "radius": n.radius, "children": n.children, "leaf_children": n.leaf_children })
+            .enumerate()
+            .map(|(i, n)| {
+                json!({ "center": n.center, "radius": n.radius, "children": h.children_of(i), "leaf_children": h.leaves_of(i) })
             })
             .collect();
         Value::Array(nodes)
     });
     let samples = file.samples.as_ref().map(|s| {
         Value::Array(
-            s.per_sphere
-                .iter()
+            s.per_sphere()
                 .map(|list| {
                     Value::Array(
                         list.iter()
@@ -91,13 +91,18 @@ pub fn print_sphb_text(file: &SphbFile) {
         for (i, n) in h.nodes.iter().enumerate() {
             println!(
                 "  [{i:>4}] ({:>12.6}, {:>12.6}, {:>12.6})  r {:.6}  children {:?}  leaves {:?}",
-                n.center[0], n.center[1], n.center[2], n.radius, n.children, n.leaf_children
+                n.center[0],
+                n.center[1],
+                n.center[2],
+                n.radius,
+                h.children_of(i),
+                h.leaves_of(i)
             );
         }
     }
     if let Some(s) = &file.samples {
-        println!("samples: {} over {} spheres (position, normal, direction, rule)", s.total(), s.per_sphere.len());
-        for (i, list) in s.per_sphere.iter().enumerate() {
+        println!("samples: {} over {} spheres (position, normal, direction, rule)", s.total(), s.sphere_count());
+        for (i, list) in s.per_sphere().enumerate() {
             println!("  sphere {i}: {} samples", list.len());
             for p in list {
                 println!(

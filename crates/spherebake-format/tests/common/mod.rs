@@ -3,7 +3,7 @@
 #![allow(dead_code)]
 
 use spherebake_format::{
-    read_header_and_table, repair_checksums, AlbedoSh, BoneRecord, ColourSpace, Hierarchy, HierarchyNode, Metadata,
+    read_header_and_table, repair_checksums, AlbedoSh, BoneRecord, ColourSpace, Hierarchy, Metadata, NodeLists,
     SamplePoint, Samples, SectionKind, ShBasis, SkinEntry, SkinTerms, SphbFile, Sphere, UNUSED_BONE,
 };
 
@@ -25,20 +25,18 @@ pub fn full_file() -> SphbFile {
             Sphere { center: [0.0, 1.0, 0.1], radius: 0.3 },
             Sphere { center: [0.2, 1.5, -0.1], radius: 0.2 },
         ],
-        hierarchy: Some(Hierarchy {
-            root: 0,
-            nodes: vec![
-                HierarchyNode { center: [0.1, 1.0, 0.0], radius: 1.0, children: vec![1], leaf_children: vec![2] },
-                HierarchyNode { center: [0.0, 0.75, 0.05], radius: 0.6, children: vec![], leaf_children: vec![0, 1] },
+        hierarchy: Some(Hierarchy::from_lists(
+            0,
+            vec![
+                NodeLists { center: [0.1, 1.0, 0.0], radius: 1.0, children: vec![1], leaf_children: vec![2] },
+                NodeLists { center: [0.0, 0.75, 0.05], radius: 0.6, children: vec![], leaf_children: vec![0, 1] },
             ],
-        }),
-        samples: Some(Samples {
-            per_sphere: vec![
-                vec![sample(0, 1, [-0.1, 0.7, 0.0], [0.0, 1.0, 0.0]), sample(5, 3, [0.0, 0.6, 0.2], [0.0, 0.6, 0.8])],
-                vec![],
-                vec![sample(91, 1, [0.1, 1.5, -0.3], [0.0, 0.0, -1.0])],
-            ],
-        }),
+        )),
+        samples: Some(Samples::from_per_sphere(vec![
+            vec![sample(0, 1, [-0.1, 0.7, 0.0], [0.0, 1.0, 0.0]), sample(5, 3, [0.0, 0.6, 0.2], [0.0, 0.6, 0.8])],
+            vec![],
+            vec![sample(91, 1, [0.1, 1.5, -0.3], [0.0, 0.0, -1.0])],
+        ])),
         albedo_sh: Some(AlbedoSh {
             order: 2,
             colour_space: ColourSpace::LinearRgb,

@@ -1,7 +1,7 @@
 //! The pose + refit benchmark scene shared by `benches/pose.rs` and `examples/pose_timing.rs`:
 //! 256 spheres with 4 skin slots each over 32 bones, under a 4-level hierarchy of 85 nodes.
 
-use spherebake_runtime::{BoneRecord, Hierarchy, HierarchyNode, SkinEntry, SkinTerms, SphbFile, Sphere};
+use spherebake_runtime::{BoneRecord, Hierarchy, NodeLists, SkinEntry, SkinTerms, SphbFile, Sphere};
 
 pub const SPHERES: usize = 256;
 pub const BONES: usize = 32;
@@ -40,7 +40,7 @@ pub fn file() -> SphbFile {
     // A 4-level tree: 64 nodes of 4 leaves, 16 of 4 nodes, 4 of 4, one root.
     let mut nodes = Vec::new();
     for i in 0..64u32 {
-        nodes.push(HierarchyNode {
+        nodes.push(NodeLists {
             center: [0.5; 3],
             radius: 2.0,
             children: vec![],
@@ -52,7 +52,7 @@ pub fn file() -> SphbFile {
     while level.len() > 1 {
         let mut next = Vec::new();
         for ch in level.chunks(4) {
-            nodes.push(HierarchyNode { center: [0.5; 3], radius: 2.0, children: ch.to_vec(), leaf_children: vec![] });
+            nodes.push(NodeLists { center: [0.5; 3], radius: 2.0, children: ch.to_vec(), leaf_children: vec![] });
             next.push(nodes.len() as u32 - 1);
         }
         level = next;
@@ -60,7 +60,7 @@ pub fn file() -> SphbFile {
     let id = [1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0];
     SphbFile {
         spheres,
-        hierarchy: Some(Hierarchy { root: level[0], nodes }),
+        hierarchy: Some(Hierarchy::from_lists(level[0], nodes)),
         skin: Some(SkinTerms { bones_per_sphere: K as u32, entries }),
         bones: Some((0..BONES).map(|i| BoneRecord { name: format!("b{i}"), parent: None, inverse_bind: id }).collect()),
         ..SphbFile::default()

@@ -4,7 +4,7 @@
 use spherebake_runtime::light::{clip_below_horizon, LightContext};
 use spherebake_runtime::shadow::uniform_light;
 use spherebake_runtime::{
-    refit, rest_node_spheres, AlbedoSh, Hierarchy, HierarchyNode, HierarchyPlan, Proxy, SamplePoint, Samples, SphbFile,
+    refit, rest_node_spheres, AlbedoSh, Hierarchy, HierarchyPlan, NodeLists, Proxy, SamplePoint, Samples, SphbFile,
     Sphere, GEODESIC_DIRECTIONS,
 };
 
@@ -41,7 +41,7 @@ pub fn sphere_file(spheres: &[(Sphere, [f32; 3])], order: usize) -> SphbFile {
     }
     SphbFile {
         spheres: spheres.iter().map(|(s, _)| *s).collect(),
-        samples: Some(Samples { per_sphere }),
+        samples: Some(Samples::from_per_sphere(per_sphere)),
         albedo_sh: Some(AlbedoSh { order: order as u8, coefficients, ..AlbedoSh::default() }),
         ..SphbFile::default()
     }
@@ -61,13 +61,13 @@ pub fn uniform_sky(ctx: &LightContext) -> Vec<f64> {
 /// A two-level hierarchy over `spheres`: one node per group of leaf indices, all under a root (the last node), node
 /// spheres refitted to their leaves.
 pub fn grouped_hierarchy(groups: &[Vec<u32>], spheres: &[Sphere]) -> Hierarchy {
-    let mut nodes: Vec<HierarchyNode> = groups
+    let mut nodes: Vec<NodeLists> = groups
         .iter()
-        .map(|g| HierarchyNode { center: [0.0; 3], radius: 1.0, children: vec![], leaf_children: g.clone() })
+        .map(|g| NodeLists { center: [0.0; 3], radius: 1.0, children: vec![], leaf_children: g.clone() })
         .collect();
     let k = nodes.len() as u32;
-    nodes.push(HierarchyNode { center: [0.0; 3], radius: 1.0, children: (0..k).collect(), leaf_children: vec![] });
-    let mut h = Hierarchy { root: k, nodes };
+    nodes.push(NodeLists { center: [0.0; 3], radius: 1.0, children: (0..k).collect(), leaf_children: vec![] });
+    let mut h = Hierarchy::from_lists(k, nodes);
     let plan = HierarchyPlan::new(&h).expect("a valid tree");
     let mut ns = rest_node_spheres(&h);
     refit(&plan, spheres, &mut ns).expect("one sphere per leaf");
