@@ -22,6 +22,7 @@ pub const MAX_SH_ORDER: u8 = 8;
 pub const MAX_BONES_PER_SPHERE: u32 = 64;
 
 /// One bounding sphere, model space.
+#[repr(C)] // C-compatible layout: the C ABI hands these arrays out in place.
 #[derive(Clone, Copy, Debug, PartialEq, Default)]
 pub struct Sphere {
     /// Centre (x, y, z), model space.
@@ -32,6 +33,7 @@ pub struct Sphere {
 
 /// One node of the sphere hierarchy: a bounding sphere over its children and leaves, stored as
 /// the file stores it (index ranges into [`Hierarchy::children`] and [`Hierarchy::leaves`]).
+#[repr(C)] // C-compatible layout: the C ABI hands these arrays out in place.
 #[derive(Clone, Copy, Debug, PartialEq, Default)]
 pub struct HierarchyNode {
     /// Centre (x, y, z), model space.
@@ -144,6 +146,7 @@ impl Hierarchy {
 }
 
 /// One surface sample point of a sphere (Guerrero et al. 2008, §4.2).
+#[repr(C)] // C-compatible layout: the C ABI hands these arrays out in place.
 #[derive(Clone, Copy, Debug, PartialEq, Default)]
 pub struct SamplePoint {
     /// Position on the surface (x, y, z), model space.
@@ -313,6 +316,7 @@ impl AlbedoSh {
 ///
 /// The posed centre of a sphere is `Σ_j M_j · (q_j, b_j)` over its used slots, with `M_j`
 /// the joint matrix of bone `j` (glTF convention: world transform × inverse bind matrix).
+#[repr(C)] // C-compatible layout: the C ABI hands these arrays out in place.
 #[derive(Clone, Copy, Debug, PartialEq, Default)]
 pub struct SkinEntry {
     /// Bone index into the bone table, or [`UNUSED_BONE`].
