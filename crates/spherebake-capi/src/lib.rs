@@ -1,0 +1,1237 @@
+//! The C ABI of the spherebake runtime (`include/spherebake.h`, generated from this file by cbindgen).
+//!
+//! # Conventions
+//!
+//! - Every function returns an `int32_t` status: `SPHB_OK` (0) or one of the `SPHB_ERR_*` codes.
+//!   When the last argument `err` is not NULL it receives the code, the specification's rule ID
+//!   (for `SPHB_ERR_INVALID_FILE`, e.g. 3004; else 0) and a one-line NUL-terminated message.
+//! - Every pointer is checked: NULL where data is needed gives `SPHB_ERR_NULL`; a misaligned
+//!   pointer `SPHB_ERR_INVALID_ARGUMENT`; an output buffer shorter than needed
+//!   `SPHB_ERR_BUFFER_TOO_SMALL` (nothing is written then; where a `*_len_out` exists it holds the
+//!   required length). A NULL pointer with a length of 0 is an empty array.
+//! - No panic crosses the boundary: each call runs under `catch_unwind`; a caught panic gives
+//!   `SPHB_ERR_INTERNAL`.
+//! - Ownership: `sphb_load` copies the bytes (the caller may free them right away) and returns a
+//!   proxy the caller frees with `sphb_proxy_free`. Pointers handed out by `sphb_proxy_views`,
+//!   `sphb_proxy_bone` and `sphb_proxy_metadata` point into the proxy and live until it is freed.
+//!   Every `*_new` object is freed by its `*_free`; freeing NULL does nothing.
+//! - Thread safety: a proxy and the shadow / light contexts are immutable after creation: any
+//!   number of threads may use them at once. A cluster (`SphbShadowCluster`,
+//!   `SphbIndirectCluster`) or a `SphbSphereLights` is mutated by its build / query calls: one
+//!   thread at a time per object (use one per thread). No call keeps global state.
+//! - Units and conventions are the runtime's: model space, right-handed, lengths in the units
+//!   of the `units` metadata (metres for glTF input), angles in radians, colours linear RGB, SH
+//!   real orthonormal with the Condon–Shortley phase and index `l(l+1)+m` (order n = n² coefficients),
+//!   matrices column-major 4×4 (glTF joint matrices: world(joint) × inverse bind).
+
+#![allow(clippy::missing_safety_doc)] // Every function's safety contract is the module's "Conventions".
+
+use core::ffi::c_char;
+use core::mem::{align_of, offset_of, size_of};
+use std::panic::{catch_unwind, AssertUnwindSafe};
+
+use spherebake_format::{HierarchyNode, SamplePoint, SkinEntry, Sphere, ValidationError};
+use spherebake_runtime::light::{
+    light_spheres, sphere_rotations, ClusterSpec, IndirectCluster, LightContext, Pass1Settings, PosedProxy,
+    SphereLights,
+};
+use spherebake_runtime::shadow::{accumulate_log_visibility, shade, ClusterBlockers, ExpMethod, ShadowContext};
+use spherebake_runtime::{CutEntry, HierarchyPlan, Proxy};
+
+/// Success.
+pub const SPHB_OK: i32 = 0;
+/// A required pointer argument is NULL.
+pub const SPHB_ERR_NULL: i32 = 1;
+/// An output buffer is shorter than needed (nothing written; see `*_len_out` where given).
+pub const SPHB_ERR_BUFFER_TOO_SMALL: i32 = 2;
+/// The bytes are not a valid `.sphb` file; `SphbError::rule_id` names the violated rule.
+pub const SPHB_ERR_INVALID_FILE: i32 = 3;
+/// An argument is out of range, misaligned, or does not fit the proxy (wrong count, order, index).
+pub const SPHB_ERR_INVALID_ARGUMENT: i32 = 4;
+/// The proxy lacks the data the call needs (no hierarchy, samples, albedo SH).
+pub const SPHB_ERR_MISSING_DATA: i32 = 5;
+/// A panic was caught inside the library (a bug; please report).
+pub const SPHB_ERR_INTERNAL: i32 = 6;
+
+/// Capacity of `SphbError::message` in bytes, NUL included.
+pub const SPHB_MESSAGE_CAPACITY: usize = 256;
+
+/// SH exponential of the shadow queries: Ren's PS* of degree 4 (the default).
+pub const SPHB_EXP_PS_STAR_4: i32 = 0;
+/// SH exponential: Ren's HYB with the default OL norm bound (about 2× faster, less accurate).
+pub const SPHB_EXP_HYB: i32 = 1;
+/// SH exponential: accurate exp(M_f)·1 (a reference; slower).
+pub const SPHB_EXP_ACCURATE: i32 = 2;
+
+/// Default cut threshold θmax of the hierarchy, radians (25°; Ren 2006 eq. 36).
+pub const SPHB_DEFAULT_THETA_MAX_RAD: f32 = 0.436_332_3;
+
+/// Bone index of an unused skin slot (its terms are 0).
+pub const SPHB_UNUSED_BONE: u32 = u32::MAX;
+/// Parent index of a root bone.
+pub const SPHB_NO_PARENT: u32 = u32::MAX;
+
+/// Why a call failed. Caller-allocated; pass NULL to ignore.
+#[repr(C)]
+pub struct SphbError {
+    /// `SPHB_OK` or an `SPHB_ERR_*` code (the call's return value).
+    pub code: i32,
+    /// The specification's validation rule ID (e.g. 1005 header checksum, 3004 sphere radius) for
+    /// `SPHB_ERR_INVALID_FILE`; 0 otherwise.
+    pub rule_id: u32,
+    /// One-line UTF-8 message, NUL-terminated (truncated to fit).
+    pub message: [c_char; SPHB_MESSAGE_CAPACITY],
+}
+
+/// One sphere: centre x, y, z and radius (model space / model units; radius > 0). 16 bytes, the
+/// file's sphere record.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct SphbSphere {
+    /// Centre x, y, z.
+    pub center: [f32; 3],
+    /// Radius.
+    pub radius: f32,
+}
+
+/// One hierarchy node: its sphere and its ranges of `SphbViews::children` and `SphbViews::leaves`.
+/// 32 bytes, the file's node record.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct SphbNode {
+    /// Centre x, y, z (rest pose).
+    pub center: [f32; 3],
+    /// Radius.
+    pub radius: f32,
+    /// Start of the node's child nodes in `children`.
+    pub first_child: u32,
+    /// Number of child nodes.
+    pub child_count: u32,
+    /// Start of the node's leaf spheres in `leaves`.
+    pub first_leaf: u32,
+    /// Number of leaf spheres.
+    pub leaf_count: u32,
+}
+
+/// One surface sample point (28 bytes in memory; the file's record adds 6 bytes of padding).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct SphbSample {
+    /// Position on the surface x, y, z, model space.
+    pub position: [f32; 3],
+    /// Outward unit normal x, y, z.
+    pub normal: [f32; 3],
+    /// Index 0..91 of the geodesic direction whose ray produced the sample.
+    pub direction: u8,
+    /// Placement rule 1, 2 or 3.
+    pub rule: u8,
+}
+
+/// One skin slot: the posed centre of a sphere is Σ_j M_j · (q_j, b_j) over its slots. 20 bytes,
+/// the file's slot record.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct SphbSkinSlot {
+    /// Bone index, or `SPHB_UNUSED_BONE`.
+    pub bone: u32,
+    /// Homogeneous point, xyz part.
+    pub q: [f32; 3],
+    /// Homogeneous point, w part.
+    pub b: f32,
+}
+
+/// One entry of a hierarchy cut.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct SphbCutEntry {
+    /// Node index (`is_leaf == 0`) or sphere index (`is_leaf == 1`).
+    pub index: u32,
+    /// 1 for a leaf sphere, 0 for a hierarchy node.
+    pub is_leaf: u32,
+}
+
+const _: () = assert!(SPHB_DEFAULT_THETA_MAX_RAD == spherebake_runtime::DEFAULT_THETA_MAX_RAD);
+
+// The view types are the runtime's records, so views are handed out without copying.
+const _: () = {
+    assert!(size_of::<SphbSphere>() == size_of::<Sphere>() && align_of::<SphbSphere>() == align_of::<Sphere>());
+    assert!(offset_of!(SphbSphere, radius) == offset_of!(Sphere, radius));
+    assert!(size_of::<SphbNode>() == size_of::<HierarchyNode>() && size_of::<SphbNode>() == 32);
+    assert!(offset_of!(SphbNode, radius) == offset_of!(HierarchyNode, radius));
+    assert!(offset_of!(SphbNode, first_child) == offset_of!(HierarchyNode, first_child));
+    assert!(offset_of!(SphbNode, child_count) == offset_of!(HierarchyNode, child_count));
+    assert!(offset_of!(SphbNode, first_leaf) == offset_of!(HierarchyNode, first_leaf));
+    assert!(offset_of!(SphbNode, leaf_count) == offset_of!(HierarchyNode, leaf_count));
+    assert!(size_of::<SphbSample>() == size_of::<SamplePoint>() && size_of::<SphbSample>() == 28);
+    assert!(offset_of!(SphbSample, normal) == offset_of!(SamplePoint, normal));
+    assert!(offset_of!(SphbSample, direction) == offset_of!(SamplePoint, direction));
+    assert!(offset_of!(SphbSample, rule) == offset_of!(SamplePoint, rule));
+    assert!(size_of::<SphbSkinSlot>() == size_of::<SkinEntry>() && size_of::<SphbSkinSlot>() == 20);
+    assert!(offset_of!(SphbSkinSlot, q) == offset_of!(SkinEntry, q));
+    assert!(offset_of!(SphbSkinSlot, b) == offset_of!(SkinEntry, b));
+};
+
+/// Counts of a loaded proxy (0 for an absent section).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct SphbCounts {
+    /// Spheres (at least 1).
+    pub sphere_count: u32,
+    /// Hierarchy nodes (0 without a hierarchy).
+    pub node_count: u32,
+    /// Index of the root node (0 without a hierarchy).
+    pub root: u32,
+    /// Length of the child-index array.
+    pub child_total: u32,
+    /// Length of the leaf-index array.
+    pub leaf_total: u32,
+    /// Surface samples over all spheres.
+    pub sample_count: u32,
+    /// Albedo SH order n (n² coefficients per sphere; 0 without albedo SH).
+    pub sh_order: u32,
+    /// Colour space of the albedo SH: 0 = linear RGB (Rec. 709 primaries).
+    pub sh_colour_space: u32,
+    /// SH basis: 0 = real orthonormal, Condon–Shortley phase, index l(l+1)+m.
+    pub sh_basis: u32,
+    /// Skin slots per sphere (0 without skin).
+    pub bones_per_sphere: u32,
+    /// Bones in the bone table.
+    pub bone_count: u32,
+    /// Metadata entries (the four required keys first, then the free pairs; 0 without metadata).
+    pub metadata_count: u32,
+}
+
+/// Borrowed views of a proxy's arrays; valid until `sphb_proxy_free`. NULL with a count of 0 for
+/// an absent section.
+#[repr(C)]
+#[derive(Clone, Copy, Debug)]
+pub struct SphbViews {
+    /// `sphere_count` spheres.
+    pub spheres: *const SphbSphere,
+    /// `sphere_count`.
+    pub sphere_count: usize,
+    /// `node_count` hierarchy nodes (rest pose).
+    pub nodes: *const SphbNode,
+    /// `node_count`.
+    pub node_count: usize,
+    /// Child node indices; node i owns `children[first_child .. first_child + child_count]`.
+    pub children: *const u32,
+    /// Length of `children`.
+    pub child_total: usize,
+    /// Leaf sphere indices; node i owns `leaves[first_leaf .. first_leaf + leaf_count]`.
+    pub leaves: *const u32,
+    /// Length of `leaves`.
+    pub leaf_total: usize,
+    /// All samples, sphere after sphere, each sphere's in increasing direction order.
+    pub samples: *const SphbSample,
+    /// Number of samples.
+    pub sample_count: usize,
+    /// `sphere_count + 1` offsets: sphere i owns `samples[sample_offsets[i] .. sample_offsets[i + 1]]`.
+    pub sample_offsets: *const u32,
+    /// `sphere_count + 1`, or 0 without samples.
+    pub sample_offset_count: usize,
+    /// Albedo SH: sphere s, coefficient i, channel c (R, G, B) at `sh[3 * (s * n² + i) + c]`.
+    pub sh: *const f32,
+    /// Number of floats in `sh` (sphere_count × n² × 3).
+    pub sh_float_count: usize,
+    /// Skin slots: sphere s owns `skin[s * bones_per_sphere .. (s + 1) * bones_per_sphere]`.
+    pub skin: *const SphbSkinSlot,
+    /// Number of slots (sphere_count × bones_per_sphere).
+    pub skin_slot_count: usize,
+}
+
+/// One bone; `name` points into the proxy (UTF-8, not NUL-terminated, `name_len` bytes).
+#[repr(C)]
+#[derive(Clone, Copy, Debug)]
+pub struct SphbBone {
+    /// Parent bone index or `SPHB_NO_PARENT`.
+    pub parent: u32,
+    /// Name bytes (may be NULL when `name_len` is 0).
+    pub name: *const u8,
+    /// Name length in bytes.
+    pub name_len: usize,
+    /// Inverse bind matrix, 4×4 column-major.
+    pub inverse_bind: [f32; 16],
+}
+
+/// One metadata pair; both strings point into the proxy (UTF-8, not NUL-terminated).
+#[repr(C)]
+#[derive(Clone, Copy, Debug)]
+pub struct SphbMetadataEntry {
+    /// Key bytes.
+    pub key: *const u8,
+    /// Key length.
+    pub key_len: usize,
+    /// Value bytes.
+    pub value: *const u8,
+    /// Value length.
+    pub value_len: usize,
+}
+
+/// A posed proxy as the light passes see it: the proxy, its leaf spheres and (optionally) node
+/// spheres in the current pose, and per-sphere rotations (all borrowed for the call).
+#[repr(C)]
+#[derive(Clone, Copy, Debug)]
+pub struct SphbPosed {
+    /// The proxy (samples, albedo, rest spheres).
+    pub proxy: *const SphbProxy,
+    /// `sphere_count` posed spheres (e.g. from `sphb_pose`).
+    pub leaves: *const SphbSphere,
+    /// Must equal the proxy's sphere count.
+    pub leaf_count: usize,
+    /// `node_count` refitted node spheres, or NULL: all leaves under one implicit root.
+    pub nodes: *const SphbSphere,
+    /// Must equal the proxy's node count when `nodes` is not NULL.
+    pub node_count: usize,
+    /// `sphere_count` column-major 3×3 rotations (9 floats each, `sphb_sphere_rotations`), or NULL = identity.
+    pub rotations: *const f32,
+}
+
+/// A loaded, validated proxy (opaque; owns its data).
+pub struct SphbProxy {
+    proxy: Proxy,
+    plan: Option<HierarchyPlan>,
+    metadata: Vec<(String, String)>,
+}
+
+/// SH order, exponential and triple-product tensor of the shadow queries (opaque, immutable).
+pub struct SphbShadowContext {
+    ctx: ShadowContext,
+}
+
+/// The blockers of one receiver cluster (opaque; reusable buffers; one thread at a time).
+pub struct SphbShadowCluster {
+    cb: ClusterBlockers,
+    cut: Vec<CutEntry>,
+}
+
+/// Order, exponential and tables of the indirect-light passes (opaque, immutable).
+pub struct SphbLightContext {
+    ctx: LightContext,
+}
+
+/// Pass 1's output for one proxy: its sphere lights (opaque; one thread at a time).
+pub struct SphbSphereLights {
+    lights: SphereLights,
+}
+
+/// Pass 2's lights of one receiver cluster (opaque; one thread at a time).
+pub struct SphbIndirectCluster {
+    ic: IndirectCluster,
+}
+
+struct Fail {
+    code: i32,
+    rule: u32,
+    message: String,
+}
+
+type Res<T> = Result<T, Fail>;
+
+fn fail(code: i32, message: impl Into<String>) -> Fail {
+    Fail { code, rule: 0, message: message.into() }
+}
+
+fn invalid(message: impl core::fmt::Display) -> Fail {
+    fail(SPHB_ERR_INVALID_ARGUMENT, message.to_string())
+}
+
+fn from_validation(e: &ValidationError) -> Fail {
+    Fail { code: SPHB_ERR_INVALID_FILE, rule: u32::from(e.rule.id()), message: e.to_string() }
+}
+
+fn write_error(err: *mut SphbError, code: i32, rule: u32, message: &str) {
+    if err.is_null() || (err as usize) % align_of::<SphbError>() != 0 {
+        return;
+    }
+    let mut buf = [0 as c_char; SPHB_MESSAGE_CAPACITY];
+    let mut n = message.len().min(SPHB_MESSAGE_CAPACITY - 1);
+    while !message.is_char_boundary(n) {
+        n -= 1;
+    }
+    for (d, s) in buf.iter_mut().zip(message.as_bytes()[..n].iter()) {
+        *d = *s as c_char;
+    }
+    // SAFETY: `err` is non-null and aligned; the caller promises it points to a writable SphbError.
+    unsafe {
+        err.write(SphbError { code, rule_id: rule, message: buf });
+    }
+}
+
+/// Runs `f` with panics caught, fills `err`, returns the status.
+fn run(err: *mut SphbError, f: impl FnOnce() -> Res<()>) -> i32 {
+    let outcome = catch_unwind(AssertUnwindSafe(f));
+    let failure = match outcome {
+        Ok(Ok(())) => {
+            write_error(err, SPHB_OK, 0, "");
+            return SPHB_OK;
+        }
+        Ok(Err(f)) => f,
+        Err(_) => fail(SPHB_ERR_INTERNAL, "internal error: a panic was caught inside spherebake"),
+    };
+    write_error(err, failure.code, failure.rule, &failure.message);
+    failure.code
+}
+
+fn check_ptr<T>(ptr: *const T, what: &str) -> Res<()> {
+    if ptr.is_null() {
+        return Err(fail(SPHB_ERR_NULL, format!("{what} is NULL")));
+    }
+    if (ptr as usize) % align_of::<T>() != 0 {
+        return Err(invalid(format!("{what} is not aligned to {} bytes", align_of::<T>())));
+    }
+    Ok(())
+}
+
+/// A borrowed input array; NULL with `len == 0` is empty.
+///
+/// # Safety
+/// `ptr` must point to `len` readable values (the C caller's contract).
+unsafe fn input<'a, T>(ptr: *const T, len: usize, what: &str) -> Res<&'a [T]> {
+    if len == 0 {
+        return Ok(&[]);
+    }
+    check_ptr(ptr, what)?;
+    if len.checked_mul(size_of::<T>()).is_none_or(|b| b > isize::MAX as usize) {
+        return Err(invalid(format!("{what}: length {len} is too large")));
+    }
+    // SAFETY: non-null, aligned, size checked; validity of the memory is the caller's contract.
+    Ok(unsafe { core::slice::from_raw_parts(ptr, len) })
+}
+
+/// A borrowed output array of capacity `len`, at least `need` long.
+///
+/// # Safety
+/// `ptr` must point to `len` writable values.
+unsafe fn output<'a, T>(ptr: *mut T, len: usize, need: usize, what: &str) -> Res<&'a mut [T]> {
+    if len < need {
+        return Err(fail(SPHB_ERR_BUFFER_TOO_SMALL, format!("{what} holds {len} values, {need} needed")));
+    }
+    if need == 0 {
+        return Ok(&mut []);
+    }
+    check_ptr(ptr.cast_const(), what)?;
+    if need.checked_mul(size_of::<T>()).is_none_or(|b| b > isize::MAX as usize) {
+        return Err(invalid(format!("{what}: length {need} is too large")));
+    }
+    // SAFETY: as `input`, writable by the caller's contract.
+    Ok(unsafe { core::slice::from_raw_parts_mut(ptr, need) })
+}
+
+/// # Safety
+/// `ptr` must be NULL or point to a live object of type `T` made by this library.
+unsafe fn object<'a, T>(ptr: *const T, what: &str) -> Res<&'a T> {
+    check_ptr(ptr, what)?;
+    // SAFETY: non-null and aligned; the caller passes an object this library created.
+    Ok(unsafe { &*ptr })
+}
+
+/// # Safety
+/// As [`object`], and not used by another thread during the call.
+unsafe fn object_mut<'a, T>(ptr: *mut T, what: &str) -> Res<&'a mut T> {
+    check_ptr(ptr.cast_const(), what)?;
+    // SAFETY: as `object`; exclusive use is the caller's contract (documented per type).
+    Ok(unsafe { &mut *ptr })
+}
+
+fn spheres_of(s: &[SphbSphere]) -> &[Sphere] {
+    // SAFETY: identical repr(C) layout (asserted above).
+    unsafe { core::slice::from_raw_parts(s.as_ptr().cast::<Sphere>(), s.len()) }
+}
+
+fn spheres_of_mut(s: &mut [SphbSphere]) -> &mut [Sphere] {
+    // SAFETY: identical repr(C) layout (asserted above).
+    unsafe { core::slice::from_raw_parts_mut(s.as_mut_ptr().cast::<Sphere>(), s.len()) }
+}
+
+fn matrices(m: &[f32]) -> &[[f32; 16]] {
+    // SAFETY: [f32; 16] has the alignment of f32 and no padding; the length is rounded down.
+    unsafe { core::slice::from_raw_parts(m.as_ptr().cast::<[f32; 16]>(), m.len() / 16) }
+}
+
+fn rotations_of(m: &[f32]) -> &[[f32; 9]] {
+    // SAFETY: as `matrices`.
+    unsafe { core::slice::from_raw_parts(m.as_ptr().cast::<[f32; 9]>(), m.len() / 9) }
+}
+
+/// # Safety
+/// `ptr` is NULL or points to 3 floats.
+unsafe fn vec3(ptr: *const f32, what: &str) -> Res<[f32; 3]> {
+    let s = unsafe { input(ptr, 3, what)? };
+    Ok([s[0], s[1], s[2]])
+}
+
+fn exp_of(code: i32) -> Res<ExpMethod> {
+    match code {
+        SPHB_EXP_PS_STAR_4 => Ok(ExpMethod::PsStar { degree: 4 }),
+        SPHB_EXP_HYB => Ok(ExpMethod::Hyb { ol_norm_bound: 0.0 }),
+        SPHB_EXP_ACCURATE => Ok(ExpMethod::Accurate),
+        other => Err(invalid(format!("exp method {other} is not one of SPHB_EXP_*"))),
+    }
+}
+
+fn count_u32(n: usize) -> u32 {
+    u32::try_from(n).unwrap_or(u32::MAX)
+}
+
+/// Returns the library version as a NUL-terminated string (static; never NULL). Thread-safe.
+#[no_mangle]
+pub extern "C" fn sphb_version() -> *const c_char {
+    concat!(env!("CARGO_PKG_VERSION"), "\0").as_ptr().cast()
+}
+
+/// Validates `len` bytes of a `.sphb` file and copies them into a new proxy (`*out`; NULL on
+/// failure). The bytes are not referenced after the call. Free the proxy with `sphb_proxy_free`.
+/// Thread-safe.
+///
+/// Errors: `SPHB_ERR_NULL` (`bytes` with `len > 0`, or `out`), `SPHB_ERR_INVALID_FILE` with the
+/// violated rule ID.
+#[no_mangle]
+pub unsafe extern "C" fn sphb_load(bytes: *const u8, len: usize, out: *mut *mut SphbProxy, err: *mut SphbError) -> i32 {
+    run(err, || {
+        check_ptr(out.cast_const(), "out")?;
+        // SAFETY: checked non-null and aligned.
+        unsafe { out.write(core::ptr::null_mut()) };
+        let data = unsafe { input(bytes, len, "bytes")? };
+        let proxy = spherebake_runtime::load(data).map_err(|e| from_validation(&e))?;
+        let plan = proxy.hierarchy_plan();
+        let metadata = proxy.metadata().map_or_else(Vec::new, |m| {
+            let mut v = vec![
+                ("tool_version".to_string(), m.tool_version.clone()),
+                ("settings".to_string(), m.settings.clone()),
+                ("input_hash".to_string(), m.input_hash.clone()),
+                ("units".to_string(), m.units.clone()),
+            ];
+            v.extend(m.extra.iter().cloned());
+            v
+        });
+        let boxed = Box::new(SphbProxy { proxy, plan, metadata });
+        // SAFETY: checked above.
+        unsafe { out.write(Box::into_raw(boxed)) };
+        Ok(())
+    })
+}
+
+/// Frees a proxy from `sphb_load`; NULL does nothing. No other thread may use it during or after.
+#[no_mangle]
+pub unsafe extern "C" fn sphb_proxy_free(proxy: *mut SphbProxy) {
+    if !proxy.is_null() {
+        let _ = catch_unwind(AssertUnwindSafe(|| {
+            // SAFETY: the pointer came from `sphb_load` (the caller's contract) and is freed once.
+            drop(unsafe { Box::from_raw(proxy) });
+        }));
+    }
+}
+
+/// The counts of `proxy` into `*out`. Thread-safe.
+#[no_mangle]
+pub unsafe extern "C" fn sphb_proxy_counts(proxy: *const SphbProxy, out: *mut SphbCounts, err: *mut SphbError) -> i32 {
+    run(err, || {
+        let p = unsafe { object(proxy, "proxy")? };
+        let o = unsafe { object_mut(out, "out")? };
+        let pr = &p.proxy;
+        let h = pr.hierarchy();
+        let sh = pr.albedo_sh();
+        *o = SphbCounts {
+            sphere_count: count_u32(pr.sphere_count()),
+            node_count: h.map_or(0, |h| count_u32(h.nodes.len())),
+            root: h.map_or(0, |h| h.root),
+            child_total: h.map_or(0, |h| count_u32(h.children.len())),
+            leaf_total: h.map_or(0, |h| count_u32(h.leaves.len())),
+            sample_count: count_u32(pr.sample_points().len()),
+            sh_order: sh.map_or(0, |s| u32::from(s.order)),
+            sh_colour_space: sh.map_or(0, |s| u32::from(s.colour_space.code())),
+            sh_basis: sh.map_or(0, |s| u32::from(s.basis.code())),
+            bones_per_sphere: pr.skin().map_or(0, |k| k.bones_per_sphere),
+            bone_count: count_u32(pr.bones().len()),
+            metadata_count: count_u32(p.metadata.len()),
+        };
+        Ok(())
+    })
+}
+
+fn ptr_or_null<T, U>(s: &[T]) -> *const U {
+    if s.is_empty() {
+        core::ptr::null()
+    } else {
+        s.as_ptr().cast()
+    }
+}
+
+/// Pointers to the proxy's arrays into `*out` (no copy; valid until `sphb_proxy_free`). Thread-safe.
+#[no_mangle]
+pub unsafe extern "C" fn sphb_proxy_views(proxy: *const SphbProxy, out: *mut SphbViews, err: *mut SphbError) -> i32 {
+    run(err, || {
+        let p = unsafe { object(proxy, "proxy")? };
+        let o = unsafe { object_mut(out, "out")? };
+        let pr = &p.proxy;
+        let (nodes, children, leaves): (&[HierarchyNode], &[u32], &[u32]) =
+            pr.hierarchy().map_or((&[], &[], &[]), |h| (&h.nodes, &h.children, &h.leaves));
+        let sh: &[[f32; 3]] = pr.albedo_sh().map_or(&[], |s| &s.coefficients);
+        let skin: &[SkinEntry] = pr.skin().map_or(&[], |k| &k.entries);
+        *o = SphbViews {
+            spheres: ptr_or_null(pr.spheres()),
+            sphere_count: pr.sphere_count(),
+            nodes: ptr_or_null(nodes),
+            node_count: nodes.len(),
+            children: ptr_or_null(children),
+            child_total: children.len(),
+            leaves: ptr_or_null(leaves),
+            leaf_total: leaves.len(),
+            samples: ptr_or_null(pr.sample_points()),
+            sample_count: pr.sample_points().len(),
+            sample_offsets: ptr_or_null(pr.sample_offsets()),
+            sample_offset_count: pr.sample_offsets().len(),
+            sh: ptr_or_null(sh),
+            sh_float_count: sh.len() * 3,
+            skin: ptr_or_null(skin),
+            skin_slot_count: skin.len(),
+        };
+        Ok(())
+    })
+}
+
+/// Bone `index` into `*out` (`SPHB_ERR_INVALID_ARGUMENT` when `index >= bone_count`). Thread-safe.
+#[no_mangle]
+pub unsafe extern "C" fn sphb_proxy_bone(
+    proxy: *const SphbProxy,
+    index: u32,
+    out: *mut SphbBone,
+    err: *mut SphbError,
+) -> i32 {
+    run(err, || {
+        let p = unsafe { object(proxy, "proxy")? };
+        let o = unsafe { object_mut(out, "out")? };
+        let bones = p.proxy.bones();
+        let b = bones.get(index as usize).ok_or_else(|| invalid(format!("bone {index} of {}", bones.len())))?;
+        *o = SphbBone {
+            parent: b.parent.unwrap_or(SPHB_NO_PARENT),
+            name: ptr_or_null(b.name.as_bytes()),
+            name_len: b.name.len(),
+            inverse_bind: b.inverse_bind,
+        };
+        Ok(())
+    })
+}
+
+/// Metadata entry `index` into `*out`: 0 `tool_version`, 1 `settings`, 2 `input_hash`, 3 `units`,
+/// then the free pairs in file order. Thread-safe.
+#[no_mangle]
+pub unsafe extern "C" fn sphb_proxy_metadata(
+    proxy: *const SphbProxy,
+    index: u32,
+    out: *mut SphbMetadataEntry,
+    err: *mut SphbError,
+) -> i32 {
+    run(err, || {
+        let p = unsafe { object(proxy, "proxy")? };
+        let o = unsafe { object_mut(out, "out")? };
+        let (k, v) = p
+            .metadata
+            .get(index as usize)
+            .ok_or_else(|| invalid(format!("metadata entry {index} of {}", p.metadata.len())))?;
+        *o = SphbMetadataEntry {
+            key: ptr_or_null(k.as_bytes()),
+            key_len: k.len(),
+            value: ptr_or_null(v.as_bytes()),
+            value_len: v.len(),
+        };
+        Ok(())
+    })
+}
+
+/// Poses the spheres: `out[s]` = Σ_j M_j · (q_j, b_j) over sphere s's skin slots, radius kept;
+/// `joints` holds `joint_count` column-major 4×4 joint matrices (16 floats each, glTF convention).
+/// Without skin the rest spheres are copied. `out_len` must be at least the sphere count.
+/// Allocation-free; thread-safe (distinct `out`).
+#[no_mangle]
+pub unsafe extern "C" fn sphb_pose(
+    proxy: *const SphbProxy,
+    joints: *const f32,
+    joint_count: usize,
+    out: *mut SphbSphere,
+    out_len: usize,
+    err: *mut SphbError,
+) -> i32 {
+    run(err, || {
+        let p = unsafe { object(proxy, "proxy")? };
+        let floats = joint_count.checked_mul(16).ok_or_else(|| invalid("joint_count is too large"))?;
+        let m = unsafe { input(joints, floats, "joints")? };
+        let n = p.proxy.sphere_count();
+        let o = unsafe { output(out, out_len, n, "out")? };
+        spherebake_runtime::pose(&p.proxy, matrices(m), spheres_of_mut(o)).map_err(invalid)
+    })
+}
+
+/// The stored (rest) node spheres into `out` (`out_len` at least the node count); the starting
+/// point for `sphb_refit`. Thread-safe.
+#[no_mangle]
+pub unsafe extern "C" fn sphb_rest_nodes(
+    proxy: *const SphbProxy,
+    out: *mut SphbSphere,
+    out_len: usize,
+    err: *mut SphbError,
+) -> i32 {
+    run(err, || {
+        let p = unsafe { object(proxy, "proxy")? };
+        let h = p.proxy.hierarchy().ok_or_else(|| fail(SPHB_ERR_MISSING_DATA, "the proxy has no hierarchy"))?;
+        let o = unsafe { output(out, out_len, h.nodes.len(), "out")? };
+        for (d, n) in o.iter_mut().zip(&h.nodes) {
+            *d = SphbSphere { center: n.center, radius: n.radius };
+        }
+        Ok(())
+    })
+}
+
+fn plan_of(p: &SphbProxy) -> Res<&HierarchyPlan> {
+    p.plan.as_ref().ok_or_else(|| fail(SPHB_ERR_MISSING_DATA, "the proxy has no hierarchy"))
+}
+
+/// Recomputes every node sphere bottom-up from `leaf_count` posed leaves (sphere-pair merges,
+/// allocation-free) into `nodes_out` (`node_len` at least the node count). Thread-safe.
+#[no_mangle]
+pub unsafe extern "C" fn sphb_refit(
+    proxy: *const SphbProxy,
+    leaves: *const SphbSphere,
+    leaf_count: usize,
+    nodes_out: *mut SphbSphere,
+    node_len: usize,
+    err: *mut SphbError,
+) -> i32 {
+    run(err, || {
+        let p = unsafe { object(proxy, "proxy")? };
+        let plan = plan_of(p)?;
+        let l = unsafe { input(leaves, leaf_count, "leaves")? };
+        let o = unsafe { output(nodes_out, node_len, plan.node_count(), "nodes_out")? };
+        spherebake_runtime::refit(plan, spheres_of(l), spheres_of_mut(o)).map_err(invalid)
+    })
+}
+
+/// `sphb_pose` then `sphb_refit`: posed leaves into `leaves_out`, refitted nodes into `nodes_out`.
+/// Allocation-free; thread-safe (distinct outputs).
+#[no_mangle]
+pub unsafe extern "C" fn sphb_pose_and_refit(
+    proxy: *const SphbProxy,
+    joints: *const f32,
+    joint_count: usize,
+    leaves_out: *mut SphbSphere,
+    leaf_len: usize,
+    nodes_out: *mut SphbSphere,
+    node_len: usize,
+    err: *mut SphbError,
+) -> i32 {
+    run(err, || {
+        let p = unsafe { object(proxy, "proxy")? };
+        let plan = plan_of(p)?;
+        let floats = joint_count.checked_mul(16).ok_or_else(|| invalid("joint_count is too large"))?;
+        let m = unsafe { input(joints, floats, "joints")? };
+        let l = unsafe { output(leaves_out, leaf_len, p.proxy.sphere_count(), "leaves_out")? };
+        let o = unsafe { output(nodes_out, node_len, plan.node_count(), "nodes_out")? };
+        spherebake_runtime::pose_and_refit(&p.proxy, plan, matrices(m), spheres_of_mut(l), spheres_of_mut(o))
+            .map_err(invalid)
+    })
+}
+
+/// The hierarchy cut for the receiver ball (`receiver_center` 3 floats, `receiver_radius`): nodes
+/// subtending less than `theta_max_rad` and leaves (Ren 2006 eq. 36), over the node spheres `nodes`
+/// (refitted or rest, `node_count` = the proxy's). Writes `*len_out` entries into `out`
+/// (capacity `out_cap`); when too small returns `SPHB_ERR_BUFFER_TOO_SMALL` with `*len_out` = the
+/// needed count. Allocates its scratch; thread-safe.
+#[no_mangle]
+pub unsafe extern "C" fn sphb_cut(
+    proxy: *const SphbProxy,
+    nodes: *const SphbSphere,
+    node_count: usize,
+    receiver_center: *const f32,
+    receiver_radius: f32,
+    theta_max_rad: f32,
+    out: *mut SphbCutEntry,
+    out_cap: usize,
+    len_out: *mut usize,
+    err: *mut SphbError,
+) -> i32 {
+    run(err, || {
+        let p = unsafe { object(proxy, "proxy")? };
+        let plan = plan_of(p)?;
+        let n = unsafe { input(nodes, node_count, "nodes")? };
+        let c = unsafe { vec3(receiver_center, "receiver_center")? };
+        let len = unsafe { object_mut(len_out, "len_out")? };
+        let mut cut = Vec::new();
+        spherebake_runtime::cut(plan, spheres_of(n), c, receiver_radius, theta_max_rad, &mut cut).map_err(invalid)?;
+        *len = cut.len();
+        let o = unsafe { output(out, out_cap, cut.len(), "out")? };
+        for (d, e) in o.iter_mut().zip(&cut) {
+            *d = match *e {
+                CutEntry::Leaf(i) => SphbCutEntry { index: i, is_leaf: 1 },
+                CutEntry::Node(i) => SphbCutEntry { index: i, is_leaf: 0 },
+                _ => SphbCutEntry { index: u32::MAX, is_leaf: 0 },
+            };
+        }
+        Ok(())
+    })
+}
+
+/// A shadow context of SH `order` (1..=8; 4 is the default) and exponential `exp_method`
+/// (`SPHB_EXP_*`) into `*out`. Allocates the triple-product tensor. Free with
+/// `sphb_shadow_context_free`. The context is immutable: share it between threads.
+#[no_mangle]
+pub unsafe extern "C" fn sphb_shadow_context_new(
+    order: u32,
+    exp_method: i32,
+    out: *mut *mut SphbShadowContext,
+    err: *mut SphbError,
+) -> i32 {
+    run(err, || {
+        let o = unsafe { object_mut(out, "out")? };
+        *o = core::ptr::null_mut();
+        let ctx = ShadowContext::new(order as usize, exp_of(exp_method)?).map_err(invalid)?;
+        *o = Box::into_raw(Box::new(SphbShadowContext { ctx }));
+        Ok(())
+    })
+}
+
+/// Frees a shadow context; NULL does nothing.
+#[no_mangle]
+pub unsafe extern "C" fn sphb_shadow_context_free(ctx: *mut SphbShadowContext) {
+    if !ctx.is_null() {
+        // SAFETY: made by `sphb_shadow_context_new`, freed once (the caller's contract).
+        let _ = catch_unwind(AssertUnwindSafe(|| drop(unsafe { Box::from_raw(ctx) })));
+    }
+}
+
+/// A new, empty receiver cluster (never NULL unless out of memory). Free with `sphb_shadow_cluster_free`.
+#[no_mangle]
+pub extern "C" fn sphb_shadow_cluster_new() -> *mut SphbShadowCluster {
+    catch_unwind(|| Box::into_raw(Box::new(SphbShadowCluster { cb: ClusterBlockers::new(), cut: Vec::new() })))
+        .unwrap_or(core::ptr::null_mut())
+}
+
+/// Frees a cluster; NULL does nothing.
+#[no_mangle]
+pub unsafe extern "C" fn sphb_shadow_cluster_free(cluster: *mut SphbShadowCluster) {
+    if !cluster.is_null() {
+        // SAFETY: made by `sphb_shadow_cluster_new`, freed once.
+        let _ = catch_unwind(AssertUnwindSafe(|| drop(unsafe { Box::from_raw(cluster) })));
+    }
+}
+
+/// Builds the blockers of the receiver cluster bounded by (`receiver_center`, `receiver_radius`):
+/// the hierarchy cut at `theta_max_rad` and the ratio vectors of the accepted nodes at the centre
+/// (Ren 2006 eq. 36, 37), at SH `order`. `leaves` are the posed spheres (`leaf_count` = the
+/// proxy's); `nodes` the node spheres (`node_count` = the proxy's), or NULL (or a proxy without
+/// hierarchy): all leaves under one implicit root. `proxy` provides the hierarchy plan.
+/// Writes the number of blockers to `*blocker_count_out` when not NULL. Reuses the cluster's
+/// buffers; one thread at a time per cluster.
+#[no_mangle]
+pub unsafe extern "C" fn sphb_shadow_cluster_build(
+    cluster: *mut SphbShadowCluster,
+    proxy: *const SphbProxy,
+    order: u32,
+    leaves: *const SphbSphere,
+    leaf_count: usize,
+    nodes: *const SphbSphere,
+    node_count: usize,
+    receiver_center: *const f32,
+    receiver_radius: f32,
+    theta_max_rad: f32,
+    blocker_count_out: *mut usize,
+    err: *mut SphbError,
+) -> i32 {
+    run(err, || {
+        let cl = unsafe { object_mut(cluster, "cluster")? };
+        let p = unsafe { object(proxy, "proxy")? };
+        let l = unsafe { input(leaves, leaf_count, "leaves")? };
+        if l.len() != p.proxy.sphere_count() {
+            return Err(invalid(format!(
+                "leaf_count {} but the proxy has {} spheres",
+                l.len(),
+                p.proxy.sphere_count()
+            )));
+        }
+        let c = unsafe { vec3(receiver_center, "receiver_center")? };
+        let hierarchy = match (&p.plan, nodes.is_null()) {
+            (Some(plan), false) => Some((plan, spheres_of(unsafe { input(nodes, node_count, "nodes")? }))),
+            _ => None,
+        };
+        cl.cut.clear();
+        cl.cb.build(order as usize, spheres_of(l), hierarchy, c, receiver_radius, theta_max_rad).map_err(invalid)?;
+        if !blocker_count_out.is_null() {
+            let b = unsafe { object_mut(blocker_count_out, "blocker_count_out")? };
+            *b = cl.cb.blockers().len();
+        }
+        Ok(())
+    })
+}
+
+/// Adds the log-SH visibility of the cluster's blockers seen from receiver `p` (3 floats) to
+/// `log_inout[0..order²]` (f32; zero it first), with the self-shadowing rules about the unit
+/// `normal` (3 floats; NULL skips them). `*used_out` (optional) = blockers accumulated.
+/// Allocation-free; does not modify the cluster: concurrent calls on one cluster are safe.
+#[no_mangle]
+pub unsafe extern "C" fn sphb_accumulate_log_visibility(
+    cluster: *const SphbShadowCluster,
+    p: *const f32,
+    normal: *const f32,
+    log_inout: *mut f32,
+    log_len: usize,
+    used_out: *mut usize,
+    err: *mut SphbError,
+) -> i32 {
+    run(err, || {
+        let cl = unsafe { object(cluster, "cluster")? };
+        let order = cl.cb.order();
+        if order == 0 {
+            return Err(invalid("the cluster was not built"));
+        }
+        let pt = unsafe { vec3(p, "p")? };
+        let n = if normal.is_null() { None } else { Some(unsafe { vec3(normal, "normal")? }) };
+        let log = unsafe { output(log_inout, log_len, order * order, "log_inout")? };
+        let used = accumulate_log_visibility(cl.cb.blockers(), order, pt, n, log).map_err(invalid)?;
+        if !used_out.is_null() {
+            *unsafe { object_mut(used_out, "used_out")? } = used;
+        }
+        Ok(())
+    })
+}
+
+/// Visibility vector g = exp*(log) (f64, `order²` values) from a summed log vector (f32).
+/// Allocation-free; thread-safe.
+#[no_mangle]
+pub unsafe extern "C" fn sphb_visibility(
+    ctx: *const SphbShadowContext,
+    log: *const f32,
+    log_len: usize,
+    out: *mut f64,
+    out_len: usize,
+    err: *mut SphbError,
+) -> i32 {
+    run(err, || {
+        let c = unsafe { object(ctx, "ctx")? };
+        let nc = c.ctx.order() * c.ctx.order();
+        if log_len < nc {
+            return Err(fail(SPHB_ERR_BUFFER_TOO_SMALL, format!("log holds {log_len} values, {nc} needed")));
+        }
+        let l = unsafe { input(log, nc, "log")? };
+        let o = unsafe { output(out, out_len, nc, "out")? };
+        c.ctx.visibility(l, o).map_err(invalid)
+    })
+}
+
+/// The shading vector T = L ∗ H(N) (Ren 2006 §7) for lighting `light` (order² SH radiance
+/// coefficients, f64) and unit normal `normal` (3 doubles) into `out[0..order²]`; the shaded value
+/// is `sphb_shade(T, g)`. For uniform white light (`sphb_uniform_light`) and g = 1 it is 1.
+/// Thread-safe.
+#[no_mangle]
+pub unsafe extern "C" fn sphb_shading_vector(
+    ctx: *const SphbShadowContext,
+    light: *const f64,
+    light_len: usize,
+    normal: *const f64,
+    out: *mut f64,
+    out_len: usize,
+    err: *mut SphbError,
+) -> i32 {
+    run(err, || {
+        let c = unsafe { object(ctx, "ctx")? };
+        let nc = c.ctx.order() * c.ctx.order();
+        if light_len < nc {
+            return Err(fail(SPHB_ERR_BUFFER_TOO_SMALL, format!("light holds {light_len} values, {nc} needed")));
+        }
+        let l = unsafe { input(light, nc, "light")? };
+        let nv = unsafe { input(normal, 3, "normal")? };
+        let o = unsafe { output(out, out_len, nc, "out")? };
+        c.ctx.shading_vector(l, [nv[0], nv[1], nv[2]], o).map_err(invalid)
+    })
+}
+
+/// T · g over `count` coefficients (0 when either pointer is NULL). Thread-safe.
+#[no_mangle]
+pub unsafe extern "C" fn sphb_shade(shading_vector: *const f64, visibility: *const f64, count: usize) -> f64 {
+    catch_unwind(AssertUnwindSafe(|| {
+        let (Ok(t), Ok(g)) = (unsafe { input(shading_vector, count, "t") }, unsafe { input(visibility, count, "g") })
+        else {
+            return 0.0;
+        };
+        shade(t, g)
+    }))
+    .unwrap_or(0.0)
+}
+
+/// The shaded value at receiver `p` (3 floats) with unit normal `normal` (3 floats) for the
+/// cluster's blockers: accumulate, exponentiate, dot with `shading_vector` (order² doubles), into
+/// `*out`. Allocation-free; does not modify the cluster (concurrent calls are safe).
+#[no_mangle]
+pub unsafe extern "C" fn sphb_shade_point(
+    ctx: *const SphbShadowContext,
+    cluster: *const SphbShadowCluster,
+    p: *const f32,
+    normal: *const f32,
+    shading_vector: *const f64,
+    shading_len: usize,
+    out: *mut f64,
+    err: *mut SphbError,
+) -> i32 {
+    run(err, || {
+        let c = unsafe { object(ctx, "ctx")? };
+        let cl = unsafe { object(cluster, "cluster")? };
+        let pt = unsafe { vec3(p, "p")? };
+        let n = unsafe { vec3(normal, "normal")? };
+        let t = unsafe { input(shading_vector, shading_len, "shading_vector")? };
+        let o = unsafe { object_mut(out, "out")? };
+        *o = c.ctx.shade_point(&cl.cb, pt, n, t).map_err(invalid)?;
+        Ok(())
+    })
+}
+
+/// Uniform white light of unit radiance, **1** = (√(4π), 0, …), into `out[0..order²]`.
+/// Thread-safe.
+#[no_mangle]
+pub unsafe extern "C" fn sphb_uniform_light(order: u32, out: *mut f64, out_len: usize, err: *mut SphbError) -> i32 {
+    run(err, || {
+        if !(1..=8).contains(&order) {
+            return Err(invalid(format!("order {order} outside 1..=8")));
+        }
+        let nc = (order * order) as usize;
+        let o = unsafe { output(out, out_len, nc, "out")? };
+        spherebake_runtime::shadow::uniform_light(order as usize, o);
+        Ok(())
+    })
+}
+
+/// A light context of SH `order` (1..=8, at most the albedo order of the proxies it lights) and
+/// exponential `exp_method` into `*out`. Immutable: share between threads.
+#[no_mangle]
+pub unsafe extern "C" fn sphb_light_context_new(
+    order: u32,
+    exp_method: i32,
+    out: *mut *mut SphbLightContext,
+    err: *mut SphbError,
+) -> i32 {
+    run(err, || {
+        let o = unsafe { object_mut(out, "out")? };
+        *o = core::ptr::null_mut();
+        let ctx = LightContext::new(order as usize, exp_of(exp_method)?).map_err(invalid)?;
+        *o = Box::into_raw(Box::new(SphbLightContext { ctx }));
+        Ok(())
+    })
+}
+
+/// Frees a light context; NULL does nothing.
+#[no_mangle]
+pub unsafe extern "C" fn sphb_light_context_free(ctx: *mut SphbLightContext) {
+    if !ctx.is_null() {
+        // SAFETY: made by `sphb_light_context_new`, freed once.
+        let _ = catch_unwind(AssertUnwindSafe(|| drop(unsafe { Box::from_raw(ctx) })));
+    }
+}
+
+/// New, empty sphere lights (pass 1's output). Free with `sphb_sphere_lights_free`.
+#[no_mangle]
+pub extern "C" fn sphb_sphere_lights_new() -> *mut SphbSphereLights {
+    catch_unwind(|| Box::into_raw(Box::new(SphbSphereLights { lights: SphereLights::new() })))
+        .unwrap_or(core::ptr::null_mut())
+}
+
+/// Frees sphere lights; NULL does nothing.
+#[no_mangle]
+pub unsafe extern "C" fn sphb_sphere_lights_free(lights: *mut SphbSphereLights) {
+    if !lights.is_null() {
+        // SAFETY: made by `sphb_sphere_lights_new`, freed once.
+        let _ = catch_unwind(AssertUnwindSafe(|| drop(unsafe { Box::from_raw(lights) })));
+    }
+}
+
+/// The leaf light L^c of sphere `sphere` after pass 1: `order²` linear-RGB SH coefficients
+/// (3 floats each, the sphere's rest frame) into `out` (`out_len` floats, at least 3·order²).
+#[no_mangle]
+pub unsafe extern "C" fn sphb_sphere_lights_leaf(
+    lights: *const SphbSphereLights,
+    sphere: u32,
+    out: *mut f32,
+    out_len: usize,
+    err: *mut SphbError,
+) -> i32 {
+    run(err, || {
+        let l = unsafe { object(lights, "lights")? };
+        let c = l.lights.leaf(sphere as usize);
+        if c.is_empty() {
+            return Err(invalid(format!("sphere {sphere} has no light (of {})", l.lights.leaf_count())));
+        }
+        let o = unsafe { output(out, out_len, 3 * c.len(), "out")? };
+        for (d, v) in o.chunks_exact_mut(3).zip(c) {
+            d.copy_from_slice(v);
+        }
+        Ok(())
+    })
+}
+
+/// Borrowed runtime view of a `SphbPosed`.
+///
+/// # Safety
+/// The pointers in `posed` follow the module's conventions.
+unsafe fn posed_of<'a>(posed: &'a SphbPosed) -> Res<PosedProxy<'a>> {
+    let p: &'a SphbProxy = unsafe { object(posed.proxy, "posed.proxy")? };
+    let leaves = spheres_of(unsafe { input(posed.leaves, posed.leaf_count, "posed.leaves")? });
+    let nodes = match (&p.plan, posed.nodes.is_null()) {
+        (Some(plan), false) => {
+            Some((plan, spheres_of(unsafe { input(posed.nodes, posed.node_count, "posed.nodes")? })))
+        }
+        _ => None,
+    };
+    let rotations = if posed.rotations.is_null() {
+        None
+    } else {
+        let floats = leaves.len().checked_mul(9).ok_or_else(|| invalid("leaf_count is too large"))?;
+        Some(rotations_of(unsafe { input(posed.rotations, floats, "posed.rotations")? }))
+    };
+    Ok(PosedProxy { proxy: &p.proxy, leaves, nodes, rotations })
+}
+
+/// Soft-deformation rotations (Guerrero 2008 §7.1) of every sphere: R = polar(Σ b_j M_j) ·
+/// polar(Σ b_j M⁰_j)ᵀ over its skin slots, from `joints` (pose) and `rest_joints` (the rest pose
+/// of the file's model space), `joint_count` column-major 4×4 matrices each; into `out`
+/// (9 floats per sphere, column-major 3×3, `out_len` floats). Thread-safe.
+#[no_mangle]
+pub unsafe extern "C" fn sphb_sphere_rotations(
+    proxy: *const SphbProxy,
+    joints: *const f32,
+    rest_joints: *const f32,
+    joint_count: usize,
+    out: *mut f32,
+    out_len: usize,
+    err: *mut SphbError,
+) -> i32 {
+    run(err, || {
+        let p = unsafe { object(proxy, "proxy")? };
+        let floats = joint_count.checked_mul(16).ok_or_else(|| invalid("joint_count is too large"))?;
+        let m = unsafe { input(joints, floats, "joints")? };
+        let r = unsafe { input(rest_joints, floats, "rest_joints")? };
+        let n = p.proxy.sphere_count();
+        let o = unsafe { output(out, out_len, n * 9, "out")? };
+        // SAFETY: [f32; 9] has f32's alignment and no padding; `o` has exactly n·9 floats.
+        let rot = unsafe { core::slice::from_raw_parts_mut(o.as_mut_ptr().cast::<[f32; 9]>(), n) };
+        sphere_rotations(&p.proxy, matrices(m), matrices(r), rot).map_err(invalid)
+    })
+}
+
+/// **Pass 1**: lights every sample of `posed` under the environment `env` (order² SH radiance
+/// coefficients, f64; e.g. a sky clipped below the horizon) and projects it onto each sphere's
+/// light, with the hierarchy cut at `theta_max_rad` seen from each sphere; results into `lights`.
+/// The proxy needs samples and albedo SH. One thread at a time per `lights`.
+#[no_mangle]
+pub unsafe extern "C" fn sphb_light_spheres(
+    ctx: *const SphbLightContext,
+    posed: *const SphbPosed,
+    env: *const f64,
+    env_len: usize,
+    theta_max_rad: f32,
+    lights: *mut SphbSphereLights,
+    err: *mut SphbError,
+) -> i32 {
+    run(err, || {
+        let c = unsafe { object(ctx, "ctx")? };
+        let pd = unsafe { object(posed, "posed")? };
+        let pp = unsafe { posed_of(pd)? };
+        let e = unsafe { input(env, env_len, "env")? };
+        let l = unsafe { object_mut(lights, "lights")? };
+        light_spheres(&c.ctx, &pp, e, &[], &Pass1Settings { theta_max_rad }, &mut l.lights).map(|_| ()).map_err(|e| {
+            let code = match e {
+                spherebake_runtime::light::LightError::NoSamples | spherebake_runtime::light::LightError::NoAlbedo => {
+                    SPHB_ERR_MISSING_DATA
+                }
+                _ => SPHB_ERR_INVALID_ARGUMENT,
+            };
+            fail(code, e.to_string())
+        })
+    })
+}
+
+/// A new, empty indirect-light cluster. Free with `sphb_indirect_cluster_free`.
+#[no_mangle]
+pub extern "C" fn sphb_indirect_cluster_new() -> *mut SphbIndirectCluster {
+    catch_unwind(|| Box::into_raw(Box::new(SphbIndirectCluster { ic: IndirectCluster::new() })))
+        .unwrap_or(core::ptr::null_mut())
+}
+
+/// Frees an indirect-light cluster; NULL does nothing.
+#[no_mangle]
+pub unsafe extern "C" fn sphb_indirect_cluster_free(cluster: *mut SphbIndirectCluster) {
+    if !cluster.is_null() {
+        // SAFETY: made by `sphb_indirect_cluster_new`, freed once.
+        let _ = catch_unwind(AssertUnwindSafe(|| drop(unsafe { Box::from_raw(cluster) })));
+    }
+}
+
+/// **Pass 2, per cluster**: the sphere lights of `source_count` sources (`sources[i]` posed with
+/// `lights[i]` from pass 1) seen by the receiver cluster ball (`center` 3 floats, `radius`), with
+/// the receivers' mean unit `normal` (3 floats, or NULL: no reflection ratios) and the cut at
+/// `theta_max_rad`. One thread at a time per cluster.
+#[no_mangle]
+pub unsafe extern "C" fn sphb_indirect_cluster_build(
+    cluster: *mut SphbIndirectCluster,
+    ctx: *const SphbLightContext,
+    sources: *const SphbPosed,
+    lights: *const *const SphbSphereLights,
+    source_count: usize,
+    center: *const f32,
+    radius: f32,
+    normal: *const f32,
+    theta_max_rad: f32,
+    err: *mut SphbError,
+) -> i32 {
+    run(err, || {
+        let cl = unsafe { object_mut(cluster, "cluster")? };
+        let c = unsafe { object(ctx, "ctx")? };
+        let srcs = unsafe { sources_of(sources, lights, source_count)? };
+        let centre = unsafe { vec3(center, "center")? };
+        let n = if normal.is_null() { None } else { Some(unsafe { vec3(normal, "normal")? }) };
+        let spec = ClusterSpec { theta_max_rad, ..ClusterSpec::new(centre, radius, n) };
+        cl.ic.build(&c.ctx, &srcs, &spec).map_err(invalid)
+    })
+}
+
+/// # Safety
+/// Module conventions for the arrays.
+unsafe fn sources_of<'a>(
+    sources: *const SphbPosed,
+    lights: *const *const SphbSphereLights,
+    count: usize,
+) -> Res<Vec<(PosedProxy<'a>, &'a SphereLights)>> {
+    let s: &'a [SphbPosed] = unsafe { input(sources, count, "sources")? };
+    let l: &'a [*const SphbSphereLights] = unsafe { input(lights, count, "lights")? };
+    let mut out = Vec::with_capacity(count);
+    for (pd, &lp) in s.iter().zip(l) {
+        let lights: &'a SphbSphereLights = unsafe { object(lp, "lights[i]")? };
+        out.push((unsafe { posed_of(pd)? }, &lights.lights));
+    }
+    Ok(out)
+}
+
+/// **Pass 2, per receiver**: the indirect irradiance E (linear RGB, ∫ L_in cos dω; 3 doubles
+/// into `out`) at receiver `p` (3 floats) with unit `normal` (3 floats) from the cluster's lights.
+/// `sources` / `lights` must be the arrays the cluster was built from. Reuses the cluster's
+/// buffers: one thread at a time per cluster.
+#[no_mangle]
+pub unsafe extern "C" fn sphb_indirect_irradiance(
+    cluster: *mut SphbIndirectCluster,
+    ctx: *const SphbLightContext,
+    sources: *const SphbPosed,
+    lights: *const *const SphbSphereLights,
+    source_count: usize,
+    p: *const f32,
+    normal: *const f32,
+    out: *mut f64,
+    err: *mut SphbError,
+) -> i32 {
+    run(err, || {
+        let cl = unsafe { object_mut(cluster, "cluster")? };
+        let c = unsafe { object(ctx, "ctx")? };
+        let srcs = unsafe { sources_of(sources, lights, source_count)? };
+        let pt = unsafe { vec3(p, "p")? };
+        let n = unsafe { vec3(normal, "normal")? };
+        let o = unsafe { output(out, 3, 3, "out")? };
+        let e = cl.ic.irradiance(&c.ctx, &srcs, pt, n).map_err(invalid)?;
+        o.copy_from_slice(&e);
+        Ok(())
+    })
+}

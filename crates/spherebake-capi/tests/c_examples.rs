@@ -1,0 +1,205 @@
+//! Builds examples/c/load_and_shade.c (C99) and examples/cpp/load_and_shade.cpp (C++17) with the
+//! system compilers against the static library, runs them on the golden fixtures and compares
+//! every printed number, bit for bit (%a), with the same steps done through the Rust runtime API.
+//! A missing compiler fails the test with what to install.
+
+use spherebake_runtime::shadow::{uniform_light, ClusterBlockers, ExpMethod, ShadowContext};
+use spherebake_runtime::{cut, load, pose, refit, CutEntry, Sphere, DEFAULT_THETA_MAX_RAD};
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+fn repo() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
+}
+
+/// C's `%a` of a double (glibc style: `0x1.8p+1`, `0x0p+0`) for zero and normal numbers.
+fn hexf(v: f64) -> String {
+    let sign = if v.is_sign_negative() { "-" } else { "" };
+    if v == 0.0 {
+        return format!("{sign}0x0p+0");
+    }
+    assert!(v.is_normal(), "only normal numbers are printed by the example: {v}");
+    let bits = v.to_bits();
+    let exp = ((bits >> 52) & 0x7ff) as i64 - 1023;
+    let mut mant = format!("{:013x}", bits & ((1u64 << 52) - 1));
+    while mant.ends_with('0') {
+        mant.pop();
+    }
+    let dot = if mant.is_empty() { String::new() } else { format!(".{mant}") };
+    let es = if exp >= 0 { format!("+{exp}") } else { format!("{exp}") };
+    format!("{sign}0x1{dot}p{es}")
+}
+
+fn hf(v: f32) -> String {
+    hexf(f64::from(v))
+}
+
+/// What load_and_shade prints for `bytes`, computed with the Rust API.
+fn expected(bytes: &[u8]) -> String {
+    let proxy = load(bytes).expect("golden file loads");
+    let mut s = String::new();
+    let node_count = proxy.hierarchy().map_or(0, |h| h.nodes.len());
+    let bones = proxy.bones().len();
+    writeln!(
+        s,
+        "spheres {} nodes {} samples {} bones {}",
+        proxy.sphere_count(),
+        node_count,
+        proxy.sample_points().len(),
+        bones
+    )
+    .unwrap();
+    let s0 = proxy.spheres()[0];
+    writeln!(s, "sphere0 {} {} {} {}", hf(s0.center[0]), hf(s0.center[1]), hf(s0.center[2]), hf(s0.radius)).unwrap();
+    if let Some(sh) = proxy.albedo_sh() {
+        let c = sh.coefficients[0];
+        writeln!(s, "sh order {} dc {} {} {}", sh.order, hf(c[0]), hf(c[1]), hf(c[2])).unwrap();
+    }
+    let joints: Vec<[f32; 16]> = (0..bones)
+        .map(|i| {
+            let mut m = [0.0f32; 16];
+            m[0] = 1.0;
+            m[5] = 1.0;
+            m[10] = 1.0;
+            m[15] = 1.0;
+            m[12] = 0.01f32 * i as f32;
+            m[13] = 0.02f32;
+            m
+        })
+        .collect();
+    let mut leaves = vec![Sphere::default(); proxy.sphere_count()];
+    pose(&proxy, &joints, &mut leaves).unwrap();
+    let l0 = leaves[0];
+    writeln!(s, "posed0 {} {} {} {}", hf(l0.center[0]), hf(l0.center[1]), hf(l0.center[2]), hf(l0.radius)).unwrap();
+    let plan = proxy.hierarchy_plan();
+    let mut nodes = vec![Sphere::default(); node_count];
+    let (receiver, rr) = if let Some(plan) = &plan {
+        refit(plan, &leaves, &mut nodes).unwrap();
+        let root = nodes[plan.root() as usize];
+        writeln!(s, "root {} {} {} {}", hf(root.center[0]), hf(root.center[1]), hf(root.center[2]), hf(root.radius))
+            .unwrap();
+        let mut r = root.center;
+        r[1] -= 1.5f32 * root.radius;
+        let rr = 0.25f32 * root.radius;
+        let mut entries = Vec::new();
+        cut(plan, &nodes, r, rr, DEFAULT_THETA_MAX_RAD, &mut entries).unwrap();
+        write!(s, "cut {}:", entries.len()).unwrap();
+        for e in &entries {
+            match e {
+                CutEntry::Leaf(i) => write!(s, " L{i}").unwrap(),
+                CutEntry::Node(i) => write!(s, " N{i}").unwrap(),
+                _ => unreachable!(),
+            }
+        }
+        writeln!(s).unwrap();
+        (r, rr)
+    } else {
+        let mut r = leaves[0].center;
+        r[1] -= 1.5f32 * leaves[0].radius;
+        (r, 0.25f32 * leaves[0].radius)
+    };
+    let ctx = ShadowContext::new(4, ExpMethod::PsStar { degree: 4 }).unwrap();
+    let mut cb = ClusterBlockers::new();
+    let h = plan.as_ref().map(|p| (p, nodes.as_slice()));
+    cb.build(4, &leaves, h, receiver, rr, DEFAULT_THETA_MAX_RAD).unwrap();
+    let mut light = [0.0; 16];
+    uniform_light(4, &mut light);
+    let mut t = [0.0; 16];
+    ctx.shading_vector(&light, [0.0, 1.0, 0.0], &mut t).unwrap();
+    for i in 0..5u32 {
+        let p = [receiver[0] + rr * 0.5f32 * (i as f32 - 2.0f32), receiver[1], receiver[2]];
+        let v = ctx.shade_point(&cb, p, [0.0, 1.0, 0.0], &t).unwrap();
+        writeln!(s, "shade {i} {}", hexf(v)).unwrap();
+    }
+    s
+}
+
+/// The static library cargo built next to this test (target/<profile>/libspherebake.a).
+fn static_lib() -> PathBuf {
+    let exe = std::env::current_exe().unwrap();
+    let deps = exe.parent().unwrap();
+    let profile = deps.parent().unwrap();
+    for dir in [profile, deps] {
+        let p = dir.join("libspherebake.a");
+        if p.is_file() {
+            return p;
+        }
+    }
+    panic!("libspherebake.a not found in {} (cargo builds it with the crate's staticlib target)", profile.display());
+}
+
+fn compiler(name: &str, package: &str) -> String {
+    let ok = Command::new(name).arg("--version").output().is_ok_and(|o| o.status.success());
+    assert!(
+        ok,
+        "no `{name}` on PATH: the C/C++ example test needs a system compiler; install the Debian package {package} \
+         (.ci/run does: apt-get install {package})"
+    );
+    name.to_string()
+}
+
+fn build(cc: &str, std: &str, source: &Path, out: &Path) {
+    let lib = static_lib();
+    let o = Command::new(cc)
+        .arg(format!("-std={std}"))
+        .args(["-O2", "-ffp-contract=off", "-Wall", "-Wextra", "-Werror", "-pedantic"])
+        .arg("-I")
+        .arg(repo().join("include"))
+        .arg("-I")
+        .arg(repo().join("examples/cpp"))
+        .arg(source)
+        .arg(&lib)
+        .args(["-lm", "-lpthread", "-ldl", "-o"])
+        .arg(out)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{cc} {}: {}", source.display(), String::from_utf8_lossy(&o.stderr));
+}
+
+fn check_program(exe: &Path) {
+    for name in ["capsule-16.sphb", "skinned-arm-16.sphb"] {
+        let file = repo().join("fixtures/golden").join(name);
+        let bytes = std::fs::read(&file).unwrap();
+        let o = Command::new(exe).arg(&file).output().unwrap();
+        assert!(o.status.success(), "{name}: {}", String::from_utf8_lossy(&o.stderr));
+        let got = String::from_utf8(o.stdout).unwrap();
+        assert!(got.starts_with("spheres "), "{got}");
+        assert_eq!(got, expected(&bytes), "{} on {name}", exe.display());
+    }
+    // A damaged file: one byte of the spheres section changed (its checksum no longer matches).
+    let mut bytes = std::fs::read(repo().join("fixtures/golden/capsule-16.sphb")).unwrap();
+    let at = bytes.len() - 40;
+    bytes[at] ^= 0x5a;
+    let rust_err = load(&bytes).unwrap_err();
+    let dir = tempdir();
+    let bad = dir.join("bad.sphb");
+    std::fs::write(&bad, &bytes).unwrap();
+    let o = Command::new(exe).arg(&bad).output().unwrap();
+    assert_eq!(o.status.code(), Some(1));
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert!(stderr.contains(&format!("rule {}: {}", rust_err.rule.id(), rust_err)), "{stderr}");
+    assert!(o.stdout.is_empty());
+}
+
+fn tempdir() -> PathBuf {
+    let d = std::env::temp_dir().join(format!("spherebake-capi-{}", std::process::id()));
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+#[test]
+fn c_example_prints_the_rust_numbers() {
+    let cc = compiler("cc", "gcc");
+    let exe = tempdir().join("load_and_shade_c");
+    build(&cc, "c99", &repo().join("examples/c/load_and_shade.c"), &exe);
+    check_program(&exe);
+}
+
+#[test]
+fn cpp_example_prints_the_rust_numbers() {
+    let cxx = compiler("c++", "g++");
+    let exe = tempdir().join("load_and_shade_cpp");
+    build(&cxx, "c++17", &repo().join("examples/cpp/load_and_shade.cpp"), &exe);
+    check_program(&exe);
+}
