@@ -691,7 +691,9 @@ fn read_compact_samples(s: &Sec<'_>, sphere_count: usize) -> Result<Samples> {
     let boxes_base = 16 + offsets_len as usize;
     let records_base = boxes_base + 24 * sphere_count;
     let ends = sample_offsets(s, sphere_count, total)?;
-    let mut per_sphere = Vec::with_capacity(sphere_count);
+    let mut offsets = Vec::with_capacity(sphere_count + 1);
+    offsets.push(0u32);
+    let mut all = Vec::with_capacity(total as usize);
     let mut start = 0usize;
     for (sphere, &end) in ends.iter().enumerate() {
         let rel_box = boxes_base + 24 * sphere;
@@ -705,7 +707,6 @@ fn read_compact_samples(s: &Sec<'_>, sphere_count: usize) -> Result<Samples> {
             ));
         }
         let end = end as usize;
-        let mut points = Vec::with_capacity(end.saturating_sub(start));
         let mut prev_direction: Option<u8> = None;
         for j in start..end {
             let rel = records_base + 12 * j;
@@ -723,12 +724,12 @@ fn read_compact_samples(s: &Sec<'_>, sphere_count: usize) -> Result<Samples> {
             }
             check_direction_rule(s, direction, rule, prev_direction, rel + 10, rel + 11)?;
             prev_direction = Some(direction);
-            points.push(SamplePoint { position: b.decode(q), normal: oct_decode(oct), direction, rule });
+            all.push(SamplePoint { position: b.decode(q), normal: oct_decode(oct), direction, rule });
         }
-        per_sphere.push(points);
+        offsets.push(u32::try_from(end).unwrap_or(u32::MAX));
         start = end;
     }
-    Ok(Samples { per_sphere })
+    Ok(Samples { offsets, points: all })
 }
 
 fn read_albedo_sh(s: &Sec<'_>, sphere_count: usize) -> Result<AlbedoSh> {

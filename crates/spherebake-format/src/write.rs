@@ -300,20 +300,20 @@ impl core::error::Error for EncodeError {}
 /// The `samples_q16` section (spec §7.1).
 fn compact_samples_section(s: &Samples) -> Result<Vec<u8>, EncodeError> {
     let total = s.total();
-    let n = s.per_sphere.len();
+    let n = s.sphere_count();
     let mut out = Vec::with_capacity(16 + 4 * (n + 1) + 16 + 24 * n + 12 * total);
     put_u32(&mut out, len_u32(n));
     put_u32(&mut out, len_u32(total));
     out.extend_from_slice(&[0; 8]);
     let mut offset = 0usize;
     put_u32(&mut out, 0);
-    for points in &s.per_sphere {
+    for points in s.per_sphere() {
         offset = offset.saturating_add(points.len());
         put_u32(&mut out, len_u32(offset));
     }
     pad_to_align(&mut out);
     let mut boxes = Vec::with_capacity(n);
-    for (sphere, points) in s.per_sphere.iter().enumerate() {
+    for (sphere, points) in s.per_sphere().enumerate() {
         let b = SampleBox::enclosing(points.iter().map(|p| p.position))
             .filter(SampleBox::is_valid)
             .ok_or(EncodeError::SamplePosition { sphere })?;
@@ -321,7 +321,7 @@ fn compact_samples_section(s: &Samples) -> Result<Vec<u8>, EncodeError> {
         put_f32s(&mut out, &b.step);
         boxes.push(b);
     }
-    for (sphere, (points, b)) in s.per_sphere.iter().zip(&boxes).enumerate() {
+    for (sphere, (points, b)) in s.per_sphere().zip(&boxes).enumerate() {
         for (sample, p) in points.iter().enumerate() {
             for q in b.quantise(p.position) {
                 out.extend_from_slice(&q.to_le_bytes());

@@ -144,7 +144,7 @@ fn octahedral_axes_and_diagonals_are_exact() {
 
 fn all_samples(f: &SphbFile) -> Vec<(usize, SamplePoint)> {
     let s = f.samples.as_ref().unwrap();
-    s.per_sphere.iter().enumerate().flat_map(|(i, v)| v.iter().map(move |p| (i, *p))).collect()
+    s.per_sphere().enumerate().flat_map(|(i, v)| v.iter().map(move |p| (i, *p))).collect()
 }
 
 #[test]
@@ -223,10 +223,12 @@ fn a_v1_0_reader_sees_a_valid_file_without_samples_and_albedo() {
 #[test]
 fn unencodable_values_are_refused() {
     let mut f = full_file();
-    f.samples.as_mut().unwrap().per_sphere[2][0].position[1] = f32::NAN;
+    let s = f.samples.as_mut().unwrap();
+    let at = s.range_of(2).start;
+    s.points[at].position[1] = f32::NAN;
     assert_eq!(write_compact(&f), Err(EncodeError::SamplePosition { sphere: 2 }));
     let mut f = full_file();
-    f.samples.as_mut().unwrap().per_sphere[0][1].normal = [0.0; 3];
+    f.samples.as_mut().unwrap().points[1].normal = [0.0; 3];
     assert_eq!(write_compact(&f), Err(EncodeError::SampleNormal { sphere: 0, sample: 1 }));
     let mut f = full_file();
     f.albedo_sh.as_mut().unwrap().coefficients[5][2] = 1.0e5;
@@ -250,7 +252,7 @@ proptest! {
         repair_checksums(&mut b);
         if let Ok(f) = read(&b) {
             if let Some(s) = &f.samples {
-                for p in s.per_sphere.iter().flatten() {
+                for p in &s.points {
                     let l: f32 = p.normal.iter().map(|c| c * c).sum();
                     prop_assert!((l - 1.0).abs() < 1e-5);
                     prop_assert!(p.position.iter().all(|c| c.is_finite()));

@@ -6,8 +6,8 @@ mod common;
 
 use common::*;
 use spherebake_format::{
-    read, repair_checksums, write, write_compact, Hierarchy, HierarchyNode, NodeLists, Rule, SectionKind, SkinEntry,
-    SphbFile, UNUSED_BONE,
+    read, repair_checksums, write, write_compact, Hierarchy, NodeLists, Rule, SectionKind, SkinEntry, SphbFile,
+    UNUSED_BONE,
 };
 use SectionKind as K;
 
@@ -268,7 +268,9 @@ fn cases() -> Vec<(Rule, Vec<u8>, Option<u64>)> {
     c.push((
         Rule::SamplesSphereCount,
         cmodel(|f| {
-            f.samples.as_mut().unwrap().per_sphere.pop();
+            let s = f.samples.as_mut().unwrap();
+            s.offsets.pop();
+            s.points.truncate(*s.offsets.last().unwrap() as usize);
         }),
         Some(cs as u64),
     ));

@@ -65,8 +65,8 @@ fn compact_bake_of_the_capsule_is_deterministic_and_keeps_everything_but_samples
     assert_eq!(l.hierarchy, c.hierarchy);
     // Samples: same spheres, directions and rules; 12 instead of 32 bytes each.
     let (ls, cs) = (l.samples.unwrap(), c.samples.unwrap());
-    assert_eq!(ls.per_sphere.len(), cs.per_sphere.len());
-    for (a, b) in ls.per_sphere.iter().zip(&cs.per_sphere) {
+    assert_eq!(ls.sphere_count(), cs.sphere_count());
+    for (a, b) in ls.per_sphere().zip(cs.per_sphere()) {
         assert_eq!(
             a.iter().map(|p| (p.direction, p.rule)).collect::<Vec<_>>(),
             b.iter().map(|p| (p.direction, p.rule)).collect::<Vec<_>>()
@@ -81,8 +81,8 @@ fn compact_bake_of_the_capsule_is_deterministic_and_keeps_everything_but_samples
     assert_eq!(j["format_version"], "1.1");
     let names: Vec<&str> = j["sections"].as_array().unwrap().iter().map(|s| s["kind"].as_str().unwrap()).collect();
     assert_eq!(names, vec!["spheres", "hierarchy", "metadata", "samples_q16", "albedo_sh_f16"]);
-    let n = cs.per_sphere.len() as u64;
-    let total: u64 = cs.per_sphere.iter().map(|v| v.len() as u64).sum();
+    let n = cs.sphere_count() as u64;
+    let total: u64 = cs.per_sphere().map(|v| v.len() as u64).sum();
     // Spec §7.1: 16 + pad16(4(N+1)) + 24N + 12S.
     assert_eq!(j["sections"][3]["length"], 16 + (4 * (n + 1)).div_ceil(16) * 16 + 24 * n + 12 * total);
     // Same input and settings: the same bytes again.
