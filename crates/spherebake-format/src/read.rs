@@ -732,7 +732,13 @@ fn read_compact_samples(s: &Sec<'_>, sphere_count: usize) -> Result<Samples> {
     Ok(Samples { offsets, points: all })
 }
 
-fn read_albedo_sh(s: &Sec<'_>, sphere_count: usize) -> Result<AlbedoSh> {
+/// The albedo SH sub-header shared by kinds 4 and 9 (spec §7, §8.1): order, colour space, basis, and the
+/// section length for `bytes_per_coefficient` bytes per RGB coefficient; returns them with the coefficient count.
+fn read_sh_subheader(
+    s: &Sec<'_>,
+    sphere_count: usize,
+    bytes_per_coefficient: u64,
+) -> Result<(u8, ColourSpace, ShBasis, usize)> {
     s.need_subheader()?;
     let sc = s.u32(0)?;
     let order = s.u8(4)?;
@@ -742,7 +748,7 @@ fn read_albedo_sh(s: &Sec<'_>, sphere_count: usize) -> Result<AlbedoSh> {
         return Err(s.err(Rule::ShOrder, 4, Detail::Text("1..=8"), Detail::Int(u64::from(order))));
     }
     let per_sphere = u64::from(order) * u64::from(order);
-    s.check_length(add(Some(16), mul(u64::from(sc), 12 * per_sphere)))?;
+    s.check_length(add(Some(16), mul(u64::from(sc), bytes_per_coefficient * per_sphere)))?;
     if sc as usize != sphere_count {
         return Err(s.err(Rule::ShSphereCount, 0, Detail::Int(as_u64(sphere_count)), Detail::Int(u64::from(sc))));
     }
@@ -753,6 +759,11 @@ fn read_albedo_sh(s: &Sec<'_>, sphere_count: usize) -> Result<AlbedoSh> {
         return Err(s.err(Rule::ShBasis, 6, Detail::Int(0), Detail::Int(u64::from(basis))));
     };
     let count = sphere_count * per_sphere as usize;
+    Ok((order, colour_space, basis, count))
+}
+
+fn read_albedo_sh(s: &Sec<'_>, sphere_count: usize) -> Result<AlbedoSh> {
+    let (order, colour_space, basis, count) = read_sh_subheader(s, sphere_count, 12)?;
     let mut coefficients = Vec::with_capacity(count);
     for i in 0..count {
         let rel = 16 + 12 * i;
@@ -767,26 +778,7 @@ fn read_albedo_sh(s: &Sec<'_>, sphere_count: usize) -> Result<AlbedoSh> {
 
 /// The compact albedo SH section (kind 9, spec §8.1): the kind-4 sub-header, binary16 coefficients.
 fn read_compact_albedo_sh(s: &Sec<'_>, sphere_count: usize) -> Result<AlbedoSh> {
-    s.need_subheader()?;
-    let sc = s.u32(0)?;
-    let order = s.u8(4)?;
-    let colour = s.u8(5)?;
-    let basis = s.u8(6)?;
-    if !(1..=MAX_SH_ORDER).contains(&order) {
-        return Err(s.err(Rule::ShOrder, 4, Detail::Text("1..=8"), Detail::Int(u64::from(order))));
-    }
-    let per_sphere = u64::from(order) * u64::from(order);
-    s.check_length(add(Some(16), mul(u64::from(sc), 6 * per_sphere)))?;
-    if sc as usize != sphere_count {
-        return Err(s.err(Rule::ShSphereCount, 0, Detail::Int(as_u64(sphere_count)), Detail::Int(u64::from(sc))));
-    }
-    let Some(colour_space) = ColourSpace::from_code(colour) else {
-        return Err(s.err(Rule::ShColourSpace, 5, Detail::Int(0), Detail::Int(u64::from(colour))));
-    };
-    let Some(basis) = ShBasis::from_code(basis) else {
-        return Err(s.err(Rule::ShBasis, 6, Detail::Int(0), Detail::Int(u64::from(basis))));
-    };
-    let count = sphere_count * per_sphere as usize;
+    let (order, colour_space, basis, count) = read_sh_subheader(s, sphere_count, 6)?;
     let mut coefficients = Vec::with_capacity(count);
     for i in 0..count {
         let rel = 16 + 6 * i;
