@@ -6,34 +6,11 @@
 use spherebake_runtime::shadow::{uniform_light, ClusterBlockers, ExpMethod, ShadowContext};
 use spherebake_runtime::{cut, load, pose, refit, CutEntry, Sphere, DEFAULT_THETA_MAX_RAD};
 use std::fmt::Write as _;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::Command;
 
-fn repo() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
-}
-
-/// C's `%a` of a double (glibc style: `0x1.8p+1`, `0x0p+0`) for zero and normal numbers.
-fn hexf(v: f64) -> String {
-    let sign = if v.is_sign_negative() { "-" } else { "" };
-    if v == 0.0 {
-        return format!("{sign}0x0p+0");
-    }
-    assert!(v.is_normal(), "only normal numbers are printed by the example: {v}");
-    let bits = v.to_bits();
-    let exp = ((bits >> 52) & 0x7ff) as i64 - 1023;
-    let mut mant = format!("{:013x}", bits & ((1u64 << 52) - 1));
-    while mant.ends_with('0') {
-        mant.pop();
-    }
-    let dot = if mant.is_empty() { String::new() } else { format!(".{mant}") };
-    let es = if exp >= 0 { format!("+{exp}") } else { format!("{exp}") };
-    format!("{sign}0x1{dot}p{es}")
-}
-
-fn hf(v: f32) -> String {
-    hexf(f64::from(v))
-}
+mod common;
+use common::{build, compiler, golden, hexf, hf, link_static, repo, tempdir};
 
 /// What load_and_shade prints for `bytes`, computed with the Rust API.
 fn expected(bytes: &[u8]) -> String {
@@ -115,52 +92,10 @@ fn expected(bytes: &[u8]) -> String {
     s
 }
 
-/// The static library cargo built next to this test (target/<profile>/libspherebake.a).
-fn static_lib() -> PathBuf {
-    let exe = std::env::current_exe().unwrap();
-    let deps = exe.parent().unwrap();
-    let profile = deps.parent().unwrap();
-    for dir in [profile, deps] {
-        let p = dir.join("libspherebake.a");
-        if p.is_file() {
-            return p;
-        }
-    }
-    panic!("libspherebake.a not found in {} (cargo builds it with the crate's staticlib target)", profile.display());
-}
-
-fn compiler(name: &str, package: &str) -> String {
-    let ok = Command::new(name).arg("--version").output().is_ok_and(|o| o.status.success());
-    assert!(
-        ok,
-        "no `{name}` on PATH: the C/C++ example test needs a system compiler; install the Debian package {package} \
-         (.ci/run does: apt-get install {package})"
-    );
-    name.to_string()
-}
-
-fn build(cc: &str, std: &str, source: &Path, out: &Path) {
-    let lib = static_lib();
-    let o = Command::new(cc)
-        .arg(format!("-std={std}"))
-        .args(["-O2", "-ffp-contract=off", "-Wall", "-Wextra", "-Werror", "-pedantic"])
-        .arg("-I")
-        .arg(repo().join("include"))
-        .arg("-I")
-        .arg(repo().join("examples/cpp"))
-        .arg(source)
-        .arg(&lib)
-        .args(["-lm", "-lpthread", "-ldl", "-o"])
-        .arg(out)
-        .output()
-        .unwrap();
-    assert!(o.status.success(), "{cc} {}: {}", source.display(), String::from_utf8_lossy(&o.stderr));
-}
-
 fn check_program(exe: &Path) {
     for name in ["capsule-16.sphb", "skinned-arm-16.sphb"] {
         let file = repo().join("fixtures/golden").join(name);
-        let bytes = std::fs::read(&file).unwrap();
+        let bytes = golden(name);
         let o = Command::new(exe).arg(&file).output().unwrap();
         assert!(o.status.success(), "{name}: {}", String::from_utf8_lossy(&o.stderr));
         let got = String::from_utf8(o.stdout).unwrap();
@@ -168,11 +103,11 @@ fn check_program(exe: &Path) {
         assert_eq!(got, expected(&bytes), "{} on {name}", exe.display());
     }
     // A damaged file: one byte of the spheres section changed (its checksum no longer matches).
-    let mut bytes = std::fs::read(repo().join("fixtures/golden/capsule-16.sphb")).unwrap();
+    let mut bytes = golden("capsule-16.sphb");
     let at = bytes.len() - 40;
     bytes[at] ^= 0x5a;
     let rust_err = load(&bytes).unwrap_err();
-    let dir = tempdir();
+    let dir = tempdir("examples");
     let bad = dir.join("bad.sphb");
     std::fs::write(&bad, &bytes).unwrap();
     let o = Command::new(exe).arg(&bad).output().unwrap();
@@ -182,24 +117,18 @@ fn check_program(exe: &Path) {
     assert!(o.stdout.is_empty());
 }
 
-fn tempdir() -> PathBuf {
-    let d = std::env::temp_dir().join(format!("spherebake-capi-{}", std::process::id()));
-    std::fs::create_dir_all(&d).unwrap();
-    d
-}
-
 #[test]
 fn c_example_prints_the_rust_numbers() {
     let cc = compiler("cc", "gcc");
-    let exe = tempdir().join("load_and_shade_c");
-    build(&cc, "c99", &repo().join("examples/c/load_and_shade.c"), &exe);
+    let exe = tempdir("examples").join("load_and_shade_c");
+    build(&cc, "c99", &[&repo().join("examples/c/load_and_shade.c")], &link_static(), &exe);
     check_program(&exe);
 }
 
 #[test]
 fn cpp_example_prints_the_rust_numbers() {
     let cxx = compiler("c++", "g++");
-    let exe = tempdir().join("load_and_shade_cpp");
-    build(&cxx, "c++17", &repo().join("examples/cpp/load_and_shade.cpp"), &exe);
+    let exe = tempdir("examples").join("load_and_shade_cpp");
+    build(&cxx, "c++17", &[&repo().join("examples/cpp/load_and_shade.cpp")], &link_static(), &exe);
     check_program(&exe);
 }
