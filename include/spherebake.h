@@ -223,6 +223,14 @@ typedef struct {
   uint32_t is_leaf;
 } SphbCutEntry;
 
+// Settings of pass 1 (`sphb_light_spheres`), the Rust `light::Pass1Settings`; start from
+// `sphb_pass1_settings_default()`.
+typedef struct {
+  // Cut threshold θmax (radians) of the hierarchy seen from each sphere (Ren 2006 eq. 36);
+  // default `SPHB_DEFAULT_THETA_MAX_RAD`.
+  float theta_max_rad;
+} SphbPass1Settings;
+
 // A posed proxy as the light passes see it: the proxy, its leaf spheres and (optionally) node
 // spheres in the current pose, and per-sphere rotations (all borrowed for the call).
 typedef struct {
@@ -239,6 +247,36 @@ typedef struct {
   // `sphere_count` column-major 3×3 rotations (9 floats each, `sphb_sphere_rotations`), or NULL = identity.
   const float *rotations;
 } SphbPosed;
+
+// Counts of one `sphb_light_spheres` call (the Rust `light::Pass1Stats`).
+typedef struct {
+  // Sample points lit.
+  size_t samples;
+  // Blockers accumulated over all samples (after the self-shadowing rules).
+  size_t blocker_accumulations;
+} SphbPass1Stats;
+
+// A receiver cluster of pass 2 (the Rust `light::ClusterSpec`): receivers sharing one hierarchy
+// cut, e.g. a tile of a ground grid or a patch of a character. Start from `sphb_cluster_spec_init`.
+typedef struct {
+  // Centre x, y, z of a ball around the cluster's receivers (the spheres' space).
+  float center[3];
+  // Radius of that ball (model units).
+  float radius;
+  // The receivers' mean unit normal, for the reflection ratios at the centre; used when
+  // `has_normal` is 1.
+  float normal[3];
+  // 1: `normal` is given; 0: no normal (reflection ratios are 1, no overlap correction).
+  uint32_t has_normal;
+  // Cut threshold θmax, radians (Ren 2006 eq. 36); default `SPHB_DEFAULT_THETA_MAX_RAD`.
+  float theta_max_rad;
+  // 1 (default): compute the reflection ratios of Guerrero 2008 eq. 25; 0 only to measure their effect.
+  uint32_t reflection_ratio;
+  // 1: scale each source's blocker logs by the overlap correction at the cluster centre (needs
+  // a normal; not in the papers; default 0: results then depend on the frame and jump between
+  // clusters).
+  uint32_t overlap_correction;
+} SphbClusterSpec;
 
 #ifdef __cplusplus
 extern "C" {
@@ -362,6 +400,21 @@ int32_t sphb_shadow_cluster_build(SphbShadowCluster *cluster,
                                   size_t *blocker_count_out,
                                   SphbError *err);
 
+// **Optional, not in Ren 2006.** Damps the over-counting of overlapping blockers: finds one
+// scale s in {1, 0.95, …, 0.05} for all log vectors of the built cluster such that the DC of the
+// visibility at the cluster point `p_star` (3 floats, unit `normal` 3 floats, self-shadowing
+// rules applied) best matches the visible fraction of the union of the blocker spheres there,
+// measured with `directions` Fibonacci rays (256 is a good count); multiplies every blocker's
+// band weights by s and writes s to `*scale_out` (optional; 1 when nothing improves).
+// `ctx` must have the build's order. Allocation-free; one thread at a time per cluster.
+int32_t sphb_shadow_cluster_correct_overlap(SphbShadowCluster *cluster,
+                                            const SphbShadowContext *ctx,
+                                            const float *p_star,
+                                            const float *normal,
+                                            size_t directions,
+                                            float *scale_out,
+                                            SphbError *err);
+
 // Adds the log-SH visibility of the cluster's blockers seen from receiver `p` (3 floats) to
 // `log_inout[0..order²]` (f32; zero it first), with the self-shadowing rules about the unit
 // `normal` (3 floats; NULL skips them). `*used_out` (optional) = blockers accumulated.
@@ -414,6 +467,16 @@ int32_t sphb_shade_point(const SphbShadowContext *ctx,
 // Thread-safe.
 int32_t sphb_uniform_light(uint32_t order, double *out, size_t out_len, SphbError *err);
 
+// A lobe of light: radiance 1 inside the cone of half-angle `half_angle_rad` about the unit
+// `direction` (3 doubles), projected to SH `order` (1..=8) and windowed against ringing
+// (Ren's a_l = cos(πl/(4·order))), into `out[0..order²]`. Thread-safe.
+int32_t sphb_lobe_light(uint32_t order,
+                        const double *direction,
+                        double half_angle_rad,
+                        double *out,
+                        size_t out_len,
+                        SphbError *err);
+
 // A light context of SH `order` (1..=8, at most the albedo order of the proxies it lights) and
 // exponential `exp_method` into `*out`. Immutable: share between threads.
 int32_t sphb_light_context_new(uint32_t order,
@@ -450,17 +513,55 @@ int32_t sphb_sphere_rotations(const SphbProxy *proxy,
                               size_t out_len,
                               SphbError *err);
 
-// **Pass 1**: lights every sample of `posed` under the environment `env` (order² SH radiance
-// coefficients, f64; e.g. a sky clipped below the horizon) and projects it onto each sphere's
-// light, with the hierarchy cut at `theta_max_rad` seen from each sphere; results into `lights`.
-// The proxy needs samples and albedo SH. One thread at a time per `lights`.
+// The defaults of pass 1 (θmax = `SPHB_DEFAULT_THETA_MAX_RAD`). Thread-safe.
+SphbPass1Settings sphb_pass1_settings_default(void);
+
+// **Pass 1**: lights every sample of `posed` under the environment `env` (`env_len` ≥ order² SH
+// radiance coefficients, f64; e.g. from `sphb_clip_below_horizon`), projects it onto each sphere's
+// light and derives the hierarchy nodes' lights; results into `lights`. `others` (`other_count`
+// posed proxies, NULL with 0 for none) are further proxies whose spheres block the environment
+// (their lights are not needed). `settings` NULL means `sphb_pass1_settings_default()`.
+// `*stats_out` (optional) receives the counts. The proxy needs samples and albedo SH
+// (`SPHB_ERR_MISSING_DATA`). One thread at a time per `lights`.
 int32_t sphb_light_spheres(const SphbLightContext *ctx,
                            const SphbPosed *posed,
                            const double *env,
                            size_t env_len,
-                           float theta_max_rad,
+                           const SphbPosed *others,
+                           size_t other_count,
+                           const SphbPass1Settings *settings,
                            SphbSphereLights *lights,
+                           SphbPass1Stats *stats_out,
                            SphbError *err);
+
+// The environment `env` (order² SH radiance coefficients of `ctx`'s order, f64) with everything
+// below the horizon of the unit `up` direction (3 doubles) removed (exact for an infinite ground
+// plane under the scene), into `out[0..order²]`. Thread-safe.
+int32_t sphb_clip_below_horizon(const SphbLightContext *ctx,
+                                const double *env,
+                                size_t env_len,
+                                const double *up,
+                                double *out,
+                                size_t out_len,
+                                SphbError *err);
+
+// The L^c of hierarchy node `node` after pass 1: `order²` linear-RGB SH coefficients (3 floats
+// each, the node's rest frame) into `out` (`out_len` floats, at least 3·order²).
+// `SPHB_ERR_INVALID_ARGUMENT` for a node index out of range (or lights of a proxy without hierarchy).
+int32_t sphb_sphere_lights_node(const SphbSphereLights *lights,
+                                uint32_t node,
+                                float *out,
+                                size_t out_len,
+                                SphbError *err);
+
+// The diffuse exit radiance per unit albedo L_pj of every sample after pass 1 (in the order of
+// `SphbViews::samples`) into `out` (capacity `out_cap`); `*len_out` = the sample count (also when
+// `out` is too short: `SPHB_ERR_BUFFER_TOO_SMALL`).
+int32_t sphb_sphere_lights_sample_radiance(const SphbSphereLights *lights,
+                                           float *out,
+                                           size_t out_cap,
+                                           size_t *len_out,
+                                           SphbError *err);
 
 // A new, empty indirect-light cluster. Free with `sphb_indirect_cluster_free`.
 SphbIndirectCluster *sphb_indirect_cluster_new(void);
@@ -468,20 +569,31 @@ SphbIndirectCluster *sphb_indirect_cluster_new(void);
 // Frees an indirect-light cluster; NULL does nothing.
 void sphb_indirect_cluster_free(SphbIndirectCluster *cluster);
 
+// A cluster spec with centre `center` (3 floats), `radius`, the receivers' mean unit `normal`
+// (3 floats, or NULL: none) and the defaults: θmax = `SPHB_DEFAULT_THETA_MAX_RAD`, reflection
+// ratios on, overlap correction off. Thread-safe.
+int32_t sphb_cluster_spec_init(const float *center,
+                               float radius,
+                               const float *normal,
+                               SphbClusterSpec *out,
+                               SphbError *err);
+
 // **Pass 2, per cluster**: the sphere lights of `source_count` sources (`sources[i]` posed with
-// `lights[i]` from pass 1) seen by the receiver cluster ball (`center` 3 floats, `radius`), with
-// the receivers' mean unit `normal` (3 floats, or NULL: no reflection ratios) and the cut at
-// `theta_max_rad`. One thread at a time per cluster.
+// `lights[i]` from pass 1) seen by the receiver cluster `spec` (ball, mean normal, θmax,
+// reflection ratios, overlap correction; see `SphbClusterSpec`). One thread at a time per cluster.
 int32_t sphb_indirect_cluster_build(SphbIndirectCluster *cluster,
                                     const SphbLightContext *ctx,
                                     const SphbPosed *sources,
                                     const SphbSphereLights *const *lights,
                                     size_t source_count,
-                                    const float *center,
-                                    float radius,
-                                    const float *normal,
-                                    float theta_max_rad,
+                                    const SphbClusterSpec *spec,
                                     SphbError *err);
+
+// The number of sphere lights in the cluster's cut (0 before the first build) into `*out`.
+// Thread-safe with other readers; not during a build or query of the same cluster.
+int32_t sphb_indirect_cluster_light_count(const SphbIndirectCluster *cluster,
+                                          size_t *out,
+                                          SphbError *err);
 
 // **Pass 2, per receiver**: the indirect irradiance E (linear RGB, ∫ L_in cos dω; 3 doubles
 // into `out`) at receiver `p` (3 floats) with unit `normal` (3 floats) from the cluster's lights.

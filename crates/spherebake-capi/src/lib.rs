@@ -32,8 +32,8 @@ use std::panic::{catch_unwind, AssertUnwindSafe};
 
 use spherebake_format::{HierarchyNode, SamplePoint, SkinEntry, Sphere, ValidationError};
 use spherebake_runtime::light::{
-    light_spheres, sphere_rotations, ClusterSpec, IndirectCluster, LightContext, Pass1Settings, PosedProxy,
-    SphereLights,
+    clip_below_horizon, light_spheres, sphere_rotations, ClusterSpec, IndirectCluster, LightContext, LightError,
+    Pass1Settings, Pass1Stats, PosedProxy, SphereLights,
 };
 use spherebake_runtime::shadow::{accumulate_log_visibility, shade, ClusterBlockers, ExpMethod, ShadowContext};
 use spherebake_runtime::{CutEntry, HierarchyPlan, Proxy};
@@ -287,6 +287,50 @@ pub struct SphbPosed {
     pub rotations: *const f32,
 }
 
+/// Settings of pass 1 (`sphb_light_spheres`), the Rust `light::Pass1Settings`; start from
+/// `sphb_pass1_settings_default()`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SphbPass1Settings {
+    /// Cut threshold θmax (radians) of the hierarchy seen from each sphere (Ren 2006 eq. 36);
+    /// default `SPHB_DEFAULT_THETA_MAX_RAD`.
+    pub theta_max_rad: f32,
+}
+
+/// Counts of one `sphb_light_spheres` call (the Rust `light::Pass1Stats`).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct SphbPass1Stats {
+    /// Sample points lit.
+    pub samples: usize,
+    /// Blockers accumulated over all samples (after the self-shadowing rules).
+    pub blocker_accumulations: usize,
+}
+
+/// A receiver cluster of pass 2 (the Rust `light::ClusterSpec`): receivers sharing one hierarchy
+/// cut, e.g. a tile of a ground grid or a patch of a character. Start from `sphb_cluster_spec_init`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct SphbClusterSpec {
+    /// Centre x, y, z of a ball around the cluster's receivers (the spheres' space).
+    pub center: [f32; 3],
+    /// Radius of that ball (model units).
+    pub radius: f32,
+    /// The receivers' mean unit normal, for the reflection ratios at the centre; used when
+    /// `has_normal` is 1.
+    pub normal: [f32; 3],
+    /// 1: `normal` is given; 0: no normal (reflection ratios are 1, no overlap correction).
+    pub has_normal: u32,
+    /// Cut threshold θmax, radians (Ren 2006 eq. 36); default `SPHB_DEFAULT_THETA_MAX_RAD`.
+    pub theta_max_rad: f32,
+    /// 1 (default): compute the reflection ratios of Guerrero 2008 eq. 25; 0 only to measure their effect.
+    pub reflection_ratio: u32,
+    /// 1: scale each source's blocker logs by the overlap correction at the cluster centre (needs
+    /// a normal; not in the papers; default 0: results then depend on the frame and jump between
+    /// clusters).
+    pub overlap_correction: u32,
+}
+
 /// A loaded, validated proxy (opaque; owns its data).
 pub struct SphbProxy {
     proxy: Proxy,
@@ -432,6 +476,17 @@ unsafe fn object_mut<'a, T>(ptr: *mut T, what: &str) -> Res<&'a mut T> {
     check_ptr(ptr.cast_const(), what)?;
     // SAFETY: as `object`; exclusive use is the caller's contract (documented per type).
     Ok(unsafe { &mut *ptr })
+}
+
+/// Writes `v` to `*ptr` unless `ptr` is NULL (an optional output).
+///
+/// # Safety
+/// As [`object_mut`].
+unsafe fn put_opt<T>(ptr: *mut T, v: T, what: &str) -> Res<()> {
+    if !ptr.is_null() {
+        *unsafe { object_mut(ptr, what)? } = v;
+    }
+    Ok(())
 }
 
 fn spheres_of(s: &[SphbSphere]) -> &[Sphere] {
@@ -855,11 +910,37 @@ pub unsafe extern "C" fn sphb_shadow_cluster_build(
         };
         cl.cut.clear();
         cl.cb.build(order as usize, spheres_of(l), hierarchy, c, receiver_radius, theta_max_rad).map_err(invalid)?;
-        if !blocker_count_out.is_null() {
-            let b = unsafe { object_mut(blocker_count_out, "blocker_count_out")? };
-            *b = cl.cb.blockers().len();
+        unsafe { put_opt(blocker_count_out, cl.cb.blockers().len(), "blocker_count_out") }
+    })
+}
+
+/// **Optional, not in Ren 2006.** Damps the over-counting of overlapping blockers: finds one
+/// scale s in {1, 0.95, …, 0.05} for all log vectors of the built cluster such that the DC of the
+/// visibility at the cluster point `p_star` (3 floats, unit `normal` 3 floats, self-shadowing
+/// rules applied) best matches the visible fraction of the union of the blocker spheres there,
+/// measured with `directions` Fibonacci rays (256 is a good count); multiplies every blocker's
+/// band weights by s and writes s to `*scale_out` (optional; 1 when nothing improves).
+/// `ctx` must have the build's order. Allocation-free; one thread at a time per cluster.
+#[no_mangle]
+pub unsafe extern "C" fn sphb_shadow_cluster_correct_overlap(
+    cluster: *mut SphbShadowCluster,
+    ctx: *const SphbShadowContext,
+    p_star: *const f32,
+    normal: *const f32,
+    directions: usize,
+    scale_out: *mut f32,
+    err: *mut SphbError,
+) -> i32 {
+    run(err, || {
+        let cl = unsafe { object_mut(cluster, "cluster")? };
+        let c = unsafe { object(ctx, "ctx")? };
+        let p = unsafe { vec3(p_star, "p_star")? };
+        let n = unsafe { vec3(normal, "normal")? };
+        if cl.cb.order() == 0 {
+            return Err(invalid("the cluster was not built"));
         }
-        Ok(())
+        let s = cl.cb.correct_overlap(&c.ctx, p, n, directions).map_err(invalid)?;
+        unsafe { put_opt(scale_out, s, "scale_out") }
     })
 }
 
@@ -887,10 +968,7 @@ pub unsafe extern "C" fn sphb_accumulate_log_visibility(
         let n = if normal.is_null() { None } else { Some(unsafe { vec3(normal, "normal")? }) };
         let log = unsafe { output(log_inout, log_len, order * order, "log_inout")? };
         let used = accumulate_log_visibility(cl.cb.blockers(), order, pt, n, log).map_err(invalid)?;
-        if !used_out.is_null() {
-            *unsafe { object_mut(used_out, "used_out")? } = used;
-        }
-        Ok(())
+        unsafe { put_opt(used_out, used, "used_out") }
     })
 }
 
@@ -995,6 +1073,28 @@ pub unsafe extern "C" fn sphb_uniform_light(order: u32, out: *mut f64, out_len: 
         let o = unsafe { output(out, out_len, nc, "out")? };
         spherebake_runtime::shadow::uniform_light(order as usize, o);
         Ok(())
+    })
+}
+
+/// A lobe of light: radiance 1 inside the cone of half-angle `half_angle_rad` about the unit
+/// `direction` (3 doubles), projected to SH `order` (1..=8) and windowed against ringing
+/// (Ren's a_l = cos(πl/(4·order))), into `out[0..order²]`. Thread-safe.
+#[no_mangle]
+pub unsafe extern "C" fn sphb_lobe_light(
+    order: u32,
+    direction: *const f64,
+    half_angle_rad: f64,
+    out: *mut f64,
+    out_len: usize,
+    err: *mut SphbError,
+) -> i32 {
+    run(err, || {
+        if !(1..=8).contains(&order) {
+            return Err(invalid(format!("order {order} outside 1..=8")));
+        }
+        let d = unsafe { input(direction, 3, "direction")? };
+        let o = unsafe { output(out, out_len, (order * order) as usize, "out")? };
+        spherebake_runtime::shadow::lobe_light(order as usize, [d[0], d[1], d[2]], half_angle_rad, o).map_err(invalid)
     })
 }
 
@@ -1114,18 +1214,48 @@ pub unsafe extern "C" fn sphb_sphere_rotations(
     })
 }
 
-/// **Pass 1**: lights every sample of `posed` under the environment `env` (order² SH radiance
-/// coefficients, f64; e.g. a sky clipped below the horizon) and projects it onto each sphere's
-/// light, with the hierarchy cut at `theta_max_rad` seen from each sphere; results into `lights`.
-/// The proxy needs samples and albedo SH. One thread at a time per `lights`.
+fn light_fail(e: &LightError) -> Fail {
+    let code = match e {
+        LightError::NoSamples | LightError::NoAlbedo => SPHB_ERR_MISSING_DATA,
+        _ => SPHB_ERR_INVALID_ARGUMENT,
+    };
+    fail(code, e.to_string())
+}
+
+fn flag(v: u32, what: &str) -> Res<bool> {
+    match v {
+        0 => Ok(false),
+        1 => Ok(true),
+        other => Err(invalid(format!("{what} is {other}, not 0 or 1"))),
+    }
+}
+
+/// The defaults of pass 1 (θmax = `SPHB_DEFAULT_THETA_MAX_RAD`). Thread-safe.
+#[no_mangle]
+pub extern "C" fn sphb_pass1_settings_default() -> SphbPass1Settings {
+    // Every field listed: a new Rust setting fails to compile here until the C ABI mirrors it.
+    let Pass1Settings { theta_max_rad } = Pass1Settings::default();
+    SphbPass1Settings { theta_max_rad }
+}
+
+/// **Pass 1**: lights every sample of `posed` under the environment `env` (`env_len` ≥ order² SH
+/// radiance coefficients, f64; e.g. from `sphb_clip_below_horizon`), projects it onto each sphere's
+/// light and derives the hierarchy nodes' lights; results into `lights`. `others` (`other_count`
+/// posed proxies, NULL with 0 for none) are further proxies whose spheres block the environment
+/// (their lights are not needed). `settings` NULL means `sphb_pass1_settings_default()`.
+/// `*stats_out` (optional) receives the counts. The proxy needs samples and albedo SH
+/// (`SPHB_ERR_MISSING_DATA`). One thread at a time per `lights`.
 #[no_mangle]
 pub unsafe extern "C" fn sphb_light_spheres(
     ctx: *const SphbLightContext,
     posed: *const SphbPosed,
     env: *const f64,
     env_len: usize,
-    theta_max_rad: f32,
+    others: *const SphbPosed,
+    other_count: usize,
+    settings: *const SphbPass1Settings,
     lights: *mut SphbSphereLights,
+    stats_out: *mut SphbPass1Stats,
     err: *mut SphbError,
 ) -> i32 {
     run(err, || {
@@ -1133,16 +1263,83 @@ pub unsafe extern "C" fn sphb_light_spheres(
         let pd = unsafe { object(posed, "posed")? };
         let pp = unsafe { posed_of(pd)? };
         let e = unsafe { input(env, env_len, "env")? };
+        let o = unsafe { input(others, other_count, "others")? };
+        let others: Vec<PosedProxy<'_>> = o.iter().map(|x| unsafe { posed_of(x) }).collect::<Res<_>>()?;
+        let SphbPass1Settings { theta_max_rad } =
+            if settings.is_null() { sphb_pass1_settings_default() } else { *unsafe { object(settings, "settings")? } };
         let l = unsafe { object_mut(lights, "lights")? };
-        light_spheres(&c.ctx, &pp, e, &[], &Pass1Settings { theta_max_rad }, &mut l.lights).map(|_| ()).map_err(|e| {
-            let code = match e {
-                spherebake_runtime::light::LightError::NoSamples | spherebake_runtime::light::LightError::NoAlbedo => {
-                    SPHB_ERR_MISSING_DATA
-                }
-                _ => SPHB_ERR_INVALID_ARGUMENT,
-            };
-            fail(code, e.to_string())
-        })
+        let Pass1Stats { samples, blocker_accumulations } =
+            light_spheres(&c.ctx, &pp, e, &others, &Pass1Settings { theta_max_rad }, &mut l.lights)
+                .map_err(|e| light_fail(&e))?;
+        unsafe { put_opt(stats_out, SphbPass1Stats { samples, blocker_accumulations }, "stats_out") }
+    })
+}
+
+/// The environment `env` (order² SH radiance coefficients of `ctx`'s order, f64) with everything
+/// below the horizon of the unit `up` direction (3 doubles) removed (exact for an infinite ground
+/// plane under the scene), into `out[0..order²]`. Thread-safe.
+#[no_mangle]
+pub unsafe extern "C" fn sphb_clip_below_horizon(
+    ctx: *const SphbLightContext,
+    env: *const f64,
+    env_len: usize,
+    up: *const f64,
+    out: *mut f64,
+    out_len: usize,
+    err: *mut SphbError,
+) -> i32 {
+    run(err, || {
+        let c = unsafe { object(ctx, "ctx")? };
+        let nc = c.ctx.order() * c.ctx.order();
+        let e = unsafe { input(env, env_len, "env")? };
+        let u = unsafe { input(up, 3, "up")? };
+        let o = unsafe { output(out, out_len, nc, "out")? };
+        clip_below_horizon(&c.ctx, e, [u[0], u[1], u[2]], o).map_err(|e| light_fail(&e))
+    })
+}
+
+/// The L^c of hierarchy node `node` after pass 1: `order²` linear-RGB SH coefficients (3 floats
+/// each, the node's rest frame) into `out` (`out_len` floats, at least 3·order²).
+/// `SPHB_ERR_INVALID_ARGUMENT` for a node index out of range (or lights of a proxy without hierarchy).
+#[no_mangle]
+pub unsafe extern "C" fn sphb_sphere_lights_node(
+    lights: *const SphbSphereLights,
+    node: u32,
+    out: *mut f32,
+    out_len: usize,
+    err: *mut SphbError,
+) -> i32 {
+    run(err, || {
+        let l = unsafe { object(lights, "lights")? };
+        let c = l.lights.node(node as usize);
+        if c.is_empty() {
+            return Err(invalid(format!("node {node} has no light")));
+        }
+        let o = unsafe { output(out, out_len, 3 * c.len(), "out")? };
+        for (d, v) in o.chunks_exact_mut(3).zip(c) {
+            d.copy_from_slice(v);
+        }
+        Ok(())
+    })
+}
+
+/// The diffuse exit radiance per unit albedo L_pj of every sample after pass 1 (in the order of
+/// `SphbViews::samples`) into `out` (capacity `out_cap`); `*len_out` = the sample count (also when
+/// `out` is too short: `SPHB_ERR_BUFFER_TOO_SMALL`).
+#[no_mangle]
+pub unsafe extern "C" fn sphb_sphere_lights_sample_radiance(
+    lights: *const SphbSphereLights,
+    out: *mut f32,
+    out_cap: usize,
+    len_out: *mut usize,
+    err: *mut SphbError,
+) -> i32 {
+    run(err, || {
+        let l = unsafe { object(lights, "lights")? };
+        let r = l.lights.sample_radiance();
+        *unsafe { object_mut(len_out, "len_out")? } = r.len();
+        unsafe { output(out, out_cap, r.len(), "out")? }.copy_from_slice(r);
+        Ok(())
     })
 }
 
@@ -1162,10 +1359,53 @@ pub unsafe extern "C" fn sphb_indirect_cluster_free(cluster: *mut SphbIndirectCl
     }
 }
 
+/// A cluster spec with centre `center` (3 floats), `radius`, the receivers' mean unit `normal`
+/// (3 floats, or NULL: none) and the defaults: θmax = `SPHB_DEFAULT_THETA_MAX_RAD`, reflection
+/// ratios on, overlap correction off. Thread-safe.
+#[no_mangle]
+pub unsafe extern "C" fn sphb_cluster_spec_init(
+    center: *const f32,
+    radius: f32,
+    normal: *const f32,
+    out: *mut SphbClusterSpec,
+    err: *mut SphbError,
+) -> i32 {
+    run(err, || {
+        let c = unsafe { vec3(center, "center")? };
+        let n = if normal.is_null() { None } else { Some(unsafe { vec3(normal, "normal")? }) };
+        let o = unsafe { object_mut(out, "out")? };
+        // Every field listed: a new Rust field fails to compile here until the C ABI mirrors it.
+        let ClusterSpec { center, radius, normal, theta_max_rad, reflection_ratio, overlap_correction } =
+            ClusterSpec::new(c, radius, n);
+        *o = SphbClusterSpec {
+            center,
+            radius,
+            normal: normal.unwrap_or([0.0; 3]),
+            has_normal: u32::from(normal.is_some()),
+            theta_max_rad,
+            reflection_ratio: u32::from(reflection_ratio),
+            overlap_correction: u32::from(overlap_correction),
+        };
+        Ok(())
+    })
+}
+
+fn cluster_spec_of(s: &SphbClusterSpec) -> Res<ClusterSpec> {
+    let SphbClusterSpec { center, radius, normal, has_normal, theta_max_rad, reflection_ratio, overlap_correction } =
+        *s;
+    Ok(ClusterSpec {
+        center,
+        radius,
+        normal: flag(has_normal, "spec.has_normal")?.then_some(normal),
+        theta_max_rad,
+        reflection_ratio: flag(reflection_ratio, "spec.reflection_ratio")?,
+        overlap_correction: flag(overlap_correction, "spec.overlap_correction")?,
+    })
+}
+
 /// **Pass 2, per cluster**: the sphere lights of `source_count` sources (`sources[i]` posed with
-/// `lights[i]` from pass 1) seen by the receiver cluster ball (`center` 3 floats, `radius`), with
-/// the receivers' mean unit `normal` (3 floats, or NULL: no reflection ratios) and the cut at
-/// `theta_max_rad`. One thread at a time per cluster.
+/// `lights[i]` from pass 1) seen by the receiver cluster `spec` (ball, mean normal, θmax,
+/// reflection ratios, overlap correction; see `SphbClusterSpec`). One thread at a time per cluster.
 #[no_mangle]
 pub unsafe extern "C" fn sphb_indirect_cluster_build(
     cluster: *mut SphbIndirectCluster,
@@ -1173,20 +1413,30 @@ pub unsafe extern "C" fn sphb_indirect_cluster_build(
     sources: *const SphbPosed,
     lights: *const *const SphbSphereLights,
     source_count: usize,
-    center: *const f32,
-    radius: f32,
-    normal: *const f32,
-    theta_max_rad: f32,
+    spec: *const SphbClusterSpec,
     err: *mut SphbError,
 ) -> i32 {
     run(err, || {
         let cl = unsafe { object_mut(cluster, "cluster")? };
         let c = unsafe { object(ctx, "ctx")? };
         let srcs = unsafe { sources_of(sources, lights, source_count)? };
-        let centre = unsafe { vec3(center, "center")? };
-        let n = if normal.is_null() { None } else { Some(unsafe { vec3(normal, "normal")? }) };
-        let spec = ClusterSpec { theta_max_rad, ..ClusterSpec::new(centre, radius, n) };
-        cl.ic.build(&c.ctx, &srcs, &spec).map_err(invalid)
+        let spec = cluster_spec_of(unsafe { object(spec, "spec")? })?;
+        cl.ic.build(&c.ctx, &srcs, &spec).map_err(|e| light_fail(&e))
+    })
+}
+
+/// The number of sphere lights in the cluster's cut (0 before the first build) into `*out`.
+/// Thread-safe with other readers; not during a build or query of the same cluster.
+#[no_mangle]
+pub unsafe extern "C" fn sphb_indirect_cluster_light_count(
+    cluster: *const SphbIndirectCluster,
+    out: *mut usize,
+    err: *mut SphbError,
+) -> i32 {
+    run(err, || {
+        let cl = unsafe { object(cluster, "cluster")? };
+        *unsafe { object_mut(out, "out")? } = cl.ic.light_count();
+        Ok(())
     })
 }
 
@@ -1230,7 +1480,7 @@ pub unsafe extern "C" fn sphb_indirect_irradiance(
         let pt = unsafe { vec3(p, "p")? };
         let n = unsafe { vec3(normal, "normal")? };
         let o = unsafe { output(out, 3, 3, "out")? };
-        let e = cl.ic.irradiance(&c.ctx, &srcs, pt, n).map_err(invalid)?;
+        let e = cl.ic.irradiance(&c.ctx, &srcs, pt, n).map_err(|e| light_fail(&e))?;
         o.copy_from_slice(&e);
         Ok(())
     })

@@ -286,6 +286,16 @@ fn drive_shadow(p: *mut SphbProxy, leaves: &[SphbSphere], nodes: Option<&[SphbSp
     );
     assert!(count >= 1);
     let up = [0.0f32, 1.0, 0.0];
+    let mut scale = 0.0f32;
+    assert_eq!(
+        unsafe { sphb_shadow_cluster_correct_overlap(cl, ctx, c.as_ptr(), null(), 64, &mut scale, &mut e) },
+        SPHB_ERR_NULL
+    );
+    assert_eq!(
+        unsafe { sphb_shadow_cluster_correct_overlap(cl, ctx, c.as_ptr(), up.as_ptr(), 64, &mut scale, &mut e) },
+        SPHB_OK
+    );
+    assert!(scale > 0.0 && scale <= 1.0, "{scale}");
     let mut used = 0usize;
     assert_eq!(
         unsafe { sphb_accumulate_log_visibility(cl, c.as_ptr(), up.as_ptr(), log.as_mut_ptr(), 15, &mut used, &mut e) },
@@ -390,16 +400,31 @@ fn drive_light(p: *mut SphbProxy, leaves: &[SphbSphere], joints: &[f32], lit: bo
     };
     let bad = SphbPosed { leaf_count: n - 1, ..posed };
     let th = SPHB_DEFAULT_THETA_MAX_RAD;
-    assert_eq!(unsafe { sphb_light_spheres(ctx, null(), env.as_ptr(), 4, th, lights, &mut e) }, SPHB_ERR_NULL);
+    let set = SphbPass1Settings { theta_max_rad: th };
+    let pass1 = |posed: *const SphbPosed, env_len: usize, others: &[SphbPosed], e: &mut SphbError| unsafe {
+        sphb_light_spheres(
+            ctx,
+            posed,
+            env.as_ptr(),
+            env_len,
+            others.as_ptr(),
+            others.len(),
+            &set,
+            lights,
+            null_mut(),
+            e,
+        )
+    };
+    assert_eq!(pass1(null(), 4, &[], &mut e), SPHB_ERR_NULL);
+    assert_eq!(pass1(&bad, 4, &[], &mut e), SPHB_ERR_INVALID_ARGUMENT);
+    assert_eq!(pass1(&posed, 4, &[bad], &mut e), SPHB_ERR_INVALID_ARGUMENT, "a bad other proxy");
+    assert_eq!(pass1(&posed, 3, &[], &mut e), if lit { SPHB_ERR_INVALID_ARGUMENT } else { SPHB_ERR_MISSING_DATA });
     assert_eq!(
-        unsafe { sphb_light_spheres(ctx, &bad, env.as_ptr(), 4, th, lights, &mut e) },
-        SPHB_ERR_INVALID_ARGUMENT
+        unsafe { sphb_light_spheres(ctx, &posed, env.as_ptr(), 4, null(), 2, &set, lights, null_mut(), &mut e) },
+        SPHB_ERR_NULL,
+        "NULL others with a count"
     );
-    assert_eq!(
-        unsafe { sphb_light_spheres(ctx, &posed, env.as_ptr(), 3, th, lights, &mut e) },
-        if lit { SPHB_ERR_INVALID_ARGUMENT } else { SPHB_ERR_MISSING_DATA }
-    );
-    let status = unsafe { sphb_light_spheres(ctx, &posed, env.as_ptr(), 4, th, lights, &mut e) };
+    let status = pass1(&posed, 4, &[posed], &mut e);
     let mut leaf = [0.0f32; 12];
     if lit {
         assert_eq!(status, SPHB_OK, "{}", message(&e));
@@ -417,31 +442,38 @@ fn drive_light(p: *mut SphbProxy, leaves: &[SphbSphere], joints: &[f32], lit: bo
         let up = [0.0f32, 1.0, 0.0];
         let lp = [lights.cast_const()];
         let srcs = [posed];
+        let mut spec = SphbClusterSpec::default();
+        assert_eq!(unsafe { sphb_cluster_spec_init(c.as_ptr(), 0.5, up.as_ptr(), &mut spec, &mut e) }, SPHB_OK);
+        assert_eq!(unsafe { sphb_cluster_spec_init(c.as_ptr(), 0.5, up.as_ptr(), null_mut(), &mut e) }, SPHB_ERR_NULL);
         assert_eq!(
-            unsafe {
-                sphb_indirect_cluster_build(ic, ctx, srcs.as_ptr(), null(), 1, c.as_ptr(), 0.5, up.as_ptr(), th, &mut e)
-            },
+            unsafe { sphb_indirect_cluster_build(ic, ctx, srcs.as_ptr(), null(), 1, &spec, &mut e) },
             SPHB_ERR_NULL
         );
+        let bad_srcs = [bad];
         assert_eq!(
-            unsafe {
-                sphb_indirect_cluster_build(
-                    ic,
-                    ctx,
-                    srcs.as_ptr(),
-                    lp.as_ptr(),
-                    1,
-                    c.as_ptr(),
-                    0.5,
-                    up.as_ptr(),
-                    th,
-                    &mut e,
-                )
-            },
+            unsafe { sphb_indirect_cluster_build(ic, ctx, bad_srcs.as_ptr(), lp.as_ptr(), 1, &spec, &mut e) },
+            SPHB_ERR_INVALID_ARGUMENT
+        );
+        assert_eq!(
+            unsafe { sphb_indirect_cluster_build(ic, ctx, srcs.as_ptr(), lp.as_ptr(), 1, &spec, &mut e) },
             SPHB_OK,
             "{}",
             message(&e)
         );
+        let mut count = 0usize;
+        assert_eq!(unsafe { sphb_indirect_cluster_light_count(ic, null_mut(), &mut e) }, SPHB_ERR_NULL);
+        assert_eq!(unsafe { sphb_indirect_cluster_light_count(ic, &mut count, &mut e) }, SPHB_OK);
+        assert!(count >= 1);
+        let mut node = [0.0f32; 12];
+        let has_nodes = unsafe { sphb_sphere_lights_node(lights, 0, node.as_mut_ptr(), 12, &mut e) };
+        assert!(has_nodes == SPHB_OK || has_nodes == SPHB_ERR_INVALID_ARGUMENT, "{has_nodes}");
+        let mut len = 0usize;
+        assert_eq!(
+            unsafe { sphb_sphere_lights_sample_radiance(lights, null_mut(), 0, null_mut(), &mut e) },
+            SPHB_ERR_NULL
+        );
+        let short = unsafe { sphb_sphere_lights_sample_radiance(lights, null_mut(), 0, &mut len, &mut e) };
+        assert_eq!(short, if len == 0 { SPHB_OK } else { SPHB_ERR_BUFFER_TOO_SMALL });
         let mut out = [0.0f64; 3];
         assert_eq!(
             unsafe {
