@@ -4,7 +4,7 @@
 #[path = "../tests/common/mod.rs"]
 mod common;
 
-use spherebake_format::{write, SphbFile, Sphere};
+use spherebake_format::{write, write_compact, SphbFile, Sphere};
 
 fn main() -> std::io::Result<()> {
     let dir = std::env::args().nth(1).unwrap_or_else(|| ".".into());
@@ -18,6 +18,8 @@ fn main() -> std::io::Result<()> {
         common::assemble(1, 1, 64, &[(1, common::spheres_body(&[[0.0, 1.0, 0.0, 0.5]])), (42, vec![1, 2, 3, 4])]);
     for (name, bytes) in [
         ("full.sphb", write(&full)),
+        // The compact kinds 8 (samples_q16) and 9 (albedo_sh_f16), format minor 1.
+        ("full_compact.sphb", write_compact(&full).expect("the full fixture encodes")),
         ("minimal.sphb", write(&minimal)),
         ("no_skin.sphb", write(&no_skin)),
         ("unknown_section_minor1.sphb", unknown),
