@@ -21,7 +21,14 @@
 //!      the nearest front-facing segment triangle along −ω (seen *through* the centre; no near
 //!      clip).
 //!
-//!    Texels with nothing hold 0 (the sphere emits nothing there).
+//!    **Uncovered texels** (rule 2, or nothing at all) take the solid-angle-weighted mean colour of
+//!    the sphere's covered texels ([`AlbedoSettings::fill_uncovered`], default on; a sphere with no
+//!    covered texel stays 0). The sphere emits nothing in those directions anyway — the samples'
+//!    rule 2 carries that into the emission L, and the runtime multiplies L by this albedo — so the
+//!    value there is free; 0 would leak into the covered directions through the order-n truncation
+//!    (a one-colour sphere split between two spheres: worst error on each own half below 2e-3
+//!    filled, above 10 % left 0, `tests/albedo_bake.rs`), darkening every segment's edge, the more
+//!    so the more spheres share the surface (indirect light: runtime `light` module docs).
 //! 3. **Colour** = base colour factor × base-colour texture × COLOR_0, linear RGB (alpha is
 //!    ignored). The texture is sampled at the true (perspective-correct) barycentric point,
 //!    with the material's UV set, KHR_texture_transform and wrap modes, trilinearly from a box-
@@ -87,11 +94,20 @@ pub struct AlbedoSettings {
     pub debug_dir: Option<PathBuf>,
     /// Texture level-of-detail choice. Default [`TextureLod::Footprint`].
     pub texture_lod: TextureLod,
+    /// Texels where the sphere has no surface (rule 2, or nothing at all) take the solid-angle-weighted mean colour
+    /// of its covered texels before the projection, instead of 0 (module docs, "Uncovered texels"). Default on.
+    pub fill_uncovered: bool,
 }
 
 impl Default for AlbedoSettings {
     fn default() -> Self {
-        Self { sh_order: 4, cubemap_size: 32, debug_dir: None, texture_lod: TextureLod::Footprint }
+        Self {
+            sh_order: 4,
+            cubemap_size: 32,
+            debug_dir: None,
+            texture_lod: TextureLod::Footprint,
+            fill_uncovered: true,
+        }
     }
 }
 
@@ -180,7 +196,10 @@ pub fn bake_albedo(
     let per_sphere: Vec<(Vec<[f32; 3]>, Option<CubeMap>, SphereCounts)> = (0..spheres.len())
         .into_par_iter()
         .map(|s| {
-            let (texels, counts) = ctx.render_sphere(s);
+            let (mut texels, counts, covered) = ctx.render_sphere(s);
+            if settings.fill_uncovered {
+                ctx.fill_uncovered(&mut texels, &covered);
+            }
             let coeffs = projector.project(&texels);
             let map =
                 if keep { Some(CubeMap { face_size: settings.cubemap_size, texels_linear: texels }) } else { None };
@@ -220,7 +239,7 @@ pub fn render_albedo_cubemaps(
 ) -> Result<(Vec<CubeMap>, AlbedoStats), AlbedoError> {
     let ctx = Context::new(mesh, flip, spheres, settings)?;
     let per_sphere: Vec<(Vec<[f32; 3]>, SphereCounts)> =
-        (0..spheres.len()).into_par_iter().map(|s| ctx.render_sphere(s)).collect();
+        (0..spheres.len()).into_par_iter().map(|s| ctx.render_sphere(s)).map(|(t, c, _)| (t, c)).collect();
     let mut stats = ctx.base_stats();
     let mut maps = Vec::with_capacity(spheres.len());
     for (texels, counts) in per_sphere {
@@ -816,8 +835,33 @@ impl<'a> Context<'a> {
         }
     }
 
-    /// Renders sphere `s`'s cube map (linear RGB, face-major).
-    fn render_sphere(&self, s: usize) -> (Vec<[f32; 3]>, SphereCounts) {
+    /// Sets every texel of sphere `s`'s map where the sphere has no surface (rule 2, or nothing at all) to the
+    /// solid-angle-weighted mean colour of its covered texels (rules 1 and 3); a map with no covered texel stays 0.
+    fn fill_uncovered(&self, texels: &mut [[f32; 3]], covered: &[bool]) {
+        let (mut sum, mut w) = ([0.0f64; 3], 0.0f64);
+        for (t, (v, &c)) in texels.iter().zip(covered).enumerate() {
+            if c {
+                let a = self.grid.nominal_solid_angle(t);
+                for k in 0..3 {
+                    sum[k] += a * f64::from(v[k]);
+                }
+                w += a;
+            }
+        }
+        if w <= 0.0 {
+            return;
+        }
+        let mean = sum.map(|x| (x / w) as f32);
+        for (v, &c) in texels.iter_mut().zip(covered) {
+            if !c {
+                *v = mean;
+            }
+        }
+    }
+
+    /// Renders sphere `s`'s cube map (linear RGB, face-major), with per texel whether a surface point covers it
+    /// (rule 1 or rule 3).
+    fn render_sphere(&self, s: usize) -> (Vec<[f32; 3]>, SphereCounts, Vec<bool>) {
         let centre = self.spheres[s].c;
         let n_texels = self.grid.texel_count();
         // Empty entries: back at distance −∞ (any hit is farther), front at +∞ (any is nearer).
@@ -864,6 +908,7 @@ impl<'a> Context<'a> {
         }
         let mut counts = SphereCounts { triangles: assigned.len() as u64, ..Default::default() };
         let mut out = vec![[0.0f32; 3]; n_texels];
+        let mut covered = vec![false; n_texels];
         for (texel, o) in out.iter_mut().enumerate() {
             let hit = if back[texel].tri != u32::MAX {
                 counts.rule1 += 1;
@@ -879,12 +924,13 @@ impl<'a> Context<'a> {
                 None
             };
             if let Some((h, sgn)) = hit {
+                covered[texel] = true;
                 let c = self.shade(texel, h, sgn);
                 // Non-finite input colours (NaN vertex colours, texels) become 0, never NaN SH.
                 *o = c.map(|v| if v.is_finite() { v as f32 } else { 0.0 });
             }
         }
-        (out, counts)
+        (out, counts, covered)
     }
 
     /// Colour of the surface point `h` seen in texel `texel` (`sgn` −1 when seen through the

@@ -684,3 +684,52 @@ fn hostile_values_do_not_panic_or_leak_nan() {
         assert!(sh.coefficients.iter().flatten().all(|v| v.is_finite()), "{:?}", sh.coefficients);
     }
 }
+
+#[test]
+fn uncovered_directions_take_the_segment_mean_so_a_one_colour_segment_stays_one_colour() {
+    // A one-colour unit sphere split between two spheres at x = ±0.5 (equal radii: each owns its
+    // half). Half of each cube map is another segment's (rule 2). Filled with the segment's mean,
+    // the map is the constant colour, so its SH is exact at every direction; left 0, the order-4
+    // truncation of the step darkens the sphere's own directions near the split.
+    let colour = [0.8f32, 0.6, 0.2];
+    let mut mesh = icosphere(3);
+    mesh.materials[0].base_color_factor_linear = [colour[0], colour[1], colour[2], 1.0];
+    let flip = vec![false; mesh.triangles.len()];
+    let spheres = [[0.5f32, 0.0, 0.0, 1.2], [-0.5, 0.0, 0.0, 1.2]];
+    let worst = |fill: bool| -> f64 {
+        let s = AlbedoSettings { fill_uncovered: fill, ..settings(4, 32) };
+        let (sh, stats) = bake_albedo(&mesh, &flip, &spheres, &s).unwrap();
+        assert!(stats.texels_rule2 > 0, "each sphere must see the other's half");
+        let nc = coeff_count(4);
+        let mut y = vec![0.0; nc];
+        let mut worst = 0.0f64;
+        for (i, c) in spheres.iter().enumerate() {
+            let centre = DVec3::new(f64::from(c[0]), f64::from(c[1]), f64::from(c[2]));
+            for a in 0..40 {
+                for b in 0..80 {
+                    let z = -1.0 + (f64::from(a) + 0.5) / 20.0;
+                    let phi = (f64::from(b) + 0.5) * PI / 40.0;
+                    let r = (1.0 - z * z).sqrt();
+                    let d = DVec3::new(z, r * phi.cos(), r * phi.sin());
+                    // Where the ray from the centre leaves the unit sphere: |centre + t d| = 1.
+                    let bq = centre.dot(d);
+                    let t = -bq + (bq * bq - centre.length_squared() + 1.0).sqrt();
+                    let p = centre + d * t;
+                    // Only the sphere's own half, away from the split by one cube-map texel or so.
+                    if p.x * centre.x.signum() < 0.05 {
+                        continue;
+                    }
+                    eval_sh_f64(4, d.to_array(), &mut y).unwrap();
+                    for (k, want) in colour.iter().enumerate() {
+                        let v: f64 = (0..nc).map(|q| f64::from(sh.coefficients[i * nc + q][k]) * y[q]).sum();
+                        worst = worst.max((v / f64::from(*want) - 1.0).abs());
+                    }
+                }
+            }
+        }
+        worst
+    };
+    let (filled, zero) = (worst(true), worst(false));
+    assert!(filled < 2e-3, "filled: worst relative colour error on the own half {filled}");
+    assert!(zero > 0.1, "left 0, the split should darken the own half near it (worst {zero})");
+}

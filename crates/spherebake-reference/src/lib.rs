@@ -552,6 +552,32 @@ impl<'a> Scene<'a> {
             .collect())
     }
 
+    /// Whether the open segment from `a` to `b` (model space) misses the mesh, both ends pulled in by
+    /// a small tolerance (development aid: point-to-point visibility).
+    #[must_use]
+    pub fn segment_clear(&self, a: [f64; 3], b: [f64; 3]) -> bool {
+        let (a, b) = (DVec3::from(a), DVec3::from(b));
+        let d = b - a;
+        let len = d.length();
+        if len.is_nan() || len <= 4.0 * self.eps {
+            return true;
+        }
+        let w = d / len;
+        let o = (a + w * (2.0 * self.eps)).as_vec3();
+        self.bvh.closest_hit(o, w.as_vec3(), self.eps as f32, (len - 4.0 * self.eps) as f32).is_none()
+    }
+
+    /// The textured albedo of the surface just under the point `p` along its normal `n` (development aid: the
+    /// first hit of a ray from p + δn along −n, δ a small multiple of the scene tolerance), or `None` on a miss.
+    #[must_use]
+    pub fn albedo_near(&self, p: [f64; 3], n: [f64; 3]) -> Option<[f64; 3]> {
+        let (p, n) = (DVec3::from(p), DVec3::from(n).try_normalize()?);
+        let o = (p + n * (50.0 * self.eps)).as_vec3();
+        let hit = self.bvh.closest_hit(o, (-n).as_vec3(), 0.0, (200.0 * self.eps) as f32)?;
+        let (u, v) = (f64::from(hit.u), f64::from(hit.v));
+        Some(self.albedo(hit.triangle as usize, [1.0 - u - v, u, v]))
+    }
+
     /// sky(ω) when the ray from x (geometric normal g) along ω is not blocked by the mesh and
     /// leaves above x's own surface, else 0.
     fn sky_if_unblocked(&self, sky: &Sky, x: DVec3, g: DVec3, w: DVec3) -> f64 {

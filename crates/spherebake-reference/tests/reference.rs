@@ -269,3 +269,29 @@ fn bad_inputs_are_errors() {
     broken.triangles[0][0] = 1 << 20;
     assert!(Scene::new(&broken).is_err(), "vertex index out of range");
 }
+
+#[test]
+fn segment_visibility_and_albedo_under_a_point_follow_the_sphere() {
+    // A unit sphere at (0, 1, 0): a segment between two outside points is blocked exactly when the line passes
+    // within the radius of the centre (distance of the centre to the segment < 1); the albedo just under a
+    // surface point is the sphere's colour, and a point far from any surface finds none.
+    let mesh = uv_sphere_mesh([0.0, 1.0, 0.0], 1.0, 48, 96, ALBEDO);
+    let scene = Scene::new(&mesh).unwrap();
+    for (a, b, clear) in [
+        ([-3.0, 1.0, 0.0], [3.0, 1.0, 0.0], false),
+        ([-3.0, 2.2, 0.0], [3.0, 2.2, 0.0], true),
+        ([-3.0, 1.9, 0.0], [3.0, 1.9, 0.0], false),
+        ([-3.0, 1.0, 0.0], [-1.5, 1.0, 0.0], true),
+        ([2.0, 0.0, 2.0], [2.0, 3.0, -2.0], true),
+    ] {
+        assert_eq!(scene.segment_clear(a, b), clear, "{a:?} → {b:?}");
+    }
+    // A point on the sphere (on a vertex ring, so on the mesh up to its chord error) with its outward normal.
+    let n = [0.6f64, 0.0, 0.8];
+    let p = [n[0], 1.0 + n[1], n[2]];
+    let got = scene.albedo_near(p, n).expect("a surface under the point");
+    for k in 0..3 {
+        assert!((got[k] - f64::from(ALBEDO[k])).abs() < 1e-6, "{got:?} vs {ALBEDO:?}");
+    }
+    assert!(scene.albedo_near([5.0, 5.0, 5.0], [0.0, 1.0, 0.0]).is_none());
+}

@@ -66,16 +66,30 @@
 //!     blob-like models (Duck 0.375 → 0.442, spot 0.176 → 0.323 at 64): there the bounding spheres' mutual
 //!     blocking (they occlude more than the surface inside them) already removes light, and the sphere surface's
 //!     excess area (9 % on the Duck) had balanced it. Tight leaves are therefore left unweighted.
-//!   - *Near field, pass 2*: for a leaf with f < 0.98 seen at an angular radius θ above 20° (or containing the
-//!     receiver), its emission is blended into the *splat* of its own samples ([`splat_irradiance`]): each sample a
+//!   - *Near field, pass 2*: for a leaf with f < 0.98, or with samples in fewer than 95 % of the 92 directions
+//!     (the rest belong to other spheres, rule 2, and the order-n SH smears the sharp edge between emitting and empty
+//!     directions; full weight at 75 %, [`SPLAT_COVER_FULL`]), seen at an angular radius θ above 20° (or containing
+//!     the receiver), its emission is blended into the *splat* of its own samples ([`splat_irradiance`]): each sample a
 //!     facing disk of the area its cell covers on the surface, with the pass-1 radiance L_pj c(ω_j), irradiance
 //!     L A cos_e cos_r / (d² + A/π), times the light's visible share; weight ramp(θ: 20° → 40°) ×
-//!     ramp(f: 0.98 → 0.90) ([`SPLAT_THETA_START`], [`SPLAT_THETA_FULL`]). A tight leaf keeps the SH light, which is
-//!     exact for the known-answer spheres, while 92 disks are not (0.4 % RMSE for a floating sphere, 21 % for one
-//!     touching the ground, where receivers come closer than the samples' spacing).
+//!     max(ramp(f: 0.98 → 0.90), ramp(coverage: 0.95 → 0.75)) ([`SPLAT_THETA_START`], [`SPLAT_THETA_FULL`]). A tight,
+//!     fully covered leaf keeps the SH light, which is exact for the known-answer spheres, while 92 disks are not
+//!     (0.4 % RMSE for a floating sphere, 21 % for one touching the ground, where receivers come closer than the
+//!     samples' spacing). On the shared models every leaf of a 16–256-sphere proxy is below 75 % coverage.
+//!   - *Albedo without zeros*: the bake fills the albedo cube map's directions without surface with the segment's
+//!     mean colour (`spherebake-bake` albedo docs); the emission is 0 there anyway (rule 2, carried by L), and the
+//!     zeros had darkened every segment's edge through the order-4 truncation of c (L ∗ c, eq. 11) more the more
+//!     spheres there are. Check: the splat of the samples with traced radiance, traced albedo and ray-cast
+//!     visibility (`spherebake light --splat-oracle`, a hidden dev aid) gives the same ground error with the filled
+//!     albedo SH as with the true albedo (Duck 0.308 vs 0.308, spot 0.085 vs 0.097, CesiumMan 0.220 vs 0.221 at 64
+//!     spheres), against 0.394 / 0.202 / 0.283 with the zeros.
 //!   - Measured (4096 rays, uniform sky; ground rel RMSE at 16 | 64 | 256 spheres): Duck 0.371 | 0.375 | 0.457 →
-//!     0.307 | 0.338 | 0.437, spot 0.394 | 0.176 | 0.291 → 0.209 | 0.146 | 0.291, CesiumMan 1.751 | 0.761 | 0.530
-//!     → 0.421 | 0.265 | 0.332. A unit ball in a 1.4× bounding sphere: 0.93 → 0.047 (`tests/light_known.rs`).
+//!     0.307 | 0.338 | 0.437 (area weights and splat of loose leaves) → 0.314 | 0.335 | 0.290 (filled albedo,
+//!     coverage splat), spot 0.394 | 0.176 | 0.291 → 0.209 | 0.146 | 0.291 → 0.310 | 0.129 | 0.184, CesiumMan
+//!     1.751 | 0.761 | 0.530 → 0.421 | 0.265 | 0.332 → 0.481 | 0.270 | 0.317; model receivers at 64: 1.47 / 1.02 /
+//!     0.53 → 0.955 / 0.776 / 0.441. A unit ball in a 1.4× bounding sphere: 0.93 → 0.047 (`tests/light_known.rs`).
+//!   - Pass 1 is not what limits this: with the traced sample radiance instead of the log-SH pass 1
+//!     (`--pass1-reference`, via [`light_spheres_from_radiance`]) the errors stay within 0.01–0.05 of these.
 //! - **One radiance per direction.** Lights that contain the receiver all touch its tangent plane after the
 //!   self-shadowing rules and intersect, so none blocks another; their cosine-weighted shares are scaled down to the
 //!   union of their caps (24 fixed directions per cap) when they add up to more.
@@ -589,20 +603,9 @@ pub fn light_spheres(
         let rot = posed.rotation(i);
         let c_rest = rest.get(i).map_or(s.center, |r| r.center);
         let r_rest = f64::from(rest.get(i).map_or(s.radius, |r| r.radius)).max(1e-30);
-        let fill = leaf_fill(pts, c_rest, r_rest);
-        out.leaf_fill[i] = fill as f32;
-        let loose = ((AREA_FILL_TIGHT - fill) / (AREA_FILL_TIGHT - AREA_FILL_LOOSE)).clamp(0.0, 1.0);
-        let mut l_i = [0.0f64; MAX_COEFFS];
+        out.leaf_fill[i] = leaf_fill(pts, c_rest, r_rest) as f32;
         for (k, sp) in pts.iter().enumerate() {
             let rel = [sp.position[0] - c_rest[0], sp.position[1] - c_rest[1], sp.position[2] - c_rest[2]];
-            let area_w = if loose > 0.0 {
-                let t2 = f64::from(rel[0] * rel[0] + rel[1] * rel[1] + rel[2] * rel[2]);
-                let t = spherebake_sh::sqrt_f64(t2).max(1e-30);
-                let nd = (f64::from(rel[0] * sp.normal[0] + rel[1] * sp.normal[1] + rel[2] * sp.normal[2]) / t).abs();
-                1.0 + loose * (t2 / (r_rest * r_rest) / nd.max(SPLAT_MIN_COS) - 1.0)
-            } else {
-                1.0
-            };
             let r = rotate(&rot, rel);
             let p = [r[0] + s.center[0], r[1] + s.center[1], r[2] + s.center[2]];
             let n = rotate(&rot, sp.normal);
@@ -620,6 +623,93 @@ pub fn light_spheres(
                 *slot = lp as f32;
             }
             stats.samples += 1;
+        }
+    }
+    project_sample_radiance(ctx, posed, out)?;
+    Ok(stats)
+}
+
+/// Pass 1 with the samples' exit radiance given instead of computed: `radiance` holds L_pj per unit albedo for
+/// every sample in the order of `Proxy::samples` (for example from an engine's own direct lighting, or a ray
+/// tracer); projection, albedo product and node lights as in [`light_spheres`].
+///
+/// # Errors
+///
+/// As [`light_spheres`]; `radiance` of another length than the sample count.
+pub fn light_spheres_from_radiance(
+    ctx: &LightContext,
+    posed: &PosedProxy<'_>,
+    radiance: &[f32],
+    out: &mut SphereLights,
+) -> Result<(), LightError> {
+    posed.check()?;
+    let proxy = posed.proxy;
+    let samples = proxy.samples().ok_or(LightError::NoSamples)?;
+    check_len("radiance", samples.total(), radiance.len())?;
+    let albedo = proxy.albedo_sh().ok_or(LightError::NoAlbedo)?;
+    let order = ctx.order();
+    let albedo_order = usize::from(albedo.order);
+    if order > albedo_order {
+        return Err(LightError::AlbedoOrder { order, albedo_order });
+    }
+    let n_leaves = posed.leaves.len();
+    out.order = order;
+    out.sample_radiance.clear();
+    out.sample_radiance.extend(radiance.iter().map(|&v| v.max(0.0)));
+    out.leaf_fill.clear();
+    out.leaf_fill.resize(n_leaves, 1.0);
+    let rest = proxy.spheres();
+    for i in 0..n_leaves {
+        let s = posed.leaves[i];
+        let c_rest = rest.get(i).map_or(s.center, |r| r.center);
+        let r_rest = f64::from(rest.get(i).map_or(s.radius, |r| r.radius)).max(1e-30);
+        out.leaf_fill[i] = leaf_fill(proxy.samples_of(i), c_rest, r_rest) as f32;
+    }
+    project_sample_radiance(ctx, posed, out)
+}
+
+/// Projects `out.sample_radiance` onto each leaf's SH (eq. 9–10, with the area weights of loose leaves), multiplies
+/// by the albedo SH (eq. 11), stores the Voronoi functions and derives the node lights.
+fn project_sample_radiance(
+    ctx: &LightContext,
+    posed: &PosedProxy<'_>,
+    out: &mut SphereLights,
+) -> Result<(), LightError> {
+    let order = out.order;
+    let nc = coeff_count(order);
+    let proxy = posed.proxy;
+    let n_leaves = posed.leaves.len();
+    out.leaf.clear();
+    out.leaf.resize(n_leaves * nc, [0.0; 3]);
+    out.leaf_cells.clear();
+    out.leaf_cells.resize(n_leaves * GEODESIC_DIRECTION_COUNT, [0.0; 3]);
+    let rest = proxy.spheres();
+    let tp = ctx.shadow.triple_product();
+    let mut sample_base = 0usize;
+    for i in 0..n_leaves {
+        let pts = proxy.samples_of(i);
+        let first = sample_base;
+        sample_base += pts.len();
+        if pts.is_empty() {
+            continue;
+        }
+        let s = posed.leaves[i];
+        let c_rest = rest.get(i).map_or(s.center, |r| r.center);
+        let r_rest = f64::from(rest.get(i).map_or(s.radius, |r| r.radius)).max(1e-30);
+        let fill = f64::from(out.leaf_fill.get(i).copied().unwrap_or(1.0));
+        let loose = ((AREA_FILL_TIGHT - fill) / (AREA_FILL_TIGHT - AREA_FILL_LOOSE)).clamp(0.0, 1.0);
+        let mut l_i = [0.0f64; MAX_COEFFS];
+        for (k, sp) in pts.iter().enumerate() {
+            let rel = [sp.position[0] - c_rest[0], sp.position[1] - c_rest[1], sp.position[2] - c_rest[2]];
+            let area_w = if loose > 0.0 {
+                let t2 = f64::from(rel[0] * rel[0] + rel[1] * rel[1] + rel[2] * rel[2]);
+                let t = spherebake_sh::sqrt_f64(t2).max(1e-30);
+                let nd = (f64::from(rel[0] * sp.normal[0] + rel[1] * sp.normal[1] + rel[2] * sp.normal[2]) / t).abs();
+                1.0 + loose * (t2 / (r_rest * r_rest) / nd.max(SPLAT_MIN_COS) - 1.0)
+            } else {
+                1.0
+            };
+            let lp = f64::from(out.sample_radiance.get(first + k).copied().unwrap_or(0.0));
             if let Some(y) = voronoi_cell_basis(usize::from(sp.direction), order) {
                 for c in 0..nc {
                     l_i[c] += area_w * lp * f64::from(y[c]);
@@ -661,8 +751,7 @@ pub fn light_spheres(
             }
         }
     }
-    derive_node_lights(posed, out)?;
-    Ok(stats)
+    derive_node_lights(posed, out)
 }
 
 /// Mean t_j / r of a leaf's samples (t_j: distance from the rest centre), 1 without samples.
@@ -1195,7 +1284,12 @@ impl IndirectCluster {
                 let theta_raw = if d2 <= r * r { core::f32::consts::FRAC_PI_2 } else { asin_f32(r * rsqrt_f32(d2)) };
                 if theta_raw > lo {
                     let fill = f64::from(lights.leaf_fill.get(leaf as usize).copied().unwrap_or(1.0));
-                    let fw = ((SPLAT_FILL_TIGHT - fill) / (SPLAT_FILL_TIGHT - SPLAT_FILL_LOOSE)).clamp(0.0, 1.0) as f32;
+                    let fw_fill = ((SPLAT_FILL_TIGHT - fill) / (SPLAT_FILL_TIGHT - SPLAT_FILL_LOOSE)).clamp(0.0, 1.0);
+                    let cover =
+                        posed_src.proxy.samples_of(leaf as usize).len() as f64 / GEODESIC_DIRECTION_COUNT as f64;
+                    let fw_cover =
+                        ((SPLAT_COVER_FULL - cover) / (SPLAT_COVER_FULL - SPLAT_COVER_PARTIAL)).clamp(0.0, 1.0);
+                    let fw = fw_fill.max(fw_cover) as f32;
                     splat_t = fw * ((theta_raw - lo) / (hi - lo)).clamp(0.0, 1.0);
                     if splat_t > 0.0 {
                         splat = splat_irradiance(posed_src, lights, leaf as usize, p, normal);
@@ -1417,6 +1511,12 @@ pub const SPLAT_THETA_FULL: f32 = 0.698_131_7;
 const SPLAT_FILL_TIGHT: f64 = 0.98;
 /// Fill at and below which the splat gets its full weight: the bounding sphere stands away from its surface.
 const SPLAT_FILL_LOOSE: f64 = 0.90;
+/// Share of the 92 directions with a sample at and above which a leaf's splat is not used for its coverage: its
+/// emission is smooth over the whole sphere, which the order-n SH light represents (the known-answer spheres).
+const SPLAT_COVER_FULL: f64 = 0.95;
+/// Share of directions with a sample at and below which the splat gets its full weight: the rest are other spheres'
+/// directions (rule 2), and the order-n SH smears the sharp edge between emitting and empty directions.
+const SPLAT_COVER_PARTIAL: f64 = 0.75;
 /// Smallest |n·ω| of a sample's area element t² Ω_cell / |n·ω| (grazing samples: area at most 5× the cell's).
 const SPLAT_MIN_COS: f64 = 0.2;
 

@@ -8,7 +8,8 @@ mod common;
 use common::{sphere_proxy, uniform_sky};
 
 use spherebake_runtime::light::{
-    light_spheres, ClusterSpec, IndirectCluster, LightContext, Pass1Settings, PosedProxy, SphereLights,
+    light_spheres, light_spheres_from_radiance, ClusterSpec, IndirectCluster, LightContext, LightError, Pass1Settings,
+    PosedProxy, SphereLights,
 };
 use spherebake_runtime::shadow::ExpMethod;
 use spherebake_runtime::{Proxy, Sphere, GEODESIC_DIRECTIONS};
@@ -161,4 +162,54 @@ fn a_loose_sphere_lights_the_ground_as_the_surface_it_bounds() {
     println!("loose sphere: relative RMSE {rel:.4} (the bounding sphere as the emitter: {rel_big:.4})");
     assert!(rel_big > 0.5, "the bounding sphere is a poor emitter here: {rel_big}");
     assert!(rel <= 0.07, "loose sphere: {rel} (the bounding sphere as the emitter: {rel_big})");
+}
+
+#[test]
+fn given_sample_radiance_lights_the_ground_as_the_analytic_sphere() {
+    // Pass 1 with the radiance handed in: each sample gets the analytic exit radiance (1 + n_y)/2 of an unoccluded
+    // sphere under the upper-hemisphere sky (computed here, not by the library), and pass 2 must give the same
+    // integrated one-bounce answer as the full pass 1 does (ceiling of that test). Half the radiance halves the
+    // ground light (linearity), and a radiance slice of the wrong length is refused.
+    let albedo = [0.3f32, 0.6, 0.9];
+    let proxy = sphere_proxy(&[(Sphere { center: [0.0, 2.0, 0.0], radius: 1.0 }, albedo)], 4);
+    let ctx = LightContext::new(4, ExpMethod::default()).unwrap();
+    let posed = PosedProxy::at_rest(&proxy);
+    let radiance: Vec<f32> = proxy.samples_of(0).iter().map(|sp| 0.5 * (1.0 + sp.normal[1])).collect();
+    let xs: Vec<[f32; 3]> = (0..12).map(|i| [-3.0 + 0.5 * i as f32 + 0.25, 0.0, 0.4]).collect();
+    let ground = |scale: f32| -> Vec<[f64; 3]> {
+        let r: Vec<f32> = radiance.iter().map(|v| v * scale).collect();
+        let mut lights = SphereLights::new();
+        light_spheres_from_radiance(&ctx, &posed, &r, &mut lights).unwrap();
+        let sources = [(posed, &lights)];
+        let mut cl = IndirectCluster::new();
+        xs.iter()
+            .map(|&x| {
+                let spec = ClusterSpec { theta_max_rad: 0.0, ..ClusterSpec::new(x, 0.0, Some([0.0, 1.0, 0.0])) };
+                cl.build(&ctx, &sources, &spec).unwrap();
+                cl.irradiance(&ctx, &sources, x, [0.0, 1.0, 0.0]).unwrap()
+            })
+            .collect()
+    };
+    let full = ground(1.0);
+    let (mut se, mut sum) = (0.0, 0.0);
+    for (x, g) in xs.iter().zip(&full) {
+        let want = analytic_ground([0.0, 2.0, 0.0], 1.0, 1.0, x.map(f64::from));
+        for c in 0..3 {
+            let w = want * f64::from(albedo[c]);
+            se += (g[c] - w).powi(2);
+            sum += w;
+        }
+    }
+    let count = (xs.len() * 3) as f64;
+    let rel_rmse = (se / count).sqrt() / (sum / count);
+    assert!(rel_rmse <= 2e-3, "relative RMSE {rel_rmse}");
+    for (h, f) in ground(0.5).iter().zip(&full) {
+        for c in 0..3 {
+            assert!((h[c] - 0.5 * f[c]).abs() <= 1e-6 * (1.0 + f[c].abs()), "{h:?} vs half of {f:?}");
+        }
+    }
+    let mut lights = SphereLights::new();
+    let short = &radiance[..radiance.len() - 1];
+    let e = light_spheres_from_radiance(&ctx, &posed, short, &mut lights).unwrap_err();
+    assert!(matches!(e, LightError::SliceLength { argument: "radiance", .. }), "{e:?}");
 }

@@ -104,6 +104,15 @@ pub struct LightArgs {
     /// rays, seed) in this folder and reuse it on the next run instead of tracing it again
     #[arg(long, value_name = "DIR", hide = true)]
     pub reference_cache: Option<PathBuf>,
+    /// Development aid: run pass 2 on sphere lights projected from the traced sample radiance
+    /// (the pass-1 reference) instead of the log-SH pass 1, to separate the two passes' errors
+    #[arg(long, hide = true)]
+    pub pass1_reference: bool,
+    /// Development aid: replace the ground's proxy values by the splat of every sample (traced
+    /// sample radiance, traced albedo under the sample, ray-traced visibility): the error that
+    /// remains is that of the samples themselves as emitters
+    #[arg(long, hide = true)]
+    pub splat_oracle: bool,
 }
 
 /// Error statistics of one quantity over receivers and channels.
@@ -559,6 +568,10 @@ pub fn compute(a: &LightArgs, proxy: &Proxy, mesh: &spherebake_geom::Mesh) -> Re
     let sample_proxy: Vec<f64> =
         if check_samples { lights.sample_radiance().iter().map(|&v| f64::from(v)).collect() } else { Vec::new() };
     let reference_seconds = reference_seconds + start.elapsed().as_secs_f64();
+    if a.pass1_reference && check_samples {
+        let r: Vec<f32> = sample_reference.iter().map(|&v| v as f32).collect();
+        spherebake_runtime::light::light_spheres_from_radiance(&ctx, &posed, &r, &mut lights)?;
+    }
 
     // Pass 2.
     let start = Instant::now();
@@ -639,6 +652,61 @@ pub fn compute(a: &LightArgs, proxy: &Proxy, mesh: &spherebake_geom::Mesh) -> Re
         }
     }
     let pass2_seconds = start.elapsed().as_secs_f64();
+    if a.splat_oracle && check_samples {
+        // Each sample: position, normal, area, radiance × albedo.
+        type Emitter = ([f64; 3], [f64; 3], f64, [f64; 3]);
+        let cell = 4.0 * PI / spherebake_runtime::GEODESIC_DIRECTIONS.len() as f64;
+        let mut em: Vec<Emitter> = Vec::new();
+        let mut k = 0usize;
+        let mut missed = 0usize;
+        for (i, s) in leaves.iter().enumerate() {
+            for sp in proxy.samples_of(i) {
+                let rel = [0, 1, 2].map(|q| f64::from(sp.position[q] - s.center[q]));
+                let t2 = rel[0] * rel[0] + rel[1] * rel[1] + rel[2] * rel[2];
+                let t = t2.sqrt().max(1e-30);
+                let n = sp.normal.map(f64::from);
+                let nd = ((rel[0] * n[0] + rel[1] * n[1] + rel[2] * n[2]) / t).abs();
+                let area = t2 * cell / nd.max(0.2);
+                // The true albedo under the sample (the proxy's albedo SH is what is being checked).
+                let Some(al) = scene.albedo_near(sp.position.map(f64::from), n) else {
+                    missed += 1;
+                    k += 1;
+                    continue;
+                };
+                let c = [0, 1, 2].map(|ch| al[ch] * sample_reference[k]);
+                em.push((sp.position.map(f64::from), n, area, c));
+                k += 1;
+            }
+        }
+        if missed > 0 {
+            eprintln!(
+                "splat oracle: {missed} of {} samples found no surface under them and emit nothing",
+                missed + em.len()
+            );
+        }
+        ground_proxy.par_iter_mut().zip(ground.par_iter()).for_each(|(out, r)| {
+            let mut e = [0.0; 3];
+            for (x, n, area, c) in &em {
+                let w = [0, 1, 2].map(|q| r.position[q] - x[q]);
+                let dd = w[0] * w[0] + w[1] * w[1] + w[2] * w[2];
+                let dl = dd.sqrt().max(1e-30);
+                let ce = (w[0] * n[0] + w[1] * n[1] + w[2] * n[2]) / dl;
+                let cr = -(w[0] * r.normal[0] + w[1] * r.normal[1] + w[2] * r.normal[2]) / dl;
+                if ce <= 0.0 || cr <= 0.0 {
+                    continue;
+                }
+                let xo = [0, 1, 2].map(|q| x[q] + n[q] * 1e-4 * dl);
+                if !scene.segment_clear(r.position, xo) {
+                    continue;
+                }
+                let kf = area * ce * cr / (dd + area / PI);
+                for ch in 0..3 {
+                    e[ch] += kf * c[ch];
+                }
+            }
+            *out = e;
+        });
+    }
 
     // Direct light on the ground: the shadow query as `spherebake shadows` runs it.
     let start = Instant::now();
