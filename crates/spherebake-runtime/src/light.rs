@@ -564,22 +564,10 @@ pub fn light_spheres(
         o.check()?;
     }
     let proxy = posed.proxy;
-    let samples = proxy.samples().ok_or(LightError::NoSamples)?;
-    let albedo = proxy.albedo_sh().ok_or(LightError::NoAlbedo)?;
-    let albedo_order = usize::from(albedo.order);
-    if order > albedo_order {
-        return Err(LightError::AlbedoOrder { order, albedo_order });
-    }
-    let n_leaves = posed.leaves.len();
-    out.order = order;
-    out.leaf.clear();
-    out.leaf.resize(n_leaves * nc, [0.0; 3]);
+    let total = prepare_lights(ctx, posed, out)?;
     out.sample_radiance.clear();
-    out.sample_radiance.resize(samples.total(), 0.0);
-    out.leaf_cells.clear();
-    out.leaf_cells.resize(n_leaves * GEODESIC_DIRECTION_COUNT, [0.0; 3]);
-    out.leaf_fill.clear();
-    out.leaf_fill.resize(n_leaves, 1.0);
+    out.sample_radiance.resize(total, 0.0);
+    let n_leaves = posed.leaves.len();
 
     let rest = proxy.spheres();
     let tp = ctx.shadow.triple_product();
@@ -602,8 +590,6 @@ pub fn light_spheres(
         }
         let rot = posed.rotation(i);
         let c_rest = rest.get(i).map_or(s.center, |r| r.center);
-        let r_rest = f64::from(rest.get(i).map_or(s.radius, |r| r.radius)).max(1e-30);
-        out.leaf_fill[i] = leaf_fill(pts, c_rest, r_rest) as f32;
         for (k, sp) in pts.iter().enumerate() {
             let rel = [sp.position[0] - c_rest[0], sp.position[1] - c_rest[1], sp.position[2] - c_rest[2]];
             let r = rotate(&rot, rel);
@@ -643,29 +629,33 @@ pub fn light_spheres_from_radiance(
     out: &mut SphereLights,
 ) -> Result<(), LightError> {
     posed.check()?;
+    let total = prepare_lights(ctx, posed, out)?;
+    check_len("radiance", total, radiance.len())?;
+    out.sample_radiance.clear();
+    out.sample_radiance.extend(radiance.iter().map(|&v| v.max(0.0)));
+    project_sample_radiance(ctx, posed, out)
+}
+
+/// Checks that the proxy has samples and albedo of at least the light order, sets `out`'s order and every leaf's
+/// fill; returns the sample count.
+fn prepare_lights(ctx: &LightContext, posed: &PosedProxy<'_>, out: &mut SphereLights) -> Result<usize, LightError> {
     let proxy = posed.proxy;
     let samples = proxy.samples().ok_or(LightError::NoSamples)?;
-    check_len("radiance", samples.total(), radiance.len())?;
     let albedo = proxy.albedo_sh().ok_or(LightError::NoAlbedo)?;
     let order = ctx.order();
     let albedo_order = usize::from(albedo.order);
     if order > albedo_order {
         return Err(LightError::AlbedoOrder { order, albedo_order });
     }
-    let n_leaves = posed.leaves.len();
     out.order = order;
-    out.sample_radiance.clear();
-    out.sample_radiance.extend(radiance.iter().map(|&v| v.max(0.0)));
-    out.leaf_fill.clear();
-    out.leaf_fill.resize(n_leaves, 1.0);
     let rest = proxy.spheres();
-    for i in 0..n_leaves {
-        let s = posed.leaves[i];
+    out.leaf_fill.clear();
+    out.leaf_fill.extend(posed.leaves.iter().enumerate().map(|(i, s)| {
         let c_rest = rest.get(i).map_or(s.center, |r| r.center);
         let r_rest = f64::from(rest.get(i).map_or(s.radius, |r| r.radius)).max(1e-30);
-        out.leaf_fill[i] = leaf_fill(proxy.samples_of(i), c_rest, r_rest) as f32;
-    }
-    project_sample_radiance(ctx, posed, out)
+        leaf_fill(proxy.samples_of(i), c_rest, r_rest) as f32
+    }));
+    Ok(samples.total())
 }
 
 /// Projects `out.sample_radiance` onto each leaf's SH (eq. 9–10, with the area weights of loose leaves), multiplies

@@ -78,7 +78,33 @@ fn ground_irradiance(proxy: &Proxy, ctx: &LightContext, xs: &[[f32; 3]]) -> Vec<
     let mut lights = SphereLights::new();
     let posed = PosedProxy::at_rest(proxy);
     light_spheres(ctx, &posed, &env, &[], &Pass1Settings::default(), &mut lights).unwrap();
-    let sources = [(posed, &lights)];
+    ground_from_lights(ctx, posed, &lights, xs)
+}
+
+/// Relative RMSE (over receivers and channels, / mean) of `got` against the analytic one-bounce ground light of a
+/// unit sphere at `c` with albedo `albedo`.
+fn rel_rmse_vs_analytic(xs: &[[f32; 3]], got: &[[f64; 3]], c: [f64; 3], albedo: [f32; 3]) -> f64 {
+    let (mut se, mut sum) = (0.0, 0.0);
+    for (x, g) in xs.iter().zip(got) {
+        let want = analytic_ground(c, 1.0, 1.0, x.map(f64::from));
+        for k in 0..3 {
+            let w = want * f64::from(albedo[k]);
+            se += (g[k] - w).powi(2);
+            sum += w;
+        }
+    }
+    let count = (xs.len() * 3) as f64;
+    (se / count).sqrt() / (sum / count)
+}
+
+/// Pass 2 at ground receivers `xs` (normal +y, one cluster per receiver, no hierarchy cut).
+fn ground_from_lights(
+    ctx: &LightContext,
+    posed: PosedProxy<'_>,
+    lights: &SphereLights,
+    xs: &[[f32; 3]],
+) -> Vec<[f64; 3]> {
+    let sources = [(posed, lights)];
     let mut cl = IndirectCluster::new();
     xs.iter()
         .map(|&x| {
@@ -106,18 +132,7 @@ fn one_sphere_on_the_ground_matches_the_integrated_one_bounce() {
             }
         }
         let got = ground_irradiance(&proxy, &ctx, &xs);
-        let mut se = 0.0;
-        let mut sum = 0.0;
-        for (x, g) in xs.iter().zip(&got) {
-            let want = analytic_ground([0.0, f64::from(height), 0.0], 1.0, 1.0, x.map(f64::from));
-            for c in 0..3 {
-                let w = want * f64::from(albedo[c]);
-                se += (g[c] - w).powi(2);
-                sum += w;
-            }
-        }
-        let count = (xs.len() * 3) as f64;
-        let rel_rmse = (se / count).sqrt() / (sum / count);
+        let rel_rmse = rel_rmse_vs_analytic(&xs, &got, [0.0, f64::from(height), 0.0], albedo);
         println!("one sphere at height {height}: relative RMSE {rel_rmse:.4}");
         assert!(rel_rmse <= ceiling, "height {height}: relative RMSE {rel_rmse}");
     }
@@ -180,28 +195,10 @@ fn given_sample_radiance_lights_the_ground_as_the_analytic_sphere() {
         let r: Vec<f32> = radiance.iter().map(|v| v * scale).collect();
         let mut lights = SphereLights::new();
         light_spheres_from_radiance(&ctx, &posed, &r, &mut lights).unwrap();
-        let sources = [(posed, &lights)];
-        let mut cl = IndirectCluster::new();
-        xs.iter()
-            .map(|&x| {
-                let spec = ClusterSpec { theta_max_rad: 0.0, ..ClusterSpec::new(x, 0.0, Some([0.0, 1.0, 0.0])) };
-                cl.build(&ctx, &sources, &spec).unwrap();
-                cl.irradiance(&ctx, &sources, x, [0.0, 1.0, 0.0]).unwrap()
-            })
-            .collect()
+        ground_from_lights(&ctx, posed, &lights, &xs)
     };
     let full = ground(1.0);
-    let (mut se, mut sum) = (0.0, 0.0);
-    for (x, g) in xs.iter().zip(&full) {
-        let want = analytic_ground([0.0, 2.0, 0.0], 1.0, 1.0, x.map(f64::from));
-        for c in 0..3 {
-            let w = want * f64::from(albedo[c]);
-            se += (g[c] - w).powi(2);
-            sum += w;
-        }
-    }
-    let count = (xs.len() * 3) as f64;
-    let rel_rmse = (se / count).sqrt() / (sum / count);
+    let rel_rmse = rel_rmse_vs_analytic(&xs, &full, [0.0, 2.0, 0.0], albedo);
     assert!(rel_rmse <= 2e-3, "relative RMSE {rel_rmse}");
     for (h, f) in ground(0.5).iter().zip(&full) {
         for c in 0..3 {
