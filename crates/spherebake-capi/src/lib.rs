@@ -489,6 +489,108 @@ unsafe fn put_opt<T>(ptr: *mut T, v: T, what: &str) -> Res<()> {
     Ok(())
 }
 
+/// A borrowed input of at least `need` values: `len < need` is `SPHB_ERR_BUFFER_TOO_SMALL`; the
+/// first `need` values are returned.
+///
+/// # Safety
+/// As [`input`].
+unsafe fn input_min<'a, T>(ptr: *const T, len: usize, need: usize, what: &str) -> Res<&'a [T]> {
+    if len < need {
+        return Err(fail(SPHB_ERR_BUFFER_TOO_SMALL, format!("{what} holds {len} values, {need} needed")));
+    }
+    unsafe { input(ptr, need, what) }
+}
+
+/// `count` column-major 4×4 matrices (16 floats each) at `ptr`.
+///
+/// # Safety
+/// As [`input`].
+unsafe fn matrices_in<'a>(ptr: *const f32, count: usize, what: &str) -> Res<&'a [[f32; 16]]> {
+    let floats = count.checked_mul(16).ok_or_else(|| invalid(format!("{what}: count {count} is too large")))?;
+    Ok(matrices(unsafe { input(ptr, floats, what)? }))
+}
+
+/// `Some` of the 3 floats at `ptr`, `None` for NULL (an optional vector).
+///
+/// # Safety
+/// As [`input`].
+unsafe fn opt_vec3(ptr: *const f32, what: &str) -> Res<Option<[f32; 3]>> {
+    if ptr.is_null() {
+        Ok(None)
+    } else {
+        unsafe { vec3(ptr, what) }.map(Some)
+    }
+}
+
+/// The proxy's hierarchy plan with the `count` node spheres at `nodes`, or `None` when `nodes` is
+/// NULL or the proxy has no hierarchy (all leaves under one implicit root).
+///
+/// # Safety
+/// As [`input`].
+unsafe fn hierarchy_of<'a>(
+    p: &'a SphbProxy,
+    nodes: *const SphbSphere,
+    count: usize,
+    what: &str,
+) -> Res<Option<(&'a HierarchyPlan, &'a [Sphere])>> {
+    match (&p.plan, nodes.is_null()) {
+        (Some(plan), false) => Ok(Some((plan, spheres_of(unsafe { input(nodes, count, what)? })))),
+        _ => Ok(None),
+    }
+}
+
+/// The SH order as an index, refusing orders outside 1..=8.
+fn sh_order(order: u32) -> Res<usize> {
+    if (1..=8).contains(&order) {
+        Ok(order as usize)
+    } else {
+        Err(invalid(format!("order {order} outside 1..=8")))
+    }
+}
+
+/// Copies RGB SH coefficients into `out` (`out_len` floats, at least 3 per coefficient); an
+/// empty `coefficients` (index out of range) is `SPHB_ERR_INVALID_ARGUMENT` naming `what`.
+///
+/// # Safety
+/// As [`output`].
+unsafe fn copy_rgb(coefficients: &[[f32; 3]], out: *mut f32, out_len: usize, what: &str) -> Res<()> {
+    if coefficients.is_empty() {
+        return Err(invalid(format!("{what} has no light")));
+    }
+    let o = unsafe { output(out, out_len, 3 * coefficients.len(), "out")? };
+    for (d, v) in o.chunks_exact_mut(3).zip(coefficients) {
+        d.copy_from_slice(v);
+    }
+    Ok(())
+}
+
+/// A new heap object for C (`*_new` without arguments): NULL if making it panicked.
+fn new_object<T>(make: impl FnOnce() -> T) -> *mut T {
+    catch_unwind(AssertUnwindSafe(|| Box::into_raw(Box::new(make())))).unwrap_or(core::ptr::null_mut())
+}
+
+/// Stores a new heap object in `*out` (NULL first, so a failure leaves NULL there).
+///
+/// # Safety
+/// `out` as [`object_mut`].
+unsafe fn new_object_into<T>(out: *mut *mut T, make: impl FnOnce() -> Res<T>) -> Res<()> {
+    let o = unsafe { object_mut(out, "out")? };
+    *o = core::ptr::null_mut();
+    *o = Box::into_raw(Box::new(make()?));
+    Ok(())
+}
+
+/// Frees an object of [`new_object`] / [`new_object_into`]; NULL does nothing.
+///
+/// # Safety
+/// `ptr` is NULL or came from this library's `*_new` for `T` and is freed once.
+unsafe fn free_object<T>(ptr: *mut T) {
+    if !ptr.is_null() {
+        // SAFETY: the caller's contract above.
+        let _ = catch_unwind(AssertUnwindSafe(|| drop(unsafe { Box::from_raw(ptr) })));
+    }
+}
+
 fn spheres_of(s: &[SphbSphere]) -> &[Sphere] {
     // SAFETY: identical repr(C) layout (asserted above).
     unsafe { core::slice::from_raw_parts(s.as_ptr().cast::<Sphere>(), s.len()) }
@@ -543,39 +645,31 @@ pub extern "C" fn sphb_version() -> *const c_char {
 /// violated rule ID.
 #[no_mangle]
 pub unsafe extern "C" fn sphb_load(bytes: *const u8, len: usize, out: *mut *mut SphbProxy, err: *mut SphbError) -> i32 {
-    run(err, || {
-        check_ptr(out.cast_const(), "out")?;
-        // SAFETY: checked non-null and aligned.
-        unsafe { out.write(core::ptr::null_mut()) };
-        let data = unsafe { input(bytes, len, "bytes")? };
-        let proxy = spherebake_runtime::load(data).map_err(|e| from_validation(&e))?;
-        let plan = proxy.hierarchy_plan();
-        let metadata = proxy.metadata().map_or_else(Vec::new, |m| {
-            let mut v = vec![
-                ("tool_version".to_string(), m.tool_version.clone()),
-                ("settings".to_string(), m.settings.clone()),
-                ("input_hash".to_string(), m.input_hash.clone()),
-                ("units".to_string(), m.units.clone()),
-            ];
-            v.extend(m.extra.iter().cloned());
-            v
-        });
-        let boxed = Box::new(SphbProxy { proxy, plan, metadata });
-        // SAFETY: checked above.
-        unsafe { out.write(Box::into_raw(boxed)) };
-        Ok(())
+    run(err, || unsafe {
+        new_object_into(out, || {
+            let data = input(bytes, len, "bytes")?;
+            let proxy = spherebake_runtime::load(data).map_err(|e| from_validation(&e))?;
+            let plan = proxy.hierarchy_plan();
+            let metadata = proxy.metadata().map_or_else(Vec::new, |m| {
+                let mut v = vec![
+                    ("tool_version".to_string(), m.tool_version.clone()),
+                    ("settings".to_string(), m.settings.clone()),
+                    ("input_hash".to_string(), m.input_hash.clone()),
+                    ("units".to_string(), m.units.clone()),
+                ];
+                v.extend(m.extra.iter().cloned());
+                v
+            });
+            Ok(SphbProxy { proxy, plan, metadata })
+        })
     })
 }
 
 /// Frees a proxy from `sphb_load`; NULL does nothing. No other thread may use it during or after.
 #[no_mangle]
 pub unsafe extern "C" fn sphb_proxy_free(proxy: *mut SphbProxy) {
-    if !proxy.is_null() {
-        let _ = catch_unwind(AssertUnwindSafe(|| {
-            // SAFETY: the pointer came from `sphb_load` (the caller's contract) and is freed once.
-            drop(unsafe { Box::from_raw(proxy) });
-        }));
-    }
+    // SAFETY: the pointer came from `sphb_load` (the caller's contract) and is freed once.
+    unsafe { free_object(proxy) }
 }
 
 /// The counts of `proxy` into `*out`. Thread-safe.
@@ -710,11 +804,9 @@ pub unsafe extern "C" fn sphb_pose(
 ) -> i32 {
     run(err, || {
         let p = unsafe { object(proxy, "proxy")? };
-        let floats = joint_count.checked_mul(16).ok_or_else(|| invalid("joint_count is too large"))?;
-        let m = unsafe { input(joints, floats, "joints")? };
-        let n = p.proxy.sphere_count();
-        let o = unsafe { output(out, out_len, n, "out")? };
-        spherebake_runtime::pose(&p.proxy, matrices(m), spheres_of_mut(o)).map_err(invalid)
+        let m = unsafe { matrices_in(joints, joint_count, "joints")? };
+        let o = unsafe { output(out, out_len, p.proxy.sphere_count(), "out")? };
+        spherebake_runtime::pose(&p.proxy, m, spheres_of_mut(o)).map_err(invalid)
     })
 }
 
@@ -778,12 +870,10 @@ pub unsafe extern "C" fn sphb_pose_and_refit(
     run(err, || {
         let p = unsafe { object(proxy, "proxy")? };
         let plan = plan_of(p)?;
-        let floats = joint_count.checked_mul(16).ok_or_else(|| invalid("joint_count is too large"))?;
-        let m = unsafe { input(joints, floats, "joints")? };
+        let m = unsafe { matrices_in(joints, joint_count, "joints")? };
         let l = unsafe { output(leaves_out, leaf_len, p.proxy.sphere_count(), "leaves_out")? };
         let o = unsafe { output(nodes_out, node_len, plan.node_count(), "nodes_out")? };
-        spherebake_runtime::pose_and_refit(&p.proxy, plan, matrices(m), spheres_of_mut(l), spheres_of_mut(o))
-            .map_err(invalid)
+        spherebake_runtime::pose_and_refit(&p.proxy, plan, m, spheres_of_mut(l), spheres_of_mut(o)).map_err(invalid)
     })
 }
 
@@ -836,38 +926,32 @@ pub unsafe extern "C" fn sphb_shadow_context_new(
     out: *mut *mut SphbShadowContext,
     err: *mut SphbError,
 ) -> i32 {
-    run(err, || {
-        let o = unsafe { object_mut(out, "out")? };
-        *o = core::ptr::null_mut();
-        let ctx = ShadowContext::new(order as usize, exp_of(exp_method)?).map_err(invalid)?;
-        *o = Box::into_raw(Box::new(SphbShadowContext { ctx }));
-        Ok(())
+    run(err, || unsafe {
+        new_object_into(out, || {
+            let ctx = ShadowContext::new(order as usize, exp_of(exp_method)?).map_err(invalid)?;
+            Ok(SphbShadowContext { ctx })
+        })
     })
 }
 
 /// Frees a shadow context; NULL does nothing.
 #[no_mangle]
 pub unsafe extern "C" fn sphb_shadow_context_free(ctx: *mut SphbShadowContext) {
-    if !ctx.is_null() {
-        // SAFETY: made by `sphb_shadow_context_new`, freed once (the caller's contract).
-        let _ = catch_unwind(AssertUnwindSafe(|| drop(unsafe { Box::from_raw(ctx) })));
-    }
+    // SAFETY: made by `sphb_shadow_context_new`, freed once (the caller's contract).
+    unsafe { free_object(ctx) }
 }
 
 /// A new, empty receiver cluster (never NULL unless out of memory). Free with `sphb_shadow_cluster_free`.
 #[no_mangle]
 pub extern "C" fn sphb_shadow_cluster_new() -> *mut SphbShadowCluster {
-    catch_unwind(|| Box::into_raw(Box::new(SphbShadowCluster { cb: ClusterBlockers::new(), cut: Vec::new() })))
-        .unwrap_or(core::ptr::null_mut())
+    new_object(|| SphbShadowCluster { cb: ClusterBlockers::new(), cut: Vec::new() })
 }
 
 /// Frees a cluster; NULL does nothing.
 #[no_mangle]
 pub unsafe extern "C" fn sphb_shadow_cluster_free(cluster: *mut SphbShadowCluster) {
-    if !cluster.is_null() {
-        // SAFETY: made by `sphb_shadow_cluster_new`, freed once.
-        let _ = catch_unwind(AssertUnwindSafe(|| drop(unsafe { Box::from_raw(cluster) })));
-    }
+    // SAFETY: made by `sphb_shadow_cluster_new`, freed once (the caller's contract).
+    unsafe { free_object(cluster) }
 }
 
 /// Builds the blockers of the receiver cluster bounded by (`receiver_center`, `receiver_radius`):
@@ -904,10 +988,7 @@ pub unsafe extern "C" fn sphb_shadow_cluster_build(
             )));
         }
         let c = unsafe { vec3(receiver_center, "receiver_center")? };
-        let hierarchy = match (&p.plan, nodes.is_null()) {
-            (Some(plan), false) => Some((plan, spheres_of(unsafe { input(nodes, node_count, "nodes")? }))),
-            _ => None,
-        };
+        let hierarchy = unsafe { hierarchy_of(p, nodes, node_count, "nodes")? };
         cl.cut.clear();
         cl.cb.build(order as usize, spheres_of(l), hierarchy, c, receiver_radius, theta_max_rad).map_err(invalid)?;
         unsafe { put_opt(blocker_count_out, cl.cb.blockers().len(), "blocker_count_out") }
@@ -965,7 +1046,7 @@ pub unsafe extern "C" fn sphb_accumulate_log_visibility(
             return Err(invalid("the cluster was not built"));
         }
         let pt = unsafe { vec3(p, "p")? };
-        let n = if normal.is_null() { None } else { Some(unsafe { vec3(normal, "normal")? }) };
+        let n = unsafe { opt_vec3(normal, "normal")? };
         let log = unsafe { output(log_inout, log_len, order * order, "log_inout")? };
         let used = accumulate_log_visibility(cl.cb.blockers(), order, pt, n, log).map_err(invalid)?;
         unsafe { put_opt(used_out, used, "used_out") }
@@ -986,10 +1067,7 @@ pub unsafe extern "C" fn sphb_visibility(
     run(err, || {
         let c = unsafe { object(ctx, "ctx")? };
         let nc = c.ctx.order() * c.ctx.order();
-        if log_len < nc {
-            return Err(fail(SPHB_ERR_BUFFER_TOO_SMALL, format!("log holds {log_len} values, {nc} needed")));
-        }
-        let l = unsafe { input(log, nc, "log")? };
+        let l = unsafe { input_min(log, log_len, nc, "log")? };
         let o = unsafe { output(out, out_len, nc, "out")? };
         c.ctx.visibility(l, o).map_err(invalid)
     })
@@ -1012,10 +1090,7 @@ pub unsafe extern "C" fn sphb_shading_vector(
     run(err, || {
         let c = unsafe { object(ctx, "ctx")? };
         let nc = c.ctx.order() * c.ctx.order();
-        if light_len < nc {
-            return Err(fail(SPHB_ERR_BUFFER_TOO_SMALL, format!("light holds {light_len} values, {nc} needed")));
-        }
-        let l = unsafe { input(light, nc, "light")? };
+        let l = unsafe { input_min(light, light_len, nc, "light")? };
         let nv = unsafe { input(normal, 3, "normal")? };
         let o = unsafe { output(out, out_len, nc, "out")? };
         c.ctx.shading_vector(l, [nv[0], nv[1], nv[2]], o).map_err(invalid)
@@ -1066,12 +1141,9 @@ pub unsafe extern "C" fn sphb_shade_point(
 #[no_mangle]
 pub unsafe extern "C" fn sphb_uniform_light(order: u32, out: *mut f64, out_len: usize, err: *mut SphbError) -> i32 {
     run(err, || {
-        if !(1..=8).contains(&order) {
-            return Err(invalid(format!("order {order} outside 1..=8")));
-        }
-        let nc = (order * order) as usize;
-        let o = unsafe { output(out, out_len, nc, "out")? };
-        spherebake_runtime::shadow::uniform_light(order as usize, o);
+        let order = sh_order(order)?;
+        let o = unsafe { output(out, out_len, order * order, "out")? };
+        spherebake_runtime::shadow::uniform_light(order, o);
         Ok(())
     })
 }
@@ -1089,12 +1161,10 @@ pub unsafe extern "C" fn sphb_lobe_light(
     err: *mut SphbError,
 ) -> i32 {
     run(err, || {
-        if !(1..=8).contains(&order) {
-            return Err(invalid(format!("order {order} outside 1..=8")));
-        }
+        let order = sh_order(order)?;
         let d = unsafe { input(direction, 3, "direction")? };
-        let o = unsafe { output(out, out_len, (order * order) as usize, "out")? };
-        spherebake_runtime::shadow::lobe_light(order as usize, [d[0], d[1], d[2]], half_angle_rad, o).map_err(invalid)
+        let o = unsafe { output(out, out_len, order * order, "out")? };
+        spherebake_runtime::shadow::lobe_light(order, [d[0], d[1], d[2]], half_angle_rad, o).map_err(invalid)
     })
 }
 
@@ -1107,38 +1177,32 @@ pub unsafe extern "C" fn sphb_light_context_new(
     out: *mut *mut SphbLightContext,
     err: *mut SphbError,
 ) -> i32 {
-    run(err, || {
-        let o = unsafe { object_mut(out, "out")? };
-        *o = core::ptr::null_mut();
-        let ctx = LightContext::new(order as usize, exp_of(exp_method)?).map_err(invalid)?;
-        *o = Box::into_raw(Box::new(SphbLightContext { ctx }));
-        Ok(())
+    run(err, || unsafe {
+        new_object_into(out, || {
+            let ctx = LightContext::new(order as usize, exp_of(exp_method)?).map_err(invalid)?;
+            Ok(SphbLightContext { ctx })
+        })
     })
 }
 
 /// Frees a light context; NULL does nothing.
 #[no_mangle]
 pub unsafe extern "C" fn sphb_light_context_free(ctx: *mut SphbLightContext) {
-    if !ctx.is_null() {
-        // SAFETY: made by `sphb_light_context_new`, freed once.
-        let _ = catch_unwind(AssertUnwindSafe(|| drop(unsafe { Box::from_raw(ctx) })));
-    }
+    // SAFETY: made by `sphb_light_context_new`, freed once (the caller's contract).
+    unsafe { free_object(ctx) }
 }
 
 /// New, empty sphere lights (pass 1's output). Free with `sphb_sphere_lights_free`.
 #[no_mangle]
 pub extern "C" fn sphb_sphere_lights_new() -> *mut SphbSphereLights {
-    catch_unwind(|| Box::into_raw(Box::new(SphbSphereLights { lights: SphereLights::new() })))
-        .unwrap_or(core::ptr::null_mut())
+    new_object(|| SphbSphereLights { lights: SphereLights::new() })
 }
 
 /// Frees sphere lights; NULL does nothing.
 #[no_mangle]
 pub unsafe extern "C" fn sphb_sphere_lights_free(lights: *mut SphbSphereLights) {
-    if !lights.is_null() {
-        // SAFETY: made by `sphb_sphere_lights_new`, freed once.
-        let _ = catch_unwind(AssertUnwindSafe(|| drop(unsafe { Box::from_raw(lights) })));
-    }
+    // SAFETY: made by `sphb_sphere_lights_new`, freed once (the caller's contract).
+    unsafe { free_object(lights) }
 }
 
 /// The leaf light L^c of sphere `sphere` after pass 1: `order²` linear-RGB SH coefficients
@@ -1153,15 +1217,8 @@ pub unsafe extern "C" fn sphb_sphere_lights_leaf(
 ) -> i32 {
     run(err, || {
         let l = unsafe { object(lights, "lights")? };
-        let c = l.lights.leaf(sphere as usize);
-        if c.is_empty() {
-            return Err(invalid(format!("sphere {sphere} has no light (of {})", l.lights.leaf_count())));
-        }
-        let o = unsafe { output(out, out_len, 3 * c.len(), "out")? };
-        for (d, v) in o.chunks_exact_mut(3).zip(c) {
-            d.copy_from_slice(v);
-        }
-        Ok(())
+        let what = format!("sphere {sphere} (of {})", l.lights.leaf_count());
+        unsafe { copy_rgb(l.lights.leaf(sphere as usize), out, out_len, &what) }
     })
 }
 
@@ -1172,12 +1229,7 @@ pub unsafe extern "C" fn sphb_sphere_lights_leaf(
 unsafe fn posed_of<'a>(posed: &'a SphbPosed) -> Res<PosedProxy<'a>> {
     let p: &'a SphbProxy = unsafe { object(posed.proxy, "posed.proxy")? };
     let leaves = spheres_of(unsafe { input(posed.leaves, posed.leaf_count, "posed.leaves")? });
-    let nodes = match (&p.plan, posed.nodes.is_null()) {
-        (Some(plan), false) => {
-            Some((plan, spheres_of(unsafe { input(posed.nodes, posed.node_count, "posed.nodes")? })))
-        }
-        _ => None,
-    };
+    let nodes = unsafe { hierarchy_of(p, posed.nodes, posed.node_count, "posed.nodes")? };
     let rotations = if posed.rotations.is_null() {
         None
     } else {
@@ -1203,14 +1255,13 @@ pub unsafe extern "C" fn sphb_sphere_rotations(
 ) -> i32 {
     run(err, || {
         let p = unsafe { object(proxy, "proxy")? };
-        let floats = joint_count.checked_mul(16).ok_or_else(|| invalid("joint_count is too large"))?;
-        let m = unsafe { input(joints, floats, "joints")? };
-        let r = unsafe { input(rest_joints, floats, "rest_joints")? };
+        let m = unsafe { matrices_in(joints, joint_count, "joints")? };
+        let r = unsafe { matrices_in(rest_joints, joint_count, "rest_joints")? };
         let n = p.proxy.sphere_count();
         let o = unsafe { output(out, out_len, n * 9, "out")? };
         // SAFETY: [f32; 9] has f32's alignment and no padding; `o` has exactly n·9 floats.
         let rot = unsafe { core::slice::from_raw_parts_mut(o.as_mut_ptr().cast::<[f32; 9]>(), n) };
-        sphere_rotations(&p.proxy, matrices(m), matrices(r), rot).map_err(invalid)
+        sphere_rotations(&p.proxy, m, r, rot).map_err(invalid)
     })
 }
 
@@ -1311,15 +1362,7 @@ pub unsafe extern "C" fn sphb_sphere_lights_node(
 ) -> i32 {
     run(err, || {
         let l = unsafe { object(lights, "lights")? };
-        let c = l.lights.node(node as usize);
-        if c.is_empty() {
-            return Err(invalid(format!("node {node} has no light")));
-        }
-        let o = unsafe { output(out, out_len, 3 * c.len(), "out")? };
-        for (d, v) in o.chunks_exact_mut(3).zip(c) {
-            d.copy_from_slice(v);
-        }
-        Ok(())
+        unsafe { copy_rgb(l.lights.node(node as usize), out, out_len, &format!("node {node}")) }
     })
 }
 
@@ -1346,17 +1389,14 @@ pub unsafe extern "C" fn sphb_sphere_lights_sample_radiance(
 /// A new, empty indirect-light cluster. Free with `sphb_indirect_cluster_free`.
 #[no_mangle]
 pub extern "C" fn sphb_indirect_cluster_new() -> *mut SphbIndirectCluster {
-    catch_unwind(|| Box::into_raw(Box::new(SphbIndirectCluster { ic: IndirectCluster::new() })))
-        .unwrap_or(core::ptr::null_mut())
+    new_object(|| SphbIndirectCluster { ic: IndirectCluster::new() })
 }
 
 /// Frees an indirect-light cluster; NULL does nothing.
 #[no_mangle]
 pub unsafe extern "C" fn sphb_indirect_cluster_free(cluster: *mut SphbIndirectCluster) {
-    if !cluster.is_null() {
-        // SAFETY: made by `sphb_indirect_cluster_new`, freed once.
-        let _ = catch_unwind(AssertUnwindSafe(|| drop(unsafe { Box::from_raw(cluster) })));
-    }
+    // SAFETY: made by `sphb_indirect_cluster_new`, freed once (the caller's contract).
+    unsafe { free_object(cluster) }
 }
 
 /// A cluster spec with centre `center` (3 floats), `radius`, the receivers' mean unit `normal`
@@ -1372,7 +1412,7 @@ pub unsafe extern "C" fn sphb_cluster_spec_init(
 ) -> i32 {
     run(err, || {
         let c = unsafe { vec3(center, "center")? };
-        let n = if normal.is_null() { None } else { Some(unsafe { vec3(normal, "normal")? }) };
+        let n = unsafe { opt_vec3(normal, "normal")? };
         let o = unsafe { object_mut(out, "out")? };
         // Every field listed: a new Rust field fails to compile here until the C ABI mirrors it.
         let ClusterSpec { center, radius, normal, theta_max_rad, reflection_ratio, overlap_correction } =

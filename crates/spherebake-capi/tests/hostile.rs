@@ -198,91 +198,49 @@ fn drive_shadow(p: *mut SphbProxy, leaves: &[SphbSphere], nodes: Option<&[SphbSp
     let n = leaves.len();
     let (np, nc) = nodes.map_or((null(), 0), |s| (s.as_ptr(), s.len()));
     let th = SPHB_DEFAULT_THETA_MAX_RAD;
-    let mut count = 0usize;
     // Queries on an unbuilt cluster.
     let mut log = [0.0f32; 16];
     assert_eq!(
         unsafe { sphb_accumulate_log_visibility(cl, c.as_ptr(), null(), log.as_mut_ptr(), 16, null_mut(), &mut e) },
         SPHB_ERR_INVALID_ARGUMENT
     );
-    assert_eq!(
-        unsafe {
-            sphb_shadow_cluster_build(
-                null_mut(),
-                p,
-                4,
-                leaves.as_ptr(),
-                n,
-                np,
-                nc,
-                c.as_ptr(),
-                0.1,
-                th,
-                null_mut(),
-                &mut e,
-            )
-        },
-        SPHB_ERR_NULL
-    );
-    assert_eq!(
-        unsafe {
+    // The build with one argument changed at a time: cluster, proxy, order, leaf and node counts.
+    let build = |cl: *mut SphbShadowCluster, p: *const SphbProxy, order: u32, leaf_count: usize, node_count: usize| {
+        let mut e = new_err();
+        let mut count = 0usize;
+        let status = unsafe {
             sphb_shadow_cluster_build(
                 cl,
-                null(),
-                4,
+                p,
+                order,
                 leaves.as_ptr(),
-                n,
+                leaf_count,
                 np,
-                nc,
+                node_count,
                 c.as_ptr(),
                 0.1,
                 th,
-                null_mut(),
+                &mut count,
                 &mut e,
             )
-        },
-        SPHB_ERR_NULL
-    );
-    assert_eq!(
-        unsafe {
-            sphb_shadow_cluster_build(cl, p, 4, leaves.as_ptr(), n - 1, np, nc, c.as_ptr(), 0.1, th, null_mut(), &mut e)
-        },
-        SPHB_ERR_INVALID_ARGUMENT
-    );
-    assert_eq!(
-        unsafe {
-            sphb_shadow_cluster_build(cl, p, 0, leaves.as_ptr(), n, np, nc, c.as_ptr(), 0.1, th, null_mut(), &mut e)
-        },
-        SPHB_ERR_INVALID_ARGUMENT
-    );
+        };
+        (status, count, message(&e))
+    };
+    assert_eq!(build(null_mut(), p, 4, n, nc).0, SPHB_ERR_NULL);
+    assert_eq!(build(cl, null(), 4, n, nc).0, SPHB_ERR_NULL);
+    assert_eq!(build(cl, p, 4, n - 1, nc).0, SPHB_ERR_INVALID_ARGUMENT);
+    assert_eq!(build(cl, p, 0, n, nc).0, SPHB_ERR_INVALID_ARGUMENT);
     if nc > 0 {
-        assert_eq!(
-            unsafe {
-                sphb_shadow_cluster_build(
-                    cl,
-                    p,
-                    4,
-                    leaves.as_ptr(),
-                    n,
-                    np,
-                    nc - 1,
-                    c.as_ptr(),
-                    0.1,
-                    th,
-                    null_mut(),
-                    &mut e,
-                )
-            },
-            SPHB_ERR_INVALID_ARGUMENT
-        );
+        assert_eq!(build(cl, p, 4, n, nc - 1).0, SPHB_ERR_INVALID_ARGUMENT);
     }
+    let (status, count, msg) = build(cl, p, 4, n, nc);
+    assert_eq!(status, SPHB_OK, "{msg}");
+    // The blocker count is optional.
     assert_eq!(
         unsafe {
-            sphb_shadow_cluster_build(cl, p, 4, leaves.as_ptr(), n, np, nc, c.as_ptr(), 0.1, th, &mut count, &mut e)
+            sphb_shadow_cluster_build(cl, p, 4, leaves.as_ptr(), n, np, nc, c.as_ptr(), 0.1, th, null_mut(), &mut e)
         },
-        SPHB_OK,
-        "{}",
-        message(&e)
+        SPHB_OK
     );
     assert!(count >= 1);
     let up = [0.0f32, 1.0, 0.0];
@@ -475,38 +433,21 @@ fn drive_light(p: *mut SphbProxy, leaves: &[SphbSphere], joints: &[f32], lit: bo
         let short = unsafe { sphb_sphere_lights_sample_radiance(lights, null_mut(), 0, &mut len, &mut e) };
         assert_eq!(short, if len == 0 { SPHB_OK } else { SPHB_ERR_BUFFER_TOO_SMALL });
         let mut out = [0.0f64; 3];
-        assert_eq!(
-            unsafe {
-                sphb_indirect_irradiance(
-                    ic,
-                    ctx,
-                    srcs.as_ptr(),
-                    lp.as_ptr(),
-                    1,
-                    c.as_ptr(),
-                    null(),
-                    out.as_mut_ptr(),
-                    &mut e,
-                )
-            },
-            SPHB_ERR_NULL
-        );
-        assert_eq!(
-            unsafe {
-                sphb_indirect_irradiance(
-                    ic,
-                    ctx,
-                    srcs.as_ptr(),
-                    lp.as_ptr(),
-                    1,
-                    c.as_ptr(),
-                    up.as_ptr(),
-                    out.as_mut_ptr(),
-                    &mut e,
-                )
-            },
-            SPHB_OK
-        );
+        let mut irradiance = |normal: *const f32, out: &mut [f64; 3]| unsafe {
+            sphb_indirect_irradiance(
+                ic,
+                ctx,
+                srcs.as_ptr(),
+                lp.as_ptr(),
+                1,
+                c.as_ptr(),
+                normal,
+                out.as_mut_ptr(),
+                &mut e,
+            )
+        };
+        assert_eq!(irradiance(null(), &mut out), SPHB_ERR_NULL);
+        assert_eq!(irradiance(up.as_ptr(), &mut out), SPHB_OK);
         assert!(out.iter().all(|v| v.is_finite() && *v >= 0.0));
         unsafe { sphb_indirect_cluster_free(ic) };
     } else {

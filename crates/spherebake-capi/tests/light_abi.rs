@@ -160,26 +160,29 @@ fn both_passes_mirror_every_rust_option() {
         let stats =
             light_spheres(&ctx, &me.posed(), &env, &[other.posed()], &Pass1Settings { theta_max_rad: 0.3 }, &mut rl)
                 .unwrap();
-        let cl = sphb_sphere_lights_new();
-        let mut cstats = SphbPass1Stats::default();
-        let others = [other.c_posed()];
-        check(
-            unsafe {
+        // Pass 1 through the C ABI into new sphere lights.
+        let c_pass1 = |others: &[SphbPosed], settings: *const SphbPass1Settings, stats: *mut SphbPass1Stats| {
+            let lights = sphb_sphere_lights_new();
+            let mut e = new_err();
+            let st = unsafe {
                 sphb_light_spheres(
                     cctx,
                     &me.c_posed(),
                     env.as_ptr(),
                     env.len(),
-                    others.as_ptr(),
-                    1,
-                    &settings,
-                    cl,
-                    &mut cstats,
+                    if others.is_empty() { null() } else { others.as_ptr() }, // NULL with 0: none
+                    others.len(),
+                    settings,
+                    lights,
+                    stats,
                     &mut e,
                 )
-            },
-            &e,
-        );
+            };
+            check(st, &e);
+            lights
+        };
+        let mut cstats = SphbPass1Stats::default();
+        let cl = c_pass1(&[other.c_posed()], &settings, &mut cstats);
         assert_eq!((cstats.samples, cstats.blocker_accumulations), (stats.samples, stats.blocker_accumulations));
         let nc = ORDER * ORDER;
         let mut buf = vec![0.0f32; 3 * nc];
@@ -210,25 +213,7 @@ fn both_passes_mirror_every_rust_option() {
         check(unsafe { sphb_sphere_lights_sample_radiance(cl, rad.as_mut_ptr(), len, &mut len, &mut e) }, &e);
         assert_eq!(rad, rl.sample_radiance());
         // Without the other proxy the samples see more sky: `others` reaches pass 1.
-        let alone = sphb_sphere_lights_new();
-        let null_settings = null();
-        check(
-            unsafe {
-                sphb_light_spheres(
-                    cctx,
-                    &me.c_posed(),
-                    env.as_ptr(),
-                    env.len(),
-                    null(),
-                    0,
-                    null_settings,
-                    alone,
-                    null_mut(),
-                    &mut e,
-                )
-            },
-            &e,
-        );
+        let alone = c_pass1(&[], null(), null_mut());
         let mut rad_alone = vec![0.0f32; len];
         check(unsafe { sphb_sphere_lights_sample_radiance(alone, rad_alone.as_mut_ptr(), len, &mut len, &mut e) }, &e);
         assert_ne!(rad_alone, rad, "the other proxy must shadow some samples");
