@@ -1,6 +1,8 @@
 /* load_and_shade: loads a .sphb file with the spherebake C ABI, prints its counts, poses it with a
  * fixed joint palette, refits the hierarchy, cuts it for a receiver cluster under the model and
- * shades a few receiver points in uniform white light. Floats are printed with %a (exact).
+ * shades a few receiver points in uniform white light; when the file has samples and albedo SH it
+ * also lights the proxy (pass 1) and gathers its one-bounce indirect light at the same receivers
+ * (pass 2). Floats are printed with %a (exact).
  *
  * Build (C99):
  *   cargo build --release -p spherebake-capi
@@ -49,6 +51,9 @@ int main(int argc, char **argv) {
     SphbCutEntry *cut = NULL;
     SphbShadowContext *ctx = NULL;
     SphbShadowCluster *cluster = NULL;
+    SphbLightContext *lctx = NULL;
+    SphbSphereLights *lights = NULL;
+    SphbIndirectCluster *icluster = NULL;
     double light[16], t[16];
     const double up[3] = {0.0, 1.0, 0.0};
     float receiver[3], receiver_radius;
@@ -146,8 +151,55 @@ int main(int argc, char **argv) {
         }
         printf("shade %u %a\n", (unsigned)i, v);
     }
+
+    /* One-bounce indirect light: pass 1 lights the samples under uniform white light and projects
+     * them onto each sphere's light; pass 2 gathers those lights at the receivers. */
+    if (counts.sh_order > 0 && counts.sample_count > 0) {
+        const uint32_t order = counts.sh_order < 3 ? counts.sh_order : 3;
+        const float upf[3] = {0.0f, 1.0f, 0.0f};
+        const SphbSphereLights *source_lights;
+        SphbPosed posed;
+        SphbPass1Stats stats;
+        SphbClusterSpec spec;
+        posed.proxy = proxy;
+        posed.leaves = leaves;
+        posed.leaf_count = counts.sphere_count;
+        posed.nodes = counts.node_count ? nodes : NULL;
+        posed.node_count = counts.node_count;
+        posed.rotations = NULL; /* rigid pose: identity rotations */
+        lights = sphb_sphere_lights_new();
+        icluster = sphb_indirect_cluster_new();
+        if (!lights || !icluster || sphb_light_context_new(order, SPHB_EXP_PS_STAR_4, &lctx, &err) != SPHB_OK ||
+            sphb_uniform_light(order, light, 16, &err) != SPHB_OK ||
+            sphb_light_spheres(lctx, &posed, light, order * order, NULL, 0, NULL, lights, &stats, &err) != SPHB_OK ||
+            sphb_cluster_spec_init(receiver, receiver_radius, upf, &spec, &err) != SPHB_OK) {
+            status = fail(argv[1], &err);
+            goto done;
+        }
+        printf("pass1 samples %u blockers %u\n", (unsigned)stats.samples, (unsigned)stats.blocker_accumulations);
+        source_lights = lights;
+        if (sphb_indirect_cluster_build(icluster, lctx, &posed, &source_lights, 1, &spec, &err) != SPHB_OK) {
+            status = fail(argv[1], &err);
+            goto done;
+        }
+        for (i = 0; i < 5; i++) {
+            float p[3];
+            double e[3];
+            p[0] = receiver[0] + receiver_radius * 0.5f * ((float)i - 2.0f);
+            p[1] = receiver[1];
+            p[2] = receiver[2];
+            if (sphb_indirect_irradiance(icluster, lctx, &posed, &source_lights, 1, p, upf, e, &err) != SPHB_OK) {
+                status = fail(argv[1], &err);
+                goto done;
+            }
+            printf("indirect %u %a %a %a\n", (unsigned)i, e[0], e[1], e[2]);
+        }
+    }
     status = 0;
 done:
+    sphb_indirect_cluster_free(icluster);
+    sphb_sphere_lights_free(lights);
+    sphb_light_context_free(lctx);
     sphb_shadow_cluster_free(cluster);
     sphb_shadow_context_free(ctx);
     free(cut);

@@ -70,6 +70,26 @@ int main(int argc, char **argv) {
             const float p[3] = {receiver[0] + radius * 0.5f * (float(i) - 2.0f), receiver[1], receiver[2]};
             std::printf("shade %u %a\n", i, shadow.shade_point(p, n, t));
         }
+        if (c.sh_order > 0 && c.sample_count > 0) {
+            const uint32_t order = c.sh_order < 3 ? c.sh_order : 3;
+            const float up_f[3] = {0.0f, 1.0f, 0.0f};
+            SphbPosed posed{proxy.get(), leaves.data(), leaves.size(), c.node_count > 0 ? nodes.data() : nullptr,
+                            nodes.size(), nullptr};
+            sphb::Light light(order);
+            std::vector<double> env(order * order, 0.0);
+            SphbError e;
+            sphb::check(sphb_uniform_light(order, env.data(), env.size(), &e), e);
+            SphbPass1Stats stats = light.light_spheres(posed, env);
+            std::printf("pass1 samples %u blockers %u\n", unsigned(stats.samples), unsigned(stats.blocker_accumulations));
+            SphbClusterSpec spec;
+            sphb::check(sphb_cluster_spec_init(receiver, radius, up_f, &spec, &e), e);
+            light.build(spec);
+            for (unsigned i = 0; i < 5; i++) {
+                const float p[3] = {receiver[0] + radius * 0.5f * (float(i) - 2.0f), receiver[1], receiver[2]};
+                std::array<double, 3> irr = light.irradiance(p, up_f);
+                std::printf("indirect %u %a %a %a\n", i, irr[0], irr[1], irr[2]);
+            }
+        }
     } catch (const sphb::Error &e) {
         std::fprintf(stderr, "load_and_shade: %s: rule %u: %s\n", argv[1], unsigned(e.rule_id), e.what());
         return 1;

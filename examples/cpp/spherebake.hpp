@@ -4,6 +4,7 @@
 #ifndef SPHEREBAKE_HPP
 #define SPHEREBAKE_HPP
 
+#include <array>
 #include <cstdint>
 #include <stdexcept>
 #include <string>
@@ -136,6 +137,55 @@ private:
     uint32_t order_;
     Handle<SphbShadowContext, sphb_shadow_context_free> ctx_;
     Handle<SphbShadowCluster, sphb_shadow_cluster_free> cluster_;
+};
+
+// One-bounce indirect light of one proxy at one SH order: the context (shareable), the proxy's
+// sphere lights (pass 1) and one receiver cluster (pass 2); one thread at a time per object.
+class Light {
+public:
+    explicit Light(uint32_t order, int32_t exp_method = SPHB_EXP_PS_STAR_4) : order_(order) {
+        SphbError e;
+        SphbLightContext *c = nullptr;
+        check(sphb_light_context_new(order, exp_method, &c, &e), e);
+        ctx_ = Handle<SphbLightContext, sphb_light_context_free>(c);
+        lights_ = Handle<SphbSphereLights, sphb_sphere_lights_free>(sphb_sphere_lights_new());
+        cluster_ = Handle<SphbIndirectCluster, sphb_indirect_cluster_free>(sphb_indirect_cluster_new());
+        if (!lights_.get() || !cluster_.get()) throw std::bad_alloc();
+    }
+    // Pass 1 for `posed` (kept for pass 2: its arrays must outlive the queries) under `env`
+    // (order² SH radiance), with `others` blocking the sky; NULL settings are the defaults.
+    SphbPass1Stats light_spheres(const SphbPosed &posed, const std::vector<double> &env,
+                                 const std::vector<SphbPosed> &others = {},
+                                 const SphbPass1Settings *settings = nullptr) {
+        SphbError e;
+        SphbPass1Stats stats{};
+        posed_ = posed;
+        check(sphb_light_spheres(ctx_.get(), &posed_, env.data(), env.size(), others.empty() ? nullptr : others.data(),
+                                 others.size(), settings, lights_.get(), &stats, &e),
+              e);
+        return stats;
+    }
+    // Pass 2: the receiver cluster `spec` (from sphb_cluster_spec_init) lit by the proxy of pass 1.
+    void build(const SphbClusterSpec &spec) {
+        SphbError e;
+        const SphbSphereLights *l = lights_.get();
+        check(sphb_indirect_cluster_build(cluster_.get(), ctx_.get(), &posed_, &l, 1, &spec, &e), e);
+    }
+    // Indirect irradiance (linear RGB) at receiver p with unit normal n.
+    std::array<double, 3> irradiance(const float p[3], const float n[3]) {
+        SphbError e;
+        std::array<double, 3> out{};
+        const SphbSphereLights *l = lights_.get();
+        check(sphb_indirect_irradiance(cluster_.get(), ctx_.get(), &posed_, &l, 1, p, n, out.data(), &e), e);
+        return out;
+    }
+
+private:
+    uint32_t order_;
+    SphbPosed posed_{};
+    Handle<SphbLightContext, sphb_light_context_free> ctx_;
+    Handle<SphbSphereLights, sphb_sphere_lights_free> lights_;
+    Handle<SphbIndirectCluster, sphb_indirect_cluster_free> cluster_;
 };
 
 }  // namespace sphb

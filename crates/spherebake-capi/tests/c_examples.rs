@@ -1,8 +1,12 @@
 //! Builds examples/c/load_and_shade.c (C99) and examples/cpp/load_and_shade.cpp (C++17) with the
 //! system compilers against the static library, runs them on the golden fixtures and compares
-//! every printed number, bit for bit (%a), with the same steps done through the Rust runtime API.
+//! every printed number, bit for bit (%a), with the same steps done through the Rust runtime API
+//! (counts, pose, refit, cut, shadows, and both indirect-light passes).
 //! A missing compiler fails the test with what to install.
 
+use spherebake_runtime::light::{
+    light_spheres, ClusterSpec, IndirectCluster, LightContext, Pass1Settings, PosedProxy, SphereLights,
+};
 use spherebake_runtime::shadow::{uniform_light, ClusterBlockers, ExpMethod, ShadowContext};
 use spherebake_runtime::{cut, load, pose, refit, CutEntry, Sphere, DEFAULT_THETA_MAX_RAD};
 use std::fmt::Write as _;
@@ -88,6 +92,25 @@ fn expected(bytes: &[u8]) -> String {
         let p = [receiver[0] + rr * 0.5f32 * (i as f32 - 2.0f32), receiver[1], receiver[2]];
         let v = ctx.shade_point(&cb, p, [0.0, 1.0, 0.0], &t).unwrap();
         writeln!(s, "shade {i} {}", hexf(v)).unwrap();
+    }
+    // One-bounce indirect light at order min(albedo order, 3), uniform white sky, rigid pose.
+    if let (Some(sh), false) = (proxy.albedo_sh(), proxy.sample_points().is_empty()) {
+        let order = usize::from(sh.order).min(3);
+        let lctx = LightContext::new(order, ExpMethod::PsStar { degree: 4 }).unwrap();
+        let mut env = vec![0.0; order * order];
+        uniform_light(order, &mut env);
+        let posed = PosedProxy { proxy: &proxy, leaves: &leaves, nodes: h, rotations: None };
+        let mut lights = SphereLights::new();
+        let stats = light_spheres(&lctx, &posed, &env, &[], &Pass1Settings::default(), &mut lights).unwrap();
+        writeln!(s, "pass1 samples {} blockers {}", stats.samples, stats.blocker_accumulations).unwrap();
+        let sources = [(posed, &lights)];
+        let mut ic = IndirectCluster::new();
+        ic.build(&lctx, &sources, &ClusterSpec::new(receiver, rr, Some([0.0, 1.0, 0.0]))).unwrap();
+        for i in 0..5u32 {
+            let p = [receiver[0] + rr * 0.5f32 * (i as f32 - 2.0f32), receiver[1], receiver[2]];
+            let e = ic.irradiance(&lctx, &sources, p, [0.0, 1.0, 0.0]).unwrap();
+            writeln!(s, "indirect {i} {} {} {}", hexf(e[0]), hexf(e[1]), hexf(e[2])).unwrap();
+        }
     }
     s
 }
