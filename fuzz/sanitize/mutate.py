@@ -9,6 +9,7 @@ CRC, and the file size field), so the mutations reach the section rules (3xxx-9x
 stopping at the checksums (1005, 2003, 2008).
 
 Usage: mutate.py COUNT OUT_DIR BASE.sphb...
+       mutate.py repair OUT_DIR FILE...   (checksum-repaired copies, as the load fuzz target reads them)
 """
 import random
 import struct
@@ -64,6 +65,14 @@ def mutate(rng: random.Random, b: bytearray) -> None:
 
 
 def main() -> None:
+    if sys.argv[1] == "repair":
+        out = Path(sys.argv[2])
+        out.mkdir(parents=True, exist_ok=True)
+        for i, p in enumerate(sys.argv[3:]):
+            b = bytearray(Path(p).read_bytes())
+            repair(b)
+            (out / f"repaired-{i:04}.sphb").write_bytes(bytes(b))
+        return
     count, out = int(sys.argv[1]), Path(sys.argv[2])
     bases = [Path(p).read_bytes() for p in sys.argv[3:]]
     out.mkdir(parents=True, exist_ok=True)

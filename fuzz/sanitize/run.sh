@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Runs the C programs examples/c/load_and_shade.c (through the library) and examples/c/read_sphb.c
 # (no library, the spec's structs) under AddressSanitizer + UndefinedBehaviorSanitizer over the
-# .sphb fuzz seeds, the load corpus (if a fuzz run made one), the golden fixtures and COUNT
+# .sphb fuzz seeds, the load corpus (if a fuzz run made one; as is and checksum-repaired), the
+# golden fixtures and COUNT
 # (default 400) files mutated from them by mutate.py. A file may load (exit 0) or be rejected
 # (exit 1, one-line error); any sanitizer report, crash or other exit status is a finding.
 # Usage: fuzz/sanitize/run.sh [COUNT]   (from anywhere; needs cc with libasan/libubsan, python3)
@@ -21,7 +22,11 @@ cc -std=c99 "${SAN[@]}" -Iinclude examples/c/read_sphb.c -lm -o "$OUT/read_sphb"
 BASES=(fixtures/golden/*.sphb fuzz/seeds/*.sphb)
 python3 fuzz/sanitize/mutate.py "$COUNT" "$OUT/mutated" "${BASES[@]}"
 FILES=("${BASES[@]}" "$OUT"/mutated/*.sphb)
-if [ -d fuzz/corpus/load ]; then FILES+=(fuzz/corpus/load/*); fi
+if [ -d fuzz/corpus/load ]; then
+  # The corpus as is and with its checksums repaired (the load target reads both ways).
+  python3 fuzz/sanitize/mutate.py repair "$OUT/repaired" fuzz/corpus/load/*
+  FILES+=(fuzz/corpus/load/* "$OUT"/repaired/*.sphb)
+fi
 
 export ASAN_OPTIONS=detect_leaks=1:exitcode=90
 export UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1:exitcode=91
