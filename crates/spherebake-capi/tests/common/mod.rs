@@ -33,18 +33,25 @@ pub fn tempdir(tag: &str) -> PathBuf {
     d
 }
 
-/// The static library cargo built next to this test (target/<profile>/libspherebake.a).
+/// The static library of this crate, built now: `cargo test` builds only the rlib the tests link,
+/// so this runs `cargo build -p spherebake-capi --lib` (a no-op when it is up to date) into this
+/// test's target directory and profile, then returns target/<profile>/libspherebake.a.
 pub fn static_lib() -> PathBuf {
     let exe = std::env::current_exe().unwrap();
-    let deps = exe.parent().unwrap();
-    let profile = deps.parent().unwrap();
-    for dir in [profile, deps] {
-        let p = dir.join("libspherebake.a");
-        if p.is_file() {
-            return p;
-        }
+    let profile_dir = exe.parent().unwrap().parent().unwrap();
+    let target_dir = profile_dir.parent().unwrap();
+    let release = profile_dir.file_name().is_some_and(|n| n == "release");
+    let cargo = std::env::var_os("CARGO").unwrap_or_else(|| "cargo".into());
+    let mut cmd = Command::new(cargo);
+    cmd.args(["build", "--quiet", "--locked", "-p", "spherebake-capi", "--lib"]).env("CARGO_TARGET_DIR", target_dir);
+    if release {
+        cmd.arg("--release");
     }
-    panic!("libspherebake.a not found in {} (cargo builds it with the crate's staticlib target)", profile.display());
+    let o = cmd.output().unwrap();
+    assert!(o.status.success(), "cargo build of the static library failed: {}", String::from_utf8_lossy(&o.stderr));
+    let p = profile_dir.join("libspherebake.a");
+    assert!(p.is_file(), "cargo built no {}", p.display());
+    p
 }
 
 /// Compiles `sources` with `cc` (`-std=<std>`, warnings as errors, no FP contraction, `include/`
