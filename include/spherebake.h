@@ -534,6 +534,18 @@ int32_t sphb_light_spheres(const SphbLightContext *ctx,
                            SphbPass1Stats *stats_out,
                            SphbError *err);
 
+// **Pass 1 with given sample radiance** (e.g. an engine's own direct lighting or a ray tracer):
+// `radiance` holds L_pj per unit albedo for each of the proxy's samples (`radiance_len` = the
+// sample count, in the order of `SphbViews::samples`; negative values count as 0); the
+// projection, albedo product and node lights are those of `sphb_light_spheres`. One thread at a
+// time per `lights`.
+int32_t sphb_light_spheres_from_radiance(const SphbLightContext *ctx,
+                                         const SphbPosed *posed,
+                                         const float *radiance,
+                                         size_t radiance_len,
+                                         SphbSphereLights *lights,
+                                         SphbError *err);
+
 // The environment `env` (order² SH radiance coefficients of `ctx`'s order, f64) with everything
 // below the horizon of the unit `up` direction (3 doubles) removed (exact for an infinite ground
 // plane under the scene), into `out[0..order²]`. Thread-safe.

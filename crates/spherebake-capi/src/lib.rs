@@ -32,8 +32,8 @@ use std::panic::{catch_unwind, AssertUnwindSafe};
 
 use spherebake_format::{HierarchyNode, SamplePoint, SkinEntry, Sphere, ValidationError};
 use spherebake_runtime::light::{
-    clip_below_horizon, light_spheres, sphere_rotations, ClusterSpec, IndirectCluster, LightContext, LightError,
-    Pass1Settings, Pass1Stats, PosedProxy, SphereLights,
+    clip_below_horizon, light_spheres, light_spheres_from_radiance, sphere_rotations, ClusterSpec, IndirectCluster,
+    LightContext, LightError, Pass1Settings, Pass1Stats, PosedProxy, SphereLights,
 };
 use spherebake_runtime::shadow::{accumulate_log_visibility, shade, ClusterBlockers, ExpMethod, ShadowContext};
 use spherebake_runtime::{CutEntry, HierarchyPlan, Proxy};
@@ -1323,6 +1323,29 @@ pub unsafe extern "C" fn sphb_light_spheres(
             light_spheres(&c.ctx, &pp, e, &others, &Pass1Settings { theta_max_rad }, &mut l.lights)
                 .map_err(|e| light_fail(&e))?;
         unsafe { put_opt(stats_out, SphbPass1Stats { samples, blocker_accumulations }, "stats_out") }
+    })
+}
+
+/// **Pass 1 with given sample radiance** (e.g. an engine's own direct lighting or a ray tracer):
+/// `radiance` holds L_pj per unit albedo for each of the proxy's samples (`radiance_len` = the
+/// sample count, in the order of `SphbViews::samples`; negative values count as 0); the
+/// projection, albedo product and node lights are those of `sphb_light_spheres`. One thread at a
+/// time per `lights`.
+#[no_mangle]
+pub unsafe extern "C" fn sphb_light_spheres_from_radiance(
+    ctx: *const SphbLightContext,
+    posed: *const SphbPosed,
+    radiance: *const f32,
+    radiance_len: usize,
+    lights: *mut SphbSphereLights,
+    err: *mut SphbError,
+) -> i32 {
+    run(err, || {
+        let c = unsafe { object(ctx, "ctx")? };
+        let pp = unsafe { posed_of(object(posed, "posed")?)? };
+        let r = unsafe { input(radiance, radiance_len, "radiance")? };
+        let l = unsafe { object_mut(lights, "lights")? };
+        light_spheres_from_radiance(&c.ctx, &pp, r, &mut l.lights).map_err(|e| light_fail(&e))
     })
 }
 

@@ -5,8 +5,8 @@
 
 use spherebake::*;
 use spherebake_runtime::light::{
-    clip_below_horizon, light_spheres, ClusterSpec, IndirectCluster, LightContext, Pass1Settings, PosedProxy,
-    SphereLights,
+    clip_below_horizon, light_spheres, light_spheres_from_radiance, ClusterSpec, IndirectCluster, LightContext,
+    Pass1Settings, PosedProxy, SphereLights,
 };
 use spherebake_runtime::shadow::{accumulate_log_visibility, lobe_light, ClusterBlockers, ExpMethod, ShadowContext};
 use spherebake_runtime::{load, pose, refit, HierarchyPlan, Proxy, Sphere};
@@ -212,6 +212,22 @@ fn both_passes_mirror_every_rust_option() {
         let mut rad = vec![0.0f32; len];
         check(unsafe { sphb_sphere_lights_sample_radiance(cl, rad.as_mut_ptr(), len, &mut len, &mut e) }, &e);
         assert_eq!(rad, rl.sample_radiance());
+        // Pass 1 from the same sample radiance gives the same lights (Rust and C alike).
+        let given = sphb_sphere_lights_new();
+        check(unsafe { sphb_light_spheres_from_radiance(cctx, &me.c_posed(), rad.as_ptr(), len, given, &mut e) }, &e);
+        let mut rl_given = SphereLights::new();
+        light_spheres_from_radiance(&ctx, &me.posed(), &rad, &mut rl_given).unwrap();
+        for i in 0..me.leaves.len() {
+            check(unsafe { sphb_sphere_lights_leaf(given, i as u32, buf.as_mut_ptr(), buf.len(), &mut e) }, &e);
+            assert_eq!(buf, rl_given.leaf(i).concat(), "leaf {i} from radiance");
+            assert_eq!(buf, rl.leaf(i).concat(), "leaf {i}: pass 1 from its own radiance");
+        }
+        assert_eq!(
+            unsafe { sphb_light_spheres_from_radiance(cctx, &me.c_posed(), rad.as_ptr(), len - 1, given, &mut e) },
+            SPHB_ERR_INVALID_ARGUMENT,
+            "radiance shorter than the sample count"
+        );
+        unsafe { sphb_sphere_lights_free(given) };
         // Without the other proxy the samples see more sky: `others` reaches pass 1.
         let alone = c_pass1(&[], null(), null_mut());
         let mut rad_alone = vec![0.0f32; len];
