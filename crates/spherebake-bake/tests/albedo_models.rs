@@ -5,7 +5,6 @@ use glam::DVec3;
 use spherebake_bake::{bake_albedo, render_albedo_cubemaps, AlbedoSettings};
 use spherebake_geom::winding::WindingNumber;
 use spherebake_sh::CubeFace;
-use std::path::PathBuf;
 
 /// The sRGB EOTF (IEC 61966-2-1) written out here, independently of the importer.
 fn srgb8_to_linear(v: u8) -> f64 {
@@ -54,32 +53,17 @@ fn srgb_texture_arrives_linear() {
     }
 }
 
-fn models() -> Option<PathBuf> {
-    let p = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../../shared/models");
-    if p.is_dir() {
-        Some(p)
-    } else {
-        println!("shared models not found at {}: skipped", p.display());
-        None
-    }
-}
-
 #[test]
 fn closed_models_are_covered_from_an_interior_point() {
     // For a closed mesh and a single sphere whose centre is inside, every direction leaves the
     // object through a back-facing surface of the (only) segment: every texel is rule 1 and none
     // is empty. A hole in the rasteriser (shared edges, UV seams, face borders) would show up
     // as a rule-3 or empty texel.
-    let Some(root) = models() else { return };
     for (file, candidates) in [
         ("obj/spot/spot.obj", vec![DVec3::new(0.0, 0.0, 0.0), DVec3::new(0.0, 0.2, 0.1)]),
         ("gltf/CesiumMan.glb", vec![DVec3::new(0.0, 1.0, 0.02), DVec3::new(0.0, 1.2, 0.0), DVec3::new(0.0, 0.9, 0.0)]),
     ] {
-        let path = root.join(file);
-        if !path.exists() {
-            println!("{file} not found: skipped");
-            continue;
-        }
+        let Some(path) = spherebake_testkit::shared_model(file) else { continue };
         let mesh = spherebake_io::load_mesh(&path).unwrap().mesh;
         let wn = WindingNumber::new(&mesh.positions, &mesh.triangles);
         let flip = spherebake_geom::orient::outward_orientation(&mesh.positions, &mesh.triangles, &wn).flip;

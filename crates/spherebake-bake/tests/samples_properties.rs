@@ -79,11 +79,7 @@ fn inside_out_mesh_gives_the_same_samples() {
 }
 
 fn shared_model(rel: &str) -> Option<Mesh> {
-    let path = models_dir()?.join(rel);
-    if !path.is_file() {
-        println!("skipping: {} not found", path.display());
-        return None;
-    }
+    let path = spherebake_testkit::shared_model(rel)?;
     Some(spherebake_io::load_mesh(&path).expect("shared model loads").mesh)
 }
 

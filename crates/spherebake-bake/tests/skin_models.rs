@@ -7,14 +7,9 @@ use glam::{DMat4, DVec3, Mat4, Vec3};
 use spherebake_bake::skin::{animation_frames, animation_joint_matrices, pose_centre};
 use spherebake_bake::{bake_skin, grow_for_animations, PoseMargin, SkinSettings};
 use spherebake_geom::{anim, Mesh};
-use std::path::PathBuf;
 
 fn model(name: &str) -> Option<Mesh> {
-    let p = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../../shared/models/gltf").join(name);
-    if !p.exists() {
-        eprintln!("skipping: {} not found", p.display());
-        return None;
-    }
+    let p = spherebake_testkit::shared_model(&format!("gltf/{name}"))?;
     Some(spherebake_io::load_mesh(&p).expect("model loads").mesh)
 }
 

@@ -8,18 +8,10 @@ use spherebake_fit::hierarchy::{
     brute_force_min_ball_of_balls, build_hierarchy, hierarchy_stats, HierarchyError, HierarchySettings,
 };
 use spherebake_format::Hierarchy;
-use std::path::{Path, PathBuf};
-
-fn models_dir() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/models")
-}
+use std::path::PathBuf;
 
 fn model_files() -> Option<Vec<PathBuf>> {
-    let dir = models_dir();
-    if !dir.is_dir() {
-        println!("skipping: {} not found", dir.display());
-        return None;
-    }
+    let dir = spherebake_testkit::shared_models_dir()?;
     let mut files = Vec::new();
     let mut stack = vec![dir];
     while let Some(d) = stack.pop() {
@@ -92,13 +84,9 @@ fn invariants_on_every_shared_model() {
     assert!(!files.is_empty());
     let mut worst_mean: f64 = 0.0;
     for path in &files {
-        let imported = match spherebake_io::load_mesh(path) {
-            Ok(m) => m,
-            Err(e) => {
-                println!("{}: not loadable ({e}), skipped", path.display());
-                continue;
-            }
-        };
+        // Every shared model imports (spherebake-io's shared_models test); a failure here is a
+        // regression, not a skip.
+        let imported = spherebake_io::load_mesh(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
         let mesh = imported.mesh;
         let mut pts: Vec<DVec3> = mesh.welded_positions.iter().map(|p| p.as_dvec3()).collect();
         if pts.is_empty() {
@@ -277,14 +265,9 @@ fn exact_enclosing_ball_agrees_with_brute_force() {
 /// Leaves from the real fitter (variational, 64 spheres) on small shared models.
 #[test]
 fn hierarchy_over_fitted_sphere_sets() {
-    let dir = models_dir();
-    if !dir.is_dir() {
-        println!("skipping: {} not found", dir.display());
-        return;
-    }
     {
         let rel = "obj/spot/spot_triangulated.obj";
-        let path = dir.join(rel);
+        let Some(path) = spherebake_testkit::shared_model(rel) else { return };
         let mesh = spherebake_io::load_mesh(&path).unwrap().mesh;
         let settings = spherebake_fit::FitSettings { spheres: 64, ..Default::default() };
         let t = std::time::Instant::now();

@@ -170,11 +170,8 @@ fn culled_sum_equals_full_sum() {
 /// 5σ of the hit fraction of 4k points, where "inside T" is decided by the winding number.
 #[test]
 fn monte_carlo_armadillo() {
-    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../../../shared/models/obj/armadillo.obj");
-    let Ok(text) = std::fs::read_to_string(path) else {
-        println!("skipping: {path} not found");
-        return;
-    };
+    let Some(path) = spherebake_testkit::shared_model("obj/armadillo.obj") else { return };
+    let text = std::fs::read_to_string(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
     let mut p = Vec::new();
     let mut t = Vec::new();
     for line in text.lines() {

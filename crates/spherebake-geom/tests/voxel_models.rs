@@ -4,8 +4,9 @@ mod voxel_support;
 
 use spherebake_geom::voxel::{voxelize, VoxelSettings};
 use spherebake_geom::winding::WindingNumber;
+use spherebake_testkit::shared_model;
 use std::time::Instant;
-use voxel_support::{load_obj, model_path, Rng};
+use voxel_support::{load_obj, Rng};
 
 /// Cells that are not surface cells must be solid exactly when |exact winding| ≥ 0.5, except
 /// where the exact value is within `band` of the threshold.
@@ -48,7 +49,7 @@ fn cpu_seconds() -> f64 {
 
 #[test]
 fn bunny_timings_and_classification() {
-    let Some(path) = model_path("obj/stanford-bunny.obj") else { return };
+    let Some(path) = shared_model("obj/stanford-bunny.obj") else { return };
     let (v, f) = load_obj(&path);
     assert_eq!(f.len(), 69451);
     let (c0, t0) = (cpu_seconds(), Instant::now());
@@ -108,7 +109,7 @@ fn bunny_timings_and_classification() {
 
 #[test]
 fn armadillo_volume_bracketed() {
-    let Some(path) = model_path("obj/armadillo.obj") else { return };
+    let Some(path) = shared_model("obj/armadillo.obj") else { return };
     let (v, f) = load_obj(&path);
     let t0 = Instant::now();
     let grid = voxelize(&v, &f, &VoxelSettings::default());
@@ -127,7 +128,7 @@ fn armadillo_volume_bracketed() {
 fn teapot_open_patches() {
     // Open surface patches (420 boundary edges, 3 parts): many rows pass through gaps, so the
     // winding-number fallback does real work here.
-    let Some(path) = model_path("obj/teapot.obj") else { return };
+    let Some(path) = shared_model("obj/teapot.obj") else { return };
     let (v, f) = load_obj(&path);
     let (c0, t0) = (cpu_seconds(), Instant::now());
     let grid = voxelize(&v, &f, &VoxelSettings::default());

@@ -4,7 +4,8 @@ mod voxel_support;
 
 use glam::{DVec3, Vec3};
 use spherebake_geom::winding::WindingNumber;
-use voxel_support::{cuboid, icosphere, load_obj, model_path, Rng};
+use spherebake_testkit::shared_model;
+use voxel_support::{cuboid, icosphere, load_obj, Rng};
 
 #[test]
 fn cube_inside_is_one_outside_zero() {
@@ -97,7 +98,7 @@ fn fast_matches_exact_on_icosphere() {
 
 #[test]
 fn fast_matches_exact_on_bunny() {
-    let Some(path) = model_path("obj/stanford-bunny.obj") else { return };
+    let Some(path) = shared_model("obj/stanford-bunny.obj") else { return };
     let (v, f) = load_obj(&path);
     let (lo, hi) = v.iter().fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(a, b), p| (a.min(*p), b.max(*p)));
     let mut rng = Rng(21);

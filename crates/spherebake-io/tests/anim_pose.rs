@@ -8,19 +8,10 @@ use spherebake_geom::anim::{joint_matrices, sample_local, skin_vertices, world_m
 use spherebake_geom::glam::Vec3;
 use spherebake_geom::Mesh;
 use spherebake_io::load_mesh;
+use spherebake_testkit::shared_models_dir;
 
 fn fixture(p: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../../fixtures").join(p)
-}
-
-fn models_dir() -> Option<PathBuf> {
-    let d = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/models");
-    if d.join("README.md").is_file() {
-        Some(d)
-    } else {
-        println!("skipping: {} not found", d.display());
-        None
-    }
 }
 
 fn pose(mesh: &Mesh, anim: Option<usize>, t: f32) -> Vec<Vec3> {
@@ -37,7 +28,7 @@ fn max_dist(a: &[Vec3], b: &[Vec3]) -> f32 {
 #[test]
 fn rest_pose_reproduces_imported_positions() {
     let mut paths = vec![fixture("skinned-arm.gltf")];
-    if let Some(d) = models_dir() {
+    if let Some(d) = shared_models_dir() {
         for m in ["CesiumMan.glb", "Fox.glb", "RiggedFigure.glb", "RiggedSimple.glb"] {
             paths.push(d.join("gltf").join(m));
         }
@@ -86,7 +77,7 @@ fn arm_fixture_bends_at_the_elbow() {
 
 #[test]
 fn cesium_man_posed_vertices_match_gltf_pose_oracle() {
-    let Some(d) = models_dir() else { return };
+    let Some(d) = shared_models_dir() else { return };
     let imp = load_mesh(&d.join("gltf/CesiumMan.glb")).unwrap();
     // From `python /work/shared/tools/gltf_pose.py CesiumMan.glb --rest rest.json` and
     // `--pose pose.json --animation 0 --time 0.5` (numpy 2, run by hand), welded vertices

@@ -16,6 +16,7 @@ use spherebake_geom::glam::{Quat, Vec3};
 use spherebake_geom::topology::TopologyReport;
 use spherebake_geom::AnimPath;
 use spherebake_io::{load_mesh, load_mesh_from_bytes, Imported, IoError};
+use spherebake_testkit::shared_model;
 
 fn fixture(p: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../../fixtures").join(p)
@@ -263,16 +264,6 @@ fn gpu_instancing_places_every_instance() {
     assert!((r.signed_volume - 3.0).abs() < sr.surface_area * f64::from(tol), "volume {}", r.signed_volume);
     let worst = every_vertex_found(&src.mesh, &imp.mesh, tol, 0.02);
     println!("instancing: worst position error {worst}");
-}
-
-fn shared_model(rel: &str) -> Option<PathBuf> {
-    let d = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/models");
-    if d.join("README.md").is_file() {
-        Some(d.join(rel))
-    } else {
-        println!("skipping: {} not found", d.display());
-        None
-    }
 }
 
 /// Splits a GLB into JSON text and BIN chunk.

@@ -7,19 +7,10 @@ use spherebake_geom::glam::Vec3;
 use spherebake_geom::topology::TopologyReport;
 use spherebake_geom::{FilterMode, WrapMode};
 use spherebake_io::{load_mesh, load_mesh_from_bytes, IoError};
+use spherebake_testkit::shared_models_dir;
 
 fn fixture(p: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../../fixtures").join(p)
-}
-
-fn models_dir() -> Option<PathBuf> {
-    let d = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/models");
-    if d.join("README.md").is_file() {
-        Some(d)
-    } else {
-        println!("skipping: {} not found", d.display());
-        None
-    }
 }
 
 fn b64(data: &[u8]) -> String {
@@ -272,7 +263,7 @@ fn arbitrary_bytes_never_panic() {
 
 #[test]
 fn fox_is_non_indexed() {
-    let Some(d) = models_dir() else { return };
+    let Some(d) = shared_models_dir() else { return };
     let imp = load_mesh(&d.join("gltf/Fox.glb")).unwrap();
     assert_eq!(imp.parts.len(), 1);
     assert_eq!((imp.parts[0].file_vertex_count, imp.mesh.triangles.len()), (1728, 576));
@@ -290,7 +281,7 @@ fn fox_is_non_indexed() {
 
 #[test]
 fn texture_transform_values() {
-    let Some(d) = models_dir() else { return };
+    let Some(d) = shared_models_dir() else { return };
     let imp = load_mesh(&d.join("gltf/TextureTransformTest/TextureTransformTest.gltf")).unwrap();
     let by_name = |n: &str| {
         let m = imp.mesh.materials.iter().find(|m| m.name == n).unwrap();
@@ -315,7 +306,7 @@ fn texture_transform_values() {
 
 #[test]
 fn spot_obj_finds_its_texture_through_the_mtl() {
-    let Some(d) = models_dir() else { return };
+    let Some(d) = shared_models_dir() else { return };
     let imp = load_mesh(&d.join("obj/spot/spot.obj")).unwrap();
     assert!(imp.warnings.is_empty(), "{:?}", imp.warnings);
     let tr = imp.mesh.materials[0].base_color_texture.as_ref().unwrap();
@@ -334,7 +325,7 @@ fn spot_obj_finds_its_texture_through_the_mtl() {
 
 #[test]
 fn box_vertex_colors_are_read() {
-    let Some(d) = models_dir() else { return };
+    let Some(d) = shared_models_dir() else { return };
     let imp = load_mesh(&d.join("gltf/BoxVertexColors.glb")).unwrap();
     assert_eq!(imp.mesh.colors_linear.len(), 24);
     assert!(imp.mesh.colors_linear.iter().any(|c| c[0] != c[1] || c[1] != c[2]), "coloured");

@@ -17,22 +17,13 @@
 //!   coordinates (3325 / 420 boundary edges strict, 3241 / 160 with ±0 merged).
 
 use std::collections::{BTreeMap, HashSet};
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 use spherebake_geom::glam::Vec3;
 use spherebake_geom::topology::TopologyReport;
 use spherebake_geom::Mesh;
 use spherebake_io::{load_mesh, Imported};
-
-fn models_dir() -> Option<PathBuf> {
-    let d = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/models");
-    if d.join("README.md").is_file() {
-        Some(d)
-    } else {
-        println!("skipping: {} not found", d.display());
-        None
-    }
-}
+use spherebake_testkit::shared_models_dir;
 
 /// A README number with the tolerance of its printed digits (half a unit in the last place).
 fn printed(s: &str) -> (f64, f64) {
@@ -175,7 +166,7 @@ fn file_and_welded(path: &Path, imp: &Imported) -> (usize, usize) {
 
 #[test]
 fn shared_models_match_readme() {
-    let Some(dir) = models_dir() else { return };
+    let Some(dir) = shared_models_dir() else { return };
     let mut failures = Vec::new();
     for row in rows() {
         let path = dir.join(row.path);
@@ -252,7 +243,7 @@ fn shared_models_match_readme() {
 /// POSITION data, so their volume and box must match without any transform.
 #[test]
 fn skinned_bind_positions_are_mesh_space() {
-    let Some(dir) = models_dir() else { return };
+    let Some(dir) = shared_models_dir() else { return };
     #[rustfmt::skip]
     let cases = [
         ("gltf/CesiumMan.glb", 0.05371326, ([-0.131, -0.569137, 0.0], [0.180954, 0.569137, 1.50655])),
@@ -278,7 +269,7 @@ fn skinned_bind_positions_are_mesh_space() {
 /// volume 1195799 (second table) × 0.01³, and the mesh-space box × 0.01 is the scene box.
 #[test]
 fn duck_node_scale_applied() {
-    let Some(dir) = models_dir() else { return };
+    let Some(dir) = shared_models_dir() else { return };
     for path in ["gltf/Duck.glb", "gltf/Duck/Duck.gltf"] {
         let imp = load_mesh(&dir.join(path)).unwrap();
         let r = TopologyReport::compute(&imp.mesh);
@@ -298,7 +289,7 @@ type MeshSpaceRow = (&'static str, usize, usize, usize, &'static str, bool, ([f6
 /// positions mapped back through the inverse of the instancing node's world matrix.
 #[test]
 fn gltf_mesh_space_table() {
-    let Some(dir) = models_dir() else { return };
+    let Some(dir) = shared_models_dir() else { return };
     // (path, instances, distinct meshes, triangles of the distinct meshes, volume as printed,
     //  whether the volume is a closed one, AABB)
     #[rustfmt::skip]

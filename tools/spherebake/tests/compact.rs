@@ -23,20 +23,6 @@ fn fixture(name: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../../fixtures").join(name)
 }
 
-fn shared_model(rel: &str) -> Option<PathBuf> {
-    let p = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/models").join(rel);
-    if p.exists() {
-        return Some(p);
-    }
-    assert!(
-        std::env::var("SPHEREBAKE_REQUIRE_MODELS").as_deref() != Ok("1"),
-        "SPHEREBAKE_REQUIRE_MODELS=1 but {} is missing",
-        p.display()
-    );
-    eprintln!("skipping: {} not found (../shared/models absent)", p.display());
-    None
-}
-
 fn kinds(bytes: &[u8]) -> Vec<u32> {
     spherebake_format::read_header_and_table(bytes).unwrap().1.iter().map(|e| e.kind).collect()
 }
@@ -107,7 +93,7 @@ fn shadow_error(file: &str, model: &str, d: &Path) -> f64 {
 
 #[test]
 fn bunny_at_64_spheres_compact_is_under_45_kb_with_the_same_shadow_error() {
-    let Some(bunny) = shared_model("obj/stanford-bunny.obj") else { return };
+    let Some(bunny) = spherebake_testkit::shared_model("obj/stanford-bunny.obj") else { return };
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
     let model = bunny.to_str().unwrap();

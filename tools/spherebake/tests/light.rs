@@ -11,7 +11,7 @@
 use serde_json::Value;
 use spherebake_reference::analytic::{sphere_one_bounce, uv_sphere_mesh, DiffuseSphere};
 use spherebake_reference::Sky;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::{Command, Output};
 
 fn run(args: &[&str], dir: &Path) -> Output {
@@ -253,23 +253,9 @@ fn results_do_not_depend_on_the_thread_count() {
     assert!(outs[0] == outs[1], "values differ between 1 and 2 threads");
 }
 
-fn shared_model(rel: &str) -> Option<PathBuf> {
-    let p = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/models").join(rel);
-    if p.exists() {
-        return Some(p);
-    }
-    assert!(
-        std::env::var("SPHEREBAKE_REQUIRE_MODELS").as_deref() != Ok("1"),
-        "SPHEREBAKE_REQUIRE_MODELS=1 but {} is missing",
-        p.display()
-    );
-    eprintln!("skipping: {} not found (../shared/models absent)", p.display());
-    None
-}
-
 #[test]
 fn duck_at_64_spheres_keeps_its_measured_ground_error_under_the_uniform_sky() {
-    let Some(duck) = shared_model("gltf/Duck.glb") else { return };
+    let Some(duck) = spherebake_testkit::shared_model("gltf/Duck.glb") else { return };
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
     let model = duck.to_str().unwrap();

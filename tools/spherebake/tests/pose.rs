@@ -14,16 +14,6 @@ fn repo() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
 }
 
-fn shared(name: &str) -> Option<PathBuf> {
-    let p = repo().join("../shared/models/gltf").join(name);
-    if p.exists() {
-        Some(p)
-    } else {
-        eprintln!("skipping {name}: ../shared/models not found");
-        None
-    }
-}
-
 struct Rng(u64);
 impl Rng {
     fn next(&mut self) -> f64 {
@@ -156,7 +146,7 @@ fn fixture_arm() {
 #[test]
 fn shared_skinned_models() {
     for name in ["RiggedSimple.glb", "RiggedFigure.glb", "CesiumMan.glb", "Fox.glb"] {
-        let Some(p) = shared(name) else { return };
+        let Some(p) = spherebake_testkit::shared_model(&format!("gltf/{name}")) else { return };
         eprintln!("{name}");
         check_model(&load(&p), 48, 5);
     }

@@ -240,17 +240,6 @@ pub fn directions() -> Vec<DVec3> {
     spherebake_sh::GEODESIC_DIRECTIONS.iter().map(|d| Vec3::from_array(*d).as_dvec3()).collect()
 }
 
-/// Shared models directory, `None` (with a printed message) when absent.
-pub fn models_dir() -> Option<std::path::PathBuf> {
-    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/models");
-    if dir.is_dir() {
-        Some(dir)
-    } else {
-        println!("skipping: {} not found", dir.display());
-        None
-    }
-}
-
 /// A simple deterministic sphere set for real models: triangles grouped by centroid on a
 /// k×k×k grid over the bounding box, each group's sphere centred at its corners' mean with the
 /// radius reaching its farthest corner.

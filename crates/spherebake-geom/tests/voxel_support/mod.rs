@@ -3,7 +3,6 @@
 
 use glam::{DVec3, Vec3};
 use std::collections::HashMap;
-use std::path::PathBuf;
 
 /// Unit-radius icosphere centred at `center` with `radius`, outward counter-clockwise faces.
 pub fn icosphere(subdivisions: u32, center: Vec3, radius: f32) -> (Vec<Vec3>, Vec<[u32; 3]>) {
@@ -126,17 +125,6 @@ pub fn signed_volume_f64(v: &[DVec3], f: &[[u32; 3]]) -> f64 {
             a.dot(b.cross(c)) / 6.0
         })
         .sum()
-}
-
-/// `shared/models/<rel>` next to the repository, if present.
-pub fn model_path(rel: &str) -> Option<PathBuf> {
-    let p = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../../shared/models").join(rel);
-    if p.is_file() {
-        Some(p)
-    } else {
-        println!("skipping: {} not found", p.display());
-        None
-    }
 }
 
 /// Minimal OBJ reader: `v x y z` and triangular/polygonal `f` (fan-triangulated; `v/vt/vn`,
