@@ -32,11 +32,19 @@ impl Grid {
         let u = (p - o) / h;
         (u.x.floor() as i64, u.y.floor() as i64, u.z.floor() as i64)
     }
-    /// Indices of points within `r` of `c` (appended to `out`).
+    /// Indices of points within `r` of `c` (appended to `out`; the order is not part of the
+    /// contract). When the ball spans more grid rows than there are points (a large ball, or a
+    /// spacing that is zero or not finite), every point is tested instead: the rows of a ball
+    /// of radius r number about (2r/h)², unbounded as h → 0.
     fn within(&self, pts: &[DVec3], c: DVec3, r: f64, out: &mut Vec<u32>) {
+        let r2 = r * r;
         let lo = Self::key_of(self.origin, self.h, c - DVec3::splat(r));
         let hi = Self::key_of(self.origin, self.h, c + DVec3::splat(r));
-        let r2 = r * r;
+        let rows = (hi.0 as f64 - lo.0 as f64 + 1.0) * (hi.1 as f64 - lo.1 as f64 + 1.0);
+        if !(self.h > 0.0 && self.h.is_finite() && r.is_finite()) || !(rows <= self.entries.len() as f64) {
+            out.extend((0..pts.len() as u32).filter(|&i| pts[i as usize].distance_squared(c) <= r2));
+            return;
+        }
         for x in lo.0..=hi.0 {
             for y in lo.1..=hi.1 {
                 let s = self.entries.partition_point(|e| e.0 < (x, y, lo.2));
@@ -51,6 +59,34 @@ impl Grid {
             }
         }
     }
+}
+
+/// Doublings of the search radius in [`nearest_distance`] before it scans every point.
+const MAX_DOUBLINGS: usize = 60;
+
+/// Distance from `p` to the nearest of `pts` (not empty; ∞ if empty): balls of radius h, 2h,
+/// 4h, … on the grid until one holds a point (then the nearest of those is the nearest of
+/// all). Bounded: with a spacing that is zero or not finite, or after [`MAX_DOUBLINGS`], the
+/// full scan answers.
+fn nearest_distance(grid: &Grid, pts: &[DVec3], p: DVec3, h: f64) -> f64 {
+    let scan = || pts.iter().map(|q| q.distance(p)).fold(f64::INFINITY, f64::min);
+    if !(h > 0.0 && h.is_finite()) {
+        return scan();
+    }
+    let mut r = h;
+    let mut out = Vec::new();
+    for _ in 0..MAX_DOUBLINGS {
+        out.clear();
+        grid.within(pts, p, r, &mut out);
+        if !out.is_empty() {
+            return out.iter().map(|&i| pts[i as usize].distance(p)).fold(f64::INFINITY, f64::min);
+        }
+        r *= 2.0;
+        if !r.is_finite() {
+            break;
+        }
+    }
+    scan()
 }
 
 /// Greedy cover; returns chosen (candidate index) in pick order, or None if more than `limit`.
@@ -99,21 +135,7 @@ pub fn start(surface_all: &[DVec3], interior_all: &[DVec3], k: usize, h: f64, se
     let grid = Grid::new(surface, h);
     // Candidates: interior points, then surface samples (ρ = 0) as a fallback.
     let cand: Vec<DVec3> = interior.iter().chain(surface.iter()).copied().collect();
-    let rho: Vec<f64> = cand
-        .par_iter()
-        .map(|p| {
-            let mut r = h;
-            let mut out = Vec::new();
-            loop {
-                out.clear();
-                grid.within(surface, *p, r, &mut out);
-                if !out.is_empty() {
-                    return out.iter().map(|&i| surface[i as usize].distance(*p)).fold(f64::INFINITY, f64::min);
-                }
-                r *= 2.0;
-            }
-        })
-        .collect();
+    let rho: Vec<f64> = cand.par_iter().map(|p| nearest_distance(&grid, surface, *p, h)).collect();
     let mut rng = crate::rng::SplitMix64::new(seed ^ 0x5EED_C0DE);
     let order: Vec<u32> = (0..cand.len()).map(|_| rng.next_u64() as u32).collect();
     let covers = |t: f64| -> Vec<Vec<u32>> {
@@ -151,4 +173,44 @@ pub fn start(surface_all: &[DVec3], interior_all: &[DVec3], k: usize, h: f64, se
         }
     }
     picks.iter().map(|&i| (cand[i], rho[i] + t_best)).collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn nearest_distance_ends_for_zero_and_non_finite_spacings() {
+        // Before: the doubling search never ended at spacing 0 (r stays 0) or NaN (no ball
+        // holds a point), and with a point far beyond the grid it looped (2r/h)² rows.
+        let pts = vec![DVec3::new(1.0, 2.0, 3.0), DVec3::new(-4.0, 0.5, 2.0), DVec3::new(0.25, 0.0, -1.0)];
+        let brute = |p: DVec3| pts.iter().map(|q| q.distance(p)).fold(f64::INFINITY, f64::min);
+        for h in [0.0, -1.0, f64::NAN, f64::INFINITY, 1e-300, 0.1, 1e300] {
+            let grid = Grid::new(&pts, h);
+            for p in [DVec3::ZERO, DVec3::new(1.0, 2.0, 3.0), DVec3::splat(1e12), DVec3::new(-3.0, 0.0, 2.0)] {
+                let d = nearest_distance(&grid, &pts, p, h);
+                assert_eq!(d, brute(p), "h {h}, p {p}");
+            }
+        }
+        // The start itself ends on a point set whose spacing is 0 (one repeated point).
+        let same = vec![DVec3::ONE; 4];
+        let s = start(&same, &[], 2, 0.0, 1);
+        assert!(!s.is_empty() && s.len() <= 2, "{s:?}");
+        assert!(s.iter().all(|(c, r)| c.distance(DVec3::ONE) <= *r + 1e-12), "{s:?}");
+    }
+
+    #[test]
+    fn within_finds_exactly_the_points_in_the_ball_on_either_path() {
+        let mut rng = crate::rng::SplitMix64::new(11);
+        let pts: Vec<DVec3> = (0..300).map(|_| DVec3::new(rng.next_f64(), rng.next_f64(), rng.next_f64())).collect();
+        let grid = Grid::new(&pts, 0.05);
+        for r in [0.0, 0.03, 0.2, 0.9, 5.0] {
+            let c = DVec3::new(0.4, 0.6, 0.5);
+            let mut got = Vec::new();
+            grid.within(&pts, c, r, &mut got);
+            got.sort_unstable();
+            let want: Vec<u32> = (0..300u32).filter(|&i| pts[i as usize].distance_squared(c) <= r * r).collect();
+            assert_eq!(got, want, "r {r}");
+        }
+    }
 }

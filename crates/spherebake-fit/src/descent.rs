@@ -472,8 +472,16 @@ pub fn exclusive_descent(solid: &Solid, pts: &[DVec3], spheres: &mut [(DVec3, f6
     }
     {
         let sp = &*spheres;
-        let uncovered: Vec<DVec3> =
-            pts.par_iter().filter(|p| !sp.iter().any(|s| p.distance_squared(s.0) <= s.1 * s.1)).copied().collect();
+        let grid = crate::ballgrid::BallGrid::new(sp);
+        let uncovered: Vec<DVec3> = pts
+            .par_iter()
+            .map_init(Vec::new, |cand, p| {
+                grid.at(*p, cand);
+                (!cand.iter().any(|&j| p.distance_squared(sp[j as usize].0) <= sp[j as usize].1 * sp[j as usize].1))
+                    .then_some(*p)
+            })
+            .flatten()
+            .collect();
         cover_points(solid, spheres, &uncovered);
     }
     let debug = std::env::var_os("SPHEREBAKE_DEBUG").is_some();

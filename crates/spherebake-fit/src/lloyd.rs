@@ -3,6 +3,7 @@
 //! voxel proxy of [`crate::solid::Solid::ball_volume`]; the exact energy is computed once on
 //! the final, exactly bounding result.
 
+use crate::ballgrid::BallGrid;
 use crate::points::{PointSet, Rep};
 use crate::powell::powell;
 use crate::rng::SplitMix64;
@@ -203,8 +204,6 @@ pub fn cluster(ctx: &Ctx, centres: &[DVec3], init_radii: Option<&[f64]>) -> (Vec
     (assign, radii)
 }
 
-const POWER_RULE_RELATIVE: bool = false;
-
 /// Polish: a member within this factor × another sphere's radius of its centre is exempt from
 /// its own sphere's centre update (all rounds but the last).
 const EXEMPT_FACTOR: f64 = 1.01;
@@ -216,30 +215,39 @@ const TELEPORT_ROTATE: bool = true;
 /// (least power d² − r²), or else the sphere whose volume grows least to reach it. With the
 /// spheres of the previous update every point is contained, so no cluster's bounding radius at
 /// its old centre grows and the following centre update cannot increase E.
+///
+/// The containing spheres come from a [`BallGrid`] (the candidates of the point's cell, in
+/// index order, so the choice is the full scan's); only a point no sphere contains scans them
+/// all. Cost O(points × spheres per cell) instead of O(points × spheres).
 pub fn power_assign(pts: &[Rep], centres: &[DVec3], radii: &[f64]) -> Vec<u32> {
+    let balls: Vec<(DVec3, f64)> = centres.iter().copied().zip(radii.iter().copied()).collect();
+    let grid = BallGrid::new(&balls);
     pts.par_iter()
-        .map(|p| {
+        .map_init(Vec::new, |cand, p| {
+            grid.at(p.p, cand);
             let mut best_in = (f64::INFINITY, u32::MAX);
+            for &i in cand.iter() {
+                let (c, r) = (centres[i as usize], radii[i as usize]);
+                let d2 = p.far(c).powi(2);
+                let pw = d2 - r * r;
+                if pw <= 0.0 && pw < best_in.0 {
+                    best_in = (pw, i);
+                }
+            }
+            if best_in.1 != u32::MAX {
+                return best_in.1;
+            }
             let mut best_out = (f64::INFINITY, u32::MAX);
             for (i, (c, r)) in centres.iter().zip(radii).enumerate() {
                 let d2 = p.far(*c).powi(2);
-                let pw = if POWER_RULE_RELATIVE { d2 / (r * r).max(1e-300) - 1.0 } else { d2 - r * r };
-                if pw <= 0.0 {
-                    if pw < best_in.0 {
-                        best_in = (pw, i as u32);
-                    }
-                } else {
+                if d2 - r * r > 0.0 {
                     let g = d2 * d2.sqrt() - r * r * r;
                     if g < best_out.0 {
                         best_out = (g, i as u32);
                     }
                 }
             }
-            if best_in.1 != u32::MAX {
-                best_in.1
-            } else {
-                best_out.1
-            }
+            best_out.1
         })
         .collect()
 }
@@ -251,13 +259,21 @@ pub fn power_assign(pts: &[Rep], centres: &[DVec3], radii: &[f64]) -> Vec<u32> {
 pub fn assign_grow(solid: &Solid, pts: &[Rep], centres: &[DVec3], radii: &[f64]) -> Vec<u32> {
     let mut assign = power_assign(pts, centres, radii);
     let mut r = radii.to_vec();
+    let balls: Vec<(DVec3, f64)> = centres.iter().copied().zip(radii.iter().copied()).collect();
+    let grid = BallGrid::new(&balls);
     let mut out: Vec<(f64, u32)> = pts
         .par_iter()
         .enumerate()
-        .filter_map(|(i, p)| {
+        .map_init(Vec::new, |cand, (i, p)| {
+            // Covered (a candidate of its cell contains it): no gap; else the full scan.
+            grid.at(p.p, cand);
+            if cand.iter().any(|&j| p.far(centres[j as usize]) - radii[j as usize] <= 0.0) {
+                return None;
+            }
             let gap = centres.iter().zip(radii).map(|(c, rr)| p.far(*c) - rr).fold(f64::INFINITY, f64::min);
             (gap > 0.0).then_some((gap, i as u32))
         })
+        .flatten()
         .collect();
     out.sort_by(|a, b| b.0.total_cmp(&a.0).then(a.1.cmp(&b.1)));
     for &(_, i) in &out {
@@ -624,12 +640,17 @@ pub fn polish(ctx: &Ctx, spheres: &[(DVec3, f64)], rounds: usize) -> Vec<(DVec3,
             // 0.2892 / 0.2757 / 0.3059, armadillo 0.5297 / 0.5276 / 0.5108 / 0.5059, spot
             // 0.2367 / 0.2373 / 0.2154 / 0.2253).
             let em = EXEMPT_FACTOR;
+            let reach: Vec<(DVec3, f64)> = centres.iter().zip(&rr).map(|(c, r)| (*c, r * em)).collect();
+            let grid = BallGrid::new(&reach);
             mem = mem
                 .into_par_iter()
                 .enumerate()
-                .map(|(i, m)| {
+                .map_init(Vec::new, |cand, (i, m)| {
                     // Only spheres that can reach a member (|p − c_i| ≤ rr_i) matter.
-                    let near: Vec<usize> = (0..centres.len())
+                    grid.near(centres[i], rr[i], cand);
+                    let near: Vec<usize> = cand
+                        .iter()
+                        .map(|&j| j as usize)
                         .filter(|&j| j != i && centres[i].distance(centres[j]) <= rr[i] + rr[j] * em)
                         .collect();
                     let kept: Vec<u32> = m
@@ -696,13 +717,28 @@ pub fn shrink(solid: &Solid, pts: &[Rep], centres: &[DVec3], radii: &mut [f64], 
     order.sort_by(|&a, &b| outs[b].total_cmp(&outs[a]).then(a.cmp(&b)));
     let step = 0.25 * solid.h;
     let mut moves = 0;
+    let mut grid: Option<BallGrid> = None;
+    let mut reach: Vec<f64> = Vec::new();
     let mut new_r = vec![0.0f64; k];
     let mut new_o = vec![0.0f64; k];
+    let mut cand = Vec::new();
     for &i in &order {
         if mem[i].len() < 2 || radii[i] <= 0.0 {
             continue;
         }
-        let nb: Vec<usize> = (0..k)
+        // Moves shrink one radius and grow others: the grid lists each sphere with reach
+        // 1.5 (2 r + h) and is rebuilt only when a radius outgrows that (so a query still
+        // returns a superset of the neighbours).
+        if grid.is_none() || (0..k).any(|j| 1.5 * radii[j] > reach[j]) {
+            reach = radii.iter().map(|r| 1.5 * (2.0 * r + solid.h)).collect();
+            let balls: Vec<(DVec3, f64)> = centres.iter().copied().zip(reach.iter().copied()).collect();
+            grid = Some(BallGrid::new(&balls));
+        }
+        let g = grid.as_ref().expect("built above");
+        g.near(centres[i], 1.5 * radii[i] + solid.h, &mut cand);
+        let nb: Vec<usize> = cand
+            .iter()
+            .map(|&j| j as usize)
             .filter(|&j| j != i && centres[i].distance(centres[j]) < 1.5 * (radii[i] + radii[j]) + solid.h)
             .collect();
         if nb.is_empty() {

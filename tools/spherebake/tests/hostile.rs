@@ -902,3 +902,52 @@ fn error_causes_print_once_and_name_the_model() {
     let err = stderr(&o);
     assert!(!err.contains(" .:") && !err.contains(": .") && err.contains("current directory"), "{err}");
 }
+
+/// `inspect --json` of `file` in `dir` (the file is valid: exit 0).
+fn inspect_json(dir: &Path, file: &str) -> serde_json::Value {
+    let o = run(&["inspect", file, "--json"], dir);
+    assert_eq!(o.status.code(), Some(0), "{file} is a valid file: {}", stderr(&o));
+    serde_json::from_slice(&o.stdout).unwrap()
+}
+
+#[test]
+fn many_spheres_on_a_12_triangle_cube_finish_in_bounded_time() {
+    // Was: --spheres 4096 on the cube ran for over 11 CPU minutes (every assignment, coverage
+    // and pocket query scanned all spheres). 1024 keeps the debug suite fast and takes the same
+    // path; docs/benchmarks.md has 4096 in release.
+    let d = tempdir();
+    std::fs::write(d.path().join("cube.obj"), CUBE_OBJ).unwrap();
+    let t0 = std::time::Instant::now();
+    let v = bake_json(d.path(), "cube.obj", &["--spheres", "1024", "--voxels", "64"]);
+    let secs = t0.elapsed().as_secs_f64();
+    assert!(secs < 240.0, "took {secs} s");
+    let n = v["spheres"].as_u64().unwrap();
+    let warnings: Vec<String> =
+        v["report"]["warnings"].as_array().unwrap().iter().map(|w| w.as_str().unwrap().to_owned()).collect();
+    assert!(n <= 1024 && n >= 512, "{n} spheres");
+    if n < 1024 {
+        assert!(warnings.iter().any(|w| w.contains("instead of the 1024 asked")), "{warnings:?}");
+    }
+    let e = v["outside_ratio_e"].as_f64().unwrap();
+    assert!(e > 0.0 && e < 0.5, "E {e}: more spheres than the default fit the cube better");
+    let info = inspect_json(d.path(), "out.sphb");
+    assert_eq!(info["spheres"].as_array().map(|a| a.len() as u64), Some(n));
+}
+
+#[test]
+fn an_unreachable_target_stops_early_and_says_what_was_reached() {
+    // Was: --max-outside-ratio 1e-9 tried every count up to 1024 (134 s CPU on the cube) before
+    // "not reached". Now the search stops once the E seen cannot reach the target.
+    let d = tempdir();
+    std::fs::write(d.path().join("cube.obj"), CUBE_OBJ).unwrap();
+    let v = bake_json(d.path(), "cube.obj", &["--max-outside-ratio", "1e-9", "--voxels", "64"]);
+    let warnings: Vec<String> =
+        v["report"]["warnings"].as_array().unwrap().iter().map(|w| w.as_str().unwrap().to_owned()).collect();
+    let w = warnings.iter().find(|w| w.starts_with("target E ≤ 0.000000001 not reached")).expect("warning");
+    assert!(w.contains("the best is E = ") && w.contains("stopped early"), "{w}");
+    let n = v["spheres"].as_u64().unwrap();
+    assert!((8..=32).contains(&n), "{n} spheres: only the first doublings were tried");
+    let e = v["outside_ratio_e"].as_f64().unwrap();
+    assert!(w.contains(&format!("E = {e:.4} with {n} spheres")), "the message names the result kept: {w}");
+    assert_eq!(inspect_json(d.path(), "out.sphb")["spheres"].as_array().map(|a| a.len() as u64), Some(n));
+}
