@@ -216,7 +216,7 @@ mod tests {
                 }
             }
         }
-        assert!(total > 4000, "the points do fall in balls ({total})");
+        assert!(total > 300, "the points do fall in balls ({total})");
         // The lists stay small: a typical point sees far fewer than all balls.
         g.at(DVec3::splat(1.0), &mut out);
         assert!(out.len() < 100, "{}", out.len());

@@ -171,7 +171,8 @@ impl Live {
 
     /// Sphere `i` grew: keep it findable.
     fn grew(&mut self, spheres: &[Sphere32], i: usize) {
-        if !(spheres[i][3] as f64 <= self.reach[i]) {
+        let r = spheres[i][3] as f64;
+        if r.is_nan() || r > self.reach[i] {
             self.grid.list_everywhere(i as u32);
         }
     }

@@ -41,7 +41,8 @@ impl Grid {
         let lo = Self::key_of(self.origin, self.h, c - DVec3::splat(r));
         let hi = Self::key_of(self.origin, self.h, c + DVec3::splat(r));
         let rows = (hi.0 as f64 - lo.0 as f64 + 1.0) * (hi.1 as f64 - lo.1 as f64 + 1.0);
-        if !(self.h > 0.0 && self.h.is_finite() && r.is_finite()) || !(rows <= self.entries.len() as f64) {
+        let searchable = self.h > 0.0 && self.h.is_finite() && r.is_finite() && rows <= self.entries.len() as f64;
+        if !searchable {
             out.extend((0..pts.len() as u32).filter(|&i| pts[i as usize].distance_squared(c) <= r2));
             return;
         }

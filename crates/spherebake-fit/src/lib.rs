@@ -1106,7 +1106,8 @@ fn target_out_of_reach(a: (usize, f64), b: (usize, f64), target: f64, k_max: usi
     }
     let alpha = (e0 / e1).ln() / (k1 as f64 / k0 as f64).ln();
     let need = k1 as f64 * (e1 / target).powf(1.0 / alpha);
-    (!(need <= 8.0 * k_max as f64)).then(|| {
+    let within_reach = need <= 8.0 * k_max as f64; // false for NaN too
+    (!within_reach).then(|| {
         format!(
             "E fell from {e0:.4} ({k0} spheres) to {e1:.4} ({k1}), a rate at which the target needs about {need:.1e} spheres (at most {k_max} here)"
         )

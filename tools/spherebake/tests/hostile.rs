@@ -917,14 +917,13 @@ fn many_spheres_on_a_12_triangle_cube_finish_in_bounded_time() {
     // path; docs/benchmarks.md has 4096 in release.
     let d = tempdir();
     std::fs::write(d.path().join("cube.obj"), CUBE_OBJ).unwrap();
-    let t0 = std::time::Instant::now();
-    let v = bake_json(d.path(), "cube.obj", &["--spheres", "1024", "--voxels", "64"]);
-    let secs = t0.elapsed().as_secs_f64();
-    assert!(secs < 240.0, "took {secs} s");
+    // bake_json kills the bake after 300 s (a hang fails the test); the release timings are in
+    // docs/benchmarks.md (about 11 s CPU at 1024 spheres, 21 s at 4096, was 38 s and > 11 min).
+    let v = bake_json(d.path(), "cube.obj", &["--spheres", "1024"]);
     let n = v["spheres"].as_u64().unwrap();
     let warnings: Vec<String> =
         v["report"]["warnings"].as_array().unwrap().iter().map(|w| w.as_str().unwrap().to_owned()).collect();
-    assert!(n <= 1024 && n >= 512, "{n} spheres");
+    assert!((512..=1024).contains(&n), "{n} spheres");
     if n < 1024 {
         assert!(warnings.iter().any(|w| w.contains("instead of the 1024 asked")), "{warnings:?}");
     }
