@@ -1385,7 +1385,7 @@ mod target_tests {
         let p: Vec<Vec3> = p.iter().map(|q| q.as_vec3()).collect();
         let s = FitSettings { max_outside_ratio: Some(1e-9), descent_trials: 8, ..FitSettings::default() };
         let r = fit(&p, &t, &s, &|_| {}).expect("fits");
-        let w = r.warnings.iter().find(|w| w.starts_with("target E ≤ 1e-9 not reached")).expect("warning");
+        let w = r.warnings.iter().find(|w| w.starts_with("target E ≤ 0.000000001 not reached")).expect("warning");
         assert!(w.contains("stopped early") && w.contains("the best is E = "), "{w}");
         // Two or three counts tried (8, 16, 32 at most), not every count up to 1024.
         assert!(r.spheres.len() <= 32, "{}", r.spheres.len());
