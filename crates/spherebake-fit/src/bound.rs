@@ -326,18 +326,56 @@ pub fn make_bounding(spheres: &[(DVec3, f64)], input: &BoundInput) -> (Vec<Spher
 /// neighbours per sphere, where enumerating 4-cliques of the inflated balls cost O(n · m³):
 /// with 4096 spheres smaller than δ that was hours (issue 17). Degenerate vertices (five or
 /// more spheres of equal power, four coplanar centres) are found too.
+/// Centres, radii and the ball grid at the pocket search's reach √(r² + P), P = 2 r_max δ + δ² the largest power a
+/// pocket vertex within δ of the surface can have.
+struct PowerSet {
+    c: Vec<DVec3>,
+    r: Vec<f64>,
+    rin: Vec<f64>,
+    grid: BallGrid,
+    pmax: f64,
+}
+
+impl PowerSet {
+    fn new(s: &[Sphere32], delta: f64) -> PowerSet {
+        let c: Vec<DVec3> = s.iter().map(|x| DVec3::new(x[0] as f64, x[1] as f64, x[2] as f64)).collect();
+        let r: Vec<f64> = s.iter().map(|x| x[3] as f64).collect();
+        let rmax = r.iter().cloned().fold(0.0, f64::max);
+        let pmax = 2.0 * rmax * delta + delta * delta;
+        let rin: Vec<f64> = r.iter().map(|x| (x * x + pmax).sqrt()).collect();
+        let grid = BallGrid::new(&c.iter().copied().zip(rin.iter().copied()).collect::<Vec<_>>());
+        PowerSet { c, r, rin, grid, pmax }
+    }
+}
+
+/// Whether `v` (power `p` with respect to its defining spheres, one of radius `r_i`) is a genuine power-diagram
+/// vertex: no sphere has lower power at v (with a rounding allowance) and none contains it. A sphere failing
+/// either test has |v − c|² < r² + p ≤ r² + P (or contains v), so it is among the grid's candidates at v.
+#[allow(clippy::too_many_arguments)]
+fn genuine_power_vertex(
+    grid: &BallGrid,
+    s: &[Sphere32],
+    c: &[DVec3],
+    r: &[f64],
+    r_i: f64,
+    v: DVec3,
+    p: f64,
+    cand: &mut Vec<u32>,
+) -> bool {
+    let tol = 1e-9 * (p + r_i * r_i);
+    grid.at(v, cand);
+    cand.iter().all(|&x| {
+        let x = x as usize;
+        !contains(&s[x], v) && v.distance_squared(c[x]) - r[x] * r[x] >= p - tol
+    })
+}
+
 fn pocket_vertices(s: &[Sphere32], input: &BoundInput, rep: &mut BoundReport) -> Vec<(DVec3, f64)> {
     let n = s.len();
     if n < 4 {
         return Vec::new();
     }
-    let c: Vec<DVec3> = s.iter().map(|x| DVec3::new(x[0] as f64, x[1] as f64, x[2] as f64)).collect();
-    let r: Vec<f64> = s.iter().map(|x| x[3] as f64).collect();
-    let rmax = r.iter().cloned().fold(0.0, f64::max);
-    let d = input.delta;
-    let pmax = 2.0 * rmax * d + d * d;
-    let rin: Vec<f64> = r.iter().map(|x| (x * x + pmax).sqrt()).collect();
-    let grid = BallGrid::new(&c.iter().copied().zip(rin.iter().copied()).collect::<Vec<_>>());
+    let PowerSet { c, r, rin, grid, pmax } = PowerSet::new(s, input.delta);
     let cand: Vec<(DVec3, f64)> = (0..n)
         .into_par_iter()
         .flat_map_iter(|i| {
@@ -379,17 +417,8 @@ fn pocket_vertices(s: &[Sphere32], input: &BoundInput, rep: &mut BoundReport) ->
                 if p <= 0.0 || p > pmax {
                     continue;
                 }
-                // Only genuine power-diagram vertices can be pocket maxima: no sphere may have
-                // lower power at v (with a rounding allowance), and none may contain v. A
-                // sphere failing either test has |v − c|² < r² + p ≤ r² + P (or contains v):
-                // it is among the grid's candidates for reach √(r² + P).
-                let tol = 1e-9 * (p + r[i] * r[i]);
-                grid.at(v, &mut cand);
-                let genuine = cand.iter().all(|&x| {
-                    let x = x as usize;
-                    !contains(&s[x], v) && v.distance_squared(c[x]) - r[x] * r[x] >= p - tol
-                });
-                if genuine {
+                // Only genuine power-diagram vertices can be pocket maxima.
+                if genuine_power_vertex(&grid, s, &c, &r, r[i], v, p, &mut cand) {
                     found.push((v, p));
                 }
             }
@@ -507,13 +536,7 @@ mod tests {
         if n < 4 {
             return Vec::new();
         }
-        let c: Vec<DVec3> = s.iter().map(|x| DVec3::new(x[0] as f64, x[1] as f64, x[2] as f64)).collect();
-        let r: Vec<f64> = s.iter().map(|x| x[3] as f64).collect();
-        let rmax = r.iter().cloned().fold(0.0, f64::max);
-        let d = input.delta;
-        let pmax = 2.0 * rmax * d + d * d;
-        let rin: Vec<f64> = r.iter().map(|x| (x * x + pmax).sqrt()).collect();
-        let grid = BallGrid::new(&c.iter().copied().zip(rin.iter().copied()).collect::<Vec<_>>());
+        let PowerSet { c, r, rin, grid, pmax } = PowerSet::new(s, input.delta);
         let words = n.div_ceil(64);
         let mut adj = vec![0u64; n * words];
         for i in 0..n {
@@ -557,18 +580,8 @@ mod tests {
                             if p <= 0.0 || p > pmax {
                                 continue;
                             }
-                            // Only genuine power-diagram vertices can be pocket maxima: no sphere
-                            // may have lower power at v than the four defining ones (with a
-                            // rounding allowance), and none may contain v.
-                            // A sphere failing either test has |v − c|² < r² + p ≤ r² + P (or
-                            // contains v): it is among the grid's candidates for reach √(r² + P).
-                            let tol = 1e-9 * (p + r[i] * r[i]);
-                            grid.at(v, &mut cand);
-                            let genuine = cand.iter().all(|&x| {
-                                let x = x as usize;
-                                !contains(&s[x], v) && v.distance_squared(c[x]) - r[x] * r[x] >= p - tol
-                            });
-                            if genuine {
+                            // Only genuine power-diagram vertices can be pocket maxima.
+                            if genuine_power_vertex(&grid, s, &c, &r, r[i], v, p, &mut cand) {
                                 found.push((v, p));
                             }
                         }
