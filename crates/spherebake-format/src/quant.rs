@@ -20,9 +20,15 @@ pub const OCT_MAX: i16 = i16::MAX;
 /// Largest finite f16 value, 65504.
 pub const F16_MAX: f32 = 65504.0;
 
-/// Rounds to the nearest integer, ties away from zero; exact for |x| < 2⁵² (no `std` needed).
-fn round_ties_away(x: f64) -> f64 {
-    // `as i64` truncates towards zero and saturates; |x| is small wherever this is used.
+/// Rounds to the nearest integer, ties away from zero, without `std` or a math library (the one rounding of the
+/// baker's quantisers and the runtime's argument reduction). NaN and |x| ≥ 4.5e15 (already integers in f64) are
+/// returned as they are.
+#[must_use]
+pub fn round_ties_away(x: f64) -> f64 {
+    if x.is_nan() || x.abs() >= 4.5e15 {
+        return x;
+    }
+    // `as i64` truncates towards zero; |x| < 4.5e15 fits.
     let t = x as i64 as f64;
     let frac = x - t;
     if frac >= 0.5 {

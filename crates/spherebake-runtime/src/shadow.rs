@@ -425,7 +425,7 @@ impl ClusterBlockers {
 /// (sin x, cos x) for any finite x: reduced to [−π, π], then Taylor series to x¹⁹ / x¹⁸.
 fn sin_cos(x: f64) -> (f64, f64) {
     let tau = 2.0 * core::f64::consts::PI;
-    let mut t = x - tau * libm_round(x / tau);
+    let mut t = x - tau * spherebake_format::quant::round_ties_away(x / tau);
     if t.is_nan() {
         t = 0.0;
     }
@@ -436,22 +436,6 @@ fn sin_cos(x: f64) -> (f64, f64) {
         c = 1.0 - t2 / (f64::from(2 * k + 1) * f64::from(2 * k + 2)) * c;
     }
     (t * s, c)
-}
-
-/// Round half away from zero without a math library (|x| < 2⁵²).
-fn libm_round(x: f64) -> f64 {
-    if x.is_nan() || x.abs() >= 4.5e15 {
-        return x;
-    }
-    let i = x as i64 as f64;
-    let f = x - i;
-    if f >= 0.5 {
-        i + 1.0
-    } else if f <= -0.5 {
-        i - 1.0
-    } else {
-        i
-    }
 }
 
 /// A bound of all leaves: centre = mean of the centres, radius = max(|c − centre| + r), rounded up.
