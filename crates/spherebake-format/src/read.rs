@@ -548,24 +548,12 @@ fn read_samples(s: &Sec<'_>, sphere_count: usize) -> Result<Samples> {
         return Err(s.err(Rule::SamplesSphereCount, 0, Detail::Int(as_u64(sphere_count)), Detail::Int(u64::from(sc))));
     }
     let base = 16 + offsets_len as usize;
+    let ends = sample_offsets(s, sphere_count, total)?;
     let mut offsets = Vec::with_capacity(sphere_count + 1);
+    offsets.push(0u32);
     let mut points = Vec::with_capacity(total as usize);
-    let mut start = s.u32(16)?;
-    offsets.push(start);
-    if start != 0 {
-        return Err(s.err(Rule::SampleOffsets, 16, Detail::Int(0), Detail::Int(u64::from(start))));
-    }
-    for sphere in 0..sphere_count {
-        let at = 16 + 4 * (sphere + 1);
-        let end = s.u32(at)?;
-        if end < start || end > total || (sphere + 1 == sphere_count && end != total) {
-            return Err(s.err(
-                Rule::SampleOffsets,
-                at,
-                Detail::Text("non-decreasing, last equals the sample count"),
-                Detail::Int(u64::from(end)),
-            ));
-        }
+    let mut start = 0u32;
+    for &end in &ends {
         let mut prev_direction: Option<u8> = None;
         for j in start as usize..end as usize {
             let rel = base + 32 * j;
@@ -587,27 +575,7 @@ fn read_samples(s: &Sec<'_>, sphere_count: usize) -> Result<Samples> {
                     Detail::Float(len2 as f32),
                 ));
             }
-            if direction >= DIRECTION_COUNT {
-                return Err(s.err(
-                    Rule::SampleDirection,
-                    rel + 24,
-                    Detail::Int(u64::from(DIRECTION_COUNT)),
-                    Detail::Int(u64::from(direction)),
-                ));
-            }
-            if !(1..=3).contains(&rule) {
-                return Err(s.err(Rule::SampleRule, rel + 25, Detail::Text("1, 2 or 3"), Detail::Int(u64::from(rule))));
-            }
-            if let Some(p) = prev_direction {
-                if direction <= p {
-                    return Err(s.err(
-                        Rule::SampleDirectionOrder,
-                        rel + 24,
-                        Detail::Int(u64::from(p) + 1),
-                        Detail::Int(u64::from(direction)),
-                    ));
-                }
-            }
+            check_direction_rule(s, direction, rule, prev_direction, rel + 24, rel + 25)?;
             prev_direction = Some(direction);
             points.push(SamplePoint { position, normal, direction, rule });
         }
