@@ -91,7 +91,7 @@ fn nearest_distance(grid: &Grid, pts: &[DVec3], p: DVec3, h: f64) -> f64 {
 }
 
 /// Greedy cover; returns chosen (candidate index) in pick order, or None if more than `limit`.
-fn greedy(cover: &[Vec<u32>], n_samples: usize, limit: usize, order: &[u32]) -> Option<Vec<usize>> {
+fn greedy(cover: &[&[u32]], n_samples: usize, limit: usize, order: &[u32]) -> Option<Vec<usize>> {
     let mut covered = vec![false; n_samples];
     let mut left = n_samples;
     let mut heap: BinaryHeap<(usize, u32, usize)> =
@@ -107,7 +107,7 @@ fn greedy(cover: &[Vec<u32>], n_samples: usize, limit: usize, order: &[u32]) -> 
             heap.push((real, o, i));
             continue;
         }
-        for &s in &cover[i] {
+        for &s in cover[i] {
             if !covered[s as usize] {
                 covered[s as usize] = true;
                 left -= 1;
@@ -121,7 +121,48 @@ fn greedy(cover: &[Vec<u32>], n_samples: usize, limit: usize, order: &[u32]) -> 
     Some(picks)
 }
 
+/// One candidate's samples within `rho + t_max`, nearest first: (squared distance, index).
+/// Its cover at any dilation t ≤ t_max is a prefix, the samples with d² ≤ (rho + t)² — the
+/// same test [`Grid::within`] applies, so the set is the one a fresh query would give.
+struct Sorted {
+    d2: Vec<f64>,
+    idx: Vec<u32>,
+}
+
+impl Sorted {
+    fn new(grid: &Grid, pts: &[DVec3], c: DVec3, r: f64) -> Self {
+        let mut idx = Vec::new();
+        grid.within(pts, c, r, &mut idx);
+        let mut v: Vec<(f64, u32)> = idx.iter().map(|&i| (pts[i as usize].distance_squared(c), i)).collect();
+        v.sort_unstable_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+        Self { d2: v.iter().map(|x| x.0).collect(), idx: v.iter().map(|x| x.1).collect() }
+    }
+    fn within(&self, r: f64) -> &[u32] {
+        let r2 = r * r;
+        &self.idx[..self.d2.partition_point(|&d| d <= r2)]
+    }
+}
+
+/// Surface samples (and interior candidates) the start uses for `k` spheres: about
+/// [`SAMPLES_PER_SPHERE`] per sphere, at most [`MAX_SAMPLES`]. A start needs a few samples
+/// per ball to place it; more only cost time (the covers hold up to candidates × samples
+/// entries: 11 s for one sphere on a 12-triangle cube with the fixed cap).
+pub fn sample_cap(k: usize) -> usize {
+    k.saturating_mul(SAMPLES_PER_SPHERE).clamp(MIN_SAMPLES, MAX_SAMPLES)
+}
+
+/// Samples per sphere of [`sample_cap`]: 125 keeps the full [`MAX_SAMPLES`] from 64 spheres
+/// on, so the start there is the one measured in `docs/benchmarks.md`.
+const SAMPLES_PER_SPHERE: usize = 125;
+/// Fewest samples of [`sample_cap`].
+const MIN_SAMPLES: usize = 256;
+
 /// Returns up to `k` start spheres (centre, radius).
+///
+/// Cost: the candidates' covers are computed once per doubling of the dilation (sorted by
+/// distance), and each bisection step takes prefixes of the last ones, so the queries cost
+/// O(candidates × covered samples) about twice, not once per step; both sets are capped by
+/// [`sample_cap`], so the start's cost follows the sphere count.
 pub fn start(surface_all: &[DVec3], interior_all: &[DVec3], k: usize, h: f64, seed: u64) -> Vec<(DVec3, f64)> {
     if surface_all.is_empty() {
         return Vec::new();
@@ -131,40 +172,39 @@ pub fn start(surface_all: &[DVec3], interior_all: &[DVec3], k: usize, h: f64, se
         let stride = v.len().div_ceil(n).max(1);
         v.iter().step_by(stride).copied().collect()
     };
-    let surface = &cap(surface_all, MAX_SAMPLES)[..];
-    let interior = &cap(interior_all, MAX_SAMPLES)[..];
+    let n_cap = sample_cap(k);
+    let surface = &cap(surface_all, n_cap)[..];
+    let interior = &cap(interior_all, n_cap)[..];
     let grid = Grid::new(surface, h);
     // Candidates: interior points, then surface samples (ρ = 0) as a fallback.
     let cand: Vec<DVec3> = interior.iter().chain(surface.iter()).copied().collect();
     let rho: Vec<f64> = cand.par_iter().map(|p| nearest_distance(&grid, surface, *p, h)).collect();
     let mut rng = crate::rng::SplitMix64::new(seed ^ 0x5EED_C0DE);
     let order: Vec<u32> = (0..cand.len()).map(|_| rng.next_u64() as u32).collect();
-    let covers = |t: f64| -> Vec<Vec<u32>> {
-        cand.par_iter()
-            .zip(rho.par_iter())
-            .map(|(p, r)| {
-                let mut out = Vec::new();
-                grid.within(surface, *p, r + t, &mut out);
-                out
-            })
-            .collect()
+    let sorted_at = |t: f64| -> Vec<Sorted> {
+        cand.par_iter().zip(rho.par_iter()).map(|(p, r)| Sorted::new(&grid, surface, *p, r + t)).collect()
+    };
+    let greedy_at = |lists: &[Sorted], t: f64| -> Option<Vec<usize>> {
+        let covers: Vec<&[u32]> = lists.iter().zip(&rho).map(|(l, r)| l.within(r + t)).collect();
+        greedy(&covers, surface.len(), k, &order)
     };
     let mut lo_t = 0.0;
     let mut hi_t = h;
     // Grow hi_t until feasible.
-    let mut best: Option<(f64, Vec<usize>)> = None;
+    let mut best: Option<(f64, Vec<usize>, Vec<Sorted>)> = None;
     for _ in 0..40 {
-        if let Some(p) = greedy(&covers(hi_t), surface.len(), k, &order) {
-            best = Some((hi_t, p));
+        let lists = sorted_at(hi_t);
+        if let Some(p) = greedy_at(&lists, hi_t) {
+            best = Some((hi_t, p, lists));
             break;
         }
         lo_t = hi_t;
         hi_t *= 2.0;
     }
-    let Some((mut t_best, mut picks)) = best else { return Vec::new() };
+    let Some((mut t_best, mut picks, lists)) = best else { return Vec::new() };
     for _ in 0..7 {
         let mid = 0.5 * (lo_t + hi_t);
-        match greedy(&covers(mid), surface.len(), k, &order) {
+        match greedy_at(&lists, mid) {
             Some(p) => {
                 hi_t = mid;
                 t_best = mid;
@@ -198,6 +238,53 @@ mod tests {
         let s = start(&same, &[], 2, 0.0, 1);
         assert!(!s.is_empty() && s.len() <= 2, "{s:?}");
         assert!(s.iter().all(|(c, r)| c.distance(DVec3::ONE) <= *r + 1e-12), "{s:?}");
+    }
+
+    #[test]
+    fn a_sorted_cover_gives_the_ball_at_every_smaller_radius() {
+        let mut rng = crate::rng::SplitMix64::new(5);
+        let pts: Vec<DVec3> = (0..400).map(|_| DVec3::new(rng.next_f64(), rng.next_f64(), rng.next_f64())).collect();
+        let grid = Grid::new(&pts, 0.07);
+        let c = DVec3::new(0.3, 0.5, 0.45);
+        let sorted = Sorted::new(&grid, &pts, c, 0.6);
+        for r in [0.0, 0.05, 0.21, 0.37, 0.6] {
+            let mut got = sorted.within(r).to_vec();
+            got.sort_unstable();
+            let want: Vec<u32> = (0..400u32).filter(|&i| pts[i as usize].distance_squared(c) <= r * r).collect();
+            assert_eq!(got, want, "r {r}");
+        }
+    }
+
+    #[test]
+    fn the_start_uses_few_samples_for_few_spheres_and_covers_them() {
+        assert_eq!(sample_cap(1), MIN_SAMPLES);
+        assert_eq!(sample_cap(64), MAX_SAMPLES);
+        assert_eq!(sample_cap(4096), MAX_SAMPLES);
+        assert!(sample_cap(8) < sample_cap(16) && sample_cap(16) < sample_cap(32));
+        // A 20 x 20 x 20 lattice's boundary as the surface, its inside as the candidates:
+        // at most k balls, and every capped sample lies in one of them.
+        let mut surface = Vec::new();
+        let mut interior = Vec::new();
+        for i in 0..20 {
+            for j in 0..20 {
+                for l in 0..20 {
+                    let p = DVec3::new(i as f64, j as f64, l as f64) * 0.05;
+                    if [i, j, l].iter().any(|&x| x == 0 || x == 19) {
+                        surface.push(p);
+                    } else {
+                        interior.push(p);
+                    }
+                }
+            }
+        }
+        for k in [1, 3, 16] {
+            let balls = start(&surface, &interior, k, 0.05, 7);
+            assert!(!balls.is_empty() && balls.len() <= k, "k {k}: {}", balls.len());
+            let stride = surface.len().div_ceil(sample_cap(k)).max(1);
+            for p in surface.iter().step_by(stride) {
+                assert!(balls.iter().any(|(c, r)| c.distance(*p) <= *r * (1.0 + 1e-12)), "k {k}: {p} uncovered");
+            }
+        }
     }
 
     #[test]
