@@ -2,13 +2,13 @@
 //! e.g. `... -- bunny.obj 16,32,64,128,256 variational,kmeans,octree 3`.
 //! Prints E (exact), the union outside ratio, and wall time (median of `runs`) per stage.
 //! Environment overrides: SB_POINTS, SB_VOXEL, SB_ITERS, SB_POLISH, SB_SEED, SB_STARTS,
-//! SB_TRIALS, SB_SEAMS, SB_TELE, SB_SUBDIV.
+//! SB_TRIALS, SB_SEAMS, SB_TELE, SB_SUBDIV; SB_PRESET=fast|default|best starts from that plan.
 
 #[path = "common/obj.rs"]
 mod obj;
 
 use obj::load_obj;
-use spherebake_fit::{fit, FitSettings, Method};
+use spherebake_fit::{fit, FitSettings, Method, Preset};
 use std::time::Instant;
 
 fn main() {
@@ -57,30 +57,31 @@ fn main() {
         };
         for &k in &counts {
             let env = |name: &str| std::env::var(name).ok().and_then(|v| v.parse::<usize>().ok());
-            let mut settings = FitSettings { method, spheres: k, ..Default::default() };
+            let preset = std::env::var("SB_PRESET").ok().and_then(|v| Preset::from_name(&v)).unwrap_or_default();
+            let mut settings = FitSettings { method, spheres: k, plan: preset.plan(), ..Default::default() };
             if let Some(v) = env("SB_POINTS") {
-                settings.point_resolution = v as u32;
+                settings.plan.point_resolution = v as u32;
             }
             if let Some(v) = env("SB_VOXEL") {
                 settings.voxel_resolution = v as u32;
             }
             if let Some(v) = env("SB_ITERS") {
-                settings.max_iterations = v;
+                settings.plan.max_iterations = v;
             }
             if let Some(v) = env("SB_POLISH") {
-                settings.polish_rounds = v;
+                settings.plan.polish_rounds = v;
             }
             if let Some(v) = env("SB_TRIALS") {
-                settings.descent_trials = v;
+                settings.plan.descent_trials = v;
             }
             if let Some(v) = env("SB_SEAMS") {
-                settings.seam_rounds = v;
+                settings.plan.seam_rounds = v;
             }
             if let Some(v) = env("SB_TELE") {
-                settings.teleport_attempts = v;
+                settings.plan.teleport_attempts = v;
             }
             if let Some(v) = env("SB_STARTS") {
-                settings.starts = v;
+                settings.plan.starts = v;
             }
             if let Some(v) = env("SB_SEED") {
                 settings.seed = v as u64;

@@ -11,8 +11,11 @@
 //! delete moves to split the sphere whose split gains most; kept only when E drops. Empty
 //! (radius-0) spheres are free to delete, so no sphere stays wasted when a split pays.
 //!
-//! Measured at 64 spheres, exact E, with the default settings: bunny (holes filled) 0.256 at
-//! seed 1, mean 0.249 over seeds 1–4; armadillo 0.429, mean 0.426 (the fitter before this
+//! Stage 5 (descent) and stage 6 (seam rounds) of the fit run it, with the sweeps, trials and
+//! work budgets of [`crate::FitPlan`].
+//!
+//! Measured when this stage was added, at 64 spheres, exact E, default settings: bunny (holes
+//! filled) 0.256 at seed 1, mean 0.249 over seeds 1–4; armadillo 0.429, mean 0.426 (the fitter before this
 //! stage: 0.276 and 0.511 at seed 1).
 
 use crate::lloyd::{outside, FarQuery};
@@ -437,8 +440,11 @@ pub struct Options {
     pub trials: usize,
     /// Consecutive rejected trials after which the trials stop.
     pub max_fails: usize,
-    /// Work (see [`best_ball`]) after which no new trial starts: a deterministic budget that
-    /// gives small or finely subdivided shapes more trials than large spheres on coarse grids.
+    /// Work (see [`best_ball`]: voxel rows read by the proxy) after which no new trial starts:
+    /// a deterministic budget that gives small or finely subdivided shapes more trials than
+    /// large spheres on coarse grids. Measured at 64 spheres, the bunny's first descent spends
+    /// the default 60 M (`FitPlan::descent_work_budget`) in ≈ 0.8 s; the armadillo (smaller
+    /// spheres in cells) never reaches it.
     pub work_budget: u64,
 }
 
@@ -449,12 +455,21 @@ const TRIAL_THRESHOLD: f64 = 0.05;
 const PATTERN_STOP: f64 = 0.03;
 /// Above this sphere count the trials are skipped (their first evaluation splits every sphere).
 const MAX_TRIAL_SPHERES: usize = 1024;
-/// Work budget of the trials of one descent (seam rounds: a quarter), in voxel rows read by
-/// the proxy (see [`best_ball`]): measured at 64 spheres, the bunny's first descent spends it
-/// in ≈ 0.8 s, the armadillo (smaller spheres in cells) never reaches it.
-pub const WORK_BUDGET: u64 = 60_000_000;
 /// Barycentric grid (points per edge − 1) of the seam search.
 pub const SEAM_GRID: usize = 8;
+
+/// What one [`exclusive_descent`] did.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct DescentStats {
+    /// Full Gauss–Seidel sweeps run before the trials.
+    pub sweeps: usize,
+    /// Split/delete trials tried (two per round when two disjoint candidates exist).
+    pub trials: usize,
+    /// Trials kept.
+    pub moves: usize,
+    /// Proxy work spent, voxel rows read (see [`Options::work_budget`]).
+    pub work: u64,
+}
 
 /// Runs up to `opts.sweeps` Gauss–Seidel sweeps over the spheres (radius transfer, then
 /// descent; largest outside volume first), then up to `opts.trials` split/delete moves: the
@@ -464,11 +479,12 @@ pub const SEAM_GRID: usize = 8;
 /// outside volume drops. Points not covered on entry are covered first (cheapest growth).
 /// On return every point of `pts` is covered (|p − c| ≤ r) and the summed proxy outside
 /// volume is not larger than after that first covering. Deterministic for any thread count.
-pub fn exclusive_descent(solid: &Solid, pts: &[DVec3], spheres: &mut [(DVec3, f64)], opts: &Options) -> usize {
+pub fn exclusive_descent(solid: &Solid, pts: &[DVec3], spheres: &mut [(DVec3, f64)], opts: &Options) -> DescentStats {
     use rayon::prelude::*;
     let k = spheres.len();
+    let mut stats = DescentStats::default();
     if k < 2 || pts.is_empty() {
-        return 0;
+        return stats;
     }
     {
         let sp = &*spheres;
@@ -484,21 +500,16 @@ pub fn exclusive_descent(solid: &Solid, pts: &[DVec3], spheres: &mut [(DVec3, f6
             .collect();
         cover_points(solid, spheres, &uncovered);
     }
-    let debug = std::env::var_os("SPHEREBAKE_DEBUG").is_some();
-    let t0 = std::time::Instant::now();
     let grid = Grid::new(pts, 2.0 * solid.h);
     let mut cov = Cover::new(solid, pts, &grid, spheres);
     // Spheres that meet (with two cells of slack).
     let near = |a: (DVec3, f64), b: (DVec3, f64)| a.0.distance(b.0) <= a.1 + b.1 + 2.0 * solid.h;
-    let mut moves = 0;
     let all: Vec<usize> = (0..k).collect();
     for _ in 0..opts.sweeps {
+        stats.sweeps += 1;
         if cov.sweep_set(&all, true) <= 1e-4 * cov.total() {
             break;
         }
-    }
-    if debug {
-        eprintln!("  descent sweeps E_proxy {:.4} ({:.3}s)", cov.total() / solid.volume(), t0.elapsed().as_secs_f64());
     }
     type Split = (u64, SplitMove);
     let mut dels: Vec<Option<DeleteMove>> = vec![None; k];
@@ -580,15 +591,7 @@ pub fn exclusive_descent(solid: &Solid, pts: &[DVec3], spheres: &mut [(DVec3, f6
         let mut best: Option<(f64, Cover<'_>, (f64, usize, usize))> = None;
         for (r, cand) in [(r1, Some(first)), (r2, second)] {
             let (Some((after, c)), Some(cand)) = (r, cand) else { continue };
-            if debug {
-                eprintln!(
-                    "  trial: split {} delete {}: predicted {:+.4} got {:+.4}",
-                    cand.2,
-                    cand.1,
-                    cand.0 / solid.volume(),
-                    (after - before) / solid.volume()
-                );
-            }
+            stats.trials += 1;
             if after < before * (1.0 - 1e-6) && best.as_ref().is_none_or(|b| after < b.0) {
                 best = Some((after, c, cand));
             } else {
@@ -600,7 +603,7 @@ pub fn exclusive_descent(solid: &Solid, pts: &[DVec3], spheres: &mut [(DVec3, f6
         match best {
             Some((_, c, _)) => {
                 let old = std::mem::replace(&mut cov, c);
-                moves += 1;
+                stats.moves += 1;
                 fails = 0;
                 tabu.clear();
                 tabu_del.fill(0);
@@ -626,16 +629,9 @@ pub fn exclusive_descent(solid: &Solid, pts: &[DVec3], spheres: &mut [(DVec3, f6
             }
         }
     }
-    if debug {
-        eprintln!(
-            "  descent E_proxy {:.4}, {moves} moves accepted ({:.3}s, work {:.1}M)",
-            cov.total() / solid.volume(),
-            t0.elapsed().as_secs_f64(),
-            cov.work.load(Ordering::Relaxed) as f64 * 1e-6
-        );
-    }
+    stats.work = cov.work.load(Ordering::Relaxed);
     spheres.copy_from_slice(&cov.spheres);
-    moves
+    stats
 }
 
 /// Barycentric grid divisions for a triangle with longest edge `l` at sample spacing

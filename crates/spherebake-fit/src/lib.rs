@@ -1,21 +1,31 @@
 //! spherebake-fit: bounding sphere sets with minimal outside volume (Ren et al. 2006 §6.2,
 //! after Wang et al. 2006), plus two baselines, an exactness pass, and an evaluator.
 //!
-//! **Variational method as implemented** (`Method::Variational`): (1) start: a greedy set cover
-//! of surface samples by dilated inner balls, the dilation bisected so ≤ k balls suffice
-//! ([`cover`]-module; seeded tie order); (2) Lloyd iterations on a sparse point set (one surface
-//! sample per lattice cell + interior lattice corners): power assignment (each point to the
-//! containing sphere it lies deepest in — monotone, unlike the paper's flood fill, which
-//! measured worse here and is kept only as the fallback when the cover start is empty), then a
-//! per-cluster Powell update of the centre minimising the proxy outside volume with the radius
-//! bounding the cluster; (3) teleportation (split the worst cluster at its farthest pair,
-//! delete the cluster of maximal relative overlap, accept only if E drops) when progress
-//! stalls; (4) polish rounds on the dense set (every vertex, edge midpoint and triangle
-//! centroid): assignment, joint radius shrinking (farthest members handed to neighbouring
-//! spheres where that lowers the summed outside volume), centre update ignoring members that
-//! another sphere already covers (all but the last round); (5) the exactness
-//! pass, growing the sphere with the least weighted growth (volume × outside share of a thin
-//! shell).
+//! **Variational method as implemented** (`Method::Variational`), per part (see [`parts`]),
+//! after the voxel solid and the sparse clustering points (one surface sample per lattice cell
+//! and the interior lattice corners, [`FitPlan::point_resolution`]); each stage is a function of
+//! `run_once`, its work set by [`FitPlan`] and recorded in [`FitStats::trace`]:
+//! 1. **dense points**: every vertex, edge midpoint and triangle centroid, a grid on large
+//!    triangles, the interior lattice points;
+//! 2. **Lloyd** on the sparse points: a greedy cover of surface samples by dilated inner balls
+//!    as the start ([`cover`]-module; seeded tie order), power assignment (each point to the
+//!    containing sphere it lies deepest in: monotone, unlike the paper's flood fill, which is
+//!    kept only as the fallback when the cover start is empty), a per-cluster Powell update of
+//!    the centre minimising the proxy outside volume with the radius bounding the cluster, and
+//!    teleportation (split the worst cluster at its farthest pair, delete the cluster of
+//!    maximal relative overlap, keep only if E drops) when progress stalls;
+//! 3. **polish** on the dense points: assignment, joint radius shrinking (farthest members
+//!    handed to neighbouring spheres where that lowers the summed outside volume), centre
+//!    update ignoring members that another sphere already covers (all but the last round);
+//! 4. **descent points**: vertices, a grid on triangles longer than two voxel cells, the
+//!    interior lattice points;
+//! 5. **exclusive descent** ([`descent`]-module): Gauss–Seidel per sphere on the points only
+//!    it covers (monotone), split/delete trials under a deterministic work budget;
+//! 6. **seam rounds**: the uncovered surface points between vertices join the descent points
+//!    and the descent runs again;
+//! 7. **bound** ([`bound`]): rounding to f32 and growing until exactly bounding, the sphere
+//!    with the least weighted growth (volume × outside share of a thin shell) first;
+//! 8. **exact E** of the stored spheres.
 //!
 //! Quality is E = Σ_i V(S_i − T) / V(T) (Ren eq. 35 normalised by the object volume), computed
 //! exactly with [`spherebake_geom::volume`]. The optimiser works on a voxel proxy of T (see
@@ -23,7 +33,8 @@
 //! [`bound`] (surface triangles, interior lattice points, and power-diagram pockets).
 //!
 //! **Solid.** A mesh whose every directed edge has exactly one reverse partner is closed; T is
-//! then the mesh itself (flipped if inward-oriented). Otherwise T is the voxel solid
+//! then the mesh itself (flipped if inward-oriented); so is a mesh closed but for small holes,
+//! once they are filled (`fill_small_holes`). Otherwise T is the voxel solid
 //! (majority of x/y/z ray parity at cell centres, `voxel_resolution` cells along the longest
 //! axis), E uses its closed boundary mesh, and bounding covers the original triangles plus the
 //! points whose generalised winding number is ≥ ½. Accuracy of V(T) and E for open meshes is
@@ -40,6 +51,7 @@ mod descent;
 pub mod hierarchy;
 mod lloyd;
 pub mod parts;
+pub mod plan;
 mod points;
 pub mod powell;
 pub mod rng;
@@ -53,6 +65,7 @@ use std::f64::consts::PI;
 use std::time::Instant;
 
 pub use bound::{BoundReport, Sphere32};
+pub use plan::{FitPlan, Preset};
 
 /// Which fitting algorithm to run.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
@@ -67,47 +80,26 @@ pub enum Method {
     Octree,
 }
 
-/// Fit settings. Lengths are model units (the input's own), volumes units³.
+/// Fit settings: what to fit (method, count or target, solid resolution, seed) and how much
+/// work to spend on it ([`FitPlan`]). Lengths are model units (the input's own), volumes units³.
 #[derive(Clone, Debug, PartialEq)]
 pub struct FitSettings {
     pub method: Method,
     /// Number of spheres (default 64, range 1..=4096). Octree may overshoot by up to 6.
     pub spheres: usize,
-    /// Target mode: find the smallest sphere count (≤ 1024) whose E is at most this ratio
-    /// (variational only; `spheres` is then ignored). Doubling from 8 stops early, with a
-    /// warning naming the best E reached, when the last doubling shows the target is out of
-    /// reach (see `target_out_of_reach`). Default `None`.
+    /// Target mode: find the smallest sphere count (≤ `plan.target_max_spheres`) whose E is at
+    /// most this ratio (variational only; `spheres` is then ignored). Doubling from
+    /// `plan.target_start` stops early, with a warning naming the best E reached, when the last
+    /// doubling shows the target is out of reach (see `target_out_of_reach`). Default `None`.
     pub max_outside_ratio: Option<f64>,
     /// Cells along the longest bounding-box axis of the voxel solid / energy proxy
     /// (default 128, range 16..=1024).
     pub voxel_resolution: u32,
-    /// Interior lattice points and surface-sample spacing: points along the longest axis
-    /// (default 40, range 8..=256).
-    pub point_resolution: u32,
     /// Seed of the random start (default 1).
     pub seed: u64,
-    /// Maximum Lloyd iterations, teleportation trials included (default 24, range 1..=1000).
-    pub max_iterations: usize,
-    /// Maximum teleportation trials of the Lloyd stage (default 2; the descent runs its own
-    /// split/delete trials, `descent_trials`).
-    pub teleport_attempts: usize,
-    /// Powell direction-set sweeps per centre update (default 2, range 1..=20).
-    pub powell_sweeps: usize,
-    /// Independent seeded starts of the variational fit; the lowest proxy E is kept
-    /// (default 1, range 1..=16).
-    pub starts: usize,
-    /// Final rounds of assignment + centre update on the dense point set (every vertex and
-    /// triangle centroid), variational only (default 4, range 0..=100).
-    pub polish_rounds: usize,
-    /// Split/delete trials of the exclusive descent after the polish (variational only;
-    /// default 64, range 0..=1000; each seam round gets a quarter of them). They also stop
-    /// after 20 rejections in a row (3 in seam rounds) or when a fixed work budget is spent
-    /// (`descent::WORK_BUDGET`, counted in voxel rows read, so the result does not depend on
-    /// the machine). More trials lower E at the cost of time.
-    pub descent_trials: usize,
-    /// Seam rounds after the descent: uncovered surface points between mesh vertices join
-    /// the point set and the descent runs again (default 5, range 0..=10).
-    pub seam_rounds: usize,
+    /// The work of each stage of the variational fit (default [`FitPlan::default`]; presets
+    /// [`FitPlan::fast`], [`FitPlan::best`]).
+    pub plan: FitPlan,
 }
 
 impl Default for FitSettings {
@@ -117,15 +109,8 @@ impl Default for FitSettings {
             spheres: 64,
             max_outside_ratio: None,
             voxel_resolution: 128,
-            point_resolution: 40,
             seed: 1,
-            max_iterations: 24,
-            teleport_attempts: 2,
-            powell_sweeps: 2,
-            polish_rounds: 4,
-            starts: 1,
-            descent_trials: 64,
-            seam_rounds: 5,
+            plan: FitPlan::default(),
         }
     }
 }
@@ -159,8 +144,12 @@ pub struct FitStats {
     /// accepted exactly when it lowers E.
     pub teleport_history: Vec<(f64, f64, bool)>,
     pub bound: BoundReport,
-    /// (stage, seconds).
+    /// (stage, seconds): wall time per stage, summed over the parts and, in target mode, over
+    /// every count tried.
     pub timings: Vec<(&'static str, f64)>,
+    /// Every stage of every run in the order run: part, count, proxy E after the stage, the
+    /// work it did, its time. One run per part, or in target mode one per count tried.
+    pub trace: Vec<TraceEntry>,
     pub sphere_count: usize,
     /// Each part's counts and E (one entry unless the mesh splits, see [`parts`]).
     pub parts: Vec<PartStats>,
@@ -546,27 +535,156 @@ struct Run {
     bound: BoundReport,
 }
 
-fn run_once(
-    prep: &Prepared,
-    pts: &points::PointSet,
-    settings: &FitSettings,
-    k: usize,
-    timings: &mut Vec<(&'static str, f64)>,
-) -> Run {
-    let t = Instant::now();
+/// One step of a fit, in the order it ran (see [`FitStats::trace`]).
+#[derive(Clone, Debug, PartialEq)]
+pub struct TraceEntry {
+    /// The part (0-based, see [`parts`]; 0 when the mesh is one part).
+    pub part: usize,
+    /// The sphere count this run asked for (target mode runs several counts per part).
+    pub spheres: usize,
+    /// `dense_points`, `lloyd`, `polish`, `descent_points`, `descent`, `seam`, `bound`,
+    /// `exact_e`; the baselines record `kmeans` or `octree`, then `bound` and `exact_e`.
+    pub stage: &'static str,
+    /// Seam round (1, 2, ...) for `seam`, else 0.
+    pub round: usize,
+    /// Proxy E (voxel proxy outside volume over the solid's volume) of the spheres after the
+    /// stage; `None` for the point stages. After `exact_e`: the exact E of the part.
+    pub e: Option<f64>,
+    /// Points the stage built (point stages) or worked on (descent, seam), else 0.
+    pub points: usize,
+    /// Lloyd iterations (lloyd), rounds (polish), Gauss–Seidel sweeps (descent, seam).
+    pub iterations: usize,
+    /// Trials tried: teleportations (lloyd), split/delete trials (descent, seam).
+    pub trials: usize,
+    /// Proxy work of the descent (voxel rows read, the unit of `descent_work_budget`).
+    pub work: u64,
+    /// Wall seconds of the stage.
+    pub seconds: f64,
+}
+
+/// Collects a run's [`TraceEntry`]s and stage times.
+struct Tracer {
+    part: usize,
+    spheres: usize,
+    entries: Vec<TraceEntry>,
+    timings: Vec<(&'static str, f64)>,
+    t: Instant,
+}
+
+impl Tracer {
+    fn new(part: usize, spheres: usize) -> Self {
+        Self { part, spheres, entries: Vec::new(), timings: Vec::new(), t: Instant::now() }
+    }
+
+    /// Ends the stage that started at the previous `record` (or at `new`).
+    fn record(&mut self, stage: &'static str, e: Option<f64>, f: impl FnOnce(&mut TraceEntry)) {
+        let seconds = self.t.elapsed().as_secs_f64();
+        let mut entry = TraceEntry {
+            part: self.part,
+            spheres: self.spheres,
+            stage,
+            round: 0,
+            e,
+            points: 0,
+            iterations: 0,
+            trials: 0,
+            work: 0,
+            seconds,
+        };
+        f(&mut entry);
+        add_timing(&mut self.timings, stage, seconds);
+        self.entries.push(entry);
+        self.t = Instant::now();
+    }
+}
+
+/// Proxy E of a sphere set: Σ proxy V(S_i − T) / proxy V(T). Cost O(Σ r_i² / h²) row reads.
+fn proxy_e_of(solid: &Solid, spheres: &[(DVec3, f64)]) -> f64 {
+    spheres.iter().map(|(c, r)| lloyd::outside(solid, *c, *r)).sum::<f64>() / solid.volume()
+}
+
+/// Fits `k` spheres to one prepared part and makes them bounding: the stages below in order,
+/// each recorded in `tr`.
+fn run_once(prep: &Prepared, pts: &points::PointSet, settings: &FitSettings, k: usize, tr: &mut Tracer) -> Run {
+    let plan = &settings.plan;
+    let solid = &prep.solid;
+    let (raw, iterations, teleports, history) = match settings.method {
+        Method::Variational => {
+            let all = dense_points(prep, pts, plan);
+            tr.record("dense_points", None, |x| x.points = all.len());
+            let ctx = lloyd::Ctx { solid, pts, all: &pts.reps, powell_sweeps: plan.powell_sweeps };
+            let out = lloyd_stage(&ctx, k, settings.seed, plan);
+            let history: Vec<(f64, f64, bool)> =
+                out.history.iter().map(|h| (h.e_before, h.e_trial, h.accepted)).collect();
+            let sp: Vec<(DVec3, f64)> = out.state.centres.iter().zip(&out.state.radii).map(|(c, r)| (*c, *r)).collect();
+            tr.record("lloyd", Some(proxy_e_of(solid, &sp)), |x| {
+                x.points = pts.points.len();
+                x.iterations = out.iterations;
+                x.trials = out.teleports_tried;
+            });
+            let dense = lloyd::Ctx { all: &all, ..ctx };
+            let mut sp = polish_stage(&dense, &sp, plan);
+            tr.record("polish", Some(proxy_e_of(solid, &sp)), |x| {
+                x.points = all.len();
+                x.iterations = plan.polish_rounds;
+            });
+            drop(all);
+            let mut dpts = descent_points(prep, pts, plan);
+            tr.record("descent_points", None, |x| x.points = dpts.len());
+            let d = descent_stage(prep, &dpts, &mut sp, plan);
+            tr.record("descent", Some(proxy_e_of(solid, &sp)), |x| {
+                x.points = dpts.len();
+                x.iterations = d.sweeps;
+                x.trials = d.trials;
+                x.work = d.work;
+            });
+            for round in 1..=plan.seam_rounds {
+                let Some(d) = seam_round(prep, &mut dpts, &mut sp, plan) else { break };
+                tr.record("seam", Some(proxy_e_of(solid, &sp)), |x| {
+                    x.round = round;
+                    x.points = dpts.len();
+                    x.iterations = d.sweeps;
+                    x.trials = d.trials;
+                    x.work = d.work;
+                });
+            }
+            (sp, out.iterations, (out.teleports_accepted, out.teleports_tried), history)
+        }
+        Method::Kmeans => {
+            let sp = baselines::kmeans(&pts.points[..pts.surface_count], k, settings.seed, 50);
+            tr.record("kmeans", Some(proxy_e_of(solid, &sp)), |_| {});
+            (sp, 0, (0, 0), Vec::new())
+        }
+        Method::Octree => {
+            let sp = baselines::octree(&prep.pos, &prep.tris, solid, k);
+            tr.record("octree", Some(proxy_e_of(solid, &sp)), |_| {});
+            (sp, 0, (0, 0), Vec::new())
+        }
+    };
+    let proxy_e = proxy_e_of(solid, &raw);
+    let (spheres, bound) = bound_stage(prep, pts, plan, &raw);
+    let wide: Vec<(DVec3, f64)> =
+        spheres.iter().map(|s| (DVec3::new(s[0] as f64, s[1] as f64, s[2] as f64), s[3] as f64)).collect();
+    tr.record("bound", Some(proxy_e_of(solid, &wide)), |_| {});
+    let outside = exact_outside(prep, &spheres);
+    tr.record("exact_e", Some(outside.iter().sum::<f64>() / prep.object_volume), |_| {});
+    Run { spheres, outside, proxy_e, iterations, teleports, history, bound }
+}
+
+/// Stage 1, dense points (what the polish must bound): every referenced vertex, each
+/// triangle's centroid and edge midpoints (each edge once), a barycentric grid of spacing
+/// `h_pts / plan.dense_points_per_spacing` on triangles longer than that (real scans never
+/// need it; coarse CAD-like meshes do), and the interior lattice points. Edge midpoints
+/// leave the bounding pass far less to grow (measured: bunny 64 E 0.305 → 0.294, armadillo
+/// 64 0.544 → 0.539). Cost O(vertices + triangles + grid points), the grid held to
+/// `points::GRID_BUDGET` points.
+fn dense_points(prep: &Prepared, pts: &points::PointSet, plan: &FitPlan) -> Vec<points::Rep> {
     let mut all: Vec<points::Rep> = Vec::with_capacity(prep.pos.len() + 2 * prep.tris.len() + pts.points.len());
     let mut used = vec![false; prep.pos.len()];
-    // Edge midpoints too (each edge once): the exactness pass then has far less to grow
-    // (measured: bunny 64 E 0.305 → 0.294, armadillo 64 0.544 → 0.539).
-    let edge_mids = true;
-    let plan = points::grid_plan(
-        &prep.pos,
-        &prep.tris,
-        |l| (2.0 * l / pts.h).ceil().min(256.0) as usize,
-        0,
-        points::GRID_BUDGET,
-    );
-    for (t, &m) in prep.tris.iter().zip(&plan) {
+    let (f, cap) = (plan.dense_points_per_spacing, plan.dense_grid_cap as f64);
+    let grid =
+        points::grid_plan(&prep.pos, &prep.tris, |l| (f * l / pts.h).ceil().min(cap) as usize, 0, points::GRID_BUDGET);
+    for (t, &m) in prep.tris.iter().zip(&grid) {
         for &v in t {
             if !used[v as usize] {
                 used[v as usize] = true;
@@ -575,15 +693,11 @@ fn run_once(
         }
         let (a, b, c) = (prep.pos[t[0] as usize], prep.pos[t[1] as usize], prep.pos[t[2] as usize]);
         all.push(points::Rep::point((a + b + c) / 3.0));
-        if edge_mids {
-            for (x, y, px, py) in [(t[0], t[1], a, b), (t[1], t[2], b, c), (t[2], t[0], c, a)] {
-                if x < y {
-                    all.push(points::Rep::point((px + py) * 0.5));
-                }
+        for (x, y, px, py) in [(t[0], t[1], a, b), (t[1], t[2], b, c), (t[2], t[0], c, a)] {
+            if x < y {
+                all.push(points::Rep::point((px + py) * 0.5));
             }
         }
-        // Triangles larger than the sample spacing also get a barycentric grid, so the polish
-        // sees their interiors too (real scans never need it; coarse CAD-like meshes do).
         if m > 1 {
             for i in 0..=m {
                 for j in 0..=(m - i) {
@@ -594,100 +708,126 @@ fn run_once(
         }
     }
     all.extend(pts.points[pts.surface_count..].iter().map(|p| points::Rep::point(*p)));
-    let ctx = lloyd::Ctx { solid: &prep.solid, pts, all: &pts.reps, powell_sweeps: settings.powell_sweeps };
-    let dense = lloyd::Ctx { all: &all, ..ctx };
-    let mut history = Vec::new();
-    let (raw, iterations, teleports): (Vec<(DVec3, f64)>, usize, (usize, usize)) = match settings.method {
-        Method::Variational => {
-            let out = lloyd::run_multi(
-                &ctx,
-                k,
-                settings.seed,
-                settings.max_iterations,
-                settings.teleport_attempts,
-                settings.starts,
-            );
-            history = out.history.iter().map(|h| (h.e_before, h.e_trial, h.accepted)).collect();
-            let sp: Vec<(DVec3, f64)> = out.state.centres.iter().zip(&out.state.radii).map(|(c, r)| (*c, *r)).collect();
-            let t1 = Instant::now();
-            let mut sp = lloyd::polish(&dense, &sp, settings.polish_rounds);
-            timings.push(("polish", t1.elapsed().as_secs_f64()));
-            let t1 = Instant::now();
-            // Exclusive descent with split/delete moves on the mesh vertices and interior
-            // lattice points, then seam rounds: surface points between the vertices that no
-            // sphere covers join the point set, so the optimiser (not the greedy exactness
-            // pass) decides which sphere covers each seam.
-            // Vertices, a grid on triangles larger than two voxel cells, interior points.
-            let mut referenced = vec![false; prep.pos.len()];
-            for t in &prep.tris {
-                for &v in t {
-                    referenced[v as usize] = true;
-                }
-            }
-            let mut dpts: Vec<DVec3> = prep.pos.iter().zip(&referenced).filter(|(_, &r)| r).map(|(p, _)| *p).collect();
-            let h2 = 2.0 * prep.solid.h;
-            let plan =
-                points::grid_plan(&prep.pos, &prep.tris, |l| descent::grid_divisions(l, h2, 1), 1, points::GRID_BUDGET);
-            for (t, &m) in prep.tris.iter().zip(&plan) {
-                let (a, b, c) = (prep.pos[t[0] as usize], prep.pos[t[1] as usize], prep.pos[t[2] as usize]);
-                for i in 0..=m {
-                    for j in 0..=(m - i) {
-                        if (i == 0 || i == m) && j == 0 || i == 0 && j == m {
-                            continue;
-                        }
-                        dpts.push(a + (b - a) * (i as f64 / m as f64) + (c - a) * (j as f64 / m as f64));
-                    }
-                }
-            }
-            dpts.extend(pts.points[pts.surface_count..].iter().copied());
-            let opts = descent::Options {
-                sweeps: 8,
-                trials: settings.descent_trials,
-                max_fails: 20,
-                work_budget: descent::WORK_BUDGET,
-            };
-            descent::exclusive_descent(&prep.solid, &dpts, &mut sp, &opts);
-            let seam_opts = descent::Options {
-                trials: settings.descent_trials / 4,
-                max_fails: 3,
-                work_budget: opts.work_budget / 4,
-                ..opts
-            };
-            for _ in 0..settings.seam_rounds {
-                let seam = descent::seam_points(&sp, &prep.pos, &prep.tris, 0.25 * prep.solid.h);
-                if seam.is_empty() {
-                    break;
-                }
-                dpts.extend(seam);
-                descent::exclusive_descent(&prep.solid, &dpts, &mut sp, &seam_opts);
-            }
-            timings.push(("descent", t1.elapsed().as_secs_f64()));
+    all
+}
 
-            (sp, out.iterations, (out.teleports_accepted, out.teleports_tried))
+/// Stage 2, Lloyd on the sparse clustering points ([`lloyd::run_multi`]): inner-ball cover
+/// start, power assignment + Powell centre updates, teleportation when progress stalls; the
+/// lowest proxy E of `plan.starts` seeded starts. Cost per iteration O(points × spheres per
+/// cell) for the assignment plus O(spheres × Powell evaluations × r²/h²) for the updates, at
+/// most `plan.max_iterations` iterations per start.
+fn lloyd_stage(ctx: &lloyd::Ctx, k: usize, seed: u64, plan: &FitPlan) -> lloyd::LloydOutcome {
+    lloyd::run_multi(ctx, k, seed, plan.max_iterations, plan.teleport_attempts, plan.starts)
+}
+
+/// Stage 3, polish on the dense points ([`lloyd::polish`]): `plan.polish_rounds` rounds of
+/// assignment, joint radius shrinking and Powell centre update; after the last round every
+/// dense point is covered. Cost per round O(dense points × spheres per cell) plus the
+/// Powell updates (as Lloyd's).
+fn polish_stage(dense: &lloyd::Ctx, spheres: &[(DVec3, f64)], plan: &FitPlan) -> Vec<(DVec3, f64)> {
+    lloyd::polish(dense, spheres, plan.polish_rounds)
+}
+
+/// Stage 4, descent points: the referenced vertices, a barycentric grid of spacing
+/// `plan.descent_grid_cells` voxel cells on triangles longer than that, and the interior
+/// lattice points. Cost O(vertices + triangles + grid points), held to `points::GRID_BUDGET`.
+fn descent_points(prep: &Prepared, pts: &points::PointSet, plan: &FitPlan) -> Vec<DVec3> {
+    let mut referenced = vec![false; prep.pos.len()];
+    for t in &prep.tris {
+        for &v in t {
+            referenced[v as usize] = true;
         }
-        Method::Kmeans => {
-            let sp = baselines::kmeans(&pts.points[..pts.surface_count], k, settings.seed, 50);
-            (sp, 0, (0, 0))
+    }
+    let mut dpts: Vec<DVec3> = prep.pos.iter().zip(&referenced).filter(|(_, &r)| r).map(|(p, _)| *p).collect();
+    let spacing = plan.descent_grid_cells * prep.solid.h;
+    let grid =
+        points::grid_plan(&prep.pos, &prep.tris, |l| descent::grid_divisions(l, spacing, 1), 1, points::GRID_BUDGET);
+    for (t, &m) in prep.tris.iter().zip(&grid) {
+        let (a, b, c) = (prep.pos[t[0] as usize], prep.pos[t[1] as usize], prep.pos[t[2] as usize]);
+        for i in 0..=m {
+            for j in 0..=(m - i) {
+                // The corners are vertices, already in.
+                if (i == 0 || i == m) && j == 0 || i == 0 && j == m {
+                    continue;
+                }
+                dpts.push(a + (b - a) * (i as f64 / m as f64) + (c - a) * (j as f64 / m as f64));
+            }
         }
-        Method::Octree => (baselines::octree(&prep.pos, &prep.tris, &prep.solid, k), 0, (0, 0)),
+    }
+    dpts.extend(pts.points[pts.surface_count..].iter().copied());
+    dpts
+}
+
+/// Stage 5, the exclusive descent ([`descent::exclusive_descent`]): covers the descent points
+/// the polish missed, then Gauss–Seidel sweeps (monotone in the proxy E) and split/delete
+/// trials under `plan.descent_trials`, `plan.descent_max_fails` and the deterministic
+/// `plan.descent_work_budget`. Cost per sweep O(points × spheres per cell + spheres × pattern
+/// search evaluations); the trials are bounded by the work budget.
+fn descent_stage(prep: &Prepared, dpts: &[DVec3], sp: &mut [(DVec3, f64)], plan: &FitPlan) -> descent::DescentStats {
+    let opts = descent::Options {
+        sweeps: plan.descent_sweeps,
+        trials: plan.descent_trials,
+        max_fails: plan.descent_max_fails,
+        work_budget: plan.descent_work_budget,
     };
-    let proxy_e = raw.iter().map(|(c, r)| lloyd::outside(&prep.solid, *c, *r)).sum::<f64>() / prep.solid.volume();
-    timings.push(("optimise", t.elapsed().as_secs_f64()));
-    let t = Instant::now();
-    let delta = 1.01 * 3f64.sqrt() * (pts.h * points::INTERIOR_SPACING + prep.solid.h);
+    descent::exclusive_descent(&prep.solid, dpts, sp, &opts)
+}
+
+/// Stage 6, one seam round: the surface points between vertices that no sphere covers
+/// (barycentric grid of spacing `plan.seam_spacing_cells` voxel cells on every triangle no
+/// single sphere contains) join the descent points, so the optimiser rather than the greedy
+/// bounding pass decides which sphere covers each seam; then the descent runs again with the
+/// seam budget. `None` (and nothing changes) when no seam point is left. Cost: the seam search
+/// O(triangles × nearby spheres + grid points), then a descent as stage 5.
+fn seam_round(
+    prep: &Prepared,
+    dpts: &mut Vec<DVec3>,
+    sp: &mut [(DVec3, f64)],
+    plan: &FitPlan,
+) -> Option<descent::DescentStats> {
+    let seam = descent::seam_points(sp, &prep.pos, &prep.tris, plan.seam_spacing_cells * prep.solid.h);
+    if seam.is_empty() {
+        return None;
+    }
+    dpts.extend(seam);
+    let opts = descent::Options {
+        sweeps: plan.descent_sweeps,
+        trials: plan.seam_trials,
+        max_fails: plan.seam_max_fails,
+        work_budget: plan.seam_work_budget,
+    };
+    Some(descent::exclusive_descent(&prep.solid, dpts, sp, &opts))
+}
+
+/// How far any point of T can be from a covered point, as a multiple of the interior lattice
+/// spacing plus one solid cell: the cube diagonal √3, with 1 % to spare. Not a plan knob: the
+/// bounding guarantee's pocket search (rule 3 of [`bound`]) needs it at least √3.
+const BOUND_DELTA_FACTOR: f64 = 1.01;
+
+/// Stage 7, bound ([`bound::make_bounding`]): rounds to the stored f32 values and grows
+/// spheres until every triangle piece, interior lattice point and power-diagram pocket inside
+/// T is covered. Growth is weighted by each sphere's outside share of a one-cell shell (proxy),
+/// clamped to [`plan.bound_weight_min`, 1], so pieces go to the sphere that adds the least
+/// outside volume. Cost O(triangles × spheres per cell + interior points + spheres ×
+/// power-cell neighbours).
+fn bound_stage(
+    prep: &Prepared,
+    pts: &points::PointSet,
+    plan: &FitPlan,
+    raw: &[(DVec3, f64)],
+) -> (Vec<Sphere32>, BoundReport) {
+    let solid = &prep.solid;
+    let delta = BOUND_DELTA_FACTOR * 3f64.sqrt() * (pts.h * points::INTERIOR_SPACING + solid.h);
     let inside = |v: DVec3| winding_inside(prep, v);
-    // Growth in the exactness pass is weighted by the share of a one-cell shell around each
-    // sphere that lies outside the solid (proxy), so pieces go to the sphere that adds the
-    // least outside volume.
     let weights: Vec<f64> = raw
         .par_iter()
         .map(|(c, r)| {
-            let (r0, r1) = (*r, *r + prep.solid.h);
+            let (r0, r1) = (*r, *r + solid.h);
             let dv = 4.0 / 3.0 * PI * (r1.powi(3) - r0.powi(3));
             if dv <= 0.0 {
                 return 1.0;
             }
-            ((lloyd::outside(&prep.solid, *c, r1) - lloyd::outside(&prep.solid, *c, r0)) / dv).clamp(0.02, 1.0)
+            ((lloyd::outside(solid, *c, r1) - lloyd::outside(solid, *c, r0)) / dv).clamp(plan.bound_weight_min, 1.0)
         })
         .collect();
     let input = bound::BoundInput {
@@ -698,23 +838,7 @@ fn run_once(
         delta,
         inside: &inside,
     };
-    let (spheres, bound) = bound::make_bounding(&raw, &input);
-    timings.push(("bound", t.elapsed().as_secs_f64()));
-    let t = Instant::now();
-    let outside = exact_outside(prep, &spheres);
-    timings.push(("exact_e", t.elapsed().as_secs_f64()));
-    if std::env::var_os("SPHEREBAKE_DEBUG").is_some() {
-        let pe: f64 = spheres
-            .iter()
-            .map(|s| lloyd::outside(&prep.solid, DVec3::new(s[0] as f64, s[1] as f64, s[2] as f64), s[3] as f64))
-            .sum::<f64>()
-            / prep.solid.volume();
-        let ex: f64 = outside.iter().sum::<f64>() / prep.object_volume;
-        let before: f64 =
-            raw.iter().map(|(c, r)| lloyd::outside(&prep.solid, *c, *r)).sum::<f64>() / prep.solid.volume();
-        eprintln!("  proxy E before bound {before:.4}, after bound {pe:.4}, exact {ex:.4}");
-    }
-    Run { spheres, outside, proxy_e, iterations, teleports, history, bound }
+    bound::make_bounding(raw, &input)
 }
 
 /// Per-part facts of a fit (one entry when the mesh is one part; see [`parts`]).
@@ -800,7 +924,31 @@ fn add_timing(timings: &mut Vec<(&'static str, f64)>, stage: &'static str, secs:
 ///
 /// Parts of the mesh far apart from each other (see [`parts`]) are fitted on their own
 /// solids with the spheres split by surface area; E is then summed over the parts
-/// (`FitStats::parts` has each one's E).
+/// (`FitStats::parts` has each one's E). The stages (module docs) and their work are set by
+/// `settings.plan`; [`FitStats::trace`] records each stage's proxy E, work and time.
+///
+/// # Errors
+///
+/// [`FitError::InvalidSetting`] when a setting or a [`FitPlan`] field is out of its documented
+/// range (the error names it); [`FitError::NoTriangles`], [`FitError::IndexOutOfRange`] and
+/// [`FitError::NonFinitePosition`] for a mesh without triangles, with an index past the
+/// positions or with a non-finite position a triangle uses; [`FitError::EmptySolid`] when
+/// not even the cells the surface passes through form a solid. Imperfect meshes (open,
+/// non-manifold, inward) are not errors: they are fitted and named in `warnings`.
+///
+/// # Performance
+///
+/// With n triangles, P clustering points (∝ `point_resolution`³ inside, ∝ its square on the
+/// surface), D dense points (≈ vertices + 3 n), k spheres and a voxel grid of N cells along
+/// the longest axis (h = extent / N): the solid costs O(n + N³/64) (bit-packed rows); each
+/// Lloyd iteration and polish round costs O((P or D) × spheres per grid cell) for the
+/// assignment plus O(k × Powell evaluations × (r/h)²) for the centre updates, since one
+/// proxy ball volume reads O((r/h)²) voxel rows; the descent's trials stop at a fixed work
+/// budget counted in those rows (`descent_work_budget`, `seam_work_budget`), so their cost
+/// does not grow with n; the bounding pass is O(n × spheres per cell + P + k × neighbours);
+/// exact E is O(k × triangles near each sphere). Memory O(n + P + N³/8 bytes). Target mode
+/// runs the whole fit once per count tried (about log₂(k) + 4 counts). Parallel over spheres
+/// and points with rayon; the result is the same for any thread count.
 pub fn fit(
     positions: &[Vec3],
     triangles: &[[u32; 3]],
@@ -809,13 +957,7 @@ pub fn fit(
 ) -> Result<FitResult, FitError> {
     check_range("spheres", settings.spheres, 1, 4096, "1..=4096")?;
     check_range("voxel_resolution", settings.voxel_resolution, 16, 1024, "16..=1024")?;
-    check_range("point_resolution", settings.point_resolution, 8, 256, "8..=256")?;
-    check_range("max_iterations", settings.max_iterations, 1, 1000, "1..=1000")?;
-    check_range("powell_sweeps", settings.powell_sweeps, 1, 20, "1..=20")?;
-    check_range("starts", settings.starts, 1, 16, "1..=16")?;
-    check_range("polish_rounds", settings.polish_rounds, 0, 100, "0..=100")?;
-    check_range("descent_trials", settings.descent_trials, 0, 1000, "0..=1000")?;
-    check_range("seam_rounds", settings.seam_rounds, 0, 10, "0..=10")?;
+    settings.plan.validate()?;
     let target_mode = settings.method == Method::Variational && settings.max_outside_ratio.is_some();
     if let Some(t) = settings.max_outside_ratio {
         if !(t.is_finite() && t > 0.0) {
@@ -827,6 +969,7 @@ pub fn fit(
         }
     }
     let mut timings = Vec::new();
+    let mut trace = Vec::new();
     let t = Instant::now();
     progress(0.0);
     let (split, preps) = prepare_parts(
@@ -841,14 +984,14 @@ pub fn fit(
     let mut warnings = Vec::new();
     // Target mode: each part reaches E ≤ target on its own, so the sum does; the per-part
     // ceiling keeps the total within the format's 4096.
-    let k_cap = (4096 / n_parts).min(1024);
+    let k_cap = (4096 / n_parts).min(settings.plan.target_max_spheres);
     let mut runs = Vec::with_capacity(n_parts);
     let mut part_warnings = Vec::with_capacity(n_parts);
     for (p, prep) in preps.iter().enumerate() {
         let span = (p as f32 / n_parts as f32, (p + 1) as f32 / n_parts as f32);
         let sub = |x: f32| progress(span.0 + (span.1 - span.0) * x * 0.9);
         let mut w = prep.warnings.clone();
-        let run = fit_part(prep, settings, counts[p], k_cap, &sub, &mut timings, &mut w);
+        let run = fit_part(prep, p, settings, counts[p], k_cap, &sub, (&mut timings, &mut trace), &mut w);
         part_warnings.push(w);
         runs.push(run);
     }
@@ -962,6 +1105,7 @@ pub fn fit(
         teleport_history: history,
         bound,
         timings,
+        trace,
         sphere_count: spheres.len(),
         parts: part_stats,
     };
@@ -969,35 +1113,49 @@ pub fn fit(
     Ok(FitResult { spheres, stats, warnings })
 }
 
-/// Fits one part (its prepared solid) with `spheres` spheres, or in target mode with at most
-/// `k_cap`; the part's warnings go to `warnings`, its stage times are added to `timings`.
+/// Fits part `part` (its prepared solid) with `spheres` spheres, or in target mode with at
+/// most `k_cap`; the part's warnings go to `warnings`, its stage times are added to
+/// `timings` and the trace entries of every run (every count tried in target mode) to
+/// `trace`.
+#[allow(clippy::too_many_arguments)]
 fn fit_part(
     prep: &Prepared,
+    part: usize,
     settings: &FitSettings,
     spheres: usize,
     k_cap: usize,
     progress: &dyn Fn(f32),
-    timings: &mut Vec<(&'static str, f64)>,
+    (timings, trace): (&mut Vec<(&'static str, f64)>, &mut Vec<TraceEntry>),
     warnings: &mut Vec<String>,
 ) -> Run {
+    let plan = &settings.plan;
     let t = Instant::now();
-    let h_pts = (prep.hi - prep.lo).max_element() / settings.point_resolution as f64;
+    let h_pts = (prep.hi - prep.lo).max_element() / plan.point_resolution as f64;
     let pts = points::build(&prep.pos, &prep.tris, &prep.solid, prep.lo, prep.hi, h_pts);
     add_timing(timings, "points", t.elapsed().as_secs_f64());
     progress(0.1);
-    let mut tm = Vec::new();
     let e_of = |r: &Run| r.outside.iter().sum::<f64>() / prep.object_volume;
+    // One run with k spheres; its stage times and trace are kept (every run's, in target mode).
+    let mut run_k = |k: usize| {
+        let mut tr = Tracer::new(part, k);
+        let r = run_once(prep, &pts, settings, k, &mut tr);
+        for (s, x) in tr.timings {
+            add_timing(timings, s, x);
+        }
+        trace.extend(tr.entries);
+        r
+    };
     let run = match settings.max_outside_ratio {
         Some(target) if settings.method == Method::Variational => {
             // Doubling then bisection on the sphere count.
             let mut tried: Vec<(usize, Run)> = Vec::new();
             // More spheres than clustering points cannot help.
             let k_max = k_cap.min(pts.points.len()).max(1);
-            let mut k = 8usize.min(k_max);
+            let mut k = plan.target_start.min(k_max);
             let mut hi_k = None;
             let mut stopped: Option<String> = None;
             loop {
-                let r = run_once(prep, &pts, settings, k, &mut tm);
+                let r = run_k(k);
                 let e = e_of(&r);
                 tried.push((k, r));
                 if e <= target {
@@ -1008,7 +1166,8 @@ fn fit_part(
                     break;
                 }
                 if let [.., (k0, r0), (k1, r1)] = &tried[..] {
-                    if let Some(why) = target_out_of_reach((*k0, e_of(r0)), (*k1, e_of(r1)), target, k_max) {
+                    let reach = (plan.target_min_progress, plan.target_reach_factor);
+                    if let Some(why) = target_out_of_reach((*k0, e_of(r0)), (*k1, e_of(r1)), target, k_max, reach) {
                         stopped = Some(why);
                         break;
                     }
@@ -1035,9 +1194,9 @@ fn fit_part(
                 Some(hk) => {
                     let mut lo_k = hk / 2;
                     let mut hk = hk;
-                    while hk - lo_k > 1.max(hk / 16) {
+                    while hk - lo_k > 1.max(hk / plan.target_bisect_fraction) {
                         let mid = (lo_k + hk) / 2;
-                        let r = run_once(prep, &pts, settings, mid, &mut tm);
+                        let r = run_k(mid);
                         let ok = e_of(&r) <= target;
                         tried.push((mid, r));
                         if ok {
@@ -1064,13 +1223,10 @@ fn fit_part(
         }
         Some(_) => {
             warnings.push("max_outside_ratio applies to the variational method only; using `spheres`".into());
-            run_once(prep, &pts, settings, spheres, &mut tm)
+            run_k(spheres)
         }
-        None => run_once(prep, &pts, settings, spheres, &mut tm),
+        None => run_k(spheres),
     };
-    for (s, x) in tm {
-        add_timing(timings, s, x);
-    }
     if settings.max_outside_ratio.is_none() || settings.method != Method::Variational {
         let (asked, got) = (spheres, run.spheres.len());
         if got < asked {
@@ -1091,22 +1247,29 @@ fn fit_part(
 }
 
 /// Target mode's early stop, from the last two doublings (k0, E0) → (k1, E1): `Some(reason)`
-/// when more spheres cannot reach `target` within `k_max` — E did not fall by 0.1 %, or at the
-/// rate seen (E ∝ k^−α, α from the two points; E falls ever more slowly as k grows on the
-/// shapes measured, so the estimate is optimistic) the target needs over 8 × `k_max` spheres.
-/// Bounds the search to the runs that can still help: an unreachable target used to run every
-/// count up to 1024 (134 s CPU on a 12-triangle cube).
-fn target_out_of_reach(a: (usize, f64), b: (usize, f64), target: f64, k_max: usize) -> Option<String> {
+/// when more spheres cannot reach `target` within `k_max` — E did not fall by the share
+/// `min_progress` (default 0.1 %), or at the rate seen (E ∝ k^−α, α from the two points; E
+/// falls ever more slowly as k grows on the shapes measured, so the estimate is optimistic)
+/// the target needs over `reach_factor` (default 8) × `k_max` spheres. Bounds the search to
+/// the runs that can still help: an unreachable target used to run every count up to 1024
+/// (134 s CPU on a 12-triangle cube).
+fn target_out_of_reach(
+    a: (usize, f64),
+    b: (usize, f64),
+    target: f64,
+    k_max: usize,
+    (min_progress, reach_factor): (f64, f64),
+) -> Option<String> {
     let ((k0, e0), (k1, e1)) = (a, b);
     if k1 <= k0 || !(e1.is_finite() && e0.is_finite()) {
         return None;
     }
-    if e1 >= e0 * (1.0 - 1e-3) {
+    if e1 >= e0 * (1.0 - min_progress) {
         return Some(format!("{k1} spheres gave E = {e1:.4}, no lower than {e0:.4} with {k0}"));
     }
     let alpha = (e0 / e1).ln() / (k1 as f64 / k0 as f64).ln();
     let need = k1 as f64 * (e1 / target).powf(1.0 / alpha);
-    let within_reach = need <= 8.0 * k_max as f64; // false for NaN too
+    let within_reach = need <= reach_factor * k_max as f64; // false for NaN too
     (!within_reach).then(|| {
         format!(
             "E fell from {e0:.4} ({k0} spheres) to {e1:.4} ({k1}), a rate at which the target needs about {need:.1e} spheres (at most {k_max} here)"
@@ -1271,11 +1434,6 @@ pub fn evaluate(
     })
 }
 
-#[allow(dead_code)]
-fn ball_volume(r: f64) -> f64 {
-    4.0 / 3.0 * PI * r * r * r
-}
-
 #[cfg(test)]
 mod tests_support {
     use super::*;
@@ -1371,11 +1529,12 @@ mod target_tests {
         // E ∝ k^(−1/2): from 0.4 at 8 to 0.2828 at 16. Reaching 0.01 needs 8 (40)² = 12800
         // spheres: within 8 × 1024 = 8192? No, so it stops; 0.05 needs 512: it goes on.
         let (a, b) = ((8, 0.4), (16, 0.4 / 2f64.sqrt()));
-        let why = target_out_of_reach(a, b, 0.01, 1024).expect("out of reach");
+        let d = (1e-3, 8.0);
+        let why = target_out_of_reach(a, b, 0.01, 1024, d).expect("out of reach");
         assert!(why.contains("1.3e4 spheres"), "{why}");
-        assert_eq!(target_out_of_reach(a, b, 0.05, 1024), None);
+        assert_eq!(target_out_of_reach(a, b, 0.05, 1024, d), None);
         // No progress: stop whatever the target.
-        let flat = target_out_of_reach((8, 0.4), (16, 0.3999), 0.39, 1024).expect("flat");
+        let flat = target_out_of_reach((8, 0.4), (16, 0.3999), 0.39, 1024, d).expect("flat");
         assert!(flat.contains("no lower than"), "{flat}");
     }
 
@@ -1383,7 +1542,8 @@ mod target_tests {
     fn an_unreachable_target_ends_after_few_counts_with_what_was_reached() {
         let (p, t) = tests_support::uv_sphere(8, 1.0);
         let p: Vec<Vec3> = p.iter().map(|q| q.as_vec3()).collect();
-        let s = FitSettings { max_outside_ratio: Some(1e-9), descent_trials: 8, ..FitSettings::default() };
+        let plan = FitPlan { descent_trials: 8, ..FitPlan::default() };
+        let s = FitSettings { max_outside_ratio: Some(1e-9), plan, ..FitSettings::default() };
         let r = fit(&p, &t, &s, &|_| {}).expect("fits");
         let w = r.warnings.iter().find(|w| w.starts_with("target E ≤ 0.000000001 not reached")).expect("warning");
         assert!(w.contains("stopped early") && w.contains("the best is E = "), "{w}");

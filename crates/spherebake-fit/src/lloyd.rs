@@ -1,7 +1,10 @@
-//! The variational sphere-set fit (Ren et al. 2006 §6.2 after Wang et al. 2006): flood-fill
-//! clustering, per-cluster Powell centre update, cluster teleportation. Energies here use the
-//! voxel proxy of [`crate::solid::Solid::ball_volume`]; the exact energy is computed once on
-//! the final, exactly bounding result.
+//! Stages 2 and 3 of the variational sphere-set fit (Ren et al. 2006 §6.2 after Wang et al.
+//! 2006). Lloyd ([`run`]): from the inner-ball cover start, power assignment (each point to
+//! the containing sphere it lies deepest in; [`cluster`], the paper's flood fill, only when the
+//! cover start is empty), per-cluster Powell centre update, cluster teleportation when progress
+//! stalls. Polish ([`polish`]): the same on the dense point set, with joint radius shrinking.
+//! Energies here use the voxel proxy of [`crate::solid::Solid::ball_volume`]; the exact energy
+//! is computed once on the final, exactly bounding result.
 
 use crate::ballgrid::BallGrid;
 use crate::points::{PointSet, Rep};
@@ -207,9 +210,6 @@ pub fn cluster(ctx: &Ctx, centres: &[DVec3], init_radii: Option<&[f64]>) -> (Vec
 /// Polish: a member within this factor × another sphere's radius of its centre is exempt from
 /// its own sphere's centre update (all rounds but the last).
 const EXEMPT_FACTOR: f64 = 1.01;
-
-/// After a rejected teleportation, the next trial splits the next-worst cluster.
-const TELEPORT_ROTATE: bool = true;
 
 /// Power assignment: each point joins the containing sphere in which it lies deepest
 /// (least power d² − r²), or else the sphere whose volume grows least to reach it. With the
@@ -468,7 +468,6 @@ pub struct LloydOutcome {
     pub teleports_tried: usize,
 }
 
-/// Runs the variational fit with `k` spheres from a seeded random start.
 /// Runs the variational fit from `starts` seeded starts (seeds derived from `seed`) and keeps
 /// the lowest proxy E (ties: the first).
 pub fn run_multi(
@@ -493,7 +492,6 @@ pub fn run(ctx: &Ctx, k: usize, seed: u64, max_iterations: usize, teleports: usi
     let pts = &ctx.pts.points;
     let mut rng = SplitMix64::new(seed);
     let k = k.min(pts.len()).max(1);
-    let t_cover = std::time::Instant::now();
     let start = crate::cover::start(&pts[..ctx.pts.surface_count], &pts[ctx.pts.surface_count..], k, ctx.pts.h, seed);
     let mut centres: Vec<DVec3> = start.iter().map(|x| x.0).collect();
     let mut radii0: Vec<f64> = start.iter().map(|x| x.1).collect();
@@ -521,35 +519,12 @@ pub fn run(ctx: &Ctx, k: usize, seed: u64, max_iterations: usize, teleports: usi
         }
     }
     let from_cover = !start.is_empty();
-    let debug = std::env::var_os("SPHEREBAKE_DEBUG").is_some();
-    if debug {
-        eprintln!(
-            "  points: {} surface + {} interior, {} adjacency entries; cover start {} spheres in {:.3}s",
-            ctx.pts.surface_count,
-            pts.len() - ctx.pts.surface_count,
-            ctx.pts.adj.len(),
-            start.len(),
-            t_cover.elapsed().as_secs_f64()
-        );
-    }
     let step = |centres: &[DVec3], radii: Option<&[f64]>| -> State {
-        let t0 = std::time::Instant::now();
         let assign = match radii {
             Some(r) => power_assign(ctx.all, centres, r),
             None => power_assign(ctx.all, centres, &cluster(ctx, centres, None).1),
         };
-
-        let t1 = t0.elapsed().as_secs_f64();
-        let st = update(ctx, centres, &assign);
-        if debug {
-            eprintln!(
-                "  cluster {:.3}s update {:.3}s E_proxy {:.4}",
-                t1,
-                t0.elapsed().as_secs_f64() - t1,
-                st.energy() / ctx.solid.volume()
-            );
-        }
-        st
+        update(ctx, centres, &assign)
     };
     let mut st = if from_cover { step(&centres, Some(&radii0)) } else { step(&centres, None) };
     let mut iterations = 1;
@@ -572,8 +547,8 @@ pub fn run(ctx: &Ctx, k: usize, seed: u64, max_iterations: usize, teleports: usi
         if tried >= teleports || fails >= 3 {
             break;
         }
-        let skip = if TELEPORT_ROTATE { fails } else { 0 };
-        let Some((tc, tr)) = teleport(ctx, &st, skip) else { break };
+        // After a rejected teleportation, the next trial splits the next-worst cluster.
+        let Some((tc, tr)) = teleport(ctx, &st, fails) else { break };
         tried += 1;
         let mut trial = step(&tc, Some(&tr));
         iterations += 1;
@@ -613,10 +588,6 @@ pub fn polish(ctx: &Ctx, spheres: &[(DVec3, f64)], rounds: usize) -> Vec<(DVec3,
     // Radius shrinking until a round finds no move (measured: bunny 64 E 0.315 → 0.305,
     // armadillo 64 0.558 → 0.546).
     let mut shrinking = true;
-    // Every round but the last, a sphere's centre update ignores members already inside
-    // another sphere (the next round's assignment restores full coverage; the last round
-    // bounds every member). Measured: bunny 64 E 0.2935 → 0.2757, armadillo 64 0.5393 → 0.5108.
-    let exempt = true;
     for round in 0..rounds {
         let centres: Vec<DVec3> = cur.iter().map(|x| x.0).collect();
         let radii: Vec<f64> = cur.iter().map(|x| x.1).collect();
@@ -625,15 +596,13 @@ pub fn polish(ctx: &Ctx, spheres: &[(DVec3, f64)], rounds: usize) -> Vec<(DVec3,
             let mut rr = radii.clone();
             let mv = shrink(ctx.solid, all, &centres, &mut rr, &mut assign);
             shrinking = mv > 0;
-            if std::env::var_os("SPHEREBAKE_DEBUG").is_some() {
-                let e: f64 =
-                    centres.iter().zip(&rr).map(|(c, r)| outside(ctx.solid, *c, *r)).sum::<f64>() / ctx.solid.volume();
-                eprintln!("  shrink moves {mv} E_proxy {e:.4}");
-            }
         }
         let mut mem = members(&assign, cur.len());
-        if exempt && round + 1 < rounds {
-            // Drop members lying inside another sphere (at its current centre and radius, scaled).
+        if round + 1 < rounds {
+            // Every round but the last, a sphere's centre update ignores members already inside
+            // another sphere (at its current centre and radius, scaled; the next round's
+            // assignment restores full coverage, the last round bounds every member). Measured:
+            // bunny 64 E 0.2935 → 0.2757, armadillo 64 0.5393 → 0.5108.
             let rr: Vec<f64> = (0..cur.len()).map(|i| max_dist(all, &mem[i], centres[i])).collect();
             // Members up to 1 % of a radius outside another sphere count as covered by it too
             // (measured at 64 spheres, factor 0.999 / 1.0 / 1.01 / 1.02: bunny E 0.2911 /
@@ -688,10 +657,6 @@ pub fn polish(ctx: &Ctx, spheres: &[(DVec3, f64)], rounds: usize) -> Vec<(DVec3,
                 (c, max_dist(all, m, c))
             })
             .collect();
-        if std::env::var_os("SPHEREBAKE_DEBUG").is_some() {
-            let e: f64 = cur.iter().map(|(c, r)| outside(ctx.solid, *c, *r)).sum::<f64>() / ctx.solid.volume();
-            eprintln!("  polish E_proxy {e:.4}");
-        }
     }
     cur
 }

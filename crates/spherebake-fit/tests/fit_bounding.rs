@@ -4,7 +4,9 @@
 //! the Monte Carlo oracle of `spherebake-testkit`.
 
 use glam::{DVec3, Vec3};
-use spherebake_fit::{evaluate, fit, powell::powell, EvalSettings, FitError, FitSettings, Method, SolidSource};
+use spherebake_fit::{
+    evaluate, fit, powell::powell, EvalSettings, FitError, FitPlan, FitSettings, Method, SolidSource,
+};
 use spherebake_testkit::oracle::outside_ratio;
 
 #[path = "../examples/common/obj.rs"]
@@ -198,7 +200,8 @@ fn variational_beats_kmeans_on_same_count() {
 #[test]
 fn deterministic_across_thread_counts() {
     let (p, t) = voxel_union(&[[0, 0, 0], [1, 0, 0], [0, 1, 0], [1, 1, 1]], 0.7, 3);
-    let s = FitSettings { spheres: 10, voxel_resolution: 32, point_resolution: 24, ..Default::default() };
+    let plan = FitPlan { point_resolution: 24, ..FitPlan::default() };
+    let s = FitSettings { spheres: 10, voxel_resolution: 32, plan, ..Default::default() };
     let run = |threads| {
         let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
         pool.install(|| fit(&p, &t, &s, &|_| {}).unwrap())
@@ -223,7 +226,8 @@ fn teleportation_accepted_only_when_e_drops() {
     let (p, t) = voxel_union(&[[0, 0, 0], [1, 0, 0], [2, 0, 0], [2, 1, 0], [0, 0, 1], [0, 0, 2]], 1.0, 3);
     let (mut trials, mut chains) = (0, 0);
     for seed in 0..2 {
-        let s = FitSettings { spheres: 12, voxel_resolution: 48, seed, teleport_attempts: 8, ..Default::default() };
+        let plan = FitPlan { teleport_attempts: 8, ..FitPlan::default() };
+        let s = FitSettings { spheres: 12, voxel_resolution: 48, seed, plan, ..Default::default() };
         let r = fit(&p, &t, &s, &|_| {}).unwrap();
         let h = &r.stats.teleport_history;
         // Each record's "before" is measured on the state the fit actually carries on with, so
@@ -364,8 +368,8 @@ fn voxel_proxy_agrees_with_exact_volume() {
 #[test]
 fn target_mode_reaches_the_ratio() {
     let (p, t) = voxel_union(&[[0, 0, 0], [1, 0, 0], [0, 1, 0]], 1.0, 2);
-    let s =
-        FitSettings { max_outside_ratio: Some(0.6), voxel_resolution: 32, point_resolution: 16, ..Default::default() };
+    let plan = FitPlan { point_resolution: 16, ..FitPlan::default() };
+    let s = FitSettings { max_outside_ratio: Some(0.6), voxel_resolution: 32, plan, ..Default::default() };
     let r = fit(&p, &t, &s, &|_| {}).unwrap();
     assert!(r.stats.outside_ratio_e <= 0.6, "E {}", r.stats.outside_ratio_e);
     assert_eq!(r.stats.sphere_count, r.spheres.len());

@@ -1,0 +1,302 @@
+//! [`FitPlan`]: every knob of the variational fit that trades time for quality, in one place,
+//! with the presets [`FitPlan::fast`], [`FitPlan::default`] and [`FitPlan::best`].
+//!
+//! The stages these knobs drive, in order (see `run_once` in the crate root): dense points,
+//! Lloyd (+ teleportation), polish, descent points, exclusive descent, seam rounds, bound,
+//! exact E. Every budget counts work, not time, so a plan gives the same spheres on any machine
+//! and for any thread count.
+
+use crate::FitError;
+
+/// Named plans of the variational fit (`spherebake bake --preset`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+#[non_exhaustive]
+pub enum Preset {
+    /// [`FitPlan::fast`]: fewer iterations, trials and seam rounds.
+    Fast,
+    /// [`FitPlan::default`]: the measured default.
+    #[default]
+    Default,
+    /// [`FitPlan::best`]: more trials, budget and seam rounds for a lower E.
+    Best,
+}
+
+impl Preset {
+    /// The plan of this preset.
+    pub fn plan(self) -> FitPlan {
+        match self {
+            Preset::Fast => FitPlan::fast(),
+            Preset::Default => FitPlan::default(),
+            Preset::Best => FitPlan::best(),
+        }
+    }
+
+    /// The lowercase name (`fast`, `default`, `best`).
+    pub fn name(self) -> &'static str {
+        match self {
+            Preset::Fast => "fast",
+            Preset::Default => "default",
+            Preset::Best => "best",
+        }
+    }
+
+    /// Parses a lowercase name.
+    pub fn from_name(s: &str) -> Option<Preset> {
+        match s {
+            "fast" => Some(Preset::Fast),
+            "default" => Some(Preset::Default),
+            "best" => Some(Preset::Best),
+            _ => None,
+        }
+    }
+}
+
+/// How much work each stage of the variational fit does. Lengths are relative (point
+/// spacings, voxel cells), so a plan fits every model size. Start from a preset and change
+/// fields: `FitPlan { descent_trials: 128, ..FitPlan::default() }`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct FitPlan {
+    // --- points ---
+    /// Clustering lattice: points along the longest bounding-box axis (interior lattice
+    /// corners and surface-sample spacing `h_pts`). More: finer clustering, cost ∝ points.
+    /// Range 8..=256.
+    pub point_resolution: u32,
+    /// Dense point set (polish): triangles longer than `h_pts / dense_points_per_spacing` get a
+    /// barycentric grid of that spacing. Range (0, 64].
+    pub dense_points_per_spacing: f64,
+    /// Dense point set: at most this many divisions per triangle edge (the total is also held
+    /// to `points::GRID_BUDGET`). Range 1..=1024.
+    pub dense_grid_cap: usize,
+
+    // --- Lloyd ---
+    /// Lloyd iterations at most, teleportation trials included. Range 1..=1000.
+    pub max_iterations: usize,
+    /// Teleportation trials of the Lloyd stage at most (the descent has its own trials).
+    /// Range 0..=1000.
+    pub teleport_attempts: usize,
+    /// Powell direction-set sweeps per centre update (Lloyd and polish). Range 1..=20.
+    pub powell_sweeps: usize,
+    /// Independent seeded Lloyd starts; the lowest proxy E is kept. Cost ∝ starts.
+    /// Range 1..=16.
+    pub starts: usize,
+
+    // --- polish ---
+    /// Rounds of assignment + radius shrinking + centre update on the dense point set.
+    /// Range 0..=100.
+    pub polish_rounds: usize,
+
+    // --- exclusive descent ---
+    /// Descent point set: triangles longer than this many voxel cells get a barycentric grid
+    /// of that spacing. Range (0, 64].
+    pub descent_grid_cells: f64,
+    /// Gauss–Seidel sweeps over all spheres before the split/delete trials at most (they stop
+    /// earlier when a sweep gains < 0.01 %). Range 0..=100.
+    pub descent_sweeps: usize,
+    /// Split/delete trials of the first descent at most. Range 0..=1000.
+    pub descent_trials: usize,
+    /// The first descent's trials stop after this many rejections in a row. Range 1..=1000.
+    pub descent_max_fails: usize,
+    /// Work after which the first descent starts no new trial, in voxel rows read by the proxy
+    /// (deterministic; the bunny at 64 spheres spends 60 M in ≈ 0.8 s). Range ≤ 10¹².
+    pub descent_work_budget: u64,
+
+    // --- seam rounds ---
+    /// Seam rounds at most: the surface points between vertices that no sphere covers join
+    /// the descent's points and the descent runs again (ends early when there are none).
+    /// Range 0..=10.
+    pub seam_rounds: usize,
+    /// Seam search spacing on the triangles, in voxel cells. Range (0, 64].
+    pub seam_spacing_cells: f64,
+    /// Split/delete trials per seam round at most. Range 0..=1000.
+    pub seam_trials: usize,
+    /// A seam round's trials stop after this many rejections in a row. Range 1..=1000.
+    pub seam_max_fails: usize,
+    /// Work budget of each seam round's trials (as `descent_work_budget`). Range ≤ 10¹².
+    pub seam_work_budget: u64,
+
+    // --- bound ---
+    /// The bounding pass grows the sphere with the least weighted growth; a sphere's weight
+    /// is the outside share of a one-cell shell around it, clamped to [this, 1] so a sphere
+    /// deep inside still costs something. Range [0, 1].
+    pub bound_weight_min: f64,
+
+    // --- target mode (`max_outside_ratio`) ---
+    /// Sphere count of target mode's first run; counts then double. Range 1..=4096.
+    pub target_start: usize,
+    /// Target mode's largest count per part (also held to 4096 / parts). Range 1..=4096.
+    pub target_max_spheres: usize,
+    /// Target mode stops doubling when a doubling lowered E by less than this share.
+    /// Range [0, 1).
+    pub target_min_progress: f64,
+    /// Target mode stops doubling when, at the rate E fell (E ∝ k^−α), the target needs more
+    /// than this many times `target_max_spheres`. Range ≥ 1.
+    pub target_reach_factor: f64,
+    /// The bisection after the doubling stops when the bracket is at most 1/this of the
+    /// count (and at most 1 sphere wide at small counts). Range 1..=4096.
+    pub target_bisect_fraction: usize,
+}
+
+impl Default for FitPlan {
+    /// The measured default (bunny at 64 spheres: E 0.238).
+    fn default() -> Self {
+        Self {
+            point_resolution: 40,
+            dense_points_per_spacing: 2.0,
+            dense_grid_cap: 256,
+            max_iterations: 24,
+            teleport_attempts: 2,
+            powell_sweeps: 2,
+            starts: 1,
+            polish_rounds: 4,
+            descent_grid_cells: 2.0,
+            descent_sweeps: 8,
+            descent_trials: 64,
+            descent_max_fails: 20,
+            descent_work_budget: 60_000_000,
+            seam_rounds: 5,
+            seam_spacing_cells: 0.25,
+            seam_trials: 16,
+            seam_max_fails: 3,
+            seam_work_budget: 15_000_000,
+            bound_weight_min: 0.02,
+            target_start: 8,
+            target_max_spheres: 1024,
+            target_min_progress: 1e-3,
+            target_reach_factor: 8.0,
+            target_bisect_fraction: 16,
+        }
+    }
+}
+
+impl FitPlan {
+    /// Less work in every stage: fewer Lloyd iterations and polish rounds, a quarter of the
+    /// descent's trials and budget, one seam round.
+    pub fn fast() -> Self {
+        Self {
+            max_iterations: 12,
+            teleport_attempts: 1,
+            polish_rounds: 2,
+            descent_sweeps: 4,
+            descent_trials: 16,
+            descent_max_fails: 8,
+            descent_work_budget: 15_000_000,
+            seam_rounds: 1,
+            seam_trials: 4,
+            seam_max_fails: 2,
+            seam_work_budget: 4_000_000,
+            ..Self::default()
+        }
+    }
+
+    /// More work where it lowers E: four times the descent's trials and budget, more seam
+    /// rounds with more trials each.
+    pub fn best() -> Self {
+        Self {
+            teleport_attempts: 4,
+            polish_rounds: 6,
+            descent_trials: 256,
+            descent_max_fails: 40,
+            descent_work_budget: 240_000_000,
+            seam_rounds: 8,
+            seam_trials: 48,
+            seam_max_fails: 6,
+            seam_work_budget: 60_000_000,
+            ..Self::default()
+        }
+    }
+
+    /// Checks every field's range; the error names the field.
+    pub fn validate(&self) -> Result<(), FitError> {
+        fn range<T: PartialOrd + std::fmt::Display>(
+            name: &'static str,
+            v: T,
+            lo: T,
+            hi: T,
+            expected: &'static str,
+        ) -> Result<(), FitError> {
+            // `!(lo <= v && v <= hi)` also rejects NaN.
+            if !(lo <= v && v <= hi) {
+                return Err(FitError::InvalidSetting { name, value: v.to_string(), expected });
+            }
+            Ok(())
+        }
+        fn positive(name: &'static str, v: f64, hi: f64, expected: &'static str) -> Result<(), FitError> {
+            if !(v > 0.0 && v <= hi) {
+                return Err(FitError::InvalidSetting { name, value: v.to_string(), expected });
+            }
+            Ok(())
+        }
+        range("point_resolution", self.point_resolution, 8, 256, "8..=256")?;
+        positive("dense_points_per_spacing", self.dense_points_per_spacing, 64.0, "(0, 64]")?;
+        range("dense_grid_cap", self.dense_grid_cap, 1, 1024, "1..=1024")?;
+        range("max_iterations", self.max_iterations, 1, 1000, "1..=1000")?;
+        range("teleport_attempts", self.teleport_attempts, 0, 1000, "0..=1000")?;
+        range("powell_sweeps", self.powell_sweeps, 1, 20, "1..=20")?;
+        range("starts", self.starts, 1, 16, "1..=16")?;
+        range("polish_rounds", self.polish_rounds, 0, 100, "0..=100")?;
+        positive("descent_grid_cells", self.descent_grid_cells, 64.0, "(0, 64]")?;
+        range("descent_sweeps", self.descent_sweeps, 0, 100, "0..=100")?;
+        range("descent_trials", self.descent_trials, 0, 1000, "0..=1000")?;
+        range("descent_max_fails", self.descent_max_fails, 1, 1000, "1..=1000")?;
+        range("descent_work_budget", self.descent_work_budget, 0, 1_000_000_000_000, "0..=1e12")?;
+        range("seam_rounds", self.seam_rounds, 0, 10, "0..=10")?;
+        positive("seam_spacing_cells", self.seam_spacing_cells, 64.0, "(0, 64]")?;
+        range("seam_trials", self.seam_trials, 0, 1000, "0..=1000")?;
+        range("seam_max_fails", self.seam_max_fails, 1, 1000, "1..=1000")?;
+        range("seam_work_budget", self.seam_work_budget, 0, 1_000_000_000_000, "0..=1e12")?;
+        range("bound_weight_min", self.bound_weight_min, 0.0, 1.0, "[0, 1]")?;
+        range("target_start", self.target_start, 1, 4096, "1..=4096")?;
+        range("target_max_spheres", self.target_max_spheres, 1, 4096, "1..=4096")?;
+        range("target_min_progress", self.target_min_progress, 0.0, 0.999_999, "[0, 1)")?;
+        range("target_reach_factor", self.target_reach_factor, 1.0, 1e9, "1..=1e9")?;
+        range("target_bisect_fraction", self.target_bisect_fraction, 1, 4096, "1..=4096")?;
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn presets_are_valid_and_ordered_by_work() {
+        let (f, d, b) = (FitPlan::fast(), FitPlan::default(), FitPlan::best());
+        for p in [&f, &d, &b] {
+            p.validate().expect("valid preset");
+        }
+        // Every work knob of fast is at most the default's, and of best at least.
+        let work = |p: &FitPlan| {
+            [
+                p.max_iterations as u64,
+                p.teleport_attempts as u64,
+                p.polish_rounds as u64,
+                p.descent_sweeps as u64,
+                p.descent_trials as u64,
+                p.descent_work_budget,
+                p.seam_rounds as u64,
+                p.seam_trials as u64,
+                p.seam_work_budget,
+            ]
+        };
+        let (wf, wd, wb) = (work(&f), work(&d), work(&b));
+        for i in 0..wf.len() {
+            assert!(wf[i] <= wd[i] && wd[i] <= wb[i], "knob {i}: {} {} {}", wf[i], wd[i], wb[i]);
+        }
+        assert!(wf != wd && wd != wb);
+        for p in [Preset::Fast, Preset::Default, Preset::Best] {
+            assert_eq!(Preset::from_name(p.name()), Some(p));
+        }
+        assert_eq!(Preset::from_name("quick"), None);
+    }
+
+    #[test]
+    fn out_of_range_fields_are_named() {
+        let bad = FitPlan { seam_spacing_cells: f64::NAN, ..FitPlan::default() };
+        match bad.validate() {
+            Err(FitError::InvalidSetting { name, .. }) => assert_eq!(name, "seam_spacing_cells"),
+            other => panic!("{other:?}"),
+        }
+        let bad = FitPlan { starts: 0, ..FitPlan::default() };
+        assert!(matches!(bad.validate(), Err(FitError::InvalidSetting { name: "starts", .. })));
+    }
+}
