@@ -15,7 +15,25 @@ struct Grid {
     h: f64,
     /// Sorted (cell key, point index).
     entries: Vec<((i64, i64, i64), u32)>,
+    /// Where each (x, y) column of cells starts in `entries`, when the columns are few enough
+    /// to list densely (see [`Columns`]); else each row is found by binary search.
+    columns: Option<Columns>,
 }
+
+/// Dense index of the grid's (x, y) columns: column (x, y) holds
+/// `entries[start[i]..start[i + 1]]` with i = (y − y0) + ny (x − x0) (the entries' order). A row then costs one
+/// lookup instead of a binary search over every entry (the start's ball queries walk up to
+/// (2r/h)² rows: 28 % of a cube bake's samples went to those searches).
+struct Columns {
+    x0: i64,
+    y0: i64,
+    nx: usize,
+    ny: usize,
+    start: Vec<u32>,
+}
+
+/// Columns of [`Columns`] at most, per entry (plus a constant): beyond, rows are searched.
+const COLUMNS_PER_ENTRY: usize = 64;
 
 impl Grid {
     fn new(pts: &[DVec3], h: f64) -> Self {
@@ -26,7 +44,27 @@ impl Grid {
         let mut entries: Vec<_> =
             pts.iter().enumerate().map(|(i, p)| (Self::key_of(origin, h, *p), i as u32)).collect();
         entries.sort_unstable();
-        Self { origin, h, entries }
+        let columns = Self::columns(&entries);
+        Self { origin, h, entries, columns }
+    }
+    fn columns(entries: &[((i64, i64, i64), u32)]) -> Option<Columns> {
+        let (first, last) = (entries.first()?.0, entries.last()?.0);
+        let (x0, x1) = (first.0, last.0);
+        let (y0, y1) = entries.iter().fold((i64::MAX, i64::MIN), |(a, b), e| (a.min(e.0 .1), b.max(e.0 .1)));
+        let nx = usize::try_from(x1.checked_sub(x0)?.checked_add(1)?).ok()?;
+        let ny = usize::try_from(y1.checked_sub(y0)?.checked_add(1)?).ok()?;
+        let n = nx.checked_mul(ny)?;
+        if n > COLUMNS_PER_ENTRY * entries.len() + 4096 {
+            return None;
+        }
+        let mut start = vec![0u32; n + 1];
+        for e in entries {
+            start[(e.0 .1 - y0) as usize + ny * (e.0 .0 - x0) as usize + 1] += 1;
+        }
+        for i in 0..n {
+            start[i + 1] += start[i];
+        }
+        Some(Columns { x0, y0, nx, ny, start })
     }
     fn key_of(o: DVec3, h: f64, p: DVec3) -> (i64, i64, i64) {
         let u = (p - o) / h;
@@ -44,6 +82,30 @@ impl Grid {
         let searchable = self.h > 0.0 && self.h.is_finite() && r.is_finite() && rows <= self.entries.len() as f64;
         if !searchable {
             out.extend((0..pts.len() as u32).filter(|&i| pts[i as usize].distance_squared(c) <= r2));
+            return;
+        }
+        let mut scan = |row: &[((i64, i64, i64), u32)]| {
+            let s = row.partition_point(|e| e.0 .2 < lo.2);
+            for e in &row[s..] {
+                if e.0 .2 > hi.2 {
+                    break;
+                }
+                if pts[e.1 as usize].distance_squared(c) <= r2 {
+                    out.push(e.1);
+                }
+            }
+        };
+        if let Some(cols) = &self.columns {
+            // Only the columns that exist; the others hold no point.
+            let x_end = cols.x0 + cols.nx as i64 - 1;
+            let y_end = cols.y0 + cols.ny as i64 - 1;
+            for x in lo.0.max(cols.x0)..=hi.0.min(x_end) {
+                let base = cols.ny * (x - cols.x0) as usize;
+                for y in lo.1.max(cols.y0)..=hi.1.min(y_end) {
+                    let i = base + (y - cols.y0) as usize;
+                    scan(&self.entries[cols.start[i] as usize..cols.start[i + 1] as usize]);
+                }
+            }
             return;
         }
         for x in lo.0..=hi.0 {
@@ -291,14 +353,22 @@ mod tests {
     fn within_finds_exactly_the_points_in_the_ball_on_either_path() {
         let mut rng = crate::rng::SplitMix64::new(11);
         let pts: Vec<DVec3> = (0..300).map(|_| DVec3::new(rng.next_f64(), rng.next_f64(), rng.next_f64())).collect();
-        let grid = Grid::new(&pts, 0.05);
-        for r in [0.0, 0.03, 0.2, 0.9, 5.0] {
-            let c = DVec3::new(0.4, 0.6, 0.5);
-            let mut got = Vec::new();
-            grid.within(&pts, c, r, &mut got);
-            got.sort_unstable();
-            let want: Vec<u32> = (0..300u32).filter(|&i| pts[i as usize].distance_squared(c) <= r * r).collect();
-            assert_eq!(got, want, "r {r}");
+        let mut grid = Grid::new(&pts, 0.05);
+        assert!(grid.columns.is_some());
+        for dense in [true, false] {
+            if !dense {
+                grid.columns = None;
+            }
+            for r in [0.0, 0.03, 0.2, 0.9, 5.0] {
+                for c in [DVec3::new(0.4, 0.6, 0.5), DVec3::new(-0.2, 1.1, 0.5), DVec3::splat(0.97)] {
+                    let mut got = Vec::new();
+                    grid.within(&pts, c, r, &mut got);
+                    got.sort_unstable();
+                    let want: Vec<u32> =
+                        (0..300u32).filter(|&i| pts[i as usize].distance_squared(c) <= r * r).collect();
+                    assert_eq!(got, want, "r {r}, c {c}, dense {dense}");
+                }
+            }
         }
     }
 }
