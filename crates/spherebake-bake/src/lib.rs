@@ -23,7 +23,7 @@ pub use albedo::{
 };
 pub use incremental::{inputs_value, is_up_to_date, recorded_inputs, INPUTS_KEY};
 
-pub use settings::{BakeSettings, Method};
+pub use settings::{BakeSettings, Method, Preset};
 pub use skin::{bake_skin, grow_for_animations, MarginResult, PoseMargin, SkinError, SkinSettings, SkinStats};
 
 use serde::Serialize;
@@ -89,10 +89,41 @@ pub struct BakeReport {
     pub timings: Vec<StageTime>,
     /// The fitter's own sub-stages (they add up to the `fit` stage, roughly).
     pub fit_stages: Vec<StageTime>,
+    /// Every stage of every fit run in order, with the proxy E after it
+    /// ([`spherebake_fit::FitStats::trace`]).
+    pub fit_trace: Vec<FitTraceEntry>,
     /// Things the pipeline coped with (open mesh, missing texture, ...).
     pub warnings: Vec<String>,
     /// Size of the written file in bytes.
     pub file_bytes: usize,
+}
+
+/// One stage of one fit run ([`spherebake_fit::TraceEntry`]).
+#[derive(Clone, Debug, Serialize)]
+pub struct FitTraceEntry {
+    /// The part (0-based; 0 unless the mesh splits into parts far apart).
+    pub part: usize,
+    /// The sphere count of the run (target mode runs several counts).
+    pub spheres: usize,
+    /// The seed of the run (restarts of the `best` preset run other seeds).
+    pub seed: u64,
+    /// `dense_points`, `lloyd`, `polish`, `descent_points`, `descent`, `seam`, `bound`,
+    /// `exact_e` (baselines: `kmeans`, `octree`).
+    pub stage: &'static str,
+    /// Seam round (1, 2, ...) for `seam`, else 0.
+    pub round: usize,
+    /// Proxy E after the stage (after `exact_e`: the exact E of the part); none for point stages.
+    pub e: Option<f64>,
+    /// Points built or worked on.
+    pub points: usize,
+    /// Lloyd iterations, polish rounds or descent sweeps.
+    pub iterations: usize,
+    /// Teleportation or split/delete trials tried.
+    pub trials: usize,
+    /// Descent work, voxel rows read.
+    pub work: u64,
+    /// Wall seconds.
+    pub seconds: f64,
 }
 
 /// Skinning statistics (MVC of sphere centres folded into bones, Ren et al. 2006 §6.2).
@@ -195,6 +226,7 @@ pub fn bake_imported(
     timings.push(StageTime { stage: "fit", seconds: t.elapsed().as_secs_f64() });
     let fit_stages: Vec<StageTime> =
         fitted.stage_timings.iter().map(|(stage, seconds)| StageTime { stage, seconds: *seconds }).collect();
+    let fit_trace = fitted.trace;
     warnings.extend(fitted.warnings);
     let mut spheres = fitted.spheres;
 
@@ -348,6 +380,7 @@ pub fn bake_imported(
         },
         timings,
         fit_stages,
+        fit_trace,
         warnings,
         file_bytes: bytes.len(),
     };
@@ -359,6 +392,7 @@ struct Fitted {
     outside_ratio_e: Option<f64>,
     union_outside_ratio: Option<f64>,
     stage_timings: Vec<(&'static str, f64)>,
+    trace: Vec<FitTraceEntry>,
     warnings: Vec<String>,
 }
 
@@ -379,7 +413,7 @@ fn fit_spheres(
         max_outside_ratio: settings.max_outside_ratio,
         voxel_resolution: settings.voxels,
         seed: settings.seed,
-        ..FitSettings::default()
+        plan: settings.preset.plan(),
     };
     let fit_progress = |f: f32| progress(0.8 * f);
     let r = spherebake_fit::fit(positions, triangles, &fit_settings, &fit_progress).map_err(|e| BakeError::Stage {
@@ -387,11 +421,8 @@ fn fit_spheres(
         stage: "fit",
         message: e.to_string(),
     })?;
-    let mut warnings = r.warnings;
-    if settings.max_outside_ratio.is_some() {
-        warnings
-            .push(format!("target mode: {} spheres reach E = {:.4}", r.stats.sphere_count, r.stats.outside_ratio_e));
-    }
+    // Target mode's result is among the fit's warnings once ("target mode: k spheres give E = ...").
+    let warnings = r.warnings;
     // A sphere of radius 0 bounds a single point; store the smallest positive radius instead so
     // the file stays valid (rule 3004) and the point stays inside.
     let spheres =
@@ -401,6 +432,24 @@ fn fit_spheres(
         outside_ratio_e: Some(r.stats.outside_ratio_e),
         union_outside_ratio: Some(r.stats.union_outside_ratio),
         stage_timings: r.stats.timings.iter().map(|(s, t)| (*s, *t)).collect(),
+        trace: r
+            .stats
+            .trace
+            .iter()
+            .map(|e| FitTraceEntry {
+                part: e.part,
+                spheres: e.spheres,
+                seed: e.seed,
+                stage: e.stage,
+                round: e.round,
+                e: e.e,
+                points: e.points,
+                iterations: e.iterations,
+                trials: e.trials,
+                work: e.work,
+                seconds: e.seconds,
+            })
+            .collect(),
         warnings,
     })
 }

@@ -15,6 +15,32 @@ pub enum Method {
     Octree,
 }
 
+/// How much work the fit spends ([`spherebake_fit::FitPlan`]'s presets).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Default)]
+#[serde(rename_all = "lowercase")]
+pub enum Preset {
+    /// [`spherebake_fit::FitPlan::fast`]: fewer Lloyd iterations, no polish, fewer descent
+    /// trials; higher E.
+    Fast,
+    /// [`spherebake_fit::FitPlan::default`].
+    #[default]
+    Default,
+    /// [`spherebake_fit::FitPlan::best`]: the default's fit from four seeds, the lowest E kept
+    /// (never higher than the default's at the same seed); about four times the fit time.
+    Best,
+}
+
+impl Preset {
+    /// The fit's plan of this preset.
+    pub fn plan(self) -> spherebake_fit::FitPlan {
+        match self {
+            Preset::Fast => spherebake_fit::FitPlan::fast(),
+            Preset::Default => spherebake_fit::FitPlan::default(),
+            Preset::Best => spherebake_fit::FitPlan::best(),
+        }
+    }
+}
+
 /// Settings of one bake. Field docs give unit, default and valid range; the CLI repeats them.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct BakeSettings {
@@ -22,6 +48,12 @@ pub struct BakeSettings {
     pub spheres: usize,
     /// Fitting method. Default [`Method::Variational`].
     pub method: Method,
+    /// How much work the variational fit spends (`fast`, `default`, `best`). Default
+    /// [`Preset::Default`]. Recorded in the settings only when not the default, so files baked
+    /// with the default keep their bytes; a change re-bakes (the up-to-date check compares the
+    /// recorded settings).
+    #[serde(skip_serializing_if = "is_default_preset")]
+    pub preset: Preset,
     /// Target mode: find the smallest sphere count whose outside-volume ratio E is at most this.
     /// Default none (use `spheres`), range (0, ∞).
     pub max_outside_ratio: Option<f64>,
@@ -56,6 +88,7 @@ impl Default for BakeSettings {
         Self {
             spheres: 64,
             method: Method::Variational,
+            preset: Preset::Default,
             max_outside_ratio: None,
             voxels: 128,
             seed: 1,
@@ -73,6 +106,11 @@ impl Default for BakeSettings {
 #[allow(clippy::trivially_copy_pass_by_ref)] // serde's skip_serializing_if passes a reference
 fn is_false(b: &bool) -> bool {
     !*b
+}
+
+#[allow(clippy::trivially_copy_pass_by_ref)] // serde's skip_serializing_if passes a reference
+fn is_default_preset(p: &Preset) -> bool {
+    *p == Preset::Default
 }
 
 impl BakeSettings {

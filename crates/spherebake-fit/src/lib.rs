@@ -542,6 +542,9 @@ pub struct TraceEntry {
     pub part: usize,
     /// The sphere count this run asked for (target mode runs several counts per part).
     pub spheres: usize,
+    /// The seed of this run (`FitSettings::seed`, or a derived one for the restarts of
+    /// [`FitPlan::restarts`]).
+    pub seed: u64,
     /// `dense_points`, `lloyd`, `polish`, `descent_points`, `descent`, `seam`, `bound`,
     /// `exact_e`; the baselines record `kmeans` or `octree`, then `bound` and `exact_e`.
     pub stage: &'static str,
@@ -566,14 +569,15 @@ pub struct TraceEntry {
 struct Tracer {
     part: usize,
     spheres: usize,
+    seed: u64,
     entries: Vec<TraceEntry>,
     timings: Vec<(&'static str, f64)>,
     t: Instant,
 }
 
 impl Tracer {
-    fn new(part: usize, spheres: usize) -> Self {
-        Self { part, spheres, entries: Vec::new(), timings: Vec::new(), t: Instant::now() }
+    fn new(part: usize, spheres: usize, seed: u64) -> Self {
+        Self { part, spheres, seed, entries: Vec::new(), timings: Vec::new(), t: Instant::now() }
     }
 
     /// Ends the stage that started at the previous `record` (or at `new`).
@@ -582,6 +586,7 @@ impl Tracer {
         let mut entry = TraceEntry {
             part: self.part,
             spheres: self.spheres,
+            seed: self.seed,
             stage,
             round: 0,
             e,
@@ -1136,14 +1141,28 @@ fn fit_part(
     progress(0.1);
     let e_of = |r: &Run| r.outside.iter().sum::<f64>() / prep.object_volume;
     // One run with k spheres; its stage times and trace are kept (every run's, in target mode).
+    // With `plan.restarts` > 1 the whole run repeats from other seeds (the first is `seed`
+    // itself) and the lowest exact E is kept (ties: the earliest), so it is never worse than
+    // the first run.
     let mut run_k = |k: usize| {
-        let mut tr = Tracer::new(part, k);
-        let r = run_once(prep, &pts, settings, k, &mut tr);
-        for (s, x) in tr.timings {
-            add_timing(timings, s, x);
+        let mut best: Option<Run> = None;
+        for restart in 0..plan.restarts.max(1) {
+            let seed = restart_seed(settings.seed, restart);
+            let s = FitSettings { seed, ..settings.clone() };
+            let mut tr = Tracer::new(part, k, seed);
+            let r = run_once(prep, &pts, &s, k, &mut tr);
+            for (s, x) in tr.timings {
+                add_timing(timings, s, x);
+            }
+            trace.extend(tr.entries);
+            if best.as_ref().is_none_or(|b| e_of(&r) < e_of(b)) {
+                best = Some(r);
+            }
+            if settings.method != Method::Variational {
+                break; // the baselines' results do not depend on more than the seed's first run
+            }
         }
-        trace.extend(tr.entries);
-        r
+        best.expect("at least one run")
     };
     let run = match settings.max_outside_ratio {
         Some(target) if settings.method == Method::Variational => {
@@ -1244,6 +1263,15 @@ fn fit_part(
         warnings.push(format!("closed {} interior pockets between spheres", run.bound.pockets_closed));
     }
     run
+}
+
+/// The seed of whole-fit restart `restart` (0: `seed` itself).
+fn restart_seed(seed: u64, restart: usize) -> u64 {
+    if restart == 0 {
+        seed
+    } else {
+        seed ^ (restart as u64).wrapping_mul(0xD1B5_4A32_D192_ED03)
+    }
 }
 
 /// Target mode's early stop, from the last two doublings (k0, E0) → (k1, E1): `Some(reason)`

@@ -7,7 +7,7 @@ use anyhow::{Context, Result};
 use clap::{Args, ValueEnum};
 use indicatif::{MultiProgress, ProgressBar, ProgressDrawTarget, ProgressStyle};
 use serde::Serialize;
-use spherebake_bake::{BakeOutput, BakeSettings, Method, PoseMargin};
+use spherebake_bake::{BakeOutput, BakeSettings, Method, PoseMargin, Preset};
 use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -21,6 +21,16 @@ pub enum MethodArg {
     Kmeans,
     /// Baseline: bounding spheres of adaptive-octree leaf cubes
     Octree,
+}
+
+#[derive(Copy, Clone, Debug, PartialEq, Eq, ValueEnum)]
+pub enum PresetArg {
+    /// Less work in the fit (fewer Lloyd iterations, no polish, fewer descent trials); higher E
+    Fast,
+    /// The measured default
+    Default,
+    /// The default fit from four seeds, keeping the lowest E (never above the default's); ~4x the fit time
+    Best,
 }
 
 #[derive(Args, Debug)]
@@ -40,6 +50,9 @@ pub struct BakeArgs {
     /// Fitting method [default: variational]
     #[arg(long, value_enum)]
     pub method: Option<MethodArg>,
+    /// How much work the variational fit spends [default: default]
+    #[arg(long, value_enum)]
+    pub preset: Option<PresetArg>,
     /// Find the smallest sphere count whose outside-volume ratio E is at most this (overrides --spheres) [range > 0]
     #[arg(long, value_name = "E")]
     pub max_outside_ratio: Option<f64>,
@@ -222,6 +235,7 @@ fn plan(a: &BakeArgs) -> std::result::Result<Vec<Job>, Usage> {
     let cli = Overrides {
         spheres: a.spheres,
         method: a.method.map(|m| format!("{m:?}").to_lowercase()),
+        preset: a.preset.map(|p| format!("{p:?}").to_lowercase()),
         max_outside_ratio: a.max_outside_ratio,
         voxels: a.voxels,
         seed: a.seed,
@@ -256,9 +270,17 @@ fn to_settings(o: &Overrides) -> std::result::Result<BakeSettings, String> {
         Some("octree") => Method::Octree,
         Some(m) => return Err(format!("unknown method {m:?} (variational, kmeans, octree)")),
     };
+    let preset = match o.preset.as_deref() {
+        None => d.preset,
+        Some("fast") => Preset::Fast,
+        Some("default") => Preset::Default,
+        Some("best") => Preset::Best,
+        Some(p) => return Err(format!("unknown preset {p:?} (fast, default, best)")),
+    };
     let s = BakeSettings {
         spheres: o.spheres.unwrap_or(d.spheres),
         method,
+        preset,
         max_outside_ratio: o.max_outside_ratio.or(d.max_outside_ratio),
         voxels: o.voxels.unwrap_or(d.voxels),
         seed: o.seed.unwrap_or(d.seed),
@@ -465,7 +487,7 @@ impl JobPlan {
 fn print_summary(results: &[AssetResult], verbose: bool, parallel: &JobPlan) {
     if results.len() == 1 && results[0].status == "baked" {
         if let Some(r) = &results[0].report {
-            print_single(&results[0].output, r);
+            print_single(&results[0].output, r, verbose);
             return;
         }
     }
@@ -492,6 +514,7 @@ fn print_summary(results: &[AssetResult], verbose: bool, parallel: &JobPlan) {
             if let Some(rep) = &r.report {
                 let stages: Vec<String> = rep.timings.iter().map(|t| format!("{} {:.3}", t.stage, t.seconds)).collect();
                 println!("    stages: {}", stages.join(", "));
+                print_trace(&rep.fit_trace);
                 for w in &rep.warnings {
                     println!("    warning: {w}");
                 }
@@ -509,7 +532,7 @@ fn print_summary(results: &[AssetResult], verbose: bool, parallel: &JobPlan) {
     );
 }
 
-fn print_single(output: &Path, r: &spherebake_bake::BakeReport) {
+fn print_single(output: &Path, r: &spherebake_bake::BakeReport, verbose: bool) {
     let total: f64 = r.timings.iter().map(|t| t.seconds).sum();
     println!("baked {} -> {}", r.input.display(), output.display());
     println!(
@@ -529,6 +552,9 @@ fn print_single(output: &Path, r: &spherebake_bake::BakeReport) {
     println!("  time      {total:.3} s ({})", stages.join(", "));
     let fit: Vec<String> = r.fit_stages.iter().map(|t| format!("{} {:.3}", t.stage, t.seconds)).collect();
     println!("  fit       {}", fit.join(", "));
+    if verbose {
+        print_trace(&r.fit_trace);
+    }
     if let Some(k) = &r.skin {
         println!(
             "  skin      {} bones, {} kept per sphere (largest dropped weight {:.3}), MVC residual {:.1e} of the diagonal",
@@ -561,6 +587,38 @@ fn print_single(output: &Path, r: &spherebake_bake::BakeReport) {
     println!("  file      {} bytes, input hash {}", r.file_bytes, r.input_hash);
     for w in &r.warnings {
         println!("  warning   {w}");
+    }
+}
+
+/// `bake -v`: one line per fit stage, with the proxy E after it (exact E after `exact_e`).
+fn print_trace(trace: &[spherebake_bake::FitTraceEntry]) {
+    let parts = trace.iter().map(|e| e.part).max().map_or(1, |p| p + 1);
+    let seeds = trace.iter().any(|e| e.seed != trace[0].seed);
+    for e in trace {
+        let mut name = e.stage.to_string();
+        if e.round > 0 {
+            name = format!("{name} {}", e.round);
+        }
+        let mut who =
+            if parts > 1 { format!("part {} k {}", e.part + 1, e.spheres) } else { format!("k {}", e.spheres) };
+        if seeds {
+            who = format!("{who} seed {}", e.seed);
+        }
+        let e_txt = e.e.map_or_else(|| "-".to_string(), |x| format!("{x:.4}"));
+        let mut work = Vec::new();
+        if e.points > 0 {
+            work.push(format!("{} points", e.points));
+        }
+        if e.iterations > 0 {
+            work.push(format!("{} iterations", e.iterations));
+        }
+        if e.trials > 0 {
+            work.push(format!("{} trials", e.trials));
+        }
+        if e.work > 0 {
+            work.push(format!("work {:.1}M", e.work as f64 * 1e-6));
+        }
+        println!("  trace     {who:<8} {name:<15} E {e_txt:>7}  {:>7.3} s  {}", e.seconds, work.join(", "));
     }
 }
 

@@ -9,6 +9,7 @@
 //! glob = "characters/**/*.glb"   # matched against the input path as given, '/'-separated
 //! spheres = 128
 //! method = "variational"
+//! preset = "best"                # fast | default | best: how much work the fit spends
 //! ```
 //!
 //! Precedence: command-line flag > the last `[[asset]]` rule whose glob matches > `[defaults]` >
@@ -24,6 +25,7 @@ use std::path::Path;
 pub struct Overrides {
     pub spheres: Option<usize>,
     pub method: Option<String>,
+    pub preset: Option<String>,
     pub max_outside_ratio: Option<f64>,
     pub voxels: Option<u32>,
     pub seed: Option<u64>,
@@ -41,6 +43,7 @@ impl Overrides {
         Overrides {
             spheres: over.spheres.or(self.spheres),
             method: over.method.clone().or_else(|| self.method.clone()),
+            preset: over.preset.clone().or_else(|| self.preset.clone()),
             max_outside_ratio: over.max_outside_ratio.or(self.max_outside_ratio),
             voxels: over.voxels.or(self.voxels),
             seed: over.seed.or(self.seed),

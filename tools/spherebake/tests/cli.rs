@@ -322,6 +322,93 @@ fn config_file_sets_per_asset_settings_and_flags_override() {
 }
 
 #[test]
+fn preset_from_the_flag_or_the_config_reaches_the_fit_and_rebakes() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    std::fs::copy(repo().join("fixtures/capsule.obj"), d.join("capsule.obj")).unwrap();
+    let _ = std::fs::copy(repo().join("fixtures/capsule.mtl"), d.join("capsule.mtl"));
+    let bake = |args: &[&str], out: &str| -> (Vec<u8>, serde_json::Value) {
+        let mut all = vec!["bake", "capsule.obj", "-o", out, "-q", "--spheres", "12", "--voxels", "48"];
+        all.extend_from_slice(args);
+        let o = run(&all, d);
+        assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+        let o = run(&["inspect", out, "--json"], d);
+        let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+        (std::fs::read(d.join(out)).unwrap(), v["metadata"]["settings"].clone())
+    };
+    let (default, s0) = bake(&[], "default.sphb");
+    let (fast, s1) = bake(&["--preset", "fast"], "fast.sphb");
+    let (best, s2) = bake(&["--preset", "best"], "best.sphb");
+    // The default is not recorded (files baked before presets keep their bytes); others are.
+    assert!(s0.get("preset").is_none(), "{s0}");
+    assert_eq!((s1["preset"].as_str(), s2["preset"].as_str()), (Some("fast"), Some("best")));
+    // Fast does less work: other spheres. Best keeps the lowest E of four seeds, the first
+    // being the default's run, so it may be the default's file.
+    assert!(fast != default && fast != best, "the preset changes the spheres");
+    let e = |f: &str| -> f64 {
+        let o = run(&["eval", f, "capsule.obj", "--json"], d);
+        let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+        v["outside_ratio_e"].as_f64().unwrap()
+    };
+    assert!(e("best.sphb") <= e("default.sphb"), "best {} default {}", e("best.sphb"), e("default.sphb"));
+    assert_eq!(bake(&["--preset", "default"], "d2.sphb").0, default);
+    // The same preset from spherebake.toml gives the flag's file; the flag overrides it.
+    std::fs::write(d.join("spherebake.toml"), "[[asset]]\nglob = \"*.obj\"\npreset = \"fast\"\n").unwrap();
+    assert_eq!(bake(&[], "toml.sphb").0, fast);
+    assert_eq!(bake(&["--preset", "best"], "over.sphb").0, best);
+    std::fs::write(d.join("spherebake.toml"), "[defaults]\npreset = \"quick\"\n").unwrap();
+    let o = run(&["bake", "capsule.obj", "-o", "x.sphb"], d);
+    assert_eq!(o.status.code(), Some(2), "an unknown preset is a usage error");
+    assert!(stderr(&o).contains("unknown preset"), "{}", stderr(&o));
+    std::fs::remove_file(d.join("spherebake.toml")).unwrap();
+    // Up-to-date check: a preset change re-bakes, the same preset again does not.
+    let batch = |args: &[&str]| -> serde_json::Value {
+        let mut all = vec!["bake", "capsule.obj", "--out-dir", "out", "--json", "--spheres", "12", "--voxels", "48"];
+        all.extend_from_slice(args);
+        serde_json::from_slice(&run(&all, d).stdout).unwrap()
+    };
+    assert_eq!(batch(&[])["baked"], 1);
+    assert_eq!(batch(&[])["up_to_date"], 1);
+    assert_eq!(batch(&["--preset", "fast"])["baked"], 1, "a preset change re-bakes");
+    assert_eq!(batch(&["--preset", "fast"])["up_to_date"], 1);
+}
+
+#[test]
+fn target_mode_warns_once_and_keeps_its_stage_times_and_trace() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let model = repo().join("fixtures/capsule.obj");
+    let args = ["bake", model.to_str().unwrap(), "-o", "t.sphb", "--max-outside-ratio", "0.3", "--voxels", "48"];
+    let o = run(&[&args[..], &["-v"]].concat(), d);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let out = String::from_utf8_lossy(&o.stdout).into_owned();
+    let lines: Vec<&str> = out.lines().filter(|l| l.contains("warning") && l.contains("target mode")).collect();
+    assert_eq!(lines.len(), 1, "the target-mode result is printed once: {out}");
+    // -v prints the trace: every run (at least the first count, 8) from dense points to exact E.
+    let trace: Vec<&str> = out.lines().filter(|l| l.trim_start().starts_with("trace")).collect();
+    assert!(trace.first().is_some_and(|l| l.contains("k 8") && l.contains("dense_points")), "{out}");
+    assert!(trace.last().is_some_and(|l| l.contains("exact_e")), "{out}");
+    let o = run(&[&args[..], &["--json", "--force"]].concat(), d);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    let rep = &v["assets"][0]["report"];
+    let warnings = rep["warnings"].as_array().unwrap();
+    let n = warnings.iter().filter(|w| w.as_str().is_some_and(|w| w.contains("target mode"))).count();
+    assert_eq!(n, 1, "{warnings:?}");
+    // The stage times of the runs are reported: the fit's stages with positive seconds.
+    let fit_stages = rep["fit_stages"].as_array().unwrap();
+    for st in ["lloyd", "polish", "descent", "bound", "exact_e"] {
+        let secs = fit_stages.iter().find(|t| t["stage"] == st).and_then(|t| t["seconds"].as_f64());
+        assert!(secs.is_some_and(|s| s > 0.0), "{st}: {fit_stages:?}");
+    }
+    // And the JSON trace has one exact E per count tried, the first at 8 spheres.
+    let trace = rep["fit_trace"].as_array().unwrap();
+    let runs: Vec<&serde_json::Value> = trace.iter().filter(|e| e["stage"] == "exact_e").collect();
+    assert!(!runs.is_empty() && runs[0]["spheres"] == 8, "{trace:?}");
+    assert!(trace.iter().filter(|e| e["stage"] == "dense_points").count() == runs.len());
+}
+
+#[test]
 fn eval_matches_the_analytic_outside_volume_of_a_sphere_around_a_cube() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
