@@ -2,6 +2,10 @@
 //! balls (centre at an interior lattice point p, radius ρ(p) + t where ρ(p) is the distance to
 //! the nearest surface sample), with the dilation t bisected so the cover needs at most k
 //! balls. Random choices enter through the seeded tie order, so `seed` still varies the start.
+//!
+//! Cost follows the sphere count: samples and candidates are capped by [`sample_cap`] (125
+//! per sphere, 256..=8000), each doubling of the dilation queries every candidate's ball once
+//! and keeps it sorted by distance, and the bisection steps take prefixes of those lists.
 
 use glam::DVec3;
 use rayon::prelude::*;

@@ -945,15 +945,20 @@ fn add_timing(timings: &mut Vec<(&'static str, f64)>, stage: &'static str, secs:
 ///
 /// With n triangles, P clustering points (∝ `point_resolution`³ inside, ∝ its square on the
 /// surface), D dense points (≈ vertices + 3 n), k spheres and a voxel grid of N cells along
-/// the longest axis (h = extent / N): the solid costs O(n + N³/64) (bit-packed rows); each
-/// Lloyd iteration and polish round costs O((P or D) × spheres per grid cell) for the
-/// assignment plus O(k × Powell evaluations × (r/h)²) for the centre updates, since one
-/// proxy ball volume reads O((r/h)²) voxel rows; the descent's trials stop at a fixed work
-/// budget counted in those rows (`descent_work_budget`, `seam_work_budget`), so their cost
-/// does not grow with n; the bounding pass is O(n × spheres per cell + P + k × neighbours);
-/// exact E is O(k × triangles near each sphere). Memory O(n + P + N³/8 bytes). Target mode
-/// runs the whole fit once per count tried (about log₂(k) + 4 counts). Parallel over spheres
-/// and points with rayon; the result is the same for any thread count.
+/// the longest axis (h = extent / N): the solid costs O(n + N³/64) (bit-packed rows); the
+/// cover start O(k × S_b) per doubling of its dilation, its samples and candidates capped at
+/// 125 per sphere (at most 8000) and S_b the samples one candidate ball covers, so it follows
+/// k (see the `cover` module); each Lloyd iteration and polish round costs
+/// O((P or D) × spheres per grid cell) for the assignment plus
+/// O(k × Powell evaluations × (r/h)²) for the centre updates, since one proxy ball volume
+/// reads O((r/h)²) voxel rows; the descent's trials stop at a fixed work budget counted in
+/// those rows (`descent_work_budget`, `seam_work_budget`), so their cost does not grow with
+/// n — nor shrink for a simple shape: that budget is the largest cost of a small mesh at 64
+/// spheres (`docs/benchmarks.md`, issue 16); the bounding pass is
+/// O(n × spheres per cell + P + k × neighbours); exact E is O(k × triangles near each
+/// sphere). Memory O(n + P + N³/8 bytes). Target mode runs the whole fit once per count tried
+/// (about log₂(k) + 4 counts). Parallel over spheres and points with rayon; the result is the
+/// same for any thread count.
 pub fn fit(
     positions: &[Vec3],
     triangles: &[[u32; 3]],
