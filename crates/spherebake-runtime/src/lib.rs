@@ -90,6 +90,7 @@ pub mod light;
 pub mod pose;
 pub mod refit;
 pub mod shadow;
+pub mod tile;
 
 use alloc::vec::Vec;
 

@@ -69,13 +69,19 @@
 //!   - *Near field, pass 2*: for a leaf with f < 0.98, or with samples in fewer than 95 % of the 92 directions
 //!     (the rest belong to other spheres, rule 2, and the order-n SH smears the sharp edge between emitting and empty
 //!     directions; full weight at 75 %, [`SPLAT_COVER_FULL`]), seen at an angular radius θ above 20° (or containing
-//!     the receiver), its emission is blended into the *splat* of its own samples ([`splat_irradiance`]): each sample a
-//!     facing disk of the area its cell covers on the surface, with the pass-1 radiance L_pj c(ω_j), irradiance
-//!     L A cos_e cos_r / (d² + A/π), times the light's visible share; weight ramp(θ: 20° → 40°) ×
-//!     max(ramp(f: 0.98 → 0.90), ramp(coverage: 0.95 → 0.75)) ([`SPLAT_THETA_START`], [`SPLAT_THETA_FULL`]). A tight,
-//!     fully covered leaf keeps the SH light, which is exact for the known-answer spheres, while 92 disks are not
-//!     (0.4 % RMSE for a floating sphere, 21 % for one touching the ground, where receivers come closer than the
-//!     samples' spacing). On the shared models every leaf of a 16–256-sphere proxy is below 75 % coverage.
+//!     the receiver), its emission is blended into the *splat* of its own samples ([`splat_irradiance`]): each sample
+//!     a planar *tile*, the central projection of its direction's Voronoi cell onto its tangent plane, with the
+//!     pass-1 radiance L_pj c(ω_j) and its exact polygon irradiance (Lambert's formula, clipped to the receiver's
+//!     horizon; [`crate::tile`]), times the light's visible share; weight ramp(θ: 20° → 40°) ×
+//!     max(ramp(f: 0.98 → 0.90), ramp(coverage: 0.95 → 0.75)) ([`SPLAT_THETA_START`], [`SPLAT_THETA_FULL`]). A
+//!     tight, fully covered leaf keeps the SH light, which is exact for the known-answer spheres. Until 2026-12-02
+//!     each sample was a disk facing the receiver, L A cos_e cos_r / (d² + A/π) with A = t² Ω / max(|n·ω|, 0.2): its
+//!     cosines vanish for a receiver a hair under a surface (the ground under the Duck's belly, 0.003–0.05 below it,
+//!     where half the ground error was), while the tiles above such a receiver fill its view as the surface does.
+//!     Splat oracle (traced radiance and albedo, ray-cast visibility), ground at 64 spheres: disks 0.308 / 0.221
+//!     (Duck / CesiumMan), tiles 0.231 / 0.156. The tiles' near-plane rule ([`crate::tile::TILE_MIN_HEIGHT`]) keeps
+//!     a posed leaf's rigidly moved samples from flooding a receiver beside them. On the shared models every leaf
+//!     of a 16–256-sphere proxy is below 75 % coverage.
 //!   - *Albedo without zeros*: the bake fills the albedo cube map's directions without surface with the segment's
 //!     mean colour (`spherebake-bake` albedo docs); the emission is 0 there anyway (rule 2, carried by L), and the
 //!     zeros had darkened every segment's edge through the order-4 truncation of c (L ∗ c, eq. 11) more the more
@@ -266,6 +272,8 @@ pub struct LightContext {
     h_band: [f64; MAX_ORDER],
     /// κ_l of the Voronoi projection.
     cell_gain: [f64; MAX_ORDER],
+    /// The Voronoi cells of the 92 directions (corner directions), for the surface tiles of the splat.
+    cells: Vec<crate::tile::Cell>,
 }
 
 /// The per-band gain κ_l = (1/(2l + 1)) Σ_m Σ_j y_lm(ω_j) Y_j,lm of the Voronoi-cell projection (eq. 10) applied
@@ -306,7 +314,12 @@ impl LightContext {
         for v in &mut a[..order] {
             *v /= core::f64::consts::PI;
         }
-        Ok(LightContext { shadow, h_band: a, cell_gain: voronoi_band_gains(order) })
+        Ok(LightContext {
+            shadow,
+            h_band: a,
+            cell_gain: voronoi_band_gains(order),
+            cells: crate::tile::voronoi_cells(),
+        })
     }
 
     /// The per-band gains κ_l of the Voronoi projection (see [`voronoi_band_gains`]).
@@ -765,40 +778,37 @@ const AREA_FILL_TIGHT: f64 = 0.85;
 const AREA_FILL_LOOSE: f64 = 0.70;
 
 /// Irradiance (linear RGB) at `p` (unit normal `n`) from leaf `leaf`'s own samples as small Lambertian emitters
-/// (module docs, "Close lights"): sample j at x_j with outward normal n_j stands for the surface its Voronoi cell
-/// sees from the sphere's centre, area A_j = t_j² Ω_cell / max(|n_j·ω_j|, 0.2) (t_j its distance from the centre,
-/// Ω_cell = 4π/92), radiance L_pj c(ω_j); its irradiance is that of a facing disk of area A_j,
-/// L A_j cos_e cos_r / (d² + A_j/π), exact on the disk's axis and bounded (π L) as d → 0. No visibility inside the
-/// leaf's own segment; the caller multiplies by the light's visible share. Allocation-free.
-fn splat_irradiance(posed: &PosedProxy<'_>, lights: &SphereLights, leaf: usize, p: [f32; 3], n: [f32; 3]) -> [f64; 3] {
+/// (module docs, "Loose lights"): sample j, radiance L_pj c(ω_j), as its surface tile
+/// ([`crate::tile::sample_tile_irradiance`], built in the leaf's rest frame, into which the receiver is turned). No
+/// visibility inside the leaf's own segment; the caller multiplies by the light's visible share. Allocation-free.
+fn splat_irradiance(
+    cells: &[crate::tile::Cell],
+    posed: &PosedProxy<'_>,
+    lights: &SphereLights,
+    leaf: usize,
+    p: [f32; 3],
+    n: [f32; 3],
+) -> [f64; 3] {
     let mut out = [0.0f64; 3];
     let Some(s) = posed.leaves.get(leaf) else { return out };
     let rot = posed.rotation(leaf);
-    let c_rest = posed.proxy.spheres().get(leaf).map_or(s.center, |r| r.center);
-    let cell = 4.0 * core::f64::consts::PI / GEODESIC_DIRECTION_COUNT as f64;
+    let (c_rest, r_rest) = posed.proxy.spheres().get(leaf).map_or((s.center, s.radius), |r| (r.center, r.radius));
+    // The receiver in the leaf's rest frame, relative to its centre: tiles are built there (the rotation is rigid).
+    let pr = rotate_transposed(&rot, [p[0] - s.center[0], p[1] - s.center[1], p[2] - s.center[2]]);
+    let nr = rotate_transposed(&rot, n);
+    let pr = pr.map(f64::from);
+    let nr = nr.map(f64::from);
     for sp in posed.proxy.samples_of(leaf) {
         let Some(v) = lights.leaf_cells.get(leaf * GEODESIC_DIRECTION_COUNT + usize::from(sp.direction)) else {
             continue;
         };
-        let rel = [sp.position[0] - c_rest[0], sp.position[1] - c_rest[1], sp.position[2] - c_rest[2]];
-        let t2 = f64::from(rel[0] * rel[0] + rel[1] * rel[1] + rel[2] * rel[2]);
-        let t = spherebake_sh::sqrt_f64(t2).max(1e-30);
-        let nd = (f64::from(rel[0] * sp.normal[0] + rel[1] * sp.normal[1] + rel[2] * sp.normal[2]) / t).abs();
-        let area = t2 * cell / nd.max(SPLAT_MIN_COS);
-        let r = rotate(&rot, rel);
-        let x = [r[0] + s.center[0], r[1] + s.center[1], r[2] + s.center[2]];
-        let nj = rotate(&rot, sp.normal);
-        let w = [f64::from(p[0] - x[0]), f64::from(p[1] - x[1]), f64::from(p[2] - x[2])];
-        let dd = w[0] * w[0] + w[1] * w[1] + w[2] * w[2];
-        let dl = spherebake_sh::sqrt_f64(dd).max(1e-30);
-        let ce = (w[0] * f64::from(nj[0]) + w[1] * f64::from(nj[1]) + w[2] * f64::from(nj[2])) / dl;
-        let cr = -(w[0] * f64::from(n[0]) + w[1] * f64::from(n[1]) + w[2] * f64::from(n[2])) / dl;
-        if ce <= 0.0 || cr <= 0.0 {
-            continue;
-        }
-        let k = area * ce * cr / (dd + area / core::f64::consts::PI);
-        for c in 0..3 {
-            out[c] += k * f64::from(v[c]);
+        let Some(cell) = cells.get(usize::from(sp.direction)) else { continue };
+        let x = [sp.position[0] - c_rest[0], sp.position[1] - c_rest[1], sp.position[2] - c_rest[2]].map(f64::from);
+        let f = crate::tile::sample_tile_irradiance(cell, f64::from(r_rest), x, sp.normal.map(f64::from), pr, nr);
+        if f > 0.0 {
+            for c in 0..3 {
+                out[c] += f * f64::from(v[c]);
+            }
         }
     }
     out
@@ -1282,7 +1292,7 @@ impl IndirectCluster {
                     let fw = fw_fill.max(fw_cover) as f32;
                     splat_t = fw * ((theta_raw - lo) / (hi - lo)).clamp(0.0, 1.0);
                     if splat_t > 0.0 {
-                        splat = splat_irradiance(posed_src, lights, leaf as usize, p, normal);
+                        splat = splat_irradiance(&ctx.cells, posed_src, lights, leaf as usize, p, normal);
                     }
                 }
             }

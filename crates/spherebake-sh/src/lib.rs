@@ -167,3 +167,11 @@ pub(crate) fn check_order(order: usize, max: usize) -> Result<(), ShError> {
 pub fn sqrt_f64(x: f64) -> f64 {
     libm::sqrt(x)
 }
+
+/// atan2(y, x) in radians, in [−π, π] (libm's, within 1 ulp), for `no_std` users of this crate such as the
+/// runtime's polygon irradiance (`core` has no `f64::atan2`).
+#[inline]
+#[must_use]
+pub fn atan2_f64(y: f64, x: f64) -> f64 {
+    libm::atan2(y, x)
+}

@@ -36,6 +36,7 @@ use spherebake_runtime::light::{
     Pass1Settings, PosedProxy, SphereLights,
 };
 use spherebake_runtime::shadow::{coeff_count, lobe_light, uniform_light, ClusterBlockers, ExpMethod, MAX_COEFFS};
+use spherebake_runtime::tile::{sample_tile_irradiance, voronoi_cells, Cell};
 use spherebake_runtime::{rest_node_spheres, HierarchyPlan, Proxy, Sphere};
 use std::f64::consts::PI;
 use std::path::{Path, PathBuf};
@@ -108,9 +109,9 @@ pub struct LightArgs {
     /// (the pass-1 reference) instead of the log-SH pass 1, to separate the two passes' errors
     #[arg(long, hide = true)]
     pub pass1_reference: bool,
-    /// Development aid: replace the ground's proxy values by the splat of every sample (traced
-    /// sample radiance, traced albedo under the sample, ray-traced visibility): the error that
-    /// remains is that of the samples themselves as emitters
+    /// Development aid: replace the ground's proxy values by the splat of every sample (its surface
+    /// tile with the traced sample radiance and the traced albedo under the sample, ray-traced
+    /// visibility of the sample): the error that remains is that of the samples themselves as emitters
     #[arg(long, hide = true)]
     pub splat_oracle: bool,
 }
@@ -653,29 +654,25 @@ pub fn compute(a: &LightArgs, proxy: &Proxy, mesh: &spherebake_geom::Mesh) -> Re
     }
     let pass2_seconds = start.elapsed().as_secs_f64();
     if a.splat_oracle && check_samples {
-        // Each sample: position, normal, area, radiance × albedo.
-        type Emitter = ([f64; 3], [f64; 3], f64, [f64; 3]);
-        let cell = 4.0 * PI / spherebake_runtime::GEODESIC_DIRECTIONS.len() as f64;
+        // Each sample: position, normal, its surface tile (the runtime's near-field emitter), radiance × albedo.
+        type Emitter = ([f64; 3], [f64; 3], [f64; 3], [f64; 3], f64, Cell, [f64; 3]);
+        let cells = voronoi_cells();
         let mut em: Vec<Emitter> = Vec::new();
         let mut k = 0usize;
         let mut missed = 0usize;
         for (i, s) in leaves.iter().enumerate() {
+            let centre = s.center.map(f64::from);
             for sp in proxy.samples_of(i) {
-                let rel = [0, 1, 2].map(|q| f64::from(sp.position[q] - s.center[q]));
-                let t2 = rel[0] * rel[0] + rel[1] * rel[1] + rel[2] * rel[2];
-                let t = t2.sqrt().max(1e-30);
-                let n = sp.normal.map(f64::from);
-                let nd = ((rel[0] * n[0] + rel[1] * n[1] + rel[2] * n[2]) / t).abs();
-                let area = t2 * cell / nd.max(0.2);
+                let radiance = sample_reference.get(k).copied().unwrap_or(0.0);
+                k += 1;
+                let (x, n) = (sp.position.map(f64::from), sp.normal.map(f64::from));
                 // The true albedo under the sample (the proxy's albedo SH is what is being checked).
-                let Some(al) = scene.albedo_near(sp.position.map(f64::from), n) else {
+                let (Some(al), Some(cell)) = (scene.albedo_near(x, n), cells.get(usize::from(sp.direction))) else {
                     missed += 1;
-                    k += 1;
                     continue;
                 };
-                let c = [0, 1, 2].map(|ch| al[ch] * sample_reference[k]);
-                em.push((sp.position.map(f64::from), n, area, c));
-                k += 1;
+                let rel = [0, 1, 2].map(|q| x[q] - centre[q]);
+                em.push((x, n, rel, centre, f64::from(s.radius), *cell, al.map(|a| a * radiance)));
             }
         }
         if missed > 0 {
@@ -686,20 +683,18 @@ pub fn compute(a: &LightArgs, proxy: &Proxy, mesh: &spherebake_geom::Mesh) -> Re
         }
         ground_proxy.par_iter_mut().zip(ground.par_iter()).for_each(|(out, r)| {
             let mut e = [0.0; 3];
-            for (x, n, area, c) in &em {
-                let w = [0, 1, 2].map(|q| r.position[q] - x[q]);
-                let dd = w[0] * w[0] + w[1] * w[1] + w[2] * w[2];
-                let dl = dd.sqrt().max(1e-30);
-                let ce = (w[0] * n[0] + w[1] * n[1] + w[2] * n[2]) / dl;
-                let cr = -(w[0] * r.normal[0] + w[1] * r.normal[1] + w[2] * r.normal[2]) / dl;
-                if ce <= 0.0 || cr <= 0.0 {
+            for (x, n, rel, centre, radius, cell, c) in &em {
+                let p = [0, 1, 2].map(|q| r.position[q] - centre[q]);
+                let kf = sample_tile_irradiance(cell, *radius, *rel, *n, p, r.normal);
+                if kf <= 0.0 {
                     continue;
                 }
+                let w = [0, 1, 2].map(|q| r.position[q] - x[q]);
+                let dl = (w[0] * w[0] + w[1] * w[1] + w[2] * w[2]).sqrt().max(1e-30);
                 let xo = [0, 1, 2].map(|q| x[q] + n[q] * 1e-4 * dl);
                 if !scene.segment_clear(r.position, xo) {
                     continue;
                 }
-                let kf = area * ce * cr / (dd + area / PI);
                 for ch in 0..3 {
                     e[ch] += kf * c[ch];
                 }

@@ -1,0 +1,234 @@
+//! Surface tiles (`spherebake_runtime::tile`): the Voronoi cells of the 92 directions, Lambert's polygon irradiance
+//! against an analytic rectangle formula and a brute-force hemisphere quadrature, and tiles of a plane seen from
+//! just under it.
+
+use spherebake_runtime::tile::{polygon_irradiance, sample_tile, voronoi_cells, CELL_MAX_CORNERS};
+use spherebake_runtime::GEODESIC_DIRECTIONS;
+use std::f64::consts::PI;
+
+fn dir(j: usize) -> [f64; 3] {
+    let d = GEODESIC_DIRECTIONS[j].map(f64::from);
+    let l = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
+    d.map(|v| v / l)
+}
+
+fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+
+fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
+}
+
+/// Solid angle of the spherical triangle (a, b, c) of unit vectors (Van Oosterom & Strackee 1983).
+fn triangle_solid_angle(a: [f64; 3], b: [f64; 3], c: [f64; 3]) -> f64 {
+    let num = dot(a, cross(b, c));
+    let den = 1.0 + dot(a, b) + dot(b, c) + dot(c, a);
+    2.0 * num.atan2(den)
+}
+
+#[test]
+fn voronoi_cells_are_the_geodesic_dual() {
+    let cells = voronoi_cells();
+    assert_eq!(cells.len(), 92);
+    let pentagons = cells.iter().filter(|c| c.count == 5).count();
+    let hexagons = cells.iter().filter(|c| c.count == 6).count();
+    // A geodesic sphere's dual: 12 pentagons (the icosahedron's vertices, directions 0–11) and 80 hexagons.
+    assert_eq!((pentagons, hexagons), (12, 80));
+    assert!(cells[..12].iter().all(|c| c.count == 5));
+    let mut total = 0.0;
+    for (j, cell) in cells.iter().enumerate() {
+        let d = dir(j);
+        for k in 0..cell.count {
+            let m = cell.corners[k];
+            // Each corner is equidistant from ω_j and from at least two other directions, and no direction is
+            // nearer to it (a Voronoi vertex).
+            let own = dot(m, d);
+            let ties = (0..92).filter(|&i| i != j && (dot(m, dir(i)) - own).abs() < 1e-9).count();
+            assert!(ties >= 2, "direction {j} corner {k}: {ties} ties");
+            assert!((0..92).all(|i| dot(m, dir(i)) <= own + 1e-9));
+            // Counter-clockwise about ω_j, and convex.
+            let next = cell.corners[(k + 1) % cell.count];
+            assert!(dot(d, cross(m, next)) > 0.0, "direction {j}: corners not counter-clockwise");
+            total += triangle_solid_angle(d, m, next);
+        }
+        assert!(cell.corners[cell.count..].iter().all(|c| *c == [0.0; 3]));
+    }
+    // The cells tile the sphere.
+    assert!((total - 4.0 * PI).abs() < 1e-9, "cells cover {total} sr");
+}
+
+/// Projected solid angle of an a × b rectangle parallel to the receiver's plane at height h, the receiver under one
+/// corner (the standard configuration factor, e.g. Howell's catalogue C-11, times π).
+fn rectangle_corner(a: f64, b: f64, h: f64) -> f64 {
+    let (x, y) = (a / h, b / h);
+    let (sx, sy) = ((1.0 + x * x).sqrt(), (1.0 + y * y).sqrt());
+    0.5 * (x / sx * (y / sx).atan() + y / sy * (x / sy).atan())
+}
+
+#[test]
+fn polygon_irradiance_matches_the_rectangle_formula() {
+    let n = [0.0, 1.0, 0.0];
+    for &(a, b, h) in &[(1.0, 1.0, 1.0), (0.3, 2.0, 0.5), (5.0, 0.1, 0.01), (1e3, 1e3, 1e-3)] {
+        // Under a corner of the rectangle [0, a] × [0, b] at height h.
+        let rect = [[0.0, h, 0.0], [a, h, 0.0], [a, h, b], [0.0, h, b]];
+        let got = polygon_irradiance([0.0; 3], n, &rect);
+        let want = rectangle_corner(a, b, h);
+        assert!((got - want).abs() < 1e-9 * want.max(1.0), "a {a} b {b} h {h}: {got} vs {want}");
+        // Under its centre: four corner rectangles; the winding does not matter.
+        let centred: Vec<[f64; 3]> = rect.iter().rev().map(|c| [c[0] - 0.5 * a, c[1], c[2] - 0.5 * b]).collect();
+        let got = polygon_irradiance([0.0; 3], n, &centred);
+        let want = 4.0 * rectangle_corner(0.5 * a, 0.5 * b, h);
+        assert!((got - want).abs() < 1e-9 * want.max(1.0), "centred a {a} b {b} h {h}: {got} vs {want}");
+    }
+    // A huge square just above the receiver fills its hemisphere: π.
+    let big = [[-1e6, 1e-6, -1e6], [1e6, 1e-6, -1e6], [1e6, 1e-6, 1e6], [-1e6, 1e-6, 1e6]];
+    assert!((polygon_irradiance([0.0; 3], n, &big) - PI).abs() < 1e-6);
+    // Entirely below the horizon: nothing; degenerate input: nothing.
+    let below = big.map(|c| [c[0], -1.0, c[2]]);
+    assert_eq!(polygon_irradiance([0.0; 3], n, &below), 0.0);
+    assert_eq!(polygon_irradiance([0.0; 3], n, &big[..2]), 0.0);
+    assert_eq!(polygon_irradiance([f64::NAN; 3], n, &big), 0.0);
+}
+
+/// ∫ cos θ over the directions of the upper hemisphere of `n` = +Y whose ray from the origin crosses the convex
+/// planar polygon, by a midpoint rule in (cos² θ, φ) (uniform in projected solid angle).
+fn brute_force(poly: &[[f64; 3]]) -> f64 {
+    let (nu, nphi) = (1500usize, 1500usize);
+    let normal = cross([poly[1][0] - poly[0][0], poly[1][1] - poly[0][1], poly[1][2] - poly[0][2]], {
+        let e = poly[2];
+        [e[0] - poly[0][0], e[1] - poly[0][1], e[2] - poly[0][2]]
+    });
+    let mut hits = 0usize;
+    for i in 0..nu {
+        let u = (i as f64 + 0.5) / nu as f64; // sin² θ
+        let (st, ct) = (u.sqrt(), (1.0 - u).sqrt());
+        for k in 0..nphi {
+            let phi = 2.0 * PI * (k as f64 + 0.5) / nphi as f64;
+            let w = [st * phi.cos(), ct, st * phi.sin()];
+            let den = dot(normal, w);
+            if den.abs() < 1e-15 {
+                continue;
+            }
+            let t = dot(normal, poly[0]) / den;
+            if t <= 0.0 {
+                continue;
+            }
+            let x = w.map(|v| v * t);
+            // Inside the convex polygon: the same side of every edge.
+            let mut sign = 0.0f64;
+            let mut inside = true;
+            for e in 0..poly.len() {
+                let (a, b) = (poly[e], poly[(e + 1) % poly.len()]);
+                let s = dot(
+                    normal,
+                    cross([b[0] - a[0], b[1] - a[1], b[2] - a[2]], [x[0] - a[0], x[1] - a[1], x[2] - a[2]]),
+                );
+                if sign == 0.0 {
+                    sign = s.signum();
+                } else if s * sign < 0.0 {
+                    inside = false;
+                    break;
+                }
+            }
+            if inside {
+                hits += 1;
+            }
+        }
+    }
+    PI * hits as f64 / (nu * nphi) as f64
+}
+
+#[test]
+fn polygon_irradiance_matches_brute_force_across_the_horizon() {
+    // Tilted hexagons that cross the receiver's horizon (clipped) or stand above it.
+    let cases: [([f64; 3], [f64; 3], f64); 3] = [
+        ([0.3, 0.2, 0.1], [0.6, 0.3, 0.74], 0.5),
+        ([0.0, 0.6, 0.0], [0.1, -1.0, 0.05], 0.4),
+        ([-0.5, 0.05, 0.4], [0.7, 0.7, 0.1], 0.3),
+    ];
+    for (centre, normal, radius) in cases {
+        let l = dot(normal, normal).sqrt();
+        let nn = normal.map(|v| v / l);
+        let e1 = {
+            let c = cross(nn, [0.0, 0.0, 1.0]);
+            let cl = dot(c, c).sqrt();
+            c.map(|v| v / cl)
+        };
+        let e2 = cross(nn, e1);
+        let hex: Vec<[f64; 3]> = (0..6)
+            .map(|k| {
+                let a = PI / 3.0 * k as f64;
+                [0, 1, 2].map(|q| centre[q] + radius * (a.cos() * e1[q] + a.sin() * e2[q]))
+            })
+            .collect();
+        let got = polygon_irradiance([0.0; 3], [0.0, 1.0, 0.0], &hex);
+        let want = brute_force(&hex);
+        assert!(want > 0.01, "case {centre:?}: degenerate test");
+        assert!((got - want).abs() < 3e-3 * want.max(0.1), "case {centre:?}: {got} vs brute force {want}");
+    }
+}
+
+#[test]
+fn tiles_of_a_plane_fill_the_view_from_just_under_it() {
+    // A sphere centred at the origin over the plane y = −1 (outward normal −Y): every direction with ω_y < 0 has its
+    // sample where its ray meets the plane. From just under the plane below the centre, the tiles cover the view
+    // without gaps or overlaps where their corners lie on the plane; near the horizon the capped corners leave the
+    // plane (measured: the sum is 1.003 π), so the sum is π within 1 %.
+    let cells = voronoi_cells();
+    let (centre, radius) = ([0.0; 3], 10.0);
+    let receiver = [0.0, -1.0 - 1e-4, 0.0];
+    let mut total = 0.0;
+    for (j, cell) in cells.iter().enumerate() {
+        let d = dir(j);
+        if d[1] >= -1e-9 {
+            continue;
+        }
+        let t = -1.0 / d[1];
+        let x = d.map(|v| v * t);
+        let mut tile = [[0.0; 3]; CELL_MAX_CORNERS];
+        let k = sample_tile(cell, centre, radius, x, [0.0, -1.0, 0.0], &mut tile);
+        assert!(tile[..k].iter().all(|c| (c[1] + 1.0).abs() < 1e-9 || (c[0] * c[0] + c[2] * c[2]).sqrt() > 1.0));
+        total += polygon_irradiance(receiver, [0.0, 1.0, 0.0], &tile[..k]).max(0.0);
+    }
+    assert!(total <= PI * 1.01, "overlap: {total}");
+    assert!(total > 0.99 * PI, "gaps: {total} of {PI}");
+    // A sample on the centre or a non-finite one gives no tile.
+    let mut tile = [[0.0; 3]; CELL_MAX_CORNERS];
+    assert_eq!(sample_tile(&cells[0], centre, radius, centre, [0.0, 1.0, 0.0], &mut tile), 0);
+    assert_eq!(sample_tile(&cells[0], centre, radius, [f64::NAN; 3], [0.0, 1.0, 0.0], &mut tile), 0);
+}
+
+#[test]
+fn a_sample_tile_emits_on_its_front_side_and_saturates_near_its_plane() {
+    use spherebake_runtime::tile::{sample_tile_irradiance, TILE_MIN_HEIGHT};
+    let cells = voronoi_cells();
+    // The sample straight below the centre of a unit sphere, on the plane y = −1 (outward normal −Y).
+    let j = (0..92).min_by(|&a, &b| dir(a)[1].total_cmp(&dir(b)[1])).unwrap();
+    let x = dir(j);
+    let nrm = [0.0, -1.0, 0.0];
+    let h_plane = -x[1]; // the plane through x, perpendicular to Y
+    let at = |h: f64| sample_tile_irradiance(&cells[j], 1.0, x, nrm, [x[0], -(h_plane + h), x[2]], [0.0, 1.0, 0.0]);
+    // Behind the plane (inside the object): nothing.
+    assert_eq!(sample_tile_irradiance(&cells[j], 1.0, x, nrm, [x[0], 0.0, x[2]], [0.0, 1.0, 0.0]), 0.0);
+    // Closer than h_min it is evaluated at h_min: the same value all the way to the plane.
+    let h_min = TILE_MIN_HEIGHT * (x[0] * x[0] + x[1] * x[1] + x[2] * x[2]).sqrt();
+    let v = at(h_min);
+    assert!(v > 0.1 && v < PI, "{v}");
+    for h in [1e-9, 1e-3, 0.5 * h_min] {
+        assert!((at(h) - v).abs() < 1e-12, "h {h}: {} vs {v}", at(h));
+    }
+    // Farther out it falls, as the tile covers less of the view; and at h ≥ h_min it is the tile's exact
+    // polygon irradiance.
+    assert!(at(2.0 * h_min) < v && at(4.0 * h_min) < at(2.0 * h_min));
+    let mut tile = [[0.0; 3]; CELL_MAX_CORNERS];
+    let k = sample_tile(&cells[j], [0.0; 3], 1.0, x, nrm, &mut tile);
+    let p = [x[0], -(h_plane + 2.0 * h_min), x[2]];
+    assert_eq!(at(2.0 * h_min), polygon_irradiance(p, [0.0, 1.0, 0.0], &tile[..k]));
+    // Beside the tile (its foot point on the plane beyond every corner), near the plane's extension: not moved.
+    let reach = tile[..k].iter().map(|c| ((c[0] - x[0]).powi(2) + (c[2] - x[2]).powi(2)).sqrt()).fold(0.0, f64::max);
+    let beside = [x[0] + 1.5 * reach, -(h_plane + 1e-3), x[2]];
+    let got = sample_tile_irradiance(&cells[j], 1.0, x, nrm, beside, [-1.0, 0.0, 0.0]);
+    assert_eq!(got, polygon_irradiance(beside, [-1.0, 0.0, 0.0], &tile[..k]));
+    assert!(got > 0.0);
+}
