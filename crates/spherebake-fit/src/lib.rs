@@ -615,7 +615,8 @@ fn run_once(prep: &Prepared, pts: &points::PointSet, settings: &FitSettings, k: 
     let solid = &prep.solid;
     let (raw, iterations, teleports, history) = match settings.method {
         Method::Variational => {
-            let all = dense_points(prep, pts, plan);
+            // Without polish rounds (the fast plan) nothing reads the dense points.
+            let all = if plan.polish_rounds > 0 { dense_points(prep, pts, plan) } else { Vec::new() };
             tr.record("dense_points", None, |x| x.points = all.len());
             let ctx = lloyd::Ctx { solid, pts, all: &pts.reps, powell_sweeps: plan.powell_sweeps };
             let out = lloyd_stage(&ctx, k, settings.seed, plan);
@@ -682,7 +683,7 @@ fn run_once(prep: &Prepared, pts: &points::PointSet, settings: &FitSettings, k: 
 /// need it; coarse CAD-like meshes do), and the interior lattice points. Edge midpoints
 /// leave the bounding pass far less to grow (measured: bunny 64 E 0.305 → 0.294, armadillo
 /// 64 0.544 → 0.539). Cost O(vertices + triangles + grid points), the grid held to
-/// `points::GRID_BUDGET` points.
+/// `points::GRID_BUDGET` points; skipped (no points) when the plan has no polish rounds.
 fn dense_points(prep: &Prepared, pts: &points::PointSet, plan: &FitPlan) -> Vec<points::Rep> {
     let mut all: Vec<points::Rep> = Vec::with_capacity(prep.pos.len() + 2 * prep.tris.len() + pts.points.len());
     let mut used = vec![false; prep.pos.len()];
@@ -957,7 +958,8 @@ fn add_timing(timings: &mut Vec<(&'static str, f64)>, stage: &'static str, secs:
 /// spheres (`docs/benchmarks.md`, issue 16); the bounding pass is
 /// O(n × spheres per cell + P + k × neighbours); exact E is O(k × triangles near each
 /// sphere). Memory O(n + P + N³/8 bytes). Target mode runs the whole fit once per count tried
-/// (about log₂(k) + 4 counts). Parallel over spheres and points with rayon; the result is the
+/// (about log₂(k) + 4 counts), and `plan.restarts` (the `best` preset: 4) runs every stage
+/// after the points that many times. Parallel over spheres and points with rayon; the result is the
 /// same for any thread count.
 pub fn fit(
     positions: &[Vec3],

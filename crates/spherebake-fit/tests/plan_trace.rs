@@ -156,8 +156,9 @@ fn presets_do_the_work_they_document_and_all_bound() {
     assert_eq!(best.stats.outside_ratio_e, lowest);
     assert!(best.stats.outside_ratio_e <= default.stats.outside_ratio_e);
     assert!(b.0 > d.0 && b.1 >= d.1 && b.2 >= d.2, "best does more work: {b:?} vs {d:?}");
-    // Fast runs no polish round and at most three seam rounds.
+    // Fast runs no polish round (so builds no dense points) and at most three seam rounds.
     assert!(fast.stats.trace.iter().any(|e| e.stage == "polish" && e.iterations == 0));
+    assert!(fast.stats.trace.iter().any(|e| e.stage == "dense_points" && e.points == 0));
     assert!(fast.stats.trace.iter().filter(|e| e.stage == "seam").count() <= 3);
     // Each preset bounds: every vertex inside a stored sphere.
     for (name, r) in [("fast", &fast), ("default", &default), ("best", &best)] {
