@@ -723,7 +723,12 @@ fn dense_points(prep: &Prepared, pts: &points::PointSet, plan: &FitPlan) -> Vec<
 /// cell) for the assignment plus O(spheres × Powell evaluations × r²/h²) for the updates, at
 /// most `plan.max_iterations` iterations per start.
 fn lloyd_stage(ctx: &lloyd::Ctx, k: usize, seed: u64, plan: &FitPlan) -> lloyd::LloydOutcome {
-    lloyd::run_multi(ctx, k, seed, plan.max_iterations, plan.teleport_attempts, plan.starts)
+    let limits = lloyd::Limits {
+        max_iterations: plan.max_iterations,
+        teleports: plan.teleport_attempts,
+        teleport_max_fails: plan.teleport_max_fails,
+    };
+    lloyd::run_multi(ctx, k, seed, limits, plan.starts)
 }
 
 /// Stage 3, polish on the dense points ([`lloyd::polish`]): `plan.polish_rounds` rounds of

@@ -468,19 +468,23 @@ pub struct LloydOutcome {
     pub teleports_tried: usize,
 }
 
+/// How long [`run`] goes on (the Lloyd fields of [`crate::FitPlan`]).
+#[derive(Clone, Copy, Debug)]
+pub struct Limits {
+    /// Iterations at most, teleportation trials included.
+    pub max_iterations: usize,
+    /// Teleportation trials at most.
+    pub teleports: usize,
+    /// Teleportation stops after this many rejected trials in a row.
+    pub teleport_max_fails: usize,
+}
+
 /// Runs the variational fit from `starts` seeded starts (seeds derived from `seed`) and keeps
 /// the lowest proxy E (ties: the first).
-pub fn run_multi(
-    ctx: &Ctx,
-    k: usize,
-    seed: u64,
-    max_iterations: usize,
-    teleports: usize,
-    starts: usize,
-) -> LloydOutcome {
+pub fn run_multi(ctx: &Ctx, k: usize, seed: u64, limits: Limits, starts: usize) -> LloydOutcome {
     let mut best: Option<LloydOutcome> = None;
     for s in 0..starts.max(1) as u64 {
-        let o = run(ctx, k, seed ^ s.wrapping_mul(0x9E37_79B9_7F4A_7C15), max_iterations, teleports);
+        let o = run(ctx, k, seed ^ s.wrapping_mul(0x9E37_79B9_7F4A_7C15), limits);
         if best.as_ref().is_none_or(|b| o.state.energy() < b.state.energy()) {
             best = Some(o);
         }
@@ -488,7 +492,10 @@ pub fn run_multi(
     best.expect("at least one start")
 }
 
-pub fn run(ctx: &Ctx, k: usize, seed: u64, max_iterations: usize, teleports: usize) -> LloydOutcome {
+/// Lloyd from the cover start with `k` spheres (see the module docs), until an iteration
+/// gains < 0.5 % and teleportation ends (`limits`), or `limits.max_iterations`.
+pub fn run(ctx: &Ctx, k: usize, seed: u64, limits: Limits) -> LloydOutcome {
+    let Limits { max_iterations, teleports, teleport_max_fails } = limits;
     let pts = &ctx.pts.points;
     let mut rng = SplitMix64::new(seed);
     let k = k.min(pts.len()).max(1);
@@ -544,7 +551,7 @@ pub fn run(ctx: &Ctx, k: usize, seed: u64, max_iterations: usize, teleports: usi
             continue;
         }
         // Converged: try teleportation.
-        if tried >= teleports || fails >= 3 {
+        if tried >= teleports || fails >= teleport_max_fails {
             break;
         }
         // After a rejected teleportation, the next trial splits the next-worst cluster.

@@ -74,6 +74,8 @@ pub struct FitPlan {
     /// Teleportation trials of the Lloyd stage at most (the descent has its own trials).
     /// Range 0..=1000.
     pub teleport_attempts: usize,
+    /// Teleportation stops after this many rejected trials in a row. Range 1..=1000.
+    pub teleport_max_fails: usize,
     /// Powell direction-set sweeps per centre update (Lloyd and polish). Range 1..=20.
     pub powell_sweeps: usize,
     /// Independent seeded Lloyd starts; the lowest proxy E is kept. Cost ∝ starts.
@@ -149,6 +151,7 @@ impl Default for FitPlan {
             dense_grid_cap: 256,
             max_iterations: 24,
             teleport_attempts: 2,
+            teleport_max_fails: 3,
             powell_sweeps: 2,
             starts: 1,
             restarts: 1,
@@ -231,6 +234,7 @@ impl FitPlan {
         range("dense_grid_cap", self.dense_grid_cap, 1, 1024, "1..=1024")?;
         range("max_iterations", self.max_iterations, 1, 1000, "1..=1000")?;
         range("teleport_attempts", self.teleport_attempts, 0, 1000, "0..=1000")?;
+        range("teleport_max_fails", self.teleport_max_fails, 1, 1000, "1..=1000")?;
         range("powell_sweeps", self.powell_sweeps, 1, 20, "1..=20")?;
         range("starts", self.starts, 1, 16, "1..=16")?;
         range("restarts", self.restarts, 1, 16, "1..=16")?;
