@@ -26,6 +26,7 @@
 use crate::ballgrid::BallGrid;
 use glam::DVec3;
 use rayon::prelude::*;
+use spherebake_format::quant::next_up_f32;
 
 /// A stored sphere: centre xyz and radius, f32, model space.
 pub type Sphere32 = [f32; 4];
@@ -39,21 +40,13 @@ pub fn contains(s: &Sphere32, p: DVec3) -> bool {
     p.distance_squared(c) <= r * r * MARGIN
 }
 
-fn next_up(x: f32) -> f32 {
-    if x <= 0.0 {
-        f32::from_bits(1)
-    } else {
-        f32::from_bits(x.to_bits() + 1)
-    }
-}
-
 /// Smallest f32 radius ≥ current with which `s` contains every point in `ps`.
 fn grow(s: &mut Sphere32, ps: &[DVec3]) {
     let c = DVec3::new(s[0] as f64, s[1] as f64, s[2] as f64);
     let need = ps.iter().map(|p| p.distance(c)).fold(0.0f64, f64::max);
     let mut r = (need as f32).max(s[3]);
     while !ps.iter().all(|p| p.distance_squared(c) <= (r as f64) * (r as f64) * MARGIN) {
-        r = next_up(r);
+        r = next_up_f32(r);
     }
     s[3] = r;
 }

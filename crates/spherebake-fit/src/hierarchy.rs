@@ -21,6 +21,7 @@
 use crate::rng::SplitMix64;
 use glam::DVec3;
 use rayon::prelude::*;
+use spherebake_format::quant::{next_down_f32, next_up_f32, round_up_f32};
 use spherebake_format::{Hierarchy, HierarchyNode, NodeLists};
 use spherebake_geom::sphere::min_enclosing_ball_of_balls;
 
@@ -298,8 +299,8 @@ fn store_enclosing(balls: &[Ball]) -> ([f32; 3], f32) {
     let (c, _) = min_enclosing_ball_of_balls(balls);
     let axis = |v: f64| -> [f32; 5] {
         let m = v as f32;
-        let (d1, u1) = (next_down(m), next_up(m));
-        [next_down(d1), d1, m, u1, next_up(u1)]
+        let (d1, u1) = (next_down_f32(m), next_up_f32(m));
+        [next_down_f32(d1), d1, m, u1, next_up_f32(u1)]
     };
     let (ax, ay, az) = (axis(c.x), axis(c.y), axis(c.z));
     let mut best: Option<([f32; 3], f64)> = None;
@@ -320,33 +321,8 @@ fn store_enclosing(balls: &[Ball]) -> ([f32; 3], f32) {
     let (center, need) = best.unwrap_or(([0.0; 3], 0.0));
     // f64 distance error is a few ulps; cover it before rounding up to f32.
     let need = need * (1.0 + 4.0 * f64::EPSILON);
-    let radius = round_up(need).max(f32::MIN_POSITIVE);
+    let radius = round_up_f32(need).max(f32::MIN_POSITIVE);
     (center, radius)
-}
-
-/// Smallest f32 ≥ x (x finite).
-fn round_up(x: f64) -> f32 {
-    let f = x as f32;
-    if f64::from(f) < x {
-        next_up(f)
-    } else {
-        f
-    }
-}
-
-fn next_up(f: f32) -> f32 {
-    if f.is_nan() || f == f32::INFINITY {
-        return f;
-    }
-    if f == 0.0 {
-        return f32::from_bits(1);
-    }
-    let bits = f.to_bits();
-    f32::from_bits(if f > 0.0 { bits + 1 } else { bits - 1 })
-}
-
-fn next_down(f: f32) -> f32 {
-    -next_up(-f)
 }
 
 /// Measures `h` over `leaves`: levels, mean branching and parent tightness against
@@ -556,14 +532,6 @@ mod tests {
         // 9 leaves: [2, 1] gives (9 + 2) / 3 = 3.67, [1] gives 9: the first is closer to 4.
         check(9, 4.0, &[2, 1]);
         check(64, 2.0, &[32, 16, 8, 4, 2, 1]);
-    }
-
-    #[test]
-    fn rounding_helpers() {
-        assert_eq!(round_up(1.0), 1.0);
-        assert!(f64::from(round_up(0.1)) >= 0.1 && f64::from(next_down(round_up(0.1))) < 0.1);
-        assert_eq!(next_up(-0.0), f32::from_bits(1));
-        assert_eq!(next_up(-1.0), -0.99999994);
     }
 
     #[test]

@@ -40,6 +40,41 @@ pub fn round_ties_away(x: f64) -> f64 {
     }
 }
 
+/// The next f32 towards +∞ (`f32::next_up`, which needs Rust 1.86): the smallest f32 greater
+/// than `f`. ±0 → the smallest positive subnormal, the largest negative subnormal → −0, −∞ → −`f32::MAX`;
+/// NaN and +∞ are returned as they are.
+#[must_use]
+pub fn next_up_f32(f: f32) -> f32 {
+    if f.is_nan() || f == f32::INFINITY {
+        return f;
+    }
+    if f == 0.0 {
+        return f32::from_bits(1);
+    }
+    let bits = f.to_bits();
+    f32::from_bits(if f > 0.0 { bits + 1 } else { bits - 1 })
+}
+
+/// The next f32 towards −∞: `−next_up_f32(−f)`. NaN and −∞ are returned as they are.
+#[must_use]
+pub fn next_down_f32(f: f32) -> f32 {
+    -next_up_f32(-f)
+}
+
+/// The smallest f32 at or above `x` (the one f64 → f32 rounding of stored bounding radii: the
+/// baker's bounding pass and hierarchy and the runtime's refit round the same way). Negative
+/// values, subnormals and ±0 are handled; `x` above `f32::MAX` gives +∞, `x` below −`f32::MAX`
+/// gives −`f32::MAX`; NaN stays NaN. An `x` that is an f32 is returned unchanged.
+#[must_use]
+pub fn round_up_f32(x: f64) -> f32 {
+    let f = x as f32;
+    if f.is_nan() || f64::from(f) >= x {
+        f
+    } else {
+        next_up_f32(f)
+    }
+}
+
 /// f32 → binary16 bits, round to nearest, ties to even; `None` when `x` is not finite or
 /// rounds past the largest f16 (|x| ≥ 65520).
 #[must_use]
@@ -216,5 +251,69 @@ impl SampleBox {
     #[must_use]
     pub fn decode(&self, q: [u16; 3]) -> [f32; 3] {
         [self.decode_axis(0, q[0]), self.decode_axis(1, q[1]), self.decode_axis(2, q[2])]
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// 2^e as f64, built from its bits (independent of the functions under test).
+    fn pow2(e: i32) -> f64 {
+        f64::from_bits(((1023 + e) as u64) << 52)
+    }
+
+    #[test]
+    fn next_up_and_down_step_one_f32() {
+        assert_eq!(next_up_f32(0.0), f32::from_bits(1));
+        assert_eq!(next_up_f32(-0.0), f32::from_bits(1));
+        assert_eq!(next_up_f32(1.0), f32::from_bits(0x3F80_0001));
+        assert_eq!(next_up_f32(-1.0), -0.999_999_94);
+        assert_eq!(next_up_f32(-f32::from_bits(1)), -0.0);
+        assert_eq!(next_up_f32(f32::MAX), f32::INFINITY);
+        assert_eq!(next_up_f32(f32::NEG_INFINITY), f32::MIN);
+        assert_eq!(next_up_f32(f32::INFINITY), f32::INFINITY);
+        assert!(next_up_f32(f32::NAN).is_nan());
+        assert_eq!(next_down_f32(1.0), 0.999_999_94);
+        assert_eq!(next_down_f32(0.0), -f32::from_bits(1));
+        for t in [0.0f32, -0.0, 1.0, -1.0, 3.5e-20, -3.5e-20, f32::MIN_POSITIVE, -f32::MIN_POSITIVE, 1e30, -1e30] {
+            let u = next_up_f32(t);
+            assert!(u > t, "{t}");
+            // Nothing representable in between: the midpoint rounds to one of the two.
+            let mid = (f64::from(t) + f64::from(u)) / 2.0;
+            assert!(mid as f32 == t || mid as f32 == u, "{t}");
+            assert_eq!(next_down_f32(u), if t == 0.0 { 0.0 } else { t });
+        }
+    }
+
+    #[test]
+    fn round_up_is_the_smallest_f32_at_or_above() {
+        // (x, expected) with expected derived by hand from the f32 grid.
+        let cases: [(f64, f32); 14] = [
+            (1.0, 1.0),                                     // exact
+            (-3.0, -3.0),                                   // exact, negative
+            (0.1, 0.1),                                     // nearest f32 of 0.1 is above it
+            (1.0 + pow2(-30), f32::from_bits(0x3F80_0001)), // just above 1: the next f32
+            (-1.0 - pow2(-30), -1.0),                       // just below −1: −1 is above
+            (-1.0 + pow2(-30), -0.999_999_94),              // just above −1
+            (pow2(-160), f32::from_bits(1)),                // below the smallest subnormal
+            (1.5 * pow2(-149), f32::from_bits(2)),          // between two subnormals
+            (pow2(-149), f32::from_bits(1)),                // the smallest subnormal itself
+            (-pow2(-160), -0.0),                            // tiny negative: −0 is above
+            (f64::from(f32::MIN_POSITIVE) * (1.0 + pow2(-40)), f32::from_bits(0x0080_0001)),
+            (f64::from(f32::MAX), f32::MAX), // huge, exact
+            (1e39, f32::INFINITY),           // above every finite f32
+            (-1e39, f32::MIN),               // below every finite f32
+        ];
+        for (x, want) in cases {
+            let r = round_up_f32(x);
+            assert_eq!(r.to_bits(), want.to_bits(), "{x:e}");
+            assert!(f64::from(r) >= x, "{x:e}");
+            let below = next_down_f32(r);
+            assert!(f64::from(below) < x, "{x:e}");
+        }
+        assert_eq!(round_up_f32(0.0), 0.0);
+        assert!(round_up_f32(f64::NAN).is_nan());
+        assert_eq!(round_up_f32(f64::INFINITY), f32::INFINITY);
     }
 }

@@ -21,6 +21,7 @@
 
 use glam::{DVec3, Vec3};
 use obvhs::{aabb::Aabb, bvh2::builder::build_bvh2, BvhBuildParams};
+use spherebake_format::quant::next_up_f32;
 
 /// One ray/triangle intersection.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -191,7 +192,7 @@ impl TriangleBvh {
                     best = Some(Hit { t, triangle: h.triangle, u: h.bary[1] as f32, v: h.bary[2] as f32 });
                     // Prune beyond every f64 t that still rounds to this f32 t (a tie there
                     // may belong to a lower triangle index in another node).
-                    return Some(next_up(t) as f64);
+                    return Some(next_up_f32(t) as f64);
                 }
             }
             None
@@ -307,17 +308,6 @@ impl TriangleBvh {
     }
 }
 
-/// The next f32 towards +∞ (`f32::next_up` needs Rust 1.86).
-fn next_up(t: f32) -> f32 {
-    if t.is_nan() || t == f32::INFINITY {
-        t
-    } else if t >= 0.0 {
-        f32::from_bits(t.abs().to_bits() + 1)
-    } else {
-        -f32::from_bits(t.abs().to_bits() - 1)
-    }
-}
-
 /// Conservative slab test of the ray segment `[t_min, t_max]` against a closed box.
 #[inline]
 fn ray_box(o: DVec3, d: DVec3, inv: DVec3, min: DVec3, max: DVec3, t_min: f64, t_max: f64) -> bool {
@@ -421,18 +411,6 @@ mod tests {
         assert_eq!(h.exiting, expect_exiting);
         let p = tri[0] * h.bary[0] + tri[1] * h.bary[1] + tri[2] * h.bary[2];
         assert!((p - DVec3::new(0.0, 0.0, 1.0)).length() < 1e-12);
-    }
-
-    #[test]
-    fn next_up_steps_one_ulp() {
-        for t in [0.0f32, -0.0, 1.0, -1.0, 3.5e-20, -3.5e-20, f32::MIN_POSITIVE, -f32::MIN_POSITIVE, 1e30] {
-            let u = next_up(t);
-            assert!(u > t, "{t}");
-            // Nothing representable in between: the midpoint rounds to one of the two.
-            let mid = (t as f64 + u as f64) / 2.0;
-            assert!(mid as f32 == t || mid as f32 == u);
-        }
-        assert_eq!(next_up(-f32::from_bits(1)), -0.0);
     }
 
     #[test]

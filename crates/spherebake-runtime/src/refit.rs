@@ -15,6 +15,7 @@ use crate::{Hierarchy, Sphere};
 use alloc::vec;
 use alloc::vec::Vec;
 use core::fmt;
+use spherebake_format::quant::round_up_f32;
 
 /// Flag bit of a child reference in [`HierarchyPlan`]: set = leaf (sphere) index.
 const LEAF_BIT: u32 = 1 << 31;
@@ -410,19 +411,6 @@ impl Ball {
         let need = self.r + shift + 8.0 * f64::EPSILON * mag;
         Sphere { center, radius: round_up_f32(need) }
     }
-}
-
-/// Smallest f32 ≥ x (NaN stays NaN).
-pub(crate) fn round_up_f32(x: f64) -> f32 {
-    let f = x as f32;
-    if f64::from(f) >= x || f.is_nan() || f == f32::INFINITY {
-        return f;
-    }
-    if f == 0.0 {
-        return f32::from_bits(1);
-    }
-    let bits = f.to_bits();
-    f32::from_bits(if f > 0.0 { bits + 1 } else { bits - 1 })
 }
 
 /// An upper bound of √x, within 3 ulps: the correctly rounded square root (one `sqrtsd` on
