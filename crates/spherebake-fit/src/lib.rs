@@ -54,7 +54,8 @@ pub mod parts;
 pub mod plan;
 mod points;
 pub mod powell;
-pub mod rng;
+/// SplitMix64, shared with the rest of the baker (`spherebake_geom::rng`).
+pub use spherebake_geom::rng;
 pub mod solid;
 
 use glam::{DVec3, Vec3};

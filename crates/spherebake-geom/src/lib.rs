@@ -12,6 +12,7 @@ pub mod bvh;
 pub mod mesh;
 pub mod mvc;
 pub mod orient;
+pub mod rng;
 pub mod sphere;
 pub mod topology;
 pub mod volume;

@@ -106,18 +106,6 @@ fn solve_small(m: &mut [[f64; 4]; 3], k: usize) -> Option<[f64; 3]> {
     x.iter().all(|v| v.is_finite()).then_some(x)
 }
 
-/// Fixed-seed SplitMix64, for the one shuffle Welzl's expected-linear bound needs.
-struct SplitMix64(u64);
-impl SplitMix64 {
-    fn next(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
-    }
-}
-
 /// Minimal enclosing ball of points (Welzl 1991, Gärtner's move-to-front form: recursion depth
 /// ≤ 4 whatever the number of points). Deterministic: one shuffle with a fixed seed.
 /// Returns (centre, radius); empty input → (0, 0). The radius is finally raised to the largest
@@ -129,9 +117,10 @@ pub fn min_enclosing_ball(points: &[DVec3]) -> (DVec3, f64) {
         return (DVec3::ZERO, 0.0);
     }
     let mut order: Vec<usize> = (0..pts.len()).collect();
-    let mut rng = SplitMix64(0x5EED_5BE2_E0B1_BA11);
+    // Fixed seed: the one shuffle Welzl's expected-linear bound needs.
+    let mut rng = crate::rng::SplitMix64::new(0x5EED_5BE2_E0B1_BA11);
     for i in (1..order.len()).rev() {
-        let j = (rng.next() % (i as u64 + 1)) as usize;
+        let j = (rng.next_u64() % (i as u64 + 1)) as usize;
         order.swap(i, j);
     }
     let scale = pts.iter().map(|p| p.abs().max_element()).fold(0.0, f64::max).max(f64::MIN_POSITIVE);

@@ -38,7 +38,7 @@ fn brute_hits(v: &[Vec3], f: &[[u32; 3]], o: Vec3, d: Vec3, t0: f32, t1: f32) ->
 
 #[test]
 fn ray_hits_match_brute_force() {
-    let mut rng = Rng(1);
+    let mut rng = Rng::new(1);
     let (v, f) = soup(&mut rng, 600);
     let bvh = TriangleBvh::new(&v, &f);
     assert_eq!(bvh.triangle_count(), f.len());
@@ -165,7 +165,7 @@ fn point_triangle_dist2(p: DVec3, a: DVec3, b: DVec3, c: DVec3) -> f64 {
 
 #[test]
 fn sphere_and_box_queries_match_brute_force() {
-    let mut rng = Rng(5);
+    let mut rng = Rng::new(5);
     let (v, f) = soup(&mut rng, 800);
     let bvh = TriangleBvh::new(&v, &f);
     let mut out = Vec::new();
@@ -236,7 +236,7 @@ fn closest_hit_ties_after_f32_rounding() {
     let quad =
         |z: f32, dx: f32| vec![Vec3::new(-1.0 + dx, -1.0, z), Vec3::new(1.0 + dx, -1.0, z), Vec3::new(dx, 1.0, z)];
     for seed in 0..40 {
-        let mut rng = Rng(seed);
+        let mut rng = Rng::new(seed);
         let mut v = quad(z_far, 0.05 * (seed % 10) as f32 - 0.2);
         let mut f = vec![[0, 1, 2]];
         for _ in 0..300 {

@@ -128,7 +128,7 @@ fn brute_min_ball(p: &[DVec3]) -> (DVec3, f64) {
 
 #[test]
 fn welzl_matches_brute_force_on_random_sets() {
-    let mut rng = Rng(7);
+    let mut rng = Rng::new(7);
     for case in 0..300 {
         let n = 1 + (case % 12);
         let mut pts: Vec<DVec3> = (0..n).map(|_| rng.dvec3(-2.0, 2.0)).collect();
@@ -238,7 +238,7 @@ fn assert_optimal(balls: &[(DVec3, f64)], c: DVec3, r: f64, what: &str) {
 
 #[test]
 fn enclosing_ball_of_balls_vs_sampling_and_optimality() {
-    let mut rng = Rng(11);
+    let mut rng = Rng::new(11);
     let dirs = fibonacci(3000);
     for case in 0..60 {
         let n = 1 + case % 9;
@@ -284,7 +284,7 @@ fn enclosing_ball_of_balls_special_cases() {
 #[test]
 fn enclosing_ball_of_many_balls() {
     // 2000 balls: result contains all and matches the optimiser.
-    let mut rng = Rng(99);
+    let mut rng = Rng::new(99);
     let balls: Vec<(DVec3, f64)> = (0..2000).map(|_| (rng.dvec3(-1.0, 1.0), rng.range(0.0, 0.2))).collect();
     let (c, r) = min_enclosing_ball_of_balls(&balls);
     assert!(balls.iter().all(|(cj, rj)| c.distance(*cj) + rj <= r));

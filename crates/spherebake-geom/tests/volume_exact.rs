@@ -213,14 +213,8 @@ fn monte_carlo_armadillo() {
         }
         n % 2 == 1
     };
-    let mut state = 0x1234_5678_9abc_def0u64;
-    let mut next = || {
-        state = state.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = state;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        ((z ^ (z >> 31)) >> 11) as f64 / (1u64 << 53) as f64
-    };
+    let mut rng = spherebake_geom::rng::SplitMix64::new(0x1234_5678_9abc_def0);
+    let mut next = || rng.next_f64();
     let n = 4_000;
     let mut hits = 0usize;
     let mut drawn = 0usize;

@@ -13,7 +13,7 @@ use voxel_support::{load_obj, Rng};
 fn check_against_exact(v: &[glam::Vec3], f: &[[u32; 3]], res: u32, samples: usize) -> usize {
     let grid = voxelize(v, f, &VoxelSettings { resolution: res, ..Default::default() });
     let w = WindingNumber::new(v, f);
-    let mut rng = Rng(17);
+    let mut rng = Rng::new(17);
     let mut wrong = 0;
     let mut checked = 0;
     while checked < samples {

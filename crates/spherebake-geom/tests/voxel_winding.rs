@@ -11,7 +11,7 @@ use voxel_support::{cuboid, icosphere, load_obj, Rng};
 fn cube_inside_is_one_outside_zero() {
     let (v, f) = cuboid(Vec3::ZERO, Vec3::ONE);
     let w = WindingNumber::new(&v, &f);
-    let mut rng = Rng(3);
+    let mut rng = Rng::new(3);
     for _ in 0..200 {
         let p = rng.dvec3(0.01, 0.99);
         assert!((w.eval_exact(p) - 1.0).abs() < 1e-12, "{p}");
@@ -68,7 +68,7 @@ fn max_error(v: &[Vec3], f: &[[u32; 3]], points: &[DVec3]) -> (f64, f64) {
 #[test]
 fn fast_matches_exact_on_icosphere() {
     let (v, f) = icosphere(5, Vec3::new(0.1, 0.2, 0.3), 1.0); // 20480 triangles
-    let mut rng = Rng(8);
+    let mut rng = Rng::new(8);
     let c = DVec3::new(0.1, 0.2, 0.3);
     let mut pts = Vec::new();
     for _ in 0..300 {
@@ -101,7 +101,7 @@ fn fast_matches_exact_on_bunny() {
     let Some(path) = shared_model("obj/stanford-bunny.obj") else { return };
     let (v, f) = load_obj(&path);
     let (lo, hi) = v.iter().fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(a, b), p| (a.min(*p), b.max(*p)));
-    let mut rng = Rng(21);
+    let mut rng = Rng::new(21);
     let mut pts: Vec<DVec3> = (0..150)
         .map(|_| {
             let t = rng.dvec3(-0.1, 1.1);

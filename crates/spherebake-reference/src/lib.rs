@@ -720,18 +720,9 @@ fn basis(n: DVec3) -> (DVec3, DVec3) {
     (DVec3::new(1.0 + sign * n.x * n.x * a, sign * b, -sign * n.x), DVec3::new(b, sign + n.y * n.y * a, -n.y))
 }
 
-/// SplitMix64 finaliser (the seeded jitter of every Monte Carlo reference here and in the CLI's checks).
-pub fn mix(mut z: u64) -> u64 {
-    z = z.wrapping_add(0x9E37_79B9_7F4A_7C15);
-    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-    z ^ (z >> 31)
-}
-
-/// Uniform in [0, 1) from the top 53 bits.
-pub fn unit(z: u64) -> f64 {
-    (z >> 11) as f64 / (1u64 << 53) as f64
-}
+/// SplitMix64's finaliser and its unit interval map (the seeded jitter of every Monte Carlo reference here and in
+/// the CLI's checks), from the baker's one generator.
+pub use spherebake_geom::rng::{mix, unit};
 
 #[cfg(test)]
 mod tests {

@@ -161,19 +161,18 @@ pub fn load_obj(path: &std::path::Path) -> (Vec<Vec3>, Vec<[u32; 3]>) {
     (v, f)
 }
 
-/// Deterministic test RNG (SplitMix64).
-pub struct Rng(pub u64);
+/// Deterministic test RNG (the crate's SplitMix64).
+pub struct Rng(spherebake_geom::rng::SplitMix64);
 impl Rng {
+    pub fn new(seed: u64) -> Self {
+        Self(spherebake_geom::rng::SplitMix64::new(seed))
+    }
     pub fn next_u64(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
+        self.0.next_u64()
     }
     /// Uniform in [0, 1).
     pub fn f64(&mut self) -> f64 {
-        (self.next_u64() >> 11) as f64 / (1u64 << 53) as f64
+        self.0.next_f64()
     }
     pub fn range(&mut self, lo: f64, hi: f64) -> f64 {
         lo + (hi - lo) * self.f64()
