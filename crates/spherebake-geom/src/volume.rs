@@ -33,8 +33,12 @@ pub fn triangle_solid_angle(a: DVec3, b: DVec3, c: DVec3) -> f64 {
     signed_triangle_solid_angle(a, b, c).abs()
 }
 
-/// Signed solid angle of triangle (a, b, c) seen from the origin, in steradians: positive when
-/// the origin sees the triangle's back (the side its normal (b−a)×(c−a) points away from).
+/// Signed solid angle of triangle (a, b, c) seen from the origin, in steradians, in [−2π, 2π]
+/// (Van Oosterom & Strackee 1983: Ω = 2 atan2(a·(b×c), |a||b||c| + (a·b)|c| + (b·c)|a| + (c·a)|b|)):
+/// positive when the origin sees the triangle's back (the side its normal (b−a)×(c−a) points
+/// away from); reversing the winding negates it; 0 for a degenerate triangle or one whose plane
+/// holds the origin. The one copy of the formula: the exact volumes here and the winding numbers
+/// (`winding`, `orient`) use it.
 pub fn signed_triangle_solid_angle(a: DVec3, b: DVec3, c: DVec3) -> f64 {
     let la = a.length();
     let lb = b.length();
@@ -207,4 +211,27 @@ pub fn winding_number_brute(p: DVec3, positions: &[DVec3], triangles: &[[u32; 3]
 
 fn corners(positions: &[DVec3], t: &[u32; 3]) -> Option<(DVec3, DVec3, DVec3)> {
     Some((*positions.get(t[0] as usize)?, *positions.get(t[1] as usize)?, *positions.get(t[2] as usize)?))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn octant_triangle_subtends_an_eighth_of_the_sphere() {
+        // The triangle X, Y, Z cuts the first octant: 4π / 8 = π/2; its normal points away from the origin.
+        let (x, y, z) = (DVec3::X, DVec3::Y, DVec3::Z);
+        assert!((signed_triangle_solid_angle(x, y, z) - PI / 2.0).abs() < 1e-15);
+        assert!((signed_triangle_solid_angle(x, z, y) + PI / 2.0).abs() < 1e-15);
+        assert!((triangle_solid_angle(x, z, y) - PI / 2.0).abs() < 1e-15);
+        // Scaling the vertices does not change it.
+        assert!((signed_triangle_solid_angle(3.0 * x, 0.5 * y, 7.0 * z) - PI / 2.0).abs() < 1e-15);
+        // Origin in the triangle's plane: 0.
+        assert_eq!(signed_triangle_solid_angle(x, y, x + y), 0.0);
+        // Far away: Ω ≈ area / d² (a unit right triangle at distance 1000 along its normal).
+        let d = 1000.0;
+        let far =
+            signed_triangle_solid_angle(DVec3::new(0.0, 0.0, d), DVec3::new(0.0, 1.0, d), DVec3::new(1.0, 0.0, d));
+        assert!((far.abs() / (0.5 / (d * d)) - 1.0).abs() < 1e-5, "{far}");
+    }
 }

@@ -267,15 +267,7 @@ fn eval_expansion(e: &Expansion, r: DVec3, d2: f64) -> f64 {
 /// Signed solid angle of triangle `t` seen from `q` (steradians, in [−2π, 2π]).
 #[inline]
 pub(crate) fn solid_angle(t: &[DVec3; 3], q: DVec3) -> f64 {
-    let a = t[0] - q;
-    let b = t[1] - q;
-    let c = t[2] - q;
-    let la = a.length();
-    let lb = b.length();
-    let lc = c.length();
-    let num = a.dot(b.cross(c));
-    let den = la * lb * lc + a.dot(b) * lc + b.dot(c) * la + c.dot(a) * lb;
-    2.0 * num.atan2(den)
+    crate::volume::signed_triangle_solid_angle(t[0] - q, t[1] - q, t[2] - q)
 }
 
 #[cfg(test)]
