@@ -1194,12 +1194,8 @@ mod tests {
             let q = closest_point_on_triangle(p, &t);
             let mut best = f64::INFINITY;
             let m = 400;
-            for i in 0..=m {
-                for j in 0..=(m - i) {
-                    let (u, v) = (i as f64 / m as f64, j as f64 / m as f64);
-                    let x = t[0] + (t[1] - t[0]) * u + (t[2] - t[0]) * v;
-                    best = best.min((x - p).length());
-                }
+            for (_, _, x) in spherebake_geom::trigrid::triangle_grid(t[0], t[1], t[2], m) {
+                best = best.min((x - p).length());
             }
             assert!((q - p).length() <= best + 1e-12 && (q - p).length() > best - 5e-3, "{p}");
         }

@@ -21,6 +21,7 @@
 use crate::lloyd::{outside, FarQuery};
 use crate::solid::Solid;
 use glam::DVec3;
+use spherebake_geom::trigrid::triangle_grid;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::Arc;
 
@@ -665,15 +666,7 @@ pub fn seam_points(spheres: &[(DVec3, f64)], pos: &[DVec3], tris: &[[u32; 3]], s
             let (lo, hi) = (a.min(b).min(c), a.max(b).max(c));
             let near: Vec<&(DVec3, f64)> =
                 spheres.iter().filter(|s| s.0.clamp(lo, hi).distance_squared(s.0) <= s.1 * s.1).collect();
-            for i in 0..=m {
-                for j in 0..=(m - i) {
-                    let (u, v) = (i as f64 / m as f64, j as f64 / m as f64);
-                    let p = a + (b - a) * u + (c - a) * v;
-                    if !near.iter().any(|s| inside(p, s)) {
-                        out.push(p);
-                    }
-                }
-            }
+            out.extend(triangle_grid(a, b, c, m).map(|(_, _, p)| p).filter(|p| !near.iter().any(|s| inside(*p, s))));
             out
         })
         .collect()

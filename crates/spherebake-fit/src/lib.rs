@@ -61,6 +61,7 @@ pub mod solid;
 use glam::{DVec3, Vec3};
 use rayon::prelude::*;
 use solid::Solid;
+use spherebake_geom::trigrid::triangle_grid;
 use spherebake_geom::volume;
 use std::f64::consts::PI;
 use std::time::Instant;
@@ -706,12 +707,7 @@ fn dense_points(prep: &Prepared, pts: &points::PointSet, plan: &FitPlan) -> Vec<
             }
         }
         if m > 1 {
-            for i in 0..=m {
-                for j in 0..=(m - i) {
-                    let (u, v) = (i as f64 / m as f64, j as f64 / m as f64);
-                    all.push(points::Rep::point(a + (b - a) * u + (c - a) * v));
-                }
-            }
+            all.extend(triangle_grid(a, b, c, m).map(|(_, _, p)| points::Rep::point(p)));
         }
     }
     all.extend(pts.points[pts.surface_count..].iter().map(|p| points::Rep::point(*p)));
@@ -756,15 +752,9 @@ fn descent_points(prep: &Prepared, pts: &points::PointSet, plan: &FitPlan) -> Ve
         points::grid_plan(&prep.pos, &prep.tris, |l| descent::grid_divisions(l, spacing, 1), 1, points::GRID_BUDGET);
     for (t, &m) in prep.tris.iter().zip(&grid) {
         let (a, b, c) = (prep.pos[t[0] as usize], prep.pos[t[1] as usize], prep.pos[t[2] as usize]);
-        for i in 0..=m {
-            for j in 0..=(m - i) {
-                // The corners are vertices, already in.
-                if (i == 0 || i == m) && j == 0 || i == 0 && j == m {
-                    continue;
-                }
-                dpts.push(a + (b - a) * (i as f64 / m as f64) + (c - a) * (j as f64 / m as f64));
-            }
-        }
+        // The corners are vertices, already in.
+        let corner = |i: usize, j: usize| (i == 0 || i == m) && j == 0 || i == 0 && j == m;
+        dpts.extend(triangle_grid(a, b, c, m).filter(|&(i, j, _)| !corner(i, j)).map(|(_, _, p)| p));
     }
     dpts.extend(pts.points[pts.surface_count..].iter().copied());
     dpts

@@ -178,13 +178,7 @@ pub fn build(positions: &[DVec3], triangles: &[[u32; 3]], solid: &Solid, lo: DVe
             samples.push(a);
             samples.push((a + b + c) / 3.0);
         } else {
-            for i in 0..=m {
-                for j in 0..=(m - i) {
-                    let u = i as f64 / m as f64;
-                    let v = j as f64 / m as f64;
-                    samples.push(a + (b - a) * u + (c - a) * v);
-                }
-            }
+            samples.extend(spherebake_geom::trigrid::triangle_grid(a, b, c, m).map(|(_, _, p)| p));
             samples.push((a + b + c) / 3.0);
         }
         let nrm = (b - a).cross(c - a);

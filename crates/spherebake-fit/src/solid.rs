@@ -620,12 +620,9 @@ mod cover_samples_tests {
             let mut pts = Vec::new();
             cover_samples(a, b, c, spacing, |p| pts.push(p));
             let m = 200;
-            for i in 0..=m {
-                for j in 0..=(m - i) {
-                    let x = a + (b - a) * (i as f64 / m as f64) + (c - a) * (j as f64 / m as f64);
-                    let d = pts.iter().map(|p| p.distance(x)).fold(f64::INFINITY, f64::min);
-                    assert!(d <= spacing, "{x} is {d} from the nearest sample");
-                }
+            for (_, _, x) in spherebake_geom::trigrid::triangle_grid(a, b, c, m) {
+                let d = pts.iter().map(|p| p.distance(x)).fold(f64::INFINITY, f64::min);
+                assert!(d <= spacing, "{x} is {d} from the nearest sample");
             }
         }
         let mut n = 0;
