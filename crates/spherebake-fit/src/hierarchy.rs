@@ -23,7 +23,7 @@ use glam::DVec3;
 use rayon::prelude::*;
 use spherebake_format::quant::{next_down_f32, next_up_f32, round_up_f32};
 use spherebake_format::{Hierarchy, HierarchyNode, NodeLists};
-use spherebake_geom::sphere::min_enclosing_ball_of_balls;
+use spherebake_geom::sphere::{min_enclosing_ball_of_balls, tangent_balls};
 
 /// Hierarchy build settings.
 #[derive(Clone, Debug, PartialEq)]
@@ -404,15 +404,15 @@ pub fn brute_force_min_ball_of_balls(balls: &[(DVec3, f64)]) -> (DVec3, f64) {
     for a in 0..n {
         consider(balls[a]);
         for b in a + 1..n {
-            for cand in tangent_ball_candidates(balls, &[a, b]) {
+            for cand in tangent_balls(balls, &[a, b]) {
                 consider(cand);
             }
             for c in b + 1..n {
-                for cand in tangent_ball_candidates(balls, &[a, b, c]) {
+                for cand in tangent_balls(balls, &[a, b, c]) {
                     consider(cand);
                 }
                 for d in c + 1..n {
-                    for cand in tangent_ball_candidates(balls, &[a, b, c, d]) {
+                    for cand in tangent_balls(balls, &[a, b, c, d]) {
                         consider(cand);
                     }
                 }
@@ -424,95 +424,6 @@ pub fn brute_force_min_ball_of_balls(balls: &[(DVec3, f64)]) -> (DVec3, f64) {
         let c = balls[0].0;
         (c, balls.iter().map(|(bc, r)| bc.distance(c) + r).fold(0.0, f64::max))
     })
-}
-
-/// Balls internally tangent to all balls of `sub` (2..=4 indices) with the centre in the affine
-/// hull of their centres: up to two.
-fn tangent_ball_candidates(balls: &[Ball], sub: &[usize]) -> Vec<Ball> {
-    let (p0, r0) = balls[sub[0]];
-    let k = sub.len() - 1;
-    // Unknown x = c − p0 = Σ λ_l u_l. For j ≥ 1: |x − u_j|² = (R − r_j)², |x|² = (R − r0)²
-    // → u_j·x = (|u_j|² − r_j² + r0²)/2 + R (r_j − r0)  (linear in R).
-    let u: Vec<DVec3> = sub[1..].iter().map(|&j| balls[j].0 - p0).collect();
-    let mut gram = [[0.0f64; 3]; 3];
-    let mut rhs_a = [0.0f64; 3];
-    let mut rhs_b = [0.0f64; 3];
-    for j in 0..k {
-        let rj = balls[sub[j + 1]].1;
-        for l in 0..k {
-            gram[j][l] = u[j].dot(u[l]);
-        }
-        rhs_a[j] = (u[j].length_squared() - rj * rj + r0 * r0) / 2.0;
-        rhs_b[j] = rj - r0;
-    }
-    let Some((la, lb)) = solve_two_rhs(gram, rhs_a, rhs_b, k) else {
-        return Vec::new();
-    };
-    let mut xa = DVec3::ZERO;
-    let mut xb = DVec3::ZERO;
-    for l in 0..k {
-        xa += u[l] * la[l];
-        xb += u[l] * lb[l];
-    }
-    // |xa + R xb|² = (R − r0)² with R ≥ max rⱼ.
-    let qa = xb.length_squared() - 1.0;
-    let qb = 2.0 * (xa.dot(xb) + r0);
-    let qc = xa.length_squared() - r0 * r0;
-    let mut roots = Vec::with_capacity(2);
-    if qa.abs() < 1e-13 {
-        if qb != 0.0 {
-            roots.push(-qc / qb);
-        }
-    } else {
-        let disc = qb * qb - 4.0 * qa * qc;
-        if disc >= 0.0 {
-            let s = disc.sqrt();
-            roots.push((-qb + s) / (2.0 * qa));
-            roots.push((-qb - s) / (2.0 * qa));
-        }
-    }
-    let rmax = sub.iter().map(|&j| balls[j].1).fold(0.0, f64::max);
-    roots.into_iter().filter(|&r| r.is_finite() && r >= rmax * (1.0 - 1e-12)).map(|r| (p0 + xa + xb * r, r)).collect()
-}
-
-/// Solves G x = a and G y = b (k ≤ 3) by Gaussian elimination with partial pivoting; `None` when
-/// G is numerically singular (relative pivot below 1e-12).
-#[allow(clippy::needless_range_loop)]
-fn solve_two_rhs(mut g: [[f64; 3]; 3], mut a: [f64; 3], mut b: [f64; 3], k: usize) -> Option<([f64; 3], [f64; 3])> {
-    let scale = (0..k).map(|i| g[i][i].abs()).fold(0.0, f64::max);
-    if !(scale > 0.0 && scale.is_finite()) {
-        return None;
-    }
-    for col in 0..k {
-        let piv = (col..k).max_by(|&x, &y| g[x][col].abs().total_cmp(&g[y][col].abs()))?;
-        if g[piv][col].abs() <= 1e-12 * scale {
-            return None;
-        }
-        g.swap(col, piv);
-        a.swap(col, piv);
-        b.swap(col, piv);
-        for row in col + 1..k {
-            let f = g[row][col] / g[col][col];
-            for c in col..k {
-                g[row][c] -= f * g[col][c];
-            }
-            a[row] -= f * a[col];
-            b[row] -= f * b[col];
-        }
-    }
-    let mut x = [0.0; 3];
-    let mut y = [0.0; 3];
-    for row in (0..k).rev() {
-        let mut sa = a[row];
-        let mut sb = b[row];
-        for c in row + 1..k {
-            sa -= g[row][c] * x[c];
-            sb -= g[row][c] * y[c];
-        }
-        x[row] = sa / g[row][row];
-        y[row] = sb / g[row][row];
-    }
-    Some((x, y))
 }
 
 #[cfg(test)]

@@ -232,9 +232,14 @@ fn min_ball_of_small_set(balls: &[(DVec3, f64)], set: &[usize], tol: f64) -> Opt
     best
 }
 
-/// Balls (c, R) with every ball of `sub` internally tangent (|c − cⱼ| + rⱼ = R) and c in the affine
-/// hull of the centres. Up to two solutions; none if the centres are affinely dependent.
-fn tangent_balls(balls: &[(DVec3, f64)], sub: &[usize]) -> Vec<(DVec3, f64)> {
+/// The tangent-ball solver, written once (the minimal enclosing ball here and the hierarchy's
+/// brute-force reference use it): the balls (c, R) to which every ball of `sub` (1..=4 indices
+/// into `balls`, radii ≥ 0) is internally tangent, |c − cⱼ| + rⱼ = R, with c in the affine hull of
+/// the centres and R ≥ max rⱼ (less 1e-12 relative). With x = c − c₀ = Σ λₗ vₗ (vₗ = cₗ − c₀) the
+/// tangency conditions are linear in λ for fixed R (a Gram system solved for two right-hand
+/// sides) plus one quadratic in R, so there are at most two solutions; none when the centres are
+/// affinely dependent. One ball gives itself.
+pub fn tangent_balls(balls: &[(DVec3, f64)], sub: &[usize]) -> Vec<(DVec3, f64)> {
     let (c0, r0) = balls[sub[0]];
     let k = sub.len() - 1;
     if k == 0 {
@@ -294,6 +299,33 @@ fn tangent_balls(balls: &[(DVec3, f64)], sub: &[usize]) -> Vec<(DVec3, f64)> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn tangent_balls_of_known_configurations() {
+        let has = |got: &[(DVec3, f64)], c: DVec3, r: f64| {
+            got.iter().any(|&(gc, gr)| (gc - c).length() < 1e-10 && (gr - r).abs() < 1e-10)
+        };
+        // One ball: itself.
+        let b = [(DVec3::new(1.0, 2.0, 3.0), 0.5)];
+        assert_eq!(tangent_balls(&b, &[0]), vec![b[0]]);
+        // Radii 1 and 2, centres 3 apart: R = (3 + 1 + 2) / 2 = 3, centre R − 1 = 2 from the first.
+        let b = [(DVec3::ZERO, 1.0), (DVec3::new(3.0, 0.0, 0.0), 2.0)];
+        assert!(has(&tangent_balls(&b, &[0, 1]), DVec3::new(2.0, 0.0, 0.0), 3.0));
+        // Three points: their circumcircle (centre 0, radius 1).
+        let b = [(DVec3::X, 0.0), (-DVec3::X, 0.0), (DVec3::Y, 0.0)];
+        assert!(has(&tangent_balls(&b, &[0, 1, 2]), DVec3::ZERO, 1.0));
+        // Four unit balls on a regular tetrahedron of circumradius √3: R = √3 + 1 about the origin.
+        let b = [
+            (DVec3::new(1.0, 1.0, 1.0), 1.0),
+            (DVec3::new(1.0, -1.0, -1.0), 1.0),
+            (DVec3::new(-1.0, 1.0, -1.0), 1.0),
+            (DVec3::new(-1.0, -1.0, 1.0), 1.0),
+        ];
+        assert!(has(&tangent_balls(&b, &[0, 1, 2, 3]), DVec3::ZERO, 3f64.sqrt() + 1.0));
+        // Collinear centres have no three-ball solution.
+        let b = [(DVec3::ZERO, 0.0), (DVec3::X, 0.0), (2.0 * DVec3::X, 0.0)];
+        assert!(tangent_balls(&b, &[0, 1, 2]).is_empty());
+    }
 
     fn check(points: &[DVec3], center: DVec3, radius: f64) {
         let (c, r) = min_enclosing_ball(points);
