@@ -18,6 +18,7 @@
 //! Determinism: randomness from [`SplitMix64`] seeded by (seed, level); parallel work collects in
 //! order, so the result does not depend on the rayon thread count.
 
+use crate::baselines::kmeanspp_seeds;
 use crate::rng::SplitMix64;
 use glam::DVec3;
 use rayon::prelude::*;
@@ -196,30 +197,8 @@ fn lloyd(balls: &[Ball], k: usize, seed: u64) -> Vec<u32> {
     let k = k.min(n);
     let mut rng = SplitMix64::new(seed);
     // k-means++ seeding on the centres.
-    let mut centres = vec![balls[rng.below(n as u64) as usize].0];
-    let mut d2: Vec<f64> = balls.iter().map(|b| b.0.distance_squared(centres[0])).collect();
-    while centres.len() < k {
-        let total: f64 = d2.iter().sum();
-        let pick = if total > 0.0 {
-            let mut t = rng.next_f64() * total;
-            let mut pick = (0..n).rev().find(|&i| d2[i] > 0.0).unwrap_or(n - 1);
-            for (i, &w) in d2.iter().enumerate() {
-                if t < w {
-                    pick = i;
-                    break;
-                }
-                t -= w;
-            }
-            pick
-        } else {
-            rng.below(n as u64) as usize
-        };
-        let c = balls[pick].0;
-        centres.push(c);
-        for (d, b) in d2.iter_mut().zip(balls) {
-            *d = d.min(b.0.distance_squared(c));
-        }
-    }
+    let points: Vec<DVec3> = balls.iter().map(|b| b.0).collect();
+    let mut centres: Vec<DVec3> = kmeanspp_seeds(&points, k, &mut rng).into_iter().map(|i| points[i]).collect();
     let mut best: Option<(f64, Vec<u32>)> = None;
     let mut previous: Vec<u32> = Vec::new();
     for _ in 0..40 {
