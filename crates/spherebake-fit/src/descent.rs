@@ -373,23 +373,22 @@ impl<'a> Cover<'a> {
         let mut grown: Vec<usize> = Vec::new();
         for &(_, q) in &gaps {
             let p = self.pts[q as usize];
-            let Some(best) = three_nearest(p, nb.iter().map(|&l| (l, (self.spheres[l].0, r[l])))) else { continue };
+            let gaps = nb.iter().map(|&l| (l, p.distance(self.spheres[l].0) - r[l]));
             // The candidate whose ball volume grows least (outside volume is evaluated once
             // per grown sphere below).
-            let mut choice = (f64::INFINITY, usize::MAX, 0.0);
-            for &(_, l) in best.iter().filter(|x| x.1 != usize::MAX) {
-                let d = p.distance(self.spheres[l].0) * (1.0 + 1e-12);
-                let inc = d * d * d - r[l] * r[l] * r[l];
-                if inc < choice.0 {
-                    choice = (inc, l, d);
-                }
-            }
-            if choice.1 == usize::MAX {
-                return (f64::INFINITY, Vec::new());
-            }
-            r[choice.1] = choice.2;
-            if !grown.contains(&choice.1) {
-                grown.push(choice.1);
+            let grow_to = |l: usize| p.distance(self.spheres[l].0) * (1.0 + 1e-12);
+            let cost = |l: usize| {
+                let d = grow_to(l);
+                d * d * d - r[l] * r[l] * r[l]
+            };
+            let l = match cheapest_of_three_nearest(gaps, cost) {
+                Growth::Inside(_) => continue,
+                Growth::Nothing => return (f64::INFINITY, Vec::new()),
+                Growth::Grow(l) => l,
+            };
+            r[l] = grow_to(l);
+            if !grown.contains(&l) {
+                grown.push(l);
             }
         }
         grown.sort_unstable();
@@ -672,21 +671,50 @@ pub fn seam_points(spheres: &[(DVec3, f64)], pos: &[DVec3], tris: &[[u32; 3]], s
         .collect()
 }
 
-/// The three balls whose surface is nearest to `p` from outside, as (gap, index) by
-/// increasing gap (unused slots have index `usize::MAX`), or `None` when a ball contains `p`.
-fn three_nearest(p: DVec3, balls: impl Iterator<Item = (usize, Ball)>) -> Option<[(f64, usize); 3]> {
+/// What [`cheapest_of_three_nearest`] decided for a point.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) enum Growth {
+    /// A sphere already contains the point (the first such candidate).
+    Inside(usize),
+    /// Grow this sphere over the point: of the three nearest, the one whose growth costs least.
+    Grow(usize),
+    /// No candidate (or no finite gap).
+    Nothing,
+}
+
+/// The rule "grow the cheapest of the three nearest", written once (Lloyd's `assign_grow`, the
+/// descent's `cover_points` and its delete trials). `gaps` yields (sphere, gap) in candidate
+/// order, the gap being the point's distance to the sphere's surface (≤ 0: inside). The first
+/// candidate with gap ≤ 0 ends the scan: [`Growth::Inside`]. Otherwise the three smallest gaps
+/// (a stable sort, so ties keep candidate order; NaN gaps never enter) are priced by
+/// `cost(sphere)`, the cost of growing that sphere just over the point, and the strictly
+/// cheapest wins (the nearer on ties). O(candidates).
+pub(crate) fn cheapest_of_three_nearest(
+    gaps: impl Iterator<Item = (usize, f64)>,
+    mut cost: impl FnMut(usize) -> f64,
+) -> Growth {
     let mut best: [(f64, usize); 3] = [(f64::INFINITY, usize::MAX); 3];
-    for (l, (c, r)) in balls {
-        let g = p.distance(c) - r;
+    for (l, g) in gaps {
         if g <= 0.0 {
-            return None;
+            return Growth::Inside(l);
         }
         if g < best[2].0 {
             best[2] = (g, l);
             best.sort_by(|a, b| a.0.total_cmp(&b.0));
         }
     }
-    Some(best)
+    let mut choice = (f64::INFINITY, usize::MAX);
+    for &(_, l) in best.iter().filter(|x| x.1 != usize::MAX) {
+        let inc = cost(l);
+        if inc < choice.0 {
+            choice = (inc, l);
+        }
+    }
+    if choice.1 == usize::MAX {
+        Growth::Nothing
+    } else {
+        Growth::Grow(choice.1)
+    }
 }
 
 /// Grows spheres so every point of `new` is covered: farthest out first, each point grows
@@ -697,18 +725,13 @@ pub fn cover_points(solid: &Solid, spheres: &mut [(DVec3, f64)], new: &[DVec3]) 
     order.sort_by(|a, b| b.0.total_cmp(&a.0).then(a.1.cmp(&b.1)));
     for &(_, i) in &order {
         let p = new[i];
-        let Some(best) = three_nearest(p, spheres.iter().copied().enumerate()) else { continue };
-        let mut choice = (f64::INFINITY, usize::MAX, 0.0);
-        for &(_, l) in best.iter().filter(|x| x.1 != usize::MAX) {
+        let gaps = spheres.iter().enumerate().map(|(l, s)| (l, p.distance(s.0) - s.1));
+        let grown = cheapest_of_three_nearest(gaps, |l| {
             let (c, r) = spheres[l];
-            let d = p.distance(c) * (1.0 + 1e-12);
-            let inc = outside(solid, c, d) - outside(solid, c, r);
-            if inc < choice.0 {
-                choice = (inc, l, d);
-            }
-        }
-        if choice.1 != usize::MAX {
-            spheres[choice.1].1 = choice.2;
+            outside(solid, c, p.distance(c) * (1.0 + 1e-12)) - outside(solid, c, r)
+        });
+        if let Growth::Grow(l) = grown {
+            spheres[l].1 = p.distance(spheres[l].0) * (1.0 + 1e-12);
         }
     }
 }
@@ -773,6 +796,29 @@ fn pattern_search(f: &mut dyn FnMut([f64; 3]) -> f64, mut c: DVec3, mut fc: f64,
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn cheapest_of_three_nearest_prices_only_the_three_nearest() {
+        let gaps = [(0, 5.0), (1, 1.0), (2, 2.0), (3, 3.0), (4, 0.5)];
+        let costs = [0.0, 1.0, 0.5, 0.1, 10.0];
+        let mut priced = Vec::new();
+        let got = cheapest_of_three_nearest(gaps.iter().copied(), |l| {
+            priced.push(l);
+            costs[l]
+        });
+        // The three nearest are 4, 1, 2; of those 2 is cheapest (0 and 3 are cheaper but farther).
+        assert_eq!(got, Growth::Grow(2));
+        assert_eq!(priced, [4, 1, 2]);
+        // The first candidate containing the point ends the scan.
+        let got = cheapest_of_three_nearest([(0, 1.0), (7, -0.1), (2, 0.0)].into_iter(), |_| unreachable!());
+        assert_eq!(got, Growth::Inside(7));
+        // Equal costs: the nearer wins.
+        assert_eq!(cheapest_of_three_nearest([(0, 2.0), (1, 1.0)].into_iter(), |_| 3.0), Growth::Grow(1));
+        // Nothing to grow: no candidates, NaN gaps, or no finite cost.
+        assert_eq!(cheapest_of_three_nearest(std::iter::empty(), |_| 0.0), Growth::Nothing);
+        assert_eq!(cheapest_of_three_nearest([(0, f64::NAN)].into_iter(), |_| 0.0), Growth::Nothing);
+        assert_eq!(cheapest_of_three_nearest([(0, 1.0)].into_iter(), |_| f64::INFINITY), Growth::Nothing);
+    }
     use crate::rng::SplitMix64;
 
     /// A ball-shaped voxel solid of radius 6 cells (cell 0.5) and random points inside it.

@@ -7,6 +7,7 @@
 //! is computed once on the final, exactly bounding result.
 
 use crate::ballgrid::BallGrid;
+use crate::descent::{cheapest_of_three_nearest, Growth};
 use crate::points::{PointSet, Rep};
 use crate::powell::powell;
 use crate::rng::SplitMix64;
@@ -278,33 +279,15 @@ pub fn assign_grow(solid: &Solid, pts: &[Rep], centres: &[DVec3], radii: &[f64])
     out.sort_by(|a, b| b.0.total_cmp(&a.0).then(a.1.cmp(&b.1)));
     for &(_, i) in &out {
         let p = &pts[i as usize];
-        let mut best: [(f64, usize); 3] = [(f64::INFINITY, usize::MAX); 3];
-        for (ci, c) in centres.iter().enumerate() {
-            let g = p.far(*c) - r[ci];
-            if g <= 0.0 {
-                best = [(g, ci), best[0], best[1]];
-                break;
+        let gaps = centres.iter().enumerate().map(|(ci, c)| (ci, p.far(*c) - r[ci]));
+        let cost = |ci: usize| outside(solid, centres[ci], p.far(centres[ci])) - outside(solid, centres[ci], r[ci]);
+        match cheapest_of_three_nearest(gaps, cost) {
+            Growth::Inside(ci) => assign[i as usize] = ci as u32,
+            Growth::Grow(ci) => {
+                r[ci] = p.far(centres[ci]);
+                assign[i as usize] = ci as u32;
             }
-            if g < best[2].0 {
-                best[2] = (g, ci);
-                best.sort_by(|a, b| a.0.total_cmp(&b.0));
-            }
-        }
-        if best[0].0 <= 0.0 {
-            assign[i as usize] = best[0].1 as u32;
-            continue;
-        }
-        let mut choice = (f64::INFINITY, usize::MAX);
-        for &(_, ci) in best.iter().filter(|x| x.1 != usize::MAX) {
-            let d = p.far(centres[ci]);
-            let inc = outside(solid, centres[ci], d) - outside(solid, centres[ci], r[ci]);
-            if inc < choice.0 {
-                choice = (inc, ci);
-            }
-        }
-        if choice.1 != usize::MAX {
-            r[choice.1] = p.far(centres[choice.1]);
-            assign[i as usize] = choice.1 as u32;
+            Growth::Nothing => {}
         }
     }
     assign
