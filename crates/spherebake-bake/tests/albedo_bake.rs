@@ -43,62 +43,8 @@ fn cube_mesh(face_colours: [[f32; 3]; 6]) -> Mesh {
 
 /// Unit icosphere subdivided `levels` times (CCW outward), one white material.
 fn icosphere(levels: usize) -> Mesh {
-    let t = (1.0 + 5f32.sqrt()) / 2.0;
-    let mut p: Vec<Vec3> = [
-        [-1.0, t, 0.0],
-        [1.0, t, 0.0],
-        [-1.0, -t, 0.0],
-        [1.0, -t, 0.0],
-        [0.0, -1.0, t],
-        [0.0, 1.0, t],
-        [0.0, -1.0, -t],
-        [0.0, 1.0, -t],
-        [t, 0.0, -1.0],
-        [t, 0.0, 1.0],
-        [-t, 0.0, -1.0],
-        [-t, 0.0, 1.0],
-    ]
-    .iter()
-    .map(|v| Vec3::from_array(*v).normalize())
-    .collect();
-    let mut tris: Vec<[u32; 3]> = vec![
-        [0, 11, 5],
-        [0, 5, 1],
-        [0, 1, 7],
-        [0, 7, 10],
-        [0, 10, 11],
-        [1, 5, 9],
-        [5, 11, 4],
-        [11, 10, 2],
-        [10, 7, 6],
-        [7, 1, 8],
-        [3, 9, 4],
-        [3, 4, 2],
-        [3, 2, 6],
-        [3, 6, 8],
-        [3, 8, 9],
-        [4, 9, 5],
-        [2, 4, 11],
-        [6, 2, 10],
-        [8, 6, 7],
-        [9, 8, 1],
-    ];
-    for _ in 0..levels {
-        let mut mid = std::collections::BTreeMap::new();
-        let mut next = Vec::new();
-        for t in &tris {
-            let mut m = [0u32; 3];
-            for k in 0..3 {
-                let (a, b) = (t[k].min(t[(k + 1) % 3]), t[k].max(t[(k + 1) % 3]));
-                m[k] = *mid.entry((a, b)).or_insert_with(|| {
-                    p.push(((p[a as usize] + p[b as usize]) * 0.5).normalize());
-                    (p.len() - 1) as u32
-                });
-            }
-            next.extend([[t[0], m[0], m[2]], [t[1], m[1], m[0]], [t[2], m[2], m[1]], [m[0], m[1], m[2]]]);
-        }
-        tris = next;
-    }
+    let (p, tris) = spherebake_testkit::mesh::icosphere(levels);
+    let p: Vec<Vec3> = p.into_iter().map(Vec3::from).collect();
     let mut m = Mesh {
         normals: p.clone(),
         positions: p,

@@ -7,22 +7,8 @@ use spherebake_geom::mvc::{
 };
 
 fn cube() -> (Vec<DVec3>, Vec<[u32; 3]>) {
-    let p = (0..8).map(|k| DVec3::new((k & 1) as f64, ((k >> 1) & 1) as f64, ((k >> 2) & 1) as f64)).collect();
-    let t = vec![
-        [0, 2, 3],
-        [0, 3, 1],
-        [4, 5, 7],
-        [4, 7, 6],
-        [0, 1, 5],
-        [0, 5, 4],
-        [2, 6, 7],
-        [2, 7, 3],
-        [0, 4, 6],
-        [0, 6, 2],
-        [1, 3, 7],
-        [1, 7, 5],
-    ];
-    (p, t)
+    let (p, t) = spherebake_testkit::mesh::unit_cube();
+    (p.into_iter().map(DVec3::from).collect(), t)
 }
 
 fn check(x: DVec3, expected: &[f64], raw_sum: Option<f64>, tol: f64) {

@@ -6,23 +6,8 @@ use spherebake_geom::volume::*;
 use std::f64::consts::PI;
 
 fn cube() -> (Vec<DVec3>, Vec<[u32; 3]>) {
-    let p: Vec<DVec3> =
-        (0..8).map(|k| DVec3::new((k & 1) as f64, ((k >> 1) & 1) as f64, ((k >> 2) & 1) as f64)).collect();
-    let t = vec![
-        [0, 2, 3],
-        [0, 3, 1],
-        [4, 5, 7],
-        [4, 7, 6],
-        [0, 1, 5],
-        [0, 5, 4],
-        [2, 6, 7],
-        [2, 7, 3],
-        [0, 4, 6],
-        [0, 6, 2],
-        [1, 3, 7],
-        [1, 7, 5],
-    ];
-    (p, t)
+    let (p, t) = spherebake_testkit::mesh::unit_cube();
+    (p.into_iter().map(DVec3::from).collect(), t)
 }
 
 /// Closed outward boundary of a union of unit voxels: every voxel face not shared with another
@@ -171,24 +156,8 @@ fn culled_sum_equals_full_sum() {
 #[test]
 fn monte_carlo_armadillo() {
     let Some(path) = spherebake_testkit::shared_model("obj/armadillo.obj") else { return };
-    let text = std::fs::read_to_string(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
-    let mut p = Vec::new();
-    let mut t = Vec::new();
-    for line in text.lines() {
-        let mut it = line.split_whitespace();
-        match it.next() {
-            Some("v") => {
-                let v: Vec<f64> = it.take(3).map(|x| x.parse().unwrap()).collect();
-                p.push(DVec3::new(v[0], v[1], v[2]));
-            }
-            Some("f") => {
-                let v: Vec<u32> =
-                    it.take(3).map(|x| x.split('/').next().unwrap().parse::<u32>().unwrap() - 1).collect();
-                t.push([v[0], v[1], v[2]]);
-            }
-            _ => {}
-        }
-    }
+    let (p, t) = spherebake_testkit::mesh::load_obj::<f64>(&path);
+    let p: Vec<DVec3> = p.into_iter().map(DVec3::from).collect();
     // A ball around the torso, partly outside the model.
     let c = DVec3::new(0.0, 10.0, 0.0);
     let r = 30.0;

@@ -7,7 +7,10 @@
 //!   (set by `.ci/run`: CI always has the models, so a skip there is a bug).
 //! - [`oracle`]: an outside-volume oracle written apart from the fit (no shared code: this crate
 //!   has no dependencies), the method of `../shared/tools/outside_volume.py` re-derived.
+//! - [`mesh`]: the test meshes several crates' tests build (unit cube, icosphere) and a minimal
+//!   OBJ reader, as plain arrays.
 
+pub mod mesh;
 pub mod oracle;
 
 use std::path::{Path, PathBuf};

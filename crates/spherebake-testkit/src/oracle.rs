@@ -190,13 +190,7 @@ pub fn convex_inside(p: &[[f64; 3]], t: &[[u32; 3]]) -> impl Fn([f64; 3]) -> boo
 mod tests {
     use super::*;
 
-    /// Unit cube [0, 1]³, 12 outward triangles.
-    fn cube() -> (Vec<[f64; 3]>, Vec<[u32; 3]>) {
-        let p: Vec<[f64; 3]> = (0..8).map(|i| [(i & 1) as f64, ((i >> 1) & 1) as f64, ((i >> 2) & 1) as f64]).collect();
-        let quads = [[0, 2, 3, 1], [4, 5, 7, 6], [0, 1, 5, 4], [2, 6, 7, 3], [0, 4, 6, 2], [1, 3, 7, 5]];
-        let t = quads.iter().flat_map(|q| [[q[0], q[1], q[2]], [q[0], q[2], q[3]]]).collect();
-        (p, t)
-    }
+    use crate::mesh::unit_cube as cube;
 
     #[test]
     fn cube_volume_and_winding() {
