@@ -7,24 +7,16 @@ use spherebake_runtime::{
     cut, cut_accepts, cut_threshold, load, refit, rest_node_spheres, CutEntry, Hierarchy, HierarchyPlan, NodeLists,
     QueryError, Sphere, DEFAULT_THETA_MAX_RAD,
 };
+use spherebake_testkit::rng::SplitMix64;
 
-struct Rng(u64);
+/// SplitMix64 (`spherebake_testkit::rng`) with the helpers these tests draw with.
+struct Rng(SplitMix64);
 impl Rng {
-    fn next(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
-    }
-    fn unit(&mut self) -> f64 {
-        (self.next() >> 11) as f64 / (1u64 << 53) as f64
-    }
     fn range(&mut self, lo: f64, hi: f64) -> f64 {
-        lo + (hi - lo) * self.unit()
+        self.0.range(lo, hi)
     }
     fn below(&mut self, n: usize) -> usize {
-        (self.next() % n as u64) as usize
+        (self.0.next_u64() % n as u64) as usize
     }
 }
 
@@ -203,7 +195,7 @@ fn reference_refit(
 
 #[test]
 fn refitted_parents_contain_children_for_random_poses() {
-    let mut rng = Rng(7);
+    let mut rng = Rng(SplitMix64::new(7));
     for trial in 0..60 {
         let leaf_count = 1 + rng.below(300);
         let scale = [1.0, 1e-3, 250.0][trial % 3];
@@ -263,7 +255,7 @@ fn leaves_below(h: &Hierarchy, node: u32, out: &mut Vec<u32>) {
 
 #[test]
 fn cut_matches_brute_force_and_covers_every_leaf_once() {
-    let mut rng = Rng(11);
+    let mut rng = Rng(SplitMix64::new(11));
     let mut out = Vec::new();
     let mut sizes = Vec::new();
     for _trial in 0..40 {

@@ -56,16 +56,7 @@ fn voronoi_rows_partition_the_sphere() {
     }
 }
 
-fn mix(mut z: u64) -> u64 {
-    z = z.wrapping_add(0x9E37_79B9_7F4A_7C15);
-    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-    z ^ (z >> 31)
-}
-
-fn unit(z: u64) -> f64 {
-    (z >> 11) as f64 / (1u64 << 53) as f64
-}
+use spherebake_testkit::rng::{mix, unit};
 
 #[test]
 fn eq10_matches_monte_carlo_projection_of_the_voronoi_function() {

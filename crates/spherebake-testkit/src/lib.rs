@@ -7,11 +7,14 @@
 //!   (set by `.ci/run`: CI always has the models, so a skip there is a bug).
 //! - [`oracle`]: an outside-volume oracle written apart from the fit (no shared code: this crate
 //!   has no dependencies), the method of `../shared/tools/outside_volume.py` re-derived.
+//! - [`rng`]: SplitMix64 for the tests of the runtime and spherebake-sh, which cannot reach
+//!   `spherebake_geom::rng`.
 //! - [`mesh`]: the test meshes several crates' tests build (unit cube, icosphere) and a minimal
 //!   OBJ reader, as plain arrays.
 
 pub mod mesh;
 pub mod oracle;
+pub mod rng;
 
 use std::path::{Path, PathBuf};
 
