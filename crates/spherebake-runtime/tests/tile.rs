@@ -4,6 +4,7 @@
 
 use spherebake_runtime::tile::{polygon_irradiance, sample_tile, voronoi_cells, CELL_MAX_CORNERS};
 use spherebake_runtime::GEODESIC_DIRECTIONS;
+use spherebake_testkit::oracle::triangle_solid_angle;
 use std::f64::consts::PI;
 
 fn dir(j: usize) -> [f64; 3] {
@@ -18,13 +19,6 @@ fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
 
 fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
     [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
-}
-
-/// Solid angle of the spherical triangle (a, b, c) of unit vectors (Van Oosterom & Strackee 1983).
-fn triangle_solid_angle(a: [f64; 3], b: [f64; 3], c: [f64; 3]) -> f64 {
-    let num = dot(a, cross(b, c));
-    let den = 1.0 + dot(a, b) + dot(b, c) + dot(c, a);
-    2.0 * num.atan2(den)
 }
 
 #[test]

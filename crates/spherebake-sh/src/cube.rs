@@ -283,9 +283,6 @@ mod tests {
     fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
         a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
     }
-    fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-        [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
-    }
     fn normalize(v: [f64; 3]) -> [f64; 3] {
         let n = libm::sqrt(dot(v, v));
         [v[0] / n, v[1] / n, v[2] / n]
@@ -343,12 +340,9 @@ mod tests {
         }
     }
 
-    /// Solid angle of a spherical triangle (Van Oosterom–Strackee), unsigned.
+    /// Solid angle of a spherical triangle (Van Oosterom–Strackee, the tests' copy), unsigned.
     fn tri_solid_angle(a: [f64; 3], b: [f64; 3], c: [f64; 3]) -> f64 {
-        let (la, lb, lc) = (libm::sqrt(dot(a, a)), libm::sqrt(dot(b, b)), libm::sqrt(dot(c, c)));
-        let num = dot(a, cross(b, c));
-        let den = la * lb * lc + dot(a, b) * lc + dot(b, c) * la + dot(c, a) * lb;
-        (2.0 * libm::atan2(num, den)).abs()
+        spherebake_testkit::oracle::triangle_solid_angle(a, b, c).abs()
     }
 
     #[test]

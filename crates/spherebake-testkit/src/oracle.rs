@@ -133,16 +133,26 @@ pub fn closed_mesh_volume(p: &[[f64; 3]], t: &[[u32; 3]]) -> f64 {
         .sum()
 }
 
+/// Signed solid angle of triangle (a, b, c) seen from the origin, in steradians, in [−2π, 2π]
+/// (Van Oosterom and Strackee 1983): positive when the origin sees the side the normal
+/// (b − a) × (c − a) points away from. The tests' copy (this crate shares no code with the
+/// library's `spherebake_geom::volume::signed_triangle_solid_angle`): the winding number below,
+/// spherebake-sh's cube texels and the runtime's tiles are checked with it.
+#[must_use]
+pub fn triangle_solid_angle(a: [f64; 3], b: [f64; 3], c: [f64; 3]) -> f64 {
+    let (la, lb, lc) = (dot(a, a).sqrt(), dot(b, b).sqrt(), dot(c, c).sqrt());
+    let num = dot(a, cross(b, c));
+    let den = la * lb * lc + dot(a, b) * lc + dot(b, c) * la + dot(c, a) * lb;
+    2.0 * num.atan2(den)
+}
+
 /// Generalized winding number of the mesh at `x`: Σ over triangles of the signed solid angle
-/// (Van Oosterom and Strackee 1983) / 4π, brute force over every triangle.
+/// ([`triangle_solid_angle`]) / 4π, brute force over every triangle.
 pub fn winding_number(p: &[[f64; 3]], t: &[[u32; 3]], x: [f64; 3]) -> f64 {
     let mut sum = 0.0;
     for &tri in t {
         let [a, b, c] = corners(p, tri).map(|q| sub(q, x));
-        let (la, lb, lc) = (dot(a, a).sqrt(), dot(b, b).sqrt(), dot(c, c).sqrt());
-        let num = dot(a, cross(b, c));
-        let den = la * lb * lc + dot(a, b) * lc + dot(b, c) * la + dot(c, a) * lb;
-        sum += 2.0 * num.atan2(den);
+        sum += triangle_solid_angle(a, b, c);
     }
     sum / (4.0 * PI)
 }
@@ -191,6 +201,13 @@ mod tests {
     use super::*;
 
     use crate::mesh::unit_cube as cube;
+
+    #[test]
+    fn octant_triangle_subtends_pi_over_two() {
+        let (x, y, z) = ([1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]);
+        assert!((triangle_solid_angle(x, y, z) - PI / 2.0).abs() < 1e-15);
+        assert!((triangle_solid_angle(x, z, y) + PI / 2.0).abs() < 1e-15);
+    }
 
     #[test]
     fn cube_volume_and_winding() {
