@@ -34,69 +34,6 @@ impl MeshData {
     }
 }
 
-/// Unit icosphere (one subdivision of the icosahedron: 42 vertices, 80 triangles).
-fn icosphere() -> (Vec<[f32; 3]>, Vec<[u32; 3]>) {
-    let p = (1.0 + 5f32.sqrt()) / 2.0;
-    let mut v: Vec<[f32; 3]> = vec![
-        [-1.0, p, 0.0],
-        [1.0, p, 0.0],
-        [-1.0, -p, 0.0],
-        [1.0, -p, 0.0],
-        [0.0, -1.0, p],
-        [0.0, 1.0, p],
-        [0.0, -1.0, -p],
-        [0.0, 1.0, -p],
-        [p, 0.0, -1.0],
-        [p, 0.0, 1.0],
-        [-p, 0.0, -1.0],
-        [-p, 0.0, 1.0],
-    ];
-    let f: Vec<[u32; 3]> = vec![
-        [0, 11, 5],
-        [0, 5, 1],
-        [0, 1, 7],
-        [0, 7, 10],
-        [0, 10, 11],
-        [1, 5, 9],
-        [5, 11, 4],
-        [11, 10, 2],
-        [10, 7, 6],
-        [7, 1, 8],
-        [3, 9, 4],
-        [3, 4, 2],
-        [3, 2, 6],
-        [3, 6, 8],
-        [3, 8, 9],
-        [4, 9, 5],
-        [2, 4, 11],
-        [6, 2, 10],
-        [8, 6, 7],
-        [9, 8, 1],
-    ];
-    let mut mid = std::collections::BTreeMap::new();
-    let mut out = Vec::new();
-    for t in &f {
-        let mut m = [0u32; 3];
-        for e in 0..3 {
-            let (a, b) = (t[e].min(t[(e + 1) % 3]), t[e].max(t[(e + 1) % 3]));
-            m[e] = *mid.entry((a, b)).or_insert_with(|| {
-                let (va, vb) = (v[a as usize], v[b as usize]);
-                v.push([(va[0] + vb[0]) / 2.0, (va[1] + vb[1]) / 2.0, (va[2] + vb[2]) / 2.0]);
-                v.len() as u32 - 1
-            });
-        }
-        out.push([t[0], m[0], m[2]]);
-        out.push([t[1], m[1], m[0]]);
-        out.push([t[2], m[2], m[1]]);
-        out.push([m[0], m[1], m[2]]);
-    }
-    for p in &mut v {
-        let l = (p[0] * p[0] + p[1] * p[1] + p[2] * p[2]).sqrt();
-        *p = [p[0] / l, p[1] / l, p[2] / l];
-    }
-    (v, out)
-}
-
 /// A distinct, deterministic colour per index (golden-ratio hues), linear RGBA.
 pub(crate) fn hue(i: usize) -> [f32; 4] {
     // Golden-ratio hues, fixed saturation: distinct neighbours, deterministic.
@@ -145,7 +82,8 @@ pub fn hierarchy_levels(file: &SphbFile) -> Vec<Vec<([f32; 3], f32)>> {
 
 /// Builds the `.glb` bytes of a proxy (see the module docs for the layout).
 pub fn export_glb(file: &SphbFile) -> (Vec<u8>, ExportSummary) {
-    let (ico_v, ico_f) = icosphere();
+    // One subdivision of the icosahedron: 42 vertices, 80 triangles.
+    let (ico_v, ico_f) = spherebake_geom::sphere::icosphere(1);
     let levels = hierarchy_levels(file);
     let mut meshes: Vec<(String, MeshData, bool)> = Vec::new();
     for (li, spheres) in levels.iter().enumerate() {

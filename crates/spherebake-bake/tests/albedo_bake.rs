@@ -43,7 +43,7 @@ fn cube_mesh(face_colours: [[f32; 3]; 6]) -> Mesh {
 
 /// Unit icosphere subdivided `levels` times (CCW outward), one white material.
 fn icosphere(levels: usize) -> Mesh {
-    let (p, tris) = spherebake_testkit::mesh::icosphere(levels);
+    let (p, tris) = spherebake_geom::sphere::icosphere(levels);
     let p: Vec<Vec3> = p.into_iter().map(Vec3::from).collect();
     let mut m = Mesh {
         normals: p.clone(),

@@ -106,6 +106,79 @@ fn solve_small(m: &mut [[f64; 4]; 3], k: usize) -> Option<[f64; 3]> {
     x.iter().all(|v| v.is_finite()).then_some(x)
 }
 
+fn normalize(v: [f32; 3]) -> [f32; 3] {
+    let inv = 1.0 / (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
+    [v[0] * inv, v[1] * inv, v[2] * inv]
+}
+
+/// Unit icosphere (radius 1, centre 0), written once (the glTF export's sphere shape and the
+/// geom and bake tests' meshes): the icosahedron subdivided `levels` times, each edge
+/// midpoint pushed to the sphere; 10·4^levels + 2 vertices, 20·4^levels outward counter-clockwise
+/// triangles. Each triangle (a, b, c) with midpoints (m_ab, m_bc, m_ca) becomes
+/// (a, m_ab, m_ca), (b, m_bc, m_ab), (c, m_ca, m_bc), (m_ab, m_bc, m_ca); midpoints are numbered
+/// in order of first use.
+#[must_use]
+pub fn icosphere(levels: usize) -> (Vec<[f32; 3]>, Vec<[u32; 3]>) {
+    let t = (1.0 + 5f32.sqrt()) / 2.0;
+    let mut v: Vec<[f32; 3]> = [
+        [-1.0, t, 0.0],
+        [1.0, t, 0.0],
+        [-1.0, -t, 0.0],
+        [1.0, -t, 0.0],
+        [0.0, -1.0, t],
+        [0.0, 1.0, t],
+        [0.0, -1.0, -t],
+        [0.0, 1.0, -t],
+        [t, 0.0, -1.0],
+        [t, 0.0, 1.0],
+        [-t, 0.0, -1.0],
+        [-t, 0.0, 1.0],
+    ]
+    .into_iter()
+    .map(normalize)
+    .collect();
+    let mut f: Vec<[u32; 3]> = vec![
+        [0, 11, 5],
+        [0, 5, 1],
+        [0, 1, 7],
+        [0, 7, 10],
+        [0, 10, 11],
+        [1, 5, 9],
+        [5, 11, 4],
+        [11, 10, 2],
+        [10, 7, 6],
+        [7, 1, 8],
+        [3, 9, 4],
+        [3, 4, 2],
+        [3, 2, 6],
+        [3, 6, 8],
+        [3, 8, 9],
+        [4, 9, 5],
+        [2, 4, 11],
+        [6, 2, 10],
+        [8, 6, 7],
+        [9, 8, 1],
+    ];
+    for _ in 0..levels {
+        let mut mid = std::collections::BTreeMap::new();
+        let mut next = Vec::with_capacity(f.len() * 4);
+        for tri in &f {
+            let mut m = [0u32; 3];
+            for e in 0..3 {
+                let (a, b) = (tri[e], tri[(e + 1) % 3]);
+                m[e] = *mid.entry((a.min(b), a.max(b))).or_insert_with(|| {
+                    let (pa, pb) = (v[a as usize], v[b as usize]);
+                    v.push(normalize([(pa[0] + pb[0]) * 0.5, (pa[1] + pb[1]) * 0.5, (pa[2] + pb[2]) * 0.5]));
+                    (v.len() - 1) as u32
+                });
+            }
+            next.extend([[tri[0], m[0], m[2]], [tri[1], m[1], m[0]], [tri[2], m[2], m[1]], m]);
+        }
+        f = next;
+    }
+    (v, f)
+}
+
 /// Minimal enclosing ball of points (Welzl 1991, Gärtner's move-to-front form: recursion depth
 /// ≤ 4 whatever the number of points). Deterministic: one shuffle with a fixed seed.
 /// Returns (centre, radius); empty input → (0, 0). The radius is finally raised to the largest
@@ -299,6 +372,33 @@ pub fn tangent_balls(balls: &[(DVec3, f64)], sub: &[usize]) -> Vec<(DVec3, f64)>
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Enclosed volume of a closed mesh by the divergence theorem (f64).
+    fn mesh_volume(v: &[[f32; 3]], f: &[[u32; 3]]) -> f64 {
+        f.iter()
+            .map(|t| {
+                let [a, b, c] = t.map(|i| DVec3::from(v[i as usize].map(f64::from)));
+                a.dot(b.cross(c)) / 6.0
+            })
+            .sum()
+    }
+
+    #[test]
+    fn icosphere_counts_radius_and_orientation() {
+        for levels in 0..4 {
+            let (v, f) = icosphere(levels);
+            assert_eq!(v.len(), 10 * 4usize.pow(levels as u32) + 2);
+            assert_eq!(f.len(), 20 * 4usize.pow(levels as u32));
+            assert!(v.iter().all(|p| ((p[0] * p[0] + p[1] * p[1] + p[2] * p[2]).sqrt() - 1.0).abs() < 1e-6));
+            let vol = mesh_volume(&v, &f);
+            // Inscribed polyhedron: positive (outward) and below 4π/3.
+            assert!(vol > 0.0 && vol < 4.0 / 3.0 * std::f64::consts::PI, "{levels}: {vol}");
+        }
+        // The icosahedron's volume with unit circumradius: (5/12)(3 + √5) a³, a = 4 / √(10 + 2√5).
+        let a = 4.0 / (10.0 + 2.0 * 5f64.sqrt()).sqrt();
+        let (v, f) = icosphere(0);
+        assert!((mesh_volume(&v, &f) - 5.0 / 12.0 * (3.0 + 5f64.sqrt()) * a * a * a).abs() < 1e-6);
+    }
 
     #[test]
     fn tangent_balls_of_known_configurations() {

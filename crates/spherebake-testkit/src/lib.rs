@@ -9,7 +9,7 @@
 //!   has no dependencies), the method of `../shared/tools/outside_volume.py` re-derived.
 //! - [`rng`]: SplitMix64 for the tests of the runtime and spherebake-sh, which cannot reach
 //!   `spherebake_geom::rng`.
-//! - [`mesh`]: the test meshes several crates' tests build (unit cube, icosphere) and a minimal
+//! - [`mesh`]: the test meshes several crates' tests build (the unit cube) and a minimal
 //!   OBJ reader, as plain arrays.
 
 pub mod mesh;

@@ -3,10 +3,10 @@
 
 use glam::{DVec3, Vec3};
 
-/// Icosphere centred at `center` with `radius` (`spherebake_testkit::mesh::icosphere`),
+/// Icosphere centred at `center` with `radius` (`spherebake_geom::sphere::icosphere`),
 /// outward counter-clockwise faces.
 pub fn icosphere(subdivisions: u32, center: Vec3, radius: f32) -> (Vec<Vec3>, Vec<[u32; 3]>) {
-    let (v, f) = spherebake_testkit::mesh::icosphere(subdivisions as usize);
+    let (v, f) = spherebake_geom::sphere::icosphere(subdivisions as usize);
     (v.into_iter().map(|p| center + Vec3::from(p) * radius).collect(), f)
 }
 
