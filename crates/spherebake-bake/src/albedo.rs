@@ -363,54 +363,7 @@ fn dominates(j: &SphereF64, i: &SphereF64, t: &[DVec3; 3]) -> bool {
     // triangle nearest q = (c_j/r_j² − c_i/r_i²)/α (computed relative to corner 0).
     let o = t[0];
     let q = o + ((j.c - o) * j.inv_r2 - (i.c - o) * i.inv_r2) / alpha;
-    f(closest_point_on_triangle(q, t)) < 0.0
-}
-
-/// Closest point of triangle `t` to `p` (Ericson, Real-Time Collision Detection §5.1.5).
-fn closest_point_on_triangle(p: DVec3, t: &[DVec3; 3]) -> DVec3 {
-    let [a, b, c] = *t;
-    let ab = b - a;
-    let ac = c - a;
-    let ap = p - a;
-    let d1 = ab.dot(ap);
-    let d2 = ac.dot(ap);
-    if d1 <= 0.0 && d2 <= 0.0 {
-        return a;
-    }
-    let bp = p - b;
-    let d3 = ab.dot(bp);
-    let d4 = ac.dot(bp);
-    if d3 >= 0.0 && d4 <= d3 {
-        return b;
-    }
-    let vc = d1 * d4 - d3 * d2;
-    if vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0 {
-        return a + ab * (d1 / (d1 - d3));
-    }
-    let cp = p - c;
-    let d5 = ab.dot(cp);
-    let d6 = ac.dot(cp);
-    if d6 >= 0.0 && d5 <= d6 {
-        return c;
-    }
-    let vb = d5 * d2 - d1 * d6;
-    if vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0 {
-        return a + ac * (d2 / (d2 - d6));
-    }
-    let va = d3 * d6 - d5 * d4;
-    if va <= 0.0 && (d4 - d3) >= 0.0 && (d5 - d6) >= 0.0 {
-        return b + (c - b) * ((d4 - d3) / ((d4 - d3) + (d5 - d6)));
-    }
-    let denom = va + vb + vc;
-    if denom == 0.0 || !denom.is_finite() {
-        // Degenerate triangle: the nearest corner is as good as any point.
-        return [a, b, c]
-            .into_iter()
-            .fold(a, |m, x| if (x - p).length_squared() < (m - p).length_squared() { x } else { m });
-    }
-    let v = vb / denom;
-    let w = vc / denom;
-    a + ab * v + ac * w
+    f(spherebake_geom::triangle::closest_point_on_triangle(q, t)) < 0.0
 }
 
 /// Per sphere, the increasing list of triangles rendered for it.
@@ -1180,24 +1133,5 @@ mod tests {
         let mut bad = mesh.clone();
         bad.textures.clear();
         assert!(matches!(SurfaceAlbedo::new(&bad), Err(AlbedoError::TextureOutOfRange { .. })));
-    }
-
-    #[test]
-    fn closest_point_matches_dense_sampling() {
-        let t = [DVec3::new(0.0, 0.0, 0.0), DVec3::new(2.0, 0.1, 0.0), DVec3::new(0.3, 1.5, 0.4)];
-        for p in [
-            DVec3::new(1.0, 0.5, 2.0),
-            DVec3::new(-1.0, -1.0, 0.0),
-            DVec3::new(3.0, 0.0, 0.0),
-            DVec3::new(1.5, 1.5, -0.5),
-        ] {
-            let q = closest_point_on_triangle(p, &t);
-            let mut best = f64::INFINITY;
-            let m = 400;
-            for (_, _, x) in spherebake_geom::trigrid::triangle_grid(t[0], t[1], t[2], m) {
-                best = best.min((x - p).length());
-            }
-            assert!((q - p).length() <= best + 1e-12 && (q - p).length() > best - 5e-3, "{p}");
-        }
     }
 }

@@ -21,7 +21,7 @@
 use crate::lloyd::{outside, FarQuery};
 use crate::solid::Solid;
 use glam::DVec3;
-use spherebake_geom::trigrid::triangle_grid;
+use spherebake_geom::triangle::triangle_grid;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::Arc;
 

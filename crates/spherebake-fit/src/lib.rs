@@ -61,7 +61,7 @@ pub mod solid;
 use glam::{DVec3, Vec3};
 use rayon::prelude::*;
 use solid::Solid;
-use spherebake_geom::trigrid::triangle_grid;
+use spherebake_geom::triangle::triangle_grid;
 use spherebake_geom::volume;
 use std::f64::consts::PI;
 use std::time::Instant;

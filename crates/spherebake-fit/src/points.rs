@@ -178,7 +178,7 @@ pub fn build(positions: &[DVec3], triangles: &[[u32; 3]], solid: &Solid, lo: DVe
             samples.push(a);
             samples.push((a + b + c) / 3.0);
         } else {
-            samples.extend(spherebake_geom::trigrid::triangle_grid(a, b, c, m).map(|(_, _, p)| p));
+            samples.extend(spherebake_geom::triangle::triangle_grid(a, b, c, m).map(|(_, _, p)| p));
             samples.push((a + b + c) / 3.0);
         }
         let nrm = (b - a).cross(c - a);

@@ -620,7 +620,7 @@ mod cover_samples_tests {
             let mut pts = Vec::new();
             cover_samples(a, b, c, spacing, |p| pts.push(p));
             let m = 200;
-            for (_, _, x) in spherebake_geom::trigrid::triangle_grid(a, b, c, m) {
+            for (_, _, x) in spherebake_geom::triangle::triangle_grid(a, b, c, m) {
                 let d = pts.iter().map(|p| p.distance(x)).fold(f64::INFINITY, f64::min);
                 assert!(d <= spacing, "{x} is {d} from the nearest sample");
             }

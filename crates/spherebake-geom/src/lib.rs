@@ -15,7 +15,7 @@ pub mod orient;
 pub mod rng;
 pub mod sphere;
 pub mod topology;
-pub mod trigrid;
+pub mod triangle;
 pub mod volume;
 pub mod voxel;
 pub mod winding;

@@ -121,46 +121,9 @@ fn watertight_through_vertices_and_edges() {
     }
 }
 
-/// Exact squared distance from a point to a triangle (Ericson, Real-Time Collision Detection 5.1.5).
+/// Exact squared distance from a point to a triangle (`spherebake_geom::triangle::closest_point_on_triangle`).
 fn point_triangle_dist2(p: DVec3, a: DVec3, b: DVec3, c: DVec3) -> f64 {
-    let ab = b - a;
-    let ac = c - a;
-    let ap = p - a;
-    let d1 = ab.dot(ap);
-    let d2 = ac.dot(ap);
-    if d1 <= 0.0 && d2 <= 0.0 {
-        return ap.length_squared();
-    }
-    let bp = p - b;
-    let d3 = ab.dot(bp);
-    let d4 = ac.dot(bp);
-    if d3 >= 0.0 && d4 <= d3 {
-        return bp.length_squared();
-    }
-    let vc = d1 * d4 - d3 * d2;
-    if vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0 {
-        let t = d1 / (d1 - d3);
-        return (p - (a + ab * t)).length_squared();
-    }
-    let cp = p - c;
-    let d5 = ab.dot(cp);
-    let d6 = ac.dot(cp);
-    if d6 >= 0.0 && d5 <= d6 {
-        return cp.length_squared();
-    }
-    let vb = d5 * d2 - d1 * d6;
-    if vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0 {
-        let t = d2 / (d2 - d6);
-        return (p - (a + ac * t)).length_squared();
-    }
-    let va = d3 * d6 - d5 * d4;
-    if va <= 0.0 && (d4 - d3) >= 0.0 && (d5 - d6) >= 0.0 {
-        let t = (d4 - d3) / ((d4 - d3) + (d5 - d6));
-        return (p - (b + (c - b) * t)).length_squared();
-    }
-    let denom = 1.0 / (va + vb + vc);
-    let q = a + ab * (vb * denom) + ac * (vc * denom);
-    (p - q).length_squared()
+    p.distance_squared(spherebake_geom::triangle::closest_point_on_triangle(p, &[a, b, c]))
 }
 
 #[test]

@@ -1,0 +1,126 @@
+//! Triangle primitives, written once: the barycentric grid (the fit's dense, descent and seam
+//! points and its sparse sample patches all lay it) and the closest point on a triangle (the
+//! albedo's coverage test and the geom and bake tests).
+
+use glam::DVec3;
+
+/// The barycentric grid of `m` divisions per edge on triangle (`a`, `b`, `c`): the
+/// (m + 1)(m + 2) / 2 points `a + (b − a)·(i/m) + (c − a)·(j/m)` for `i` in `0..=m` and `j` in
+/// `0..=m − i`, in that order (`i` outer), each with its `(i, j)`. The corners are `(0, 0)` = a,
+/// `(m, 0)` = b and `(0, m)` = c; neighbouring points are the edges' lengths / m apart. `m = 0`
+/// gives the one point a. Each point is computed from `a` alone (no accumulation), so the same
+/// triangle and `m` give the same bits wherever the grid is laid.
+pub fn triangle_grid(a: DVec3, b: DVec3, c: DVec3, m: usize) -> impl Iterator<Item = (usize, usize, DVec3)> {
+    let (ab, ac) = (b - a, c - a);
+    let mf = m as f64;
+    (0..=m).flat_map(move |i| {
+        (0..=m - i).map(
+            move |j| {
+                if m == 0 {
+                    (0, 0, a)
+                } else {
+                    (i, j, a + ab * (i as f64 / mf) + ac * (j as f64 / mf))
+                }
+            },
+        )
+    })
+}
+
+/// Closest point of triangle `t` to `p` (Ericson, Real-Time Collision Detection §5.1.5): the
+/// point of the closed triangle nearest to `p`, found by the Voronoi region of `p` (a corner, an
+/// edge, or the face by barycentrics). A degenerate triangle (zero or non-finite barycentric
+/// denominator) gives its corner nearest to `p`.
+#[must_use]
+pub fn closest_point_on_triangle(p: DVec3, t: &[DVec3; 3]) -> DVec3 {
+    let [a, b, c] = *t;
+    let ab = b - a;
+    let ac = c - a;
+    let ap = p - a;
+    let d1 = ab.dot(ap);
+    let d2 = ac.dot(ap);
+    if d1 <= 0.0 && d2 <= 0.0 {
+        return a;
+    }
+    let bp = p - b;
+    let d3 = ab.dot(bp);
+    let d4 = ac.dot(bp);
+    if d3 >= 0.0 && d4 <= d3 {
+        return b;
+    }
+    let vc = d1 * d4 - d3 * d2;
+    if vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0 {
+        return a + ab * (d1 / (d1 - d3));
+    }
+    let cp = p - c;
+    let d5 = ab.dot(cp);
+    let d6 = ac.dot(cp);
+    if d6 >= 0.0 && d5 <= d6 {
+        return c;
+    }
+    let vb = d5 * d2 - d1 * d6;
+    if vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0 {
+        return a + ac * (d2 / (d2 - d6));
+    }
+    let va = d3 * d6 - d5 * d4;
+    if va <= 0.0 && (d4 - d3) >= 0.0 && (d5 - d6) >= 0.0 {
+        return b + (c - b) * ((d4 - d3) / ((d4 - d3) + (d5 - d6)));
+    }
+    let denom = va + vb + vc;
+    if denom == 0.0 || !denom.is_finite() {
+        // Degenerate triangle: the nearest corner is as good as any point.
+        return [a, b, c]
+            .into_iter()
+            .fold(a, |m, x| if (x - p).length_squared() < (m - p).length_squared() { x } else { m });
+    }
+    let v = vb / denom;
+    let w = vc / denom;
+    a + ab * v + ac * w
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn grid_counts_corners_and_spacing() {
+        let (a, b, c) = (DVec3::new(1.0, 2.0, 3.0), DVec3::new(5.0, 2.0, 3.0), DVec3::new(1.0, 2.0, 7.0));
+        for m in 0..6 {
+            let pts: Vec<(usize, usize, DVec3)> = triangle_grid(a, b, c, m).collect();
+            assert_eq!(pts.len(), (m + 1) * (m + 2) / 2, "m = {m}");
+            assert_eq!(pts[0], (0, 0, a));
+            if m > 0 {
+                assert!(pts.contains(&(m, 0, b)) && pts.contains(&(0, m, c)), "m = {m}");
+            }
+            for &(i, j, p) in &pts {
+                assert!(i + j <= m);
+                // A right triangle with legs 4 along x and z: the point is (1 + 4i/m, 2, 3 + 4j/m).
+                if m > 0 {
+                    let want = DVec3::new(1.0 + 4.0 * i as f64 / m as f64, 2.0, 3.0 + 4.0 * j as f64 / m as f64);
+                    assert!((p - want).length() < 1e-14, "{p} vs {want}");
+                }
+            }
+        }
+        // Order: i outer, j inner.
+        let ij: Vec<(usize, usize)> = triangle_grid(a, b, c, 2).map(|(i, j, _)| (i, j)).collect();
+        assert_eq!(ij, [(0, 0), (0, 1), (0, 2), (1, 0), (1, 1), (2, 0)]);
+    }
+
+    #[test]
+    fn closest_point_matches_dense_sampling() {
+        let t = [DVec3::new(0.0, 0.0, 0.0), DVec3::new(2.0, 0.1, 0.0), DVec3::new(0.3, 1.5, 0.4)];
+        for p in [
+            DVec3::new(1.0, 0.5, 2.0),
+            DVec3::new(-1.0, -1.0, 0.0),
+            DVec3::new(3.0, 0.0, 0.0),
+            DVec3::new(1.5, 1.5, -0.5),
+        ] {
+            let q = closest_point_on_triangle(p, &t);
+            let mut best = f64::INFINITY;
+            let m = 400;
+            for (_, _, x) in triangle_grid(t[0], t[1], t[2], m) {
+                best = best.min((x - p).length());
+            }
+            assert!((q - p).length() <= best + 1e-12 && (q - p).length() > best - 5e-3, "{p}");
+        }
+    }
+}
