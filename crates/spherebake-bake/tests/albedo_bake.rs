@@ -511,19 +511,15 @@ fn segment_assignment_is_conservative() {
         let [a, b, c] = tri.map(|v| mesh.positions[v as usize].as_dvec3());
         let m = 60;
         let mut owners = std::collections::BTreeSet::new();
-        for i in 0..=m {
-            for j in 0..=(m - i) {
-                let p = a + (b - a) * (i as f64 / m as f64) + (c - a) * (j as f64 / m as f64);
-                let (mut best, mut arg) = (f64::INFINITY, 0);
-                for (k, s) in spheres.iter().enumerate() {
-                    let d =
-                        (p - DVec3::new(f64::from(s[0]), f64::from(s[1]), f64::from(s[2]))).length() / f64::from(s[3]);
-                    if d < best {
-                        (best, arg) = (d, k);
-                    }
+        for (_, _, p) in spherebake_geom::triangle::triangle_grid(a, b, c, m) {
+            let (mut best, mut arg) = (f64::INFINITY, 0);
+            for (k, s) in spheres.iter().enumerate() {
+                let d = (p - DVec3::new(f64::from(s[0]), f64::from(s[1]), f64::from(s[2]))).length() / f64::from(s[3]);
+                if d < best {
+                    (best, arg) = (d, k);
                 }
-                owners.insert(arg);
             }
+            owners.insert(arg);
         }
         for o in &owners {
             assert!(seg[*o].contains(&(t as u32)), "triangle {t} has points in segment {o} but is not rendered for it");
