@@ -1469,31 +1469,11 @@ pub fn evaluate(
 mod tests_support {
     use super::*;
 
-    /// A closed, outward-oriented UV sphere (poles are single vertices).
+    /// A closed, outward-oriented UV sphere (poles are single vertices):
+    /// `spherebake_testkit::mesh::uv_sphere`.
     pub(crate) fn uv_sphere(n: u32, radius: f64) -> (Vec<DVec3>, Vec<[u32; 3]>) {
-        let mut p = vec![DVec3::new(0.0, 0.0, radius)];
-        for i in 1..n {
-            let th = PI * i as f64 / n as f64;
-            for j in 0..2 * n {
-                let ph = PI * j as f64 / n as f64;
-                p.push(radius * DVec3::new(th.sin() * ph.cos(), th.sin() * ph.sin(), th.cos()));
-            }
-        }
-        p.push(DVec3::new(0.0, 0.0, -radius));
-        let ring = |i: u32, j: u32| 1 + (i - 1) * 2 * n + (j % (2 * n));
-        let last = p.len() as u32 - 1;
-        let mut t = Vec::new();
-        for j in 0..2 * n {
-            t.push([0, ring(1, j), ring(1, j + 1)]);
-            t.push([last, ring(n - 1, j + 1), ring(n - 1, j)]);
-        }
-        for i in 1..n - 1 {
-            for j in 0..2 * n {
-                t.push([ring(i, j), ring(i + 1, j), ring(i + 1, j + 1)]);
-                t.push([ring(i, j), ring(i + 1, j + 1), ring(i, j + 1)]);
-            }
-        }
-        (p, t)
+        let (p, t) = spherebake_testkit::mesh::uv_sphere(n, radius);
+        (p.into_iter().map(DVec3::from).collect(), t)
     }
 }
 

@@ -2,35 +2,13 @@
 //! the descent never raises the proxy E where it starts from a covering, the presets do the
 //! work they document and still bound, target mode keeps every run's trace and times.
 
-use glam::Vec3;
+use glam::{DVec3, Vec3};
 use spherebake_fit::{fit, FitPlan, FitResult, FitSettings, TraceEntry};
-use std::f64::consts::PI;
 
 /// A closed, outward-oriented UV sphere of radius 1 (poles single vertices), `n` rings.
 fn uv_sphere(n: u32) -> (Vec<Vec3>, Vec<[u32; 3]>) {
-    let mut p = vec![Vec3::Z];
-    for i in 1..n {
-        let th = PI * f64::from(i) / f64::from(n);
-        for j in 0..2 * n {
-            let ph = PI * f64::from(j) / f64::from(n);
-            p.push(Vec3::new((th.sin() * ph.cos()) as f32, (th.sin() * ph.sin()) as f32, th.cos() as f32));
-        }
-    }
-    p.push(-Vec3::Z);
-    let ring = |i: u32, j: u32| 1 + (i - 1) * 2 * n + (j % (2 * n));
-    let last = p.len() as u32 - 1;
-    let mut t = Vec::new();
-    for j in 0..2 * n {
-        t.push([0, ring(1, j), ring(1, j + 1)]);
-        t.push([last, ring(n - 1, j + 1), ring(n - 1, j)]);
-    }
-    for i in 1..n - 1 {
-        for j in 0..2 * n {
-            t.push([ring(i, j), ring(i + 1, j), ring(i + 1, j + 1)]);
-            t.push([ring(i, j), ring(i + 1, j + 1), ring(i, j + 1)]);
-        }
-    }
-    (p, t)
+    let (p, t) = spherebake_testkit::mesh::uv_sphere(n, 1.0);
+    (p.into_iter().map(|q| DVec3::from(q).as_vec3()).collect(), t)
 }
 
 /// Two UV spheres (radii 1 and 0.7, a gap of 0.1 between them), so the

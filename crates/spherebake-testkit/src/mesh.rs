@@ -15,6 +15,38 @@ pub fn unit_cube() -> (Vec<[f64; 3]>, Vec<[u32; 3]>) {
     (p, t)
 }
 
+/// A closed, outward-oriented UV sphere of `radius` about the origin: single-vertex poles at
+/// ±radius on z, `n − 1` rings of `2n` vertices at polar angles θ = πi/n and azimuths φ = πj/n;
+/// 4n(n − 1) counter-clockwise triangles (fans at the poles, two per quad between rings).
+/// `n ≥ 2`.
+#[must_use]
+pub fn uv_sphere(n: u32, radius: f64) -> (Vec<[f64; 3]>, Vec<[u32; 3]>) {
+    use std::f64::consts::PI;
+    let mut p = vec![[0.0, 0.0, radius]];
+    for i in 1..n {
+        let th = PI * f64::from(i) / f64::from(n);
+        for j in 0..2 * n {
+            let ph = PI * f64::from(j) / f64::from(n);
+            p.push([radius * (th.sin() * ph.cos()), radius * (th.sin() * ph.sin()), radius * th.cos()]);
+        }
+    }
+    p.push([0.0, 0.0, -radius]);
+    let ring = |i: u32, j: u32| 1 + (i - 1) * 2 * n + (j % (2 * n));
+    let last = p.len() as u32 - 1;
+    let mut t = Vec::new();
+    for j in 0..2 * n {
+        t.push([0, ring(1, j), ring(1, j + 1)]);
+        t.push([last, ring(n - 1, j + 1), ring(n - 1, j)]);
+    }
+    for i in 1..n - 1 {
+        for j in 0..2 * n {
+            t.push([ring(i, j), ring(i + 1, j), ring(i + 1, j + 1)]);
+            t.push([ring(i, j), ring(i + 1, j + 1), ring(i, j + 1)]);
+        }
+    }
+    (p, t)
+}
+
 /// Minimal OBJ reader: `v x y z` lines (parsed as `T`, `f32` or `f64`) and polygonal `f` lines
 /// (fan-triangulated; `v/vt/vn` forms; negative indices count back from the last vertex);
 /// everything else is ignored. Unreferenced vertices are kept, nothing is welded.
@@ -79,6 +111,26 @@ mod tests {
         let (p, t) = unit_cube();
         assert_eq!((p.len(), t.len()), (8, 12));
         assert!((closed_mesh_volume(&p, &t) - 1.0).abs() < 1e-15);
+    }
+
+    #[test]
+    fn uv_sphere_is_closed_outward_and_inscribed() {
+        for n in [2u32, 3, 12] {
+            let (p, t) = uv_sphere(n, 2.0);
+            assert_eq!(p.len() as u32, 2 + (n - 1) * 2 * n);
+            assert_eq!(t.len() as u32, 4 * n * (n - 1));
+            assert!(p.iter().all(|q| ((q[0] * q[0] + q[1] * q[1] + q[2] * q[2]).sqrt() - 2.0).abs() < 1e-12));
+            // Every edge used once in each direction: closed and consistently oriented.
+            let mut edges = std::collections::BTreeMap::new();
+            for tri in &t {
+                for e in 0..3 {
+                    *edges.entry((tri[e], tri[(e + 1) % 3])).or_insert(0) += 1;
+                }
+            }
+            assert!(edges.iter().all(|(&(a, b), &c)| c == 1 && edges.get(&(b, a)) == Some(&1)));
+            let vol = closed_mesh_volume(&p, &t);
+            assert!(vol > 0.0 && vol < 4.0 / 3.0 * std::f64::consts::PI * 8.0, "{n}: {vol}");
+        }
     }
 
     #[test]
