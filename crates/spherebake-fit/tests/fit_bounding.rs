@@ -19,54 +19,10 @@ fn load_obj(name: &str) -> Option<(Vec<Vec3>, Vec<[u32; 3]>)> {
 }
 
 /// Closed outward boundary of a union of unit voxels scaled by `s`, each face split into
-/// `n`×`n` quads (so the fixtures have enough vertices to cluster).
+/// `n`×`n` quads (so the fixtures have enough vertices to cluster): `spherebake_testkit::mesh::voxel_union`.
 fn voxel_union(cells: &[[i32; 3]], s: f32, n: u32) -> (Vec<Vec3>, Vec<[u32; 3]>) {
-    let mut pos: Vec<Vec3> = Vec::new();
-    let mut tris = Vec::new();
-    let mut index = std::collections::BTreeMap::new();
-    let mut vid = |p: [i64; 3], pos: &mut Vec<Vec3>| -> u32 {
-        *index.entry(p).or_insert_with(|| {
-            pos.push(Vec3::new(p[0] as f32, p[1] as f32, p[2] as f32) * (s / n as f32));
-            pos.len() as u32 - 1
-        })
-    };
-    let has = |c: [i32; 3]| cells.contains(&c);
-    for &c in cells {
-        for axis in 0..3 {
-            for dir in [-1i32, 1] {
-                let mut nb = c;
-                nb[axis] += dir;
-                if has(nb) {
-                    continue;
-                }
-                let u = (axis + 1) % 3;
-                let v = (axis + 2) % 3;
-                for a in 0..n as i64 {
-                    for b in 0..n as i64 {
-                        let mut q = [[0i64; 3]; 4];
-                        for (qi, (du, dv)) in [(0, 0), (1, 0), (1, 1), (0, 1)].iter().enumerate() {
-                            let mut x = [c[0] as i64 * n as i64, c[1] as i64 * n as i64, c[2] as i64 * n as i64];
-                            if dir > 0 {
-                                x[axis] += n as i64;
-                            }
-                            x[u] += a + du;
-                            x[v] += b + dv;
-                            q[qi] = x;
-                        }
-                        let ids: Vec<u32> = q.iter().map(|x| vid(*x, &mut pos)).collect();
-                        if dir > 0 {
-                            tris.push([ids[0], ids[1], ids[2]]);
-                            tris.push([ids[0], ids[2], ids[3]]);
-                        } else {
-                            tris.push([ids[0], ids[2], ids[1]]);
-                            tris.push([ids[0], ids[3], ids[2]]);
-                        }
-                    }
-                }
-            }
-        }
-    }
-    (pos, tris)
+    let (p, t) = spherebake_testkit::mesh::voxel_union(cells, n);
+    (p.into_iter().map(|p| Vec3::new(p[0] as f32, p[1] as f32, p[2] as f32) * (s / n as f32)).collect(), t)
 }
 
 fn in_some(spheres: &[[f32; 4]], p: DVec3) -> bool {

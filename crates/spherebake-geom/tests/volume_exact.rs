@@ -11,47 +11,11 @@ fn cube() -> (Vec<DVec3>, Vec<[u32; 3]>) {
 }
 
 /// Closed outward boundary of a union of unit voxels: every voxel face not shared with another
-/// voxel, as two triangles (independently derived from the voxel list, not from library code).
+/// voxel, as two triangles (`spherebake_testkit::mesh::voxel_union`, derived from the voxel list,
+/// not from library code).
 fn voxel_union(cells: &[[i32; 3]]) -> (Vec<DVec3>, Vec<[u32; 3]>) {
-    let mut p = Vec::new();
-    let mut t = Vec::new();
-    let has = |c: [i32; 3]| cells.contains(&c);
-    for &c in cells {
-        for axis in 0..3 {
-            for dir in [-1i32, 1] {
-                let mut nb = c;
-                nb[axis] += dir;
-                if has(nb) {
-                    continue;
-                }
-                let u = (axis + 1) % 3;
-                let v = (axis + 2) % 3;
-                let mut quad = [[0f64; 3]; 4];
-                for (q, (du, dv)) in [(0, 0), (1, 0), (1, 1), (0, 1)].iter().enumerate() {
-                    let mut x = [c[0] as f64, c[1] as f64, c[2] as f64];
-                    if dir > 0 {
-                        x[axis] += 1.0;
-                    }
-                    x[u] += *du as f64;
-                    x[v] += *dv as f64;
-                    quad[q] = x;
-                }
-                let base = p.len() as u32;
-                for q in quad {
-                    p.push(DVec3::from_array(q));
-                }
-                // (u, v, axis) is right-handed, so u×v = +axis: CCW in (u, v) faces +axis.
-                if dir > 0 {
-                    t.push([base, base + 1, base + 2]);
-                    t.push([base, base + 2, base + 3]);
-                } else {
-                    t.push([base, base + 2, base + 1]);
-                    t.push([base, base + 3, base + 2]);
-                }
-            }
-        }
-    }
-    (p, t)
+    let (p, t) = spherebake_testkit::mesh::voxel_union(cells, 1);
+    (p.into_iter().map(|q| DVec3::new(q[0] as f64, q[1] as f64, q[2] as f64)).collect(), t)
 }
 
 fn close_rel(a: f64, b: f64, tol: f64) {

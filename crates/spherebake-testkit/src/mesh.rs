@@ -47,6 +47,63 @@ pub fn uv_sphere(n: u32, radius: f64) -> (Vec<[f64; 3]>, Vec<[u32; 3]>) {
     (p, t)
 }
 
+/// Closed outward boundary of a union of unit voxels `cells` (cell c spans [c, c + 1]³): every
+/// face not shared with another cell of the list, split into `n`×`n` quads of two
+/// counter-clockwise triangles each. Vertices are welded and given as integer lattice points in
+/// units of 1/n (scale them to taste), numbered in order of first use; faces go cell by cell,
+/// axis x, y, z, the − side before the +. Derived from the cell list alone (no library code).
+#[must_use]
+pub fn voxel_union(cells: &[[i32; 3]], n: u32) -> (Vec<[i64; 3]>, Vec<[u32; 3]>) {
+    let n = i64::from(n);
+    let mut pos: Vec<[i64; 3]> = Vec::new();
+    let mut tris = Vec::new();
+    let mut index = std::collections::BTreeMap::new();
+    let mut vid = |p: [i64; 3], pos: &mut Vec<[i64; 3]>| -> u32 {
+        *index.entry(p).or_insert_with(|| {
+            pos.push(p);
+            pos.len() as u32 - 1
+        })
+    };
+    let has = |c: [i32; 3]| cells.contains(&c);
+    for &c in cells {
+        for axis in 0..3 {
+            for dir in [-1i32, 1] {
+                let mut nb = c;
+                nb[axis] += dir;
+                if has(nb) {
+                    continue;
+                }
+                let u = (axis + 1) % 3;
+                let v = (axis + 2) % 3;
+                for a in 0..n {
+                    for b in 0..n {
+                        let mut q = [[0i64; 3]; 4];
+                        for (qi, (du, dv)) in [(0, 0), (1, 0), (1, 1), (0, 1)].into_iter().enumerate() {
+                            let mut x = c.map(|k| i64::from(k) * n);
+                            if dir > 0 {
+                                x[axis] += n;
+                            }
+                            x[u] += a + du;
+                            x[v] += b + dv;
+                            q[qi] = x;
+                        }
+                        let ids = q.map(|x| vid(x, &mut pos));
+                        // (u, v, axis) is right-handed, so u×v = +axis: CCW in (u, v) faces +axis.
+                        if dir > 0 {
+                            tris.push([ids[0], ids[1], ids[2]]);
+                            tris.push([ids[0], ids[2], ids[3]]);
+                        } else {
+                            tris.push([ids[0], ids[2], ids[1]]);
+                            tris.push([ids[0], ids[3], ids[2]]);
+                        }
+                    }
+                }
+            }
+        }
+    }
+    (pos, tris)
+}
+
 /// Minimal OBJ reader: `v x y z` lines (parsed as `T`, `f32` or `f64`) and polygonal `f` lines
 /// (fan-triangulated; `v/vt/vn` forms; negative indices count back from the last vertex);
 /// everything else is ignored. Unreferenced vertices are kept, nothing is welded.
@@ -131,6 +188,20 @@ mod tests {
             let vol = closed_mesh_volume(&p, &t);
             assert!(vol > 0.0 && vol < 4.0 / 3.0 * std::f64::consts::PI * 8.0, "{n}: {vol}");
         }
+    }
+
+    #[test]
+    fn voxel_union_volume_and_faces() {
+        // An L of three cells: volume 3, 14 exposed faces.
+        let cells = [[0, 0, 0], [1, 0, 0], [0, 1, 0]];
+        for n in [1u32, 3] {
+            let (p, t) = voxel_union(&cells, n);
+            assert_eq!(t.len() as u32, 14 * 2 * n * n);
+            let pf: Vec<[f64; 3]> = p.iter().map(|q| q.map(|x| x as f64 / f64::from(n))).collect();
+            assert!((closed_mesh_volume(&pf, &t) - 3.0).abs() < 1e-12, "n = {n}");
+        }
+        // Welded: a single cell at n = 1 has its 8 corners.
+        assert_eq!(voxel_union(&[[5, -2, 7]], 1).0.len(), 8);
     }
 
     #[test]
