@@ -15,31 +15,8 @@ pub enum Method {
     Octree,
 }
 
-/// How much work the fit spends ([`spherebake_fit::FitPlan`]'s presets).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Default)]
-#[serde(rename_all = "lowercase")]
-pub enum Preset {
-    /// [`spherebake_fit::FitPlan::fast`]: fewer Lloyd iterations, no polish, fewer descent
-    /// trials; higher E.
-    Fast,
-    /// [`spherebake_fit::FitPlan::default`].
-    #[default]
-    Default,
-    /// [`spherebake_fit::FitPlan::best`]: the default's fit from four seeds, the lowest E kept
-    /// (never higher than the default's at the same seed); about four times the fit time.
-    Best,
-}
-
-impl Preset {
-    /// The fit's plan of this preset.
-    pub fn plan(self) -> spherebake_fit::FitPlan {
-        match self {
-            Preset::Fast => spherebake_fit::FitPlan::fast(),
-            Preset::Default => spherebake_fit::FitPlan::default(),
-            Preset::Best => spherebake_fit::FitPlan::best(),
-        }
-    }
-}
+/// How much work the fit spends: the fit's own presets ([`spherebake_fit::FitPlan`]), serialised by name.
+pub use spherebake_fit::Preset;
 
 /// Settings of one bake. Field docs give unit, default and valid range; the CLI repeats them.
 #[derive(Clone, Debug, PartialEq, Serialize)]
@@ -52,7 +29,7 @@ pub struct BakeSettings {
     /// [`Preset::Default`]. Recorded in the settings only when not the default, so files baked
     /// with the default keep their bytes; a change re-bakes (the up-to-date check compares the
     /// recorded settings).
-    #[serde(skip_serializing_if = "is_default_preset")]
+    #[serde(skip_serializing_if = "is_default_preset", serialize_with = "serialize_preset")]
     pub preset: Preset,
     /// Target mode: find the smallest sphere count whose outside-volume ratio E is at most this.
     /// Default none (use `spheres`), range (0, ∞).
@@ -111,6 +88,12 @@ fn is_false(b: &bool) -> bool {
 #[allow(clippy::trivially_copy_pass_by_ref)] // serde's skip_serializing_if passes a reference
 fn is_default_preset(p: &Preset) -> bool {
     *p == Preset::Default
+}
+
+/// The preset as its lowercase name (`fast`, `best`), as the settings record it.
+#[allow(clippy::trivially_copy_pass_by_ref)] // serde's serialize_with passes a reference
+fn serialize_preset<S: serde::Serializer>(p: &Preset, s: S) -> Result<S::Ok, S::Error> {
+    s.serialize_str(p.name())
 }
 
 impl BakeSettings {

@@ -200,14 +200,16 @@ struct Prepared {
     warnings: Vec<String>,
 }
 
-fn check_range<T: PartialOrd + std::fmt::Display>(
+/// `Err(InvalidSetting)` naming the setting unless lo ≤ v ≤ hi (NaN is rejected too).
+pub(crate) fn check_range<T: PartialOrd + std::fmt::Display>(
     name: &'static str,
     v: T,
     lo: T,
     hi: T,
     expected: &'static str,
 ) -> Result<(), FitError> {
-    if v < lo || v > hi {
+    // `!(lo <= v && v <= hi)` also rejects NaN.
+    if !(lo <= v && v <= hi) {
         return Err(FitError::InvalidSetting { name, value: v.to_string(), expected });
     }
     Ok(())
