@@ -578,7 +578,9 @@ fn fan_obj(n: usize) -> String {
 fn a_fan_of_slivers_bakes_in_bounded_memory_and_time() {
     // n = 1000 took 22 s / 481 MB (point sets grew with triangle size, not count), so n = 3000
     // needed well over 1 GB; now 8 s and 38 MB peak. Run under a 300 MB address-space limit
-    // and a deadline.
+    // and a deadline. `ulimit -v` caps address space, not memory: glibc reserves a 64 MB malloc
+    // arena per thread, so on a machine with 8+ cores the reservations alone pass 300 MB (CI
+    // failed so at 38 MB resident). MALLOC_ARENA_MAX=2 keeps the limit about what is used.
     let d = tempdir();
     std::fs::write(d.path().join("fan.obj"), fan_obj(3000)).unwrap();
     let exe = env!("CARGO_BIN_EXE_spherebake");
@@ -586,6 +588,7 @@ fn a_fan_of_slivers_bakes_in_bounded_memory_and_time() {
         .arg("-c")
         .arg("ulimit -v 300000 && exec \"$0\" bake fan.obj -o fan.sphb -q")
         .arg(exe)
+        .env("MALLOC_ARENA_MAX", "2")
         .current_dir(d.path())
         .stderr(Stdio::piped())
         .spawn()
@@ -665,6 +668,7 @@ fn batches_bake_jobs_assets_at_a_time_and_say_so() {
 fn voxels_1024_bakes_in_under_1_gb() {
     // Was 6.4 GB on this 12-triangle cube (bool per cell, an f32 prefix per cell, u8 votes, a
     // 512³ point grid); bit-packed cells and run lists: ~300 MB peak (kmeans and variational).
+    // MALLOC_ARENA_MAX: see a_fan_of_slivers_bakes_in_bounded_memory_and_time.
     let d = tempdir();
     std::fs::write(d.path().join("cube.obj"), CUBE_OBJ).unwrap();
     let exe = env!("CARGO_BIN_EXE_spherebake");
@@ -672,6 +676,7 @@ fn voxels_1024_bakes_in_under_1_gb() {
         .arg("-c")
         .arg("ulimit -v 1000000 && exec \"$0\" bake cube.obj -o c.sphb --voxels 1024 --method kmeans --spheres 8 -q")
         .arg(exe)
+        .env("MALLOC_ARENA_MAX", "2")
         .current_dir(d.path())
         .output()
         .unwrap();
