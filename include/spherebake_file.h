@@ -15,6 +15,7 @@
 #define SPHB_KIND_METADATA 7u
 #define SPHB_KIND_SAMPLES_Q16 8u
 #define SPHB_KIND_ALBEDO_SH_F16 9u
+#define SPHB_KIND_SAMPLE_AREAS 10u
 
 /* Index of an unused skin slot's bone and of a root bone's parent. */
 #define SPHB_FILE_NONE 0xFFFFFFFFu
@@ -23,8 +24,8 @@
 typedef struct SphbFileHeader {
     uint8_t magic[8];       /* 0x89 'S' 'P' 'H' 'B' 0x0D 0x0A 0x1A */
     uint16_t major;         /* 1 */
-    uint16_t minor;         /* 0, or 1 with a compact section */
-    uint32_t header_size;   /* 64 for minors 0 and 1 */
+    uint16_t minor;         /* 0; 1 with a compact section; 2 with sample_areas */
+    uint32_t header_size;   /* 64 for minors 0 to 2 */
     uint32_t flags;         /* reserved, 0 */
     uint32_t section_count; /* entries in the table */
     uint64_t table_offset;  /* multiple of 16, >= header_size */
@@ -101,6 +102,15 @@ typedef struct SphbFileSampleQ16 {
     uint8_t direction;
     uint8_t rule;
 } SphbFileSampleQ16;
+
+/* §7.2, kind 10: the sub-header, then sample_count areas, one per sample of kind 3 or 8 in the
+ * same order: float (model units², encoding 0) or IEEE binary16 bits as uint16_t (units of the
+ * sample's sphere radius squared, encoding 1). */
+typedef struct SphbFileSampleAreasHeader {
+    uint32_t sample_count; /* S, the samples section's */
+    uint8_t encoding;      /* 0 = float, 1 = binary16 per r² */
+    uint8_t reserved[11];
+} SphbFileSampleAreasHeader;
 
 /* §8 and §8.1, kinds 4 and 9: the sub-header, then sphere_count * order * order * 3 coefficients,
  * float (kind 4) or IEEE binary16 as uint16_t (kind 9), sphere s, coefficient i, channel c at

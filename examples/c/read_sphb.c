@@ -118,6 +118,46 @@ static int read_samples(const Section *s, int compact, uint32_t sphere_count) {
     return 0;
 }
 
+/* §7.2: after the samples (rules 5012-5015); prints the count, the first four and the sum. */
+static int read_areas(const Section *s, const Section *smp, const SphbFileSphere *sphere, uint32_t sphere_count) {
+    const SphbFileSampleAreasHeader *h;
+    const uint32_t *off = NULL;
+    double sum = 0.0;
+    uint32_t k, i = 0, width, count = 0;
+    if (s->length < 16) return reject(5012, "sample_areas section shorter than its sub-header");
+    h = (const SphbFileSampleAreasHeader *)s->data;
+    if (h->encoding > 1) return reject(5015, "sample_areas encoding");
+    width = h->encoding == 0 ? 4u : 2u;
+    if (s->length != 16 + width * (uint64_t)h->sample_count) return reject(5012, "sample_areas section length");
+    if (smp) {
+        count = ((const SphbFileSamplesHeader *)smp->data)->sample_count;
+        off = (const uint32_t *)(smp->data + 16);
+    }
+    if (!smp || h->sample_count != count) return reject(5013, "sample_areas count");
+    printf("areas %u", (unsigned)h->sample_count);
+    for (k = 0; k < h->sample_count; k++) {
+        float a;
+        int ok;
+        if (h->encoding == 0) {
+            memcpy(&a, s->data + 16 + 4 * (uint64_t)k, sizeof a);
+            ok = isfinite(a) && a >= 0.0f;
+        } else {
+            uint16_t bits;
+            double r;
+            while (i < sphere_count && off[i + 1] <= k) i++; /* the sample's sphere */
+            memcpy(&bits, s->data + 16 + 2 * (uint64_t)k, sizeof bits);
+            r = i < sphere_count ? (double)sphere[i].radius : 0.0;
+            a = (float)((double)half_to_float(bits) * r * r);
+            ok = (bits & 0x8000u) == 0 && (bits & 0x7C00u) != 0x7C00u;
+        }
+        if (!ok) return reject(5014, "sample area");
+        if (k < 4) printf(" %a", a);
+        sum += a;
+    }
+    printf(" sum %.6f\n", sum);
+    return 0;
+}
+
 static int read_hierarchy(const Section *s, uint32_t sphere_count) {
     const SphbFileHierarchyHeader *h;
     const SphbFileNode *node;
@@ -272,7 +312,7 @@ static int read_file(const uint8_t *f, uint64_t len) {
     static const uint8_t magic[8] = {0x89, 'S', 'P', 'H', 'B', 0x0D, 0x0A, 0x1A};
     const SphbFileHeader *h = (const SphbFileHeader *)f;
     const SphbFileSectionEntry *t;
-    Section sec[10];
+    Section sec[11];
     const SphbFileSpheresHeader *sh;
     const SphbFileSphere *sphere;
     uint64_t table_end, prev_end;
@@ -283,7 +323,7 @@ static int read_file(const uint8_t *f, uint64_t len) {
     if (len < 64) return reject(1001, "file shorter than 64 bytes");
     if (memcmp(h->magic, magic, 8) != 0) return reject(1002, "magic");
     if (h->major != 1) return reject(1003, "major version");
-    if (h->minor <= 1 ? h->header_size != 64 : (h->header_size < 64 || h->header_size % 16 != 0 || h->header_size > len))
+    if (h->minor <= 2 ? h->header_size != 64 : (h->header_size < 64 || h->header_size % 16 != 0 || h->header_size > len))
         return reject(1004, "header size");
     if (crc32_of(f, 44) != h->header_crc32) return reject(1005, "header checksum");
     if (h->file_size != len) return reject(1006, "file size");
@@ -307,7 +347,7 @@ static int read_file(const uint8_t *f, uint64_t len) {
         if (t[i].offset < table_end || t[i].offset > len || len - t[i].offset < t[i].length)
             return reject(2005, "section bounds");
         if (t[i].offset < prev_end) return reject(2006, "section order");
-        if (kind >= 1 && kind <= 9) {
+        if (kind >= 1 && kind <= 10) {
             if (sec[kind].data) return reject(2007, "duplicate section");
             if ((kind == 3 && sec[8].data) || (kind == 8 && sec[3].data) || (kind == 4 && sec[9].data) ||
                 (kind == 9 && sec[4].data))
@@ -315,7 +355,7 @@ static int read_file(const uint8_t *f, uint64_t len) {
         }
         if (!all_zero(f, prev_end, t[i].offset)) return reject(2010, "non-zero padding");
         if (crc32_of(f + t[i].offset, t[i].length) != t[i].crc32) return reject(2008, "section checksum");
-        if (kind >= 1 && kind <= 9) {
+        if (kind >= 1 && kind <= 10) {
             sec[kind].data = f + t[i].offset;
             sec[kind].length = t[i].length;
         }
@@ -343,6 +383,10 @@ static int read_file(const uint8_t *f, uint64_t len) {
     if (sec[2].data && (status = read_hierarchy(&sec[2], sh->sphere_count)) != 0) return status;
     if (sec[3].data && (status = read_samples(&sec[3], 0, sh->sphere_count)) != 0) return status;
     if (sec[8].data && (status = read_samples(&sec[8], 1, sh->sphere_count)) != 0) return status;
+    if (sec[10].data) {
+        const Section *smp = sec[3].data ? &sec[3] : (sec[8].data ? &sec[8] : NULL);
+        if ((status = read_areas(&sec[10], smp, sphere, sh->sphere_count)) != 0) return status;
+    }
     if (sec[4].data && (status = read_albedo(&sec[4], 0, sh->sphere_count)) != 0) return status;
     if (sec[9].data && (status = read_albedo(&sec[9], 1, sh->sphere_count)) != 0) return status;
     if (sec[5].data && (status = read_skin(&sec[5], sh->sphere_count, sec[6].data != NULL, bone_count)) != 0)

@@ -172,6 +172,10 @@ pub struct SampleSummary {
     pub share_rule2_empty: f64,
     /// Share left empty by rule 3 (no hit, and nothing in the segment along −ω).
     pub share_rule3_empty: f64,
+    /// Sum of the sample areas (spec §7.2), model units².
+    pub area_assigned: f64,
+    /// Mesh area in segments of spheres without samples (carried by no sample), model units².
+    pub area_unassigned: f64,
 }
 
 /// The result of a bake: the file (as data and as bytes) and the report.
@@ -377,6 +381,8 @@ pub fn bake_imported(
             per_sphere_min: sample_stats.samples_per_sphere_min,
             share_rule2_empty: sample_stats.share_rule2_empty,
             share_rule3_empty: sample_stats.share_rule3_empty,
+            area_assigned: sample_stats.area_assigned,
+            area_unassigned: sample_stats.area_unassigned,
         },
         timings,
         fit_stages,

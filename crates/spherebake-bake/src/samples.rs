@@ -89,6 +89,12 @@ pub struct SampleStats {
     pub counts: RuleCounts,
     /// Per sphere, in sphere order.
     pub per_sphere: Vec<RuleCounts>,
+    /// Sample areas ([`sample_areas`]): their sum, model units².
+    pub area_assigned: f64,
+    /// Mesh area in segments of spheres without samples (no sample to carry it), model units².
+    pub area_unassigned: f64,
+    /// Sub-triangles the area was split into.
+    pub area_points: u64,
     /// Wall time of the stage, seconds.
     pub seconds: f64,
 }
@@ -130,8 +136,162 @@ pub fn place_samples(mesh: &Mesh, bvh: &TriangleBvh, flip: &[bool], spheres: &[[
         stats.share_rule2_empty = stats.counts.rule2_empty as f64 / pairs;
         stats.share_rule3_empty = stats.counts.rule3_empty as f64 / pairs;
     }
+    let (areas, area) = sample_areas(mesh, &ctx, &samples);
+    samples.areas = Some(areas);
+    stats.area_assigned = area.assigned;
+    stats.area_unassigned = area.unassigned;
+    stats.area_points = area.points;
     stats.seconds = start.elapsed().as_secs_f64();
     (samples, stats)
+}
+
+/// Sub-triangle edge target for [`sample_areas`], as a share of the median sphere radius: a
+/// sample's tile is about 0.37 t across (t its distance from the centre), so a tenth of a radius
+/// puts ~10 sub-triangles or more on each tile.
+const AREA_EDGE_PER_RADIUS: f64 = 0.1;
+/// Most sub-triangles [`sample_areas`] uses in all (it coarsens its edge target until the
+/// subdivision fits; a mesh with more triangles than this uses one point per triangle).
+const AREA_MAX_POINTS: u64 = 1 << 22;
+/// Most subdivisions of one triangle edge.
+const AREA_MAX_SPLIT: u64 = 256;
+/// Triangles per parallel work item (a constant, so the summation order, and with it every bit
+/// of the result, does not depend on the thread count).
+const AREA_CHUNK: usize = 1024;
+
+/// Totals of one [`sample_areas`] run.
+#[derive(Clone, Copy, Debug, Default)]
+struct AreaTotals {
+    assigned: f64,
+    unassigned: f64,
+    points: u64,
+}
+
+/// The surface area each sample stands for (spec §7.2, format minor 2), one per sample in
+/// `samples` order, f32 model units². Every triangle is split uniformly into m² sub-triangles
+/// (m = ⌈longest edge / h⌉, h = [`AREA_EDGE_PER_RADIUS`] × the median valid radius, coarsened
+/// until at most [`AREA_MAX_POINTS`] sub-triangles, m ≤ [`AREA_MAX_SPLIT`]); each sub-triangle's
+/// area goes to the sphere whose segment holds its centroid (smallest scaled distance, the same
+/// rule as the samples) and there to the sample whose direction is nearest to the centroid's
+/// direction from the centre, or when that direction has no sample, to the sample whose
+/// direction is nearest to that direction. So a sphere's areas sum to its segment's area, and
+/// all areas to the mesh's, except segments of spheres without samples.
+///
+/// Cost: O(P (log S + 92)) for P ≤ max(T, [`AREA_MAX_POINTS`]) points, parallel over fixed
+/// chunks of triangles, summed in chunk order (deterministic for any thread count).
+fn sample_areas(mesh: &Mesh, ctx: &Ctx<'_>, samples: &Samples) -> (Vec<f32>, AreaTotals) {
+    let mut totals = AreaTotals::default();
+    let total = samples.total();
+    // Per (sphere, direction): the global index of the sample that carries that direction.
+    let n = samples.sphere_count();
+    let mut carrier = vec![u32::MAX; n * GEODESIC_DIRECTION_COUNT];
+    for i in 0..n {
+        let range = samples.range_of(i);
+        let own: Vec<(usize, u32)> =
+            samples.of(i).iter().zip(range).map(|(p, g)| (usize::from(p.direction), g as u32)).collect();
+        if own.is_empty() {
+            continue;
+        }
+        for k in 0..GEODESIC_DIRECTION_COUNT {
+            let wk = Vec3::from(GEODESIC_DIRECTIONS[k]).as_dvec3();
+            let mut best: Option<(f64, u32)> = None;
+            for &(j, g) in &own {
+                let Some(wj) = GEODESIC_DIRECTIONS.get(j) else { continue };
+                let d = wk.dot(Vec3::from(*wj).as_dvec3());
+                if best.is_none_or(|(bd, _)| d > bd) {
+                    best = Some((d, g));
+                }
+            }
+            if let Some((_, g)) = best {
+                carrier[i * GEODESIC_DIRECTION_COUNT + k] = g;
+            }
+        }
+    }
+    let mut radii: Vec<f64> = ctx.spheres.iter().map(|s| s.1).collect();
+    radii.sort_by(f64::total_cmp);
+    let Some(&median) = radii.get(radii.len() / 2) else {
+        return (vec![0.0; total], totals);
+    };
+    let tris: Vec<Option<([DVec3; 3], f64)>> = (0..mesh.triangles.len() as u32)
+        .map(|t| {
+            let c = ctx.corners(t)?;
+            let longest = (c[1] - c[0]).length().max((c[2] - c[1]).length()).max((c[0] - c[2]).length());
+            (c.iter().all(|v| v.is_finite()) && longest.is_finite()).then_some((c, longest))
+        })
+        .collect();
+    let split = |h: f64, longest: f64| -> u64 { ((longest / h).ceil() as u64).clamp(1, AREA_MAX_SPLIT) };
+    let mut h = AREA_EDGE_PER_RADIUS * median;
+    for _ in 0..32 {
+        let count: u64 = tris.iter().flatten().map(|&(_, l)| split(h, l).pow(2)).sum();
+        if count <= AREA_MAX_POINTS {
+            break;
+        }
+        h *= ((count as f64 / AREA_MAX_POINTS as f64).sqrt()).max(1.01);
+    }
+    let dirs: Vec<DVec3> = GEODESIC_DIRECTIONS.iter().map(|w| Vec3::from(*w).as_dvec3()).collect();
+    let per_chunk: Vec<(Vec<(u32, f64)>, AreaTotals)> = tris
+        .par_chunks(AREA_CHUNK)
+        .map(|chunk| {
+            let mut out: Vec<(u32, f64)> = Vec::new();
+            let mut t = AreaTotals::default();
+            for &(c, longest) in chunk.iter().flatten() {
+                let m = split(h, longest);
+                let area = 0.5 * (c[1] - c[0]).cross(c[2] - c[0]).length();
+                if !(area.is_finite() && area > 0.0) {
+                    continue;
+                }
+                let w = area / (m * m) as f64;
+                let (e1, e2) = ((c[1] - c[0]) / m as f64, (c[2] - c[0]) / m as f64);
+                // Upward sub-triangles (i, j), i + j ≤ m − 1, centroid at (i + ⅓, j + ⅓); downward
+                // ones, i + j ≤ m − 2, at (i + ⅔, j + ⅔), in units of the edge steps.
+                for i in 0..m {
+                    for j in 0..m - i {
+                        for (off, ok) in [(1.0 / 3.0, true), (2.0 / 3.0, i + j + 2 <= m)] {
+                            if !ok {
+                                continue;
+                            }
+                            let x = c[0] + e1 * (i as f64 + off) + e2 * (j as f64 + off);
+                            t.points += 1;
+                            match ctx.tree.owner(&ctx.spheres, x) {
+                                Some((k, ck)) => {
+                                    let d = x - ck;
+                                    let mut best = (f64::NEG_INFINITY, 0usize);
+                                    for (q, wq) in dirs.iter().enumerate() {
+                                        let v = wq.dot(d);
+                                        if v > best.0 {
+                                            best = (v, q);
+                                        }
+                                    }
+                                    match carrier.get(k * GEODESIC_DIRECTION_COUNT + best.1) {
+                                        Some(&g) if g != u32::MAX => {
+                                            out.push((g, w));
+                                            t.assigned += w;
+                                        }
+                                        _ => t.unassigned += w,
+                                    }
+                                }
+                                None => t.unassigned += w,
+                            }
+                        }
+                    }
+                }
+            }
+            // Stable: equal sample indices keep their push order, so the sums below are fixed.
+            out.sort_by_key(|e| e.0);
+            (out, t)
+        })
+        .collect();
+    let mut acc = vec![0.0f64; total];
+    for (list, t) in per_chunk {
+        for (g, w) in list {
+            if let Some(a) = acc.get_mut(g as usize) {
+                *a += w;
+            }
+        }
+        totals.assigned += t.assigned;
+        totals.unassigned += t.unassigned;
+        totals.points += t.points;
+    }
+    (acc.into_iter().map(|a| a as f32).collect(), totals)
 }
 
 /// Index of the sphere whose segment contains `p`: argmin |p − cⱼ| / rⱼ, ties to the lowest
@@ -351,6 +511,40 @@ impl SphereTree {
         id
     }
 
+    /// The sphere whose segment holds `p`: (index, centre) of argmin_j |p − c_j| / r_j, ties to
+    /// the lowest index (the answer [`segment_of`] gives); `None` without spheres.
+    fn owner(&self, spheres: &[(DVec3, f64, usize)], p: DVec3) -> Option<(usize, DVec3)> {
+        let mut best: Option<(f64, usize, DVec3)> = None;
+        if self.nodes.is_empty() {
+            return None;
+        }
+        let mut stack = [0u32; 64];
+        let mut top = 1;
+        while top > 0 {
+            top -= 1;
+            let n = self.nodes[stack[top] as usize];
+            if let Some((bd, _, _)) = best {
+                let gap = (p - p.clamp(n.min, n.max)).length();
+                if gap > bd * n.r_max * (1.0 + 1e-9) {
+                    continue;
+                }
+            }
+            if n.leaf {
+                for &(c, r, j) in &spheres[n.start as usize..n.end as usize] {
+                    let dj = (p - c).length() / r;
+                    if best.is_none_or(|(bd, bj, _)| dj < bd || (dj == bd && j < bj)) {
+                        best = Some((dj, j, c));
+                    }
+                }
+            } else if top + 2 <= stack.len() {
+                stack[top] = n.start;
+                stack[top + 1] = n.end;
+                top += 2;
+            }
+        }
+        best.map(|(_, j, c)| (j, c))
+    }
+
     /// Whether a sphere j ≠ i has d_j < dᵢ, or d_j = dᵢ with j < i, at `p`.
     fn any_beats(&self, spheres: &[(DVec3, f64, usize)], p: DVec3, i: usize, di: f64) -> bool {
         if self.nodes.is_empty() {
@@ -410,6 +604,7 @@ mod tests {
                 let p = Vec3::new(next() * 6.0 - 3.0, next() * 6.0 - 3.0, next() * 6.0 - 3.0).as_dvec3();
                 let owner = segment_of(p.as_vec3(), &spheres).expect("valid spheres");
                 let p32 = p.as_vec3().as_dvec3();
+                assert_eq!(ctx.tree.owner(&ctx.spheres, p32).map(|o| o.0), Some(owner), "n {n}");
                 for (i, s) in spheres.iter().enumerate() {
                     let (c, r) = valid_sphere(s).expect("valid");
                     assert_eq!(ctx.in_segment(p32, i, c, r), i == owner, "n {n} sphere {i}");

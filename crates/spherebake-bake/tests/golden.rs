@@ -68,6 +68,9 @@ fn summary(fixture: &str, out: &BakeOutput) -> String {
     line("samples_per_sphere_min", format!("{smin:.0}"));
     line("samples_per_sphere_mean", format!("{smean:.6}"));
     line("samples_per_sphere_max", format!("{smax:.0}"));
+    let area_sum: f64 =
+        f.samples.as_ref().and_then(|s| s.areas.as_ref()).map_or(0.0, |a| a.iter().map(|&v| f64::from(v)).sum());
+    line("sample_area_sum", format!("{area_sum:.6}"));
     line("albedo_sh_order", sh.map_or(0, |s| s.order).to_string());
     line("albedo_dc_mean", format!("[{:.6}, {:.6}, {:.6}]", dc[0], dc[1], dc[2]));
     line("bones", f.bones.as_ref().map_or(0, Vec::len).to_string());

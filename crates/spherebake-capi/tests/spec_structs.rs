@@ -141,6 +141,7 @@ const MAP: &[(&str, &str, usize, bool)] = &[
     ("SphbFileSamplesHeader", "### 7.1 Compact samples", 0, true),
     ("SphbFileSampleBox", "### 7.1 Compact samples", 1, false),
     ("SphbFileSampleQ16", "### 7.1 Compact samples", 2, false),
+    ("SphbFileSampleAreasHeader", "### 7.2 Sample areas", 0, true),
     ("SphbFileAlbedoShHeader", "## 8. Albedo SH", 0, true),
     ("SphbFileSkinHeader", "## 9. Skin", 0, true),
     ("SphbFileSkinSlot", "## 9. Skin", 1, false),
@@ -183,7 +184,7 @@ fn spec_structs_match_the_byte_tables() {
     // Every struct the spec declares is checked against a table.
     let declared: Vec<&str> =
         header.lines().filter_map(|l| l.strip_prefix("} ")).map(|l| l.trim_end_matches(';')).collect();
-    assert_eq!(declared.len(), 17, "{declared:?}");
+    assert_eq!(declared.len(), 18, "{declared:?}");
     for d in &declared {
         assert!(MAP.iter().any(|m| m.0 == *d), "struct {d} of the spec is mapped to no byte table");
     }
@@ -340,6 +341,14 @@ fn expected(bytes: &[u8]) -> String {
             }
         }
     }
+    if let Some(a) = f.samples.as_ref().and_then(|sm| sm.areas.as_ref()) {
+        let _ = write!(s, "areas {}", a.len());
+        for v in a.iter().take(4) {
+            let _ = write!(s, " {}", hf(*v));
+        }
+        let sum: f64 = a.iter().map(|&v| f64::from(v)).sum();
+        let _ = writeln!(s, " sum {sum:.6}");
+    }
     if let Some(a) = &f.albedo_sh {
         let compact = entries.iter().any(|e| e.kind == SectionKind::CompactAlbedoSh.code());
         let _ = write!(s, "albedo order {} kind {} sphere0", a.order, if compact { 9 } else { 4 });
@@ -405,7 +414,7 @@ fn c_reader_without_the_library_reads_what_rust_reads() {
     let at = crc.len() - 40;
     crc[at] ^= 0x5a;
     let mut bad_minor = good.clone();
-    bad_minor[12] = 80; // header_size 80 with minor 0
+    bad_minor[12] = 80; // header_size 80 with minor 2 (64 for minors 0 to 2)
     let damaged: [(&str, Vec<u8>); 4] = [
         ("truncated", good[..good.len() - 16].to_vec()),
         ("short", good[..40].to_vec()),

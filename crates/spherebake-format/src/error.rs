@@ -27,11 +27,13 @@ pub enum SectionKind {
     CompactSamples,
     /// Albedo spherical harmonics per sphere as binary16 floats (format minor 1).
     CompactAlbedoSh,
+    /// The surface area each sample stands for (format minor 2).
+    SampleAreas,
 }
 
 impl SectionKind {
     /// Every known kind, in file order (ascending kind code).
-    pub const ALL: [SectionKind; 9] = [
+    pub const ALL: [SectionKind; 10] = [
         SectionKind::Spheres,
         SectionKind::Hierarchy,
         SectionKind::Samples,
@@ -41,6 +43,7 @@ impl SectionKind {
         SectionKind::Metadata,
         SectionKind::CompactSamples,
         SectionKind::CompactAlbedoSh,
+        SectionKind::SampleAreas,
     ];
 
     /// The `kind` code stored in the section table.
@@ -56,6 +59,7 @@ impl SectionKind {
             SectionKind::Metadata => 7,
             SectionKind::CompactSamples => 8,
             SectionKind::CompactAlbedoSh => 9,
+            SectionKind::SampleAreas => 10,
         }
     }
 
@@ -72,6 +76,7 @@ impl SectionKind {
             7 => Some(SectionKind::Metadata),
             8 => Some(SectionKind::CompactSamples),
             9 => Some(SectionKind::CompactAlbedoSh),
+            10 => Some(SectionKind::SampleAreas),
             _ => None,
         }
     }
@@ -89,6 +94,7 @@ impl SectionKind {
             SectionKind::Metadata => "metadata",
             SectionKind::CompactSamples => "samples_q16",
             SectionKind::CompactAlbedoSh => "albedo_sh_f16",
+            SectionKind::SampleAreas => "sample_areas",
         }
     }
 
@@ -148,7 +154,7 @@ rules! {
     /// The major version is not one this reader knows.
     UnsupportedMajor = 1003, "major version is 1";
     /// The header size field is invalid.
-    HeaderSize = 1004, "header size is 64 for minors 0 and 1, a multiple of 16 and at least 64 for newer minors, and fits in the file";
+    HeaderSize = 1004, "header size is 64 for minors 0 to 2, a multiple of 16 and at least 64 for newer minors, and fits in the file";
     /// The header checksum does not match.
     HeaderChecksum = 1005, "header CRC-32 matches bytes 0..44";
     /// The file size field does not equal the number of bytes.
@@ -235,6 +241,14 @@ rules! {
     SampleBox = 5010, "sample box origin and step are finite, step >= 0, and origin + 65535 x step is finite";
     /// An octahedral normal component is -32768.
     SampleOctNormal = 5011, "octahedral normal components are in -32767..=32767";
+    /// The sample areas section length does not match its count.
+    SampleAreasLength = 5012, "sample_areas section length is 16 + 4 x sample count (encoding 0) or 16 + 2 x sample count (encoding 1)";
+    /// The sample areas do not match the samples.
+    SampleAreasCount = 5013, "sample_areas needs a samples section (kind 3 or 8) and its sample count equals that section's";
+    /// A sample area is negative or not finite.
+    SampleArea = 5014, "sample areas are finite and >= 0";
+    /// The sample areas' encoding is unknown.
+    SampleAreasEncoding = 5015, "sample_areas encoding is 0 (f32, model units squared) or 1 (f16, units of the sphere's radius squared)";
     /// The SH section length does not match its counts.
     ShLength = 6001, "albedo SH section length is 16 + 12 x sphere count x order squared";
     /// The SH section's sphere count differs from the sphere set.

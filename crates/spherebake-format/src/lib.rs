@@ -70,9 +70,10 @@ pub const MAGIC: [u8; 8] = [0x89, b'S', b'P', b'H', b'B', 0x0D, 0x0A, 0x1A];
 pub const FORMAT_MAJOR: u16 = 1;
 
 /// Newest minor format version this crate knows (1: the compact sections `samples_q16` and
-/// `albedo_sh_f16`); every minor of [`FORMAT_MAJOR`] is accepted. [`write`] writes minor 0
-/// (a lossless file has no minor-1 section), [`write_compact`] writes minor 1.
-pub const FORMAT_MINOR: u16 = 1;
+/// `albedo_sh_f16`; 2: the `sample_areas` section); every minor of [`FORMAT_MAJOR`] is
+/// accepted. Writers stamp the lowest minor whose sections they use: [`write`] writes minor 0
+/// (2 with sample areas), [`write_compact`] minor 1 (2 with sample areas).
+pub const FORMAT_MINOR: u16 = 2;
 
 /// Size of the v1.0 header in bytes.
 pub const HEADER_SIZE: usize = 64;

@@ -167,12 +167,15 @@ pub struct Samples {
     pub offsets: Vec<u32>,
     /// All samples, sphere after sphere.
     pub points: Vec<SamplePoint>,
+    /// The surface area (model units², ≥ 0) each sample stands for, one per point in the same
+    /// order (spec §7.2, section `sample_areas`, minor 2); `None` in files without it.
+    pub areas: Option<Vec<f32>>,
 }
 
 impl Default for Samples {
     /// No spheres: `offsets == [0]`.
     fn default() -> Self {
-        Samples { offsets: alloc::vec![0], points: Vec::new() }
+        Samples { offsets: alloc::vec![0], points: Vec::new(), areas: None }
     }
 }
 
@@ -218,6 +221,14 @@ impl Samples {
     /// The samples of each sphere in turn.
     pub fn per_sphere(&self) -> impl ExactSizeIterator<Item = &[SamplePoint]> + '_ {
         (0..self.sphere_count()).map(|i| self.of(i))
+    }
+
+    /// The areas of sphere `sphere`'s samples (parallel to [`Samples::of`]); `None` without
+    /// areas or when they do not match the points.
+    #[must_use]
+    pub fn areas_of(&self, sphere: usize) -> Option<&[f32]> {
+        let a = self.areas.as_ref().filter(|a| a.len() == self.points.len())?;
+        a.get(self.range_of(sphere))
     }
 
     /// Total number of samples over all spheres.

@@ -582,7 +582,56 @@ fn read_samples(s: &Sec<'_>, sphere_count: usize) -> Result<Samples> {
         offsets.push(end);
         start = end;
     }
-    Ok(Samples { offsets, points })
+    Ok(Samples { offsets, points, areas: None })
+}
+
+/// The `sample_areas` section (§7.2), attached to the samples it belongs to (rules 5012–5015).
+fn read_sample_areas(s: &Sec<'_>, samples: Option<Samples>, spheres: &[Sphere]) -> Result<Samples> {
+    s.need_subheader()?;
+    let count = s.u32(0)?;
+    let encoding = s.u8(4)?;
+    let width = match encoding {
+        0 => 4,
+        1 => 2,
+        e => {
+            return Err(s.err(Rule::SampleAreasEncoding, 4, Detail::Text("0 or 1"), Detail::Int(u64::from(e))));
+        }
+    };
+    s.check_length(add(Some(16), mul(u64::from(count), width)))?;
+    let Some(mut samples) = samples else {
+        return Err(s.err(Rule::SampleAreasCount, 0, Detail::Text("a samples section"), Detail::Text("none")));
+    };
+    if count as usize != samples.total() {
+        return Err(s.err(
+            Rule::SampleAreasCount,
+            0,
+            Detail::Int(as_u64(samples.total())),
+            Detail::Int(u64::from(count)),
+        ));
+    }
+    // Bounded by the section length checked above.
+    let mut areas = Vec::with_capacity(count as usize);
+    for sphere in 0..samples.sphere_count() {
+        let r = spheres.get(sphere).map_or(0.0, |x| f64::from(x.radius));
+        for k in samples.range_of(sphere) {
+            let rel = 16 + width as usize * k;
+            let (a, ok) = if encoding == 0 {
+                let a = s.f32(rel)?;
+                (a, a.is_finite() && a >= 0.0)
+            } else {
+                let bits = s.u16(rel)?;
+                let h = f32_from_f16(bits);
+                // Decoding (§7.2): in double, (h · r) · r, rounded once to f32.
+                ((f64::from(h) * r * r) as f32, f16_is_finite(bits) && bits & 0x8000 == 0)
+            };
+            if !ok {
+                return Err(s.err(Rule::SampleArea, rel, Detail::Text("finite and >= 0"), Detail::Float(a)));
+            }
+            areas.push(a);
+        }
+    }
+    samples.areas = Some(areas);
+    Ok(samples)
 }
 
 /// Rules 5006–5008 of one sample (shared by the lossless and the compact samples sections).
@@ -697,7 +746,7 @@ fn read_compact_samples(s: &Sec<'_>, sphere_count: usize) -> Result<Samples> {
         offsets.push(u32::try_from(end).unwrap_or(u32::MAX));
         start = end;
     }
-    Ok(Samples { offsets, points: all })
+    Ok(Samples { offsets, points: all, areas: None })
 }
 
 /// The albedo SH sub-header shared by kinds 4 and 9 (spec §7, §8.1): order, colour space, basis, and the
@@ -1007,6 +1056,10 @@ pub fn read(bytes: &[u8]) -> Result<SphbFile> {
         None => section(SectionKind::CompactSamples, Rule::CompactSamplesLength)
             .map(|s| read_compact_samples(&s, n))
             .transpose()?,
+    };
+    let samples = match section(SectionKind::SampleAreas, Rule::SampleAreasLength) {
+        Some(s) => Some(read_sample_areas(&s, samples, &spheres)?),
+        None => samples,
     };
     let albedo_sh = match section(SectionKind::AlbedoSh, Rule::ShLength) {
         Some(s) => Some(read_albedo_sh(&s, n)?),

@@ -189,7 +189,62 @@ fn lossless_sections(file: &SphbFile) -> Vec<(SectionKind, Vec<u8>)> {
     if let Some(m) = &file.metadata {
         sections.push((SectionKind::Metadata, metadata_section(m)));
     }
+    if let Some(a) = file.samples.as_ref().and_then(|s| s.areas.as_ref()) {
+        sections.push((SectionKind::SampleAreas, sample_areas_section(a)));
+    }
     sections
+}
+
+/// The `sample_areas` section (spec §7.2), encoding 0: f32 areas in model units².
+fn sample_areas_section(areas: &[f32]) -> Vec<u8> {
+    let mut out = Vec::with_capacity(16 + 4 * areas.len());
+    put_u32(&mut out, len_u32(areas.len()));
+    out.extend_from_slice(&[0; 12]);
+    put_f32s(&mut out, areas);
+    out
+}
+
+/// The `sample_areas` section in encoding 1 (spec §7.2): each area as the f16 of area / r², r
+/// its sphere's radius; `None` when a value does not fit (a radius that is not finite and > 0,
+/// an area that is not finite and ≥ 0, a ratio past the f16 range), and the writer falls back to
+/// encoding 0.
+fn compact_sample_areas_section(areas: &[f32], samples: &Samples, spheres: &[Sphere]) -> Option<Vec<u8>> {
+    if areas.len() != samples.total() {
+        return None;
+    }
+    let mut out = Vec::with_capacity(16 + 2 * areas.len());
+    put_u32(&mut out, len_u32(areas.len()));
+    out.push(1);
+    out.extend_from_slice(&[0; 11]);
+    for sphere in 0..samples.sphere_count() {
+        let range = samples.range_of(sphere);
+        if range.is_empty() {
+            continue;
+        }
+        let r = f64::from(spheres.get(sphere)?.radius);
+        if !(r.is_finite() && r > 0.0) {
+            return None;
+        }
+        for k in range {
+            let a = *areas.get(k)?;
+            if !(a.is_finite() && a >= 0.0) {
+                return None;
+            }
+            let bits = f16_from_f32((f64::from(a) / (r * r)) as f32)?;
+            out.extend_from_slice(&bits.to_le_bytes());
+        }
+    }
+    Some(out)
+}
+
+/// The minor to stamp (spec §13): 2 with `sample_areas`, else `base` (0 for [`write`], 1 for
+/// [`write_compact`], which has always stamped 1).
+fn minor_of(sections: &[(SectionKind, Vec<u8>)], base: u16) -> u16 {
+    if sections.iter().any(|(s, _)| *s == SectionKind::SampleAreas) {
+        2
+    } else {
+        base
+    }
 }
 
 /// Header, table and the given sections (in the given order) with zero padding.
@@ -234,8 +289,9 @@ fn assemble(minor: u16, sections: &[(SectionKind, Vec<u8>)]) -> Vec<u8> {
     out
 }
 
-/// Encodes `file` as lossless `.sphb` v1 bytes, format version 1.0 (no minor-1 section is used,
-/// so v1.0 readers read everything).
+/// Encodes `file` as lossless `.sphb` v1 bytes: format version 1.0 (no minor-1 section is used,
+/// so v1.0 readers read everything), or 1.2 when the samples carry areas (the `sample_areas`
+/// section, kind 10, which v1.0 and v1.1 readers skip).
 ///
 /// The output is deterministic: the same model gives the same bytes, sections are written in
 /// ascending kind order, every padding and reserved byte is zero.
@@ -248,7 +304,8 @@ fn assemble(minor: u16, sections: &[(SectionKind, Vec<u8>)]) -> Vec<u8> {
 /// Never.
 #[must_use]
 pub fn write(file: &SphbFile) -> Vec<u8> {
-    assemble(0, &lossless_sections(file))
+    let sections = lossless_sections(file);
+    assemble(minor_of(&sections, 0), &sections)
 }
 
 /// Why [`write_compact`] cannot encode a model: a value the compact sections cannot hold.
@@ -355,7 +412,8 @@ fn compact_albedo_sh_section(sh: &AlbedoSh) -> Result<Vec<u8>, EncodeError> {
     Ok(out)
 }
 
-/// Encodes `file` as compact `.sphb` bytes, format version 1.1: like [`write`], but samples go
+/// Encodes `file` as compact `.sphb` bytes, format version 1.1 (1.2 with sample areas, stored
+/// as f16 in units of their sphere's r², spec §7.2): like [`write`], but samples go
 /// to a `samples_q16` section (kind 8: positions in 16 bits per axis within a per-sphere box,
 /// octahedral 2 × 16-bit normals) and the albedo SH to an `albedo_sh_f16` section (kind 9:
 /// binary16 coefficients). Every other section is the lossless one, byte for byte.
@@ -378,7 +436,7 @@ fn compact_albedo_sh_section(sh: &AlbedoSh) -> Result<Vec<u8>, EncodeError> {
 pub fn write_compact(file: &SphbFile) -> Result<Vec<u8>, EncodeError> {
     let mut sections: Vec<(SectionKind, Vec<u8>)> = lossless_sections(file)
         .into_iter()
-        .filter(|(k, _)| !matches!(k, SectionKind::Samples | SectionKind::AlbedoSh))
+        .filter(|(k, _)| !matches!(k, SectionKind::Samples | SectionKind::AlbedoSh | SectionKind::SampleAreas))
         .collect();
     if let Some(s) = &file.samples {
         sections.push((SectionKind::CompactSamples, compact_samples_section(s)?));
@@ -386,7 +444,15 @@ pub fn write_compact(file: &SphbFile) -> Result<Vec<u8>, EncodeError> {
     if let Some(sh) = &file.albedo_sh {
         sections.push((SectionKind::CompactAlbedoSh, compact_albedo_sh_section(sh)?));
     }
-    Ok(assemble(1, &sections))
+    // Kind 10 after 8 and 9: sections stay in ascending kind order. The areas in encoding 1
+    // (f16 per r², 2 bytes per sample), or f32 when a value does not fit.
+    if let Some(s) = &file.samples {
+        if let Some(a) = &s.areas {
+            let body = compact_sample_areas_section(a, s, &file.spheres).unwrap_or_else(|| sample_areas_section(a));
+            sections.push((SectionKind::SampleAreas, body));
+        }
+    }
+    Ok(assemble(minor_of(&sections, 1), &sections))
 }
 
 impl SphbFile {

@@ -261,3 +261,52 @@ proptest! {
         }
     }
 }
+
+/// Sample areas (format minor 2, spec §7.2): the lossless writer carries them bit for bit
+/// (encoding 0, f32), the compact one as f16 of area / r² (encoding 1) within the f16 rounding
+/// (relative 2⁻¹¹ for normal ratios, 2⁻²⁵ r² absolute below); both stamp minor 2.
+#[test]
+fn sample_areas_round_trip_in_both_encodings_and_stamp_minor_2() {
+    let mut file = full_file();
+    // Spheres 0 (r = 0.25, two samples) and 2 (r = 0.2, one sample): ratios 1.9, 4.8e-6, 0.
+    let areas = vec![0.118_75f32, 3.0e-7, 0.0];
+    file.samples.as_mut().unwrap().areas = Some(areas.clone());
+    let radius_of = [0.25f64, 0.25, 0.2];
+    for (tag, bytes) in [("lossless", write(&file)), ("compact", write_compact(&file).unwrap())] {
+        let (header, entries) = read_header_and_table(&bytes).unwrap();
+        assert_eq!(header.minor, 2, "{tag}");
+        let last = entries.last().unwrap();
+        let (width, encoding) = if tag == "lossless" { (4, 0) } else { (2, 1) };
+        assert_eq!((last.kind, last.length), (SectionKind::SampleAreas.code(), 16 + 3 * width), "{tag}");
+        assert_eq!(bytes[last.offset as usize + 4], encoding, "{tag}");
+        let back = read(&bytes).unwrap();
+        let s = back.samples.as_ref().unwrap();
+        let got = s.areas.clone().unwrap();
+        for ((g, w), r) in got.iter().zip(&areas).zip(radius_of) {
+            let (g, w) = (f64::from(*g), f64::from(*w));
+            let bound = if tag == "lossless" { 0.0 } else { (w * 2f64.powi(-11)).max(r * r * 2f64.powi(-25)) };
+            assert!((g - w).abs() <= bound, "{tag}: {g} vs {w}");
+        }
+        // Per sphere (2, 0 and 1 samples), parallel to the points.
+        assert_eq!(s.areas_of(0).map(<[f32]>::len), Some(2), "{tag}");
+        assert_eq!(s.areas_of(1).map(<[f32]>::len), Some(0), "{tag}");
+        assert_eq!(s.areas_of(2), Some(&got[2..]), "{tag}");
+    }
+    // Ratios that round to f16 2.0 (0.125 / 0.25², and 0.08 / 0.2² = 1.99999997 in f32 terms)
+    // decode by the spec's formula (h · r) · r in double, rounded once to f32.
+    file.samples.as_mut().unwrap().areas = Some(vec![0.125, 0.0, 0.08]);
+    let back = read(&write_compact(&file).unwrap()).unwrap();
+    let r2 = f64::from(0.2f32);
+    assert_eq!(back.samples.unwrap().areas.unwrap(), vec![0.125, 0.0, (2.0 * r2 * r2) as f32]);
+    // A ratio past the f16 range falls back to f32 (encoding 0) for the whole section.
+    file.samples.as_mut().unwrap().areas = Some(vec![1.0e4, 0.0, 0.08]);
+    let bytes = write_compact(&file).unwrap();
+    let (_, entries) = read_header_and_table(&bytes).unwrap();
+    let last = entries.last().unwrap();
+    assert_eq!((last.length, bytes[last.offset as usize + 4]), (28, 0));
+    assert_eq!(read(&bytes).unwrap().samples.unwrap().areas.unwrap(), vec![1.0e4, 0.0, 0.08]);
+    // Without areas the writers keep their minors.
+    let plain = full_file();
+    assert_eq!(read_header_and_table(&write(&plain)).unwrap().0.minor, 0);
+    assert_eq!(read_header_and_table(&write_compact(&plain).unwrap()).unwrap().0.minor, 1);
+}

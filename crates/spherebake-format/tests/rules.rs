@@ -297,6 +297,57 @@ fn cases() -> Vec<(Rule, Vec<u8>, Option<u64>)> {
     c.push((Rule::SampleRule, cpatched(|b| put_u8(b, cs + 104 + 11, 0)), Some(cs as u64 + 115)));
     c.push((Rule::SampleDirectionOrder, cpatched(|b| put_u8(b, cs + 104 + 12 + 10, 0)), Some(cs as u64 + 126)));
 
+    // 5012–5014 sample areas (spec §7.2; kind 10, last section; the fixture has 3 samples:
+    // count at +0, areas at +16).
+    let with_areas = |f: &mut SphbFile| f.samples.as_mut().unwrap().areas = Some(vec![0.01, 0.02, 0.03]);
+    let area_bytes = model(with_areas);
+    read(&area_bytes).expect("the fixture with areas is valid");
+    let ao = section_offset(&area_bytes, K::SampleAreas);
+    let apatched = |patch: &dyn Fn(&mut Vec<u8>)| {
+        let mut b = area_bytes.clone();
+        patch(&mut b);
+        repair_checksums(&mut b);
+        b
+    };
+    c.push((Rule::SampleAreasLength, apatched(&|b| put_u32(b, ao, 4)), Some(ao as u64)));
+    c.push((Rule::SampleAreasLength, apatched(&|b| put_u32(b, ao, u32::MAX)), Some(ao as u64)));
+    c.push((
+        Rule::SampleAreasCount,
+        model(|f| f.samples.as_mut().unwrap().areas = Some(vec![0.01, 0.02])),
+        Some(section_offset(&model(|f| f.samples.as_mut().unwrap().areas = Some(vec![0.01, 0.02])), K::SampleAreas)
+            as u64),
+    ));
+    // Areas without samples: the samples entry relabelled as an unknown kind (skipped).
+    c.push((
+        Rule::SampleAreasCount,
+        apatched(&|b| {
+            let e = entry_offset(b, K::Samples);
+            put_u32(b, e, 77);
+        }),
+        Some(ao as u64),
+    ));
+    c.push((Rule::SampleArea, apatched(&|b| put_f32(b, ao + 16 + 4, -0.5)), Some(ao as u64 + 20)));
+    c.push((Rule::SampleArea, apatched(&|b| put_f32(b, ao + 16 + 8, f32::NAN)), Some(ao as u64 + 24)));
+    c.push((Rule::SampleArea, apatched(&|b| put_f32(b, ao + 16, f32::INFINITY)), Some(ao as u64 + 16)));
+    c.push((Rule::SampleAreasEncoding, apatched(&|b| put_u8(b, ao + 4, 2)), Some(ao as u64 + 4)));
+    // Encoding 1 (f16 per r², 2 bytes each) with the f32 section's 4-byte records: wrong length.
+    c.push((Rule::SampleAreasLength, apatched(&|b| put_u8(b, ao + 4, 1)), Some(ao as u64)));
+    // The compact file's areas are encoding 1: a negative f16 and an f16 infinity.
+    let compact_areas = write_compact(&{
+        let mut f = full_file();
+        with_areas(&mut f);
+        f
+    })
+    .unwrap();
+    let cao = section_offset(&compact_areas, K::SampleAreas);
+    assert_eq!(compact_areas[cao + 4], 1, "the compact writer uses encoding 1 here");
+    for (at, bits) in [(cao + 16 + 2, 0xBC00u16), (cao + 16 + 4, 0x7C00)] {
+        let mut b = compact_areas.clone();
+        put_u16(&mut b, at, bits);
+        repair_checksums(&mut b);
+        c.push((Rule::SampleArea, b, Some(at as u64)));
+    }
+
     // 2011: lossless and compact samples (or SH) in one file.
     // The skin (bones) entry relabelled as lossless samples (SH): the table then lists kinds 3
     // and 8 (4 and 9); the error points at the second one's kind field.
@@ -422,6 +473,9 @@ fn every_case_reports_its_rule() {
         let group = rule.id() / 1000;
         match e.section {
             None => assert!(group <= 2, "case {i}: {e}"),
+            // The sample areas belong to the samples (5xxx) without being a second samples
+            // encoding (rule 2011 counts families).
+            Some(K::SampleAreas) => assert_eq!(group, 5, "case {i}: {e}"),
             Some(k) => assert_eq!(u32::from(group) - 2, k.family().code(), "case {i}: {e}"),
         }
     }

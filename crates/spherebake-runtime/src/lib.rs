@@ -227,6 +227,13 @@ impl Proxy {
         self.file.samples.as_ref().map_or(&[], |s| s.of(sphere))
     }
 
+    /// The surface area each of sphere `sphere`'s samples stands for (model units², spec §7.2), parallel to
+    /// [`Proxy::samples_of`]; `None` for files without the `sample_areas` section (format minor < 2).
+    #[must_use]
+    pub fn sample_areas_of(&self, sphere: usize) -> Option<&[f32]> {
+        self.file.samples.as_ref()?.areas_of(sphere)
+    }
+
     /// The albedo SH section, if present.
     #[must_use]
     pub fn albedo_sh(&self) -> Option<&AlbedoSh> {

@@ -68,11 +68,12 @@
 //!     excess area (9 % on the Duck) had balanced it. Tight leaves are therefore left unweighted.
 //!   - *Near field, pass 2*: for a leaf with f < 0.98, or with samples in fewer than 95 % of the 92 directions
 //!     (the rest belong to other spheres, rule 2, and the order-n SH smears the sharp edge between emitting and empty
-//!     directions; full weight at 75 %, [`SPLAT_COVER_FULL`]), seen at an angular radius θ above 20° (or containing
+//!     directions; full weight at 75 %, [`SPLAT_COVER_FULL`]), seen at an angular radius θ above 10° (or containing
 //!     the receiver), its emission is blended into the *splat* of its own samples ([`splat_irradiance`]): each sample
 //!     a planar *tile*, the central projection of its direction's Voronoi cell onto its tangent plane, with the
 //!     pass-1 radiance L_pj c(ω_j) and its exact polygon irradiance (Lambert's formula, clipped to the receiver's
-//!     horizon; [`crate::tile`]), times the light's visible share; weight ramp(θ: 20° → 40°) ×
+//!     horizon; [`crate::tile`]; scaled to the sample's surface area when the file has it, format minor 2), times
+//!     the light's visible share; weight ramp(θ: 10° → 30°) ×
 //!     max(ramp(f: 0.98 → 0.90), ramp(coverage: 0.95 → 0.75)) ([`SPLAT_THETA_START`], [`SPLAT_THETA_FULL`]). A
 //!     tight, fully covered leaf keeps the SH light, which is exact for the known-answer spheres. Until 2026-12-02
 //!     each sample was a disk facing the receiver, L A cos_e cos_r / (d² + A/π) with A = t² Ω / max(|n·ω|, 0.2): its
@@ -82,6 +83,15 @@
 //!     (Duck / CesiumMan), tiles 0.231 / 0.156. The tiles' near-plane rule ([`crate::tile::TILE_MIN_HEIGHT`]) keeps
 //!     a posed leaf's rigidly moved samples from flooding a receiver beside them. On the shared models every leaf
 //!     of a 16–256-sphere proxy is below 75 % coverage.
+//!   - *Tiles of the right size* (2026-12-02): the central projection misjudges a tile's area where a ray's
+//!     farthest hit skips a fold, where rule 2 empties directions and where the surface curves away, so the
+//!     tiles of a segment carried 0.56–2.8× the surface they stood for (Duck, 64 spheres, quartiles 0.96–1.07).
+//!     The bake now stores each sample's true share of its segment's surface (spec §7.2) and the tile is scaled
+//!     to it ([`crate::tile::scale_tile_to_area`]). With correctly sized tiles the splat is the better emitter
+//!     from closer in, so the blend moved from 20°–40° to 10°–30°. Ground rel RMSE at 64 spheres (Duck / spot /
+//!     CesiumMan): 0.255 / 0.128 / 0.259 → areas 0.211 / 0.125 / 0.246 → and 10°–30°: 0.191 / 0.112 / 0.239
+//!     (sweep of the blend with a brute-force prototype of the areas, start–full: 5°–20° 0.190 / 0.126 / 0.239, 10°–20° 0.189 / 0.125 / 0.244,
+//!     15°–30° 0.188 / 0.111 / 0.239, 30°–50° 0.286 / 0.155 / 0.262, 0°–10° 0.197 / 0.136 / 0.230).
 //!   - *Albedo without zeros*: the bake fills the albedo cube map's directions without surface with the segment's
 //!     mean colour (`spherebake-bake` albedo docs); the emission is 0 there anyway (rule 2, carried by L), and the
 //!     zeros had darkened every segment's edge through the order-4 truncation of c (L ∗ c, eq. 11) more the more
@@ -798,13 +808,15 @@ fn splat_irradiance(
     let nr = rotate_transposed(&rot, n);
     let pr = pr.map(f64::from);
     let nr = nr.map(f64::from);
-    for sp in posed.proxy.samples_of(leaf) {
+    let areas = posed.proxy.sample_areas_of(leaf);
+    for (q, sp) in posed.proxy.samples_of(leaf).iter().enumerate() {
         let Some(v) = lights.leaf_cells.get(leaf * GEODESIC_DIRECTION_COUNT + usize::from(sp.direction)) else {
             continue;
         };
         let Some(cell) = cells.get(usize::from(sp.direction)) else { continue };
         let x = [sp.position[0] - c_rest[0], sp.position[1] - c_rest[1], sp.position[2] - c_rest[2]].map(f64::from);
-        let f = crate::tile::sample_tile_irradiance(cell, f64::from(r_rest), x, sp.normal.map(f64::from), pr, nr);
+        let area = areas.and_then(|a| a.get(q)).map(|&a| f64::from(a));
+        let f = crate::tile::sample_tile_irradiance(cell, f64::from(r_rest), x, sp.normal.map(f64::from), area, pr, nr);
         if f > 0.0 {
             for c in 0..3 {
                 out[c] += f * f64::from(v[c]);
@@ -1501,11 +1513,11 @@ fn sin_sq(x: f32) -> f32 {
     s * s
 }
 
-/// Angular radius (radians, 20°) of a leaf light seen from the receiver from which pass 2 starts blending its
+/// Angular radius (radians, 10°) of a leaf light seen from the receiver from which pass 2 starts blending its
 /// SH emission towards the splat of its own samples ([`splat_irradiance`], module docs "Close lights").
-pub const SPLAT_THETA_START: f32 = 0.349_065_85;
-/// Angular radius (radians, 40°) from which only the splat is used (and for receivers inside the leaf sphere).
-pub const SPLAT_THETA_FULL: f32 = 0.698_131_7;
+pub const SPLAT_THETA_START: f32 = 0.174_532_93;
+/// Angular radius (radians, 30°) from which only the splat is used (and for receivers inside the leaf sphere).
+pub const SPLAT_THETA_FULL: f32 = core::f32::consts::FRAC_PI_6;
 /// Fill (mean sample distance / radius) of a leaf at and above which its splat is not used: the sphere's surface
 /// is the surface it bounds, and the SH light is exact there.
 const SPLAT_FILL_TIGHT: f64 = 0.98;

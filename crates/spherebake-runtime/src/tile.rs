@@ -31,6 +31,14 @@
 //! between consecutive ones, after clipping the polygon to the receiver's upper half-space N·(x − p) ≥ 0
 //! (Sutherland–Hodgman). A polygon covering the whole upper hemisphere gives π.
 //!
+//! **Areas.** The central projection gets a tile's size right only where the surface is locally planar and seen
+//! from the centre without occlusion: a ray's farthest hit skips the nearer layers of a fold, rule 2 leaves the
+//! directions of other segments empty, and curvature bends the surface away from the plane. Files of format minor 2
+//! carry each sample's true share of the surface (spec §7.2, computed by the bake from the mesh); the tile is then
+//! scaled about its sample to that area, so the tiles of a segment carry the segment's area, no more and no less.
+//! Measured, 64 spheres, 4096 rays, uniform sky, ground rel RMSE with the splat oracle (every tile with the traced
+//! radiance and ray-cast visibility), same fits: Duck 0.217 → 0.164, spot 0.097 → 0.057, CesiumMan 0.149 → 0.123.
+//!
 //! Cell corners: the circumcentres of the Delaunay triangles (the faces of the convex hull) of the 92 directions
 //! around ω_j, in counter-clockwise order about ω_j (5 for the 12 icosahedron vertices, 6 elsewhere), computed once
 //! in f64 from [`spherebake_sh::GEODESIC_DIRECTIONS`] ([`voronoi_cells`]).
@@ -160,17 +168,49 @@ pub fn sample_tile(
     count
 }
 
+/// Area of a planar polygon (corners in order): half the length of Σ c_k × c_{k+1}. 0 for fewer than 3 corners.
+#[must_use]
+pub fn polygon_area(corners: &[[f64; 3]]) -> f64 {
+    let mut s = [0.0f64; 3];
+    for (k, a) in corners.iter().enumerate() {
+        let b = corners[(k + 1) % corners.len()];
+        let c = cross(*a, b);
+        s = [s[0] + c[0], s[1] + c[1], s[2] + c[2]];
+    }
+    if corners.len() < 3 {
+        return 0.0;
+    }
+    0.5 * norm(s)
+}
+
+/// Scales a tile about its sample `x` so that its area becomes `area` (the file's sample area, spec §7.2): corners
+/// move by √(area / A) along their offsets from `x`. Unchanged when `area` is `None`, not finite or negative, or the
+/// tile has no area.
+pub fn scale_tile_to_area(tile: &mut [[f64; 3]], x: [f64; 3], area: Option<f64>) {
+    let Some(a) = area.filter(|a| a.is_finite() && *a >= 0.0) else { return };
+    let current = polygon_area(tile);
+    if !(current.is_finite() && current > 0.0) {
+        return;
+    }
+    let f = spherebake_sh::sqrt_f64(a / current);
+    for c in tile.iter_mut() {
+        *c = [x[0] + f * (c[0] - x[0]), x[1] + f * (c[1] - x[1]), x[2] + f * (c[2] - x[2])];
+    }
+}
+
 /// Irradiance at a receiver from one sample's tile, per unit radiance, everything relative to the sphere's centre
 /// (module docs): the sample at `x` with unit outward normal `normal` along direction cell `cell` of a sphere of
-/// radius `radius`, the receiver at `p` with unit normal `n`. 0 when the receiver stands behind the tile's plane
-/// (tiles emit on their front side); over the tile and closer to its plane than [`TILE_MIN_HEIGHT`] · |x| it is
-/// moved out to that height (module docs, "Near the plane"). Allocation-free.
+/// radius `radius`, the receiver at `p` with unit normal `n`; with the file's sample `area` (spec §7.2) the tile is
+/// first scaled to it about the sample ([`scale_tile_to_area`], module docs "Areas"). 0 when the receiver stands
+/// behind the tile's plane (tiles emit on their front side); over the tile and closer to its plane than
+/// [`TILE_MIN_HEIGHT`] · |x| it is moved out to that height (module docs, "Near the plane"). Allocation-free.
 #[must_use]
 pub fn sample_tile_irradiance(
     cell: &Cell,
     radius: f64,
     x: [f64; 3],
     normal: [f64; 3],
+    area: Option<f64>,
     p: [f64; 3],
     n: [f64; 3],
 ) -> f64 {
@@ -180,6 +220,7 @@ pub fn sample_tile_irradiance(
     }
     let mut tile = [[0.0f64; 3]; CELL_MAX_CORNERS];
     let k = sample_tile(cell, [0.0; 3], radius, x, normal, &mut tile);
+    scale_tile_to_area(&mut tile[..k], x, area);
     let h_min = TILE_MIN_HEIGHT * norm(x);
     // Over the tile: the receiver's foot point on the plane lies within the tile's reach from the sample.
     let d = sub(p, x);

@@ -2,7 +2,10 @@
 //! against an analytic rectangle formula and a brute-force hemisphere quadrature, and tiles of a plane seen from
 //! just under it.
 
-use spherebake_runtime::tile::{polygon_irradiance, sample_tile, voronoi_cells, CELL_MAX_CORNERS};
+use spherebake_runtime::tile::{
+    polygon_area, polygon_irradiance, sample_tile, sample_tile_irradiance, scale_tile_to_area, voronoi_cells,
+    CELL_MAX_CORNERS,
+};
 use spherebake_runtime::GEODESIC_DIRECTIONS;
 use spherebake_testkit::oracle::triangle_solid_angle;
 use std::f64::consts::PI;
@@ -202,9 +205,10 @@ fn a_sample_tile_emits_on_its_front_side_and_saturates_near_its_plane() {
     let x = dir(j);
     let nrm = [0.0, -1.0, 0.0];
     let h_plane = -x[1]; // the plane through x, perpendicular to Y
-    let at = |h: f64| sample_tile_irradiance(&cells[j], 1.0, x, nrm, [x[0], -(h_plane + h), x[2]], [0.0, 1.0, 0.0]);
+    let at =
+        |h: f64| sample_tile_irradiance(&cells[j], 1.0, x, nrm, None, [x[0], -(h_plane + h), x[2]], [0.0, 1.0, 0.0]);
     // Behind the plane (inside the object): nothing.
-    assert_eq!(sample_tile_irradiance(&cells[j], 1.0, x, nrm, [x[0], 0.0, x[2]], [0.0, 1.0, 0.0]), 0.0);
+    assert_eq!(sample_tile_irradiance(&cells[j], 1.0, x, nrm, None, [x[0], 0.0, x[2]], [0.0, 1.0, 0.0]), 0.0);
     // Closer than h_min it is evaluated at h_min: the same value all the way to the plane.
     let h_min = TILE_MIN_HEIGHT * (x[0] * x[0] + x[1] * x[1] + x[2] * x[2]).sqrt();
     let v = at(h_min);
@@ -222,7 +226,61 @@ fn a_sample_tile_emits_on_its_front_side_and_saturates_near_its_plane() {
     // Beside the tile (its foot point on the plane beyond every corner), near the plane's extension: not moved.
     let reach = tile[..k].iter().map(|c| ((c[0] - x[0]).powi(2) + (c[2] - x[2]).powi(2)).sqrt()).fold(0.0, f64::max);
     let beside = [x[0] + 1.5 * reach, -(h_plane + 1e-3), x[2]];
-    let got = sample_tile_irradiance(&cells[j], 1.0, x, nrm, beside, [-1.0, 0.0, 0.0]);
+    let got = sample_tile_irradiance(&cells[j], 1.0, x, nrm, None, beside, [-1.0, 0.0, 0.0]);
     assert_eq!(got, polygon_irradiance(beside, [-1.0, 0.0, 0.0], &tile[..k]));
     assert!(got > 0.0);
+}
+
+#[test]
+fn polygon_area_of_known_shapes() {
+    // A unit square in a tilted plane, and a regular hexagon of side 0.3: 3√3/2 · s².
+    let (u, v) = ([0.6, 0.8, 0.0], [0.0, 0.0, 1.0]);
+    let sq: Vec<[f64; 3]> = [(0.0, 0.0), (1.0, 0.0), (1.0, 1.0), (0.0, 1.0)]
+        .iter()
+        .map(|&(a, b)| [2.0 + a * u[0] + b * v[0], a * u[1] + b * v[1], a * u[2] + b * v[2] - 1.0])
+        .collect();
+    assert!((polygon_area(&sq) - 1.0).abs() < 1e-12);
+    let hex: Vec<[f64; 3]> = (0..6)
+        .map(|k| {
+            let a = std::f64::consts::TAU * k as f64 / 6.0;
+            [0.3 * a.cos(), 0.3 * a.sin(), 5.0]
+        })
+        .collect();
+    assert!((polygon_area(&hex) - 1.5 * 3f64.sqrt() * 0.09).abs() < 1e-12);
+    assert_eq!(polygon_area(&hex[..2]), 0.0);
+}
+
+#[test]
+fn a_tile_scaled_to_an_area_has_it_and_emits_in_proportion_far_away() {
+    let cells = voronoi_cells();
+    let j = 40;
+    let w = dir(j);
+    let x = w.map(|c| 0.8 * c);
+    // A normal tilted away from the direction, so the tile is not a scaled cell.
+    let t = [w[0] + 0.3, w[1] - 0.2, w[2] + 0.1];
+    let l = dot(t, t).sqrt();
+    let n = t.map(|c| c / l);
+    let mut tile = [[0.0f64; 3]; CELL_MAX_CORNERS];
+    let k = sample_tile(&cells[j], [0.0; 3], 1.0, x, n, &mut tile);
+    let natural = polygon_area(&tile[..k]);
+    for target in [0.2 * natural, 3.0 * natural, 0.0] {
+        let mut scaled = tile;
+        scale_tile_to_area(&mut scaled[..k], x, Some(target));
+        assert!((polygon_area(&scaled[..k]) - target).abs() < 1e-12, "{target}");
+        // Still in the tile's plane, about the sample.
+        for c in &scaled[..k] {
+            assert!(dot([c[0] - x[0], c[1] - x[1], c[2] - x[2]], n).abs() < 1e-12);
+        }
+    }
+    // Far along the normal, a small tile's irradiance is A / d² (cosines 1): areas in proportion.
+    let d = 200.0;
+    let p = [x[0] + d * n[0], x[1] + d * n[1], x[2] + d * n[2]];
+    let facing = n.map(|c| -c);
+    let e1 = sample_tile_irradiance(&cells[j], 1.0, x, n, Some(natural), p, facing);
+    let e3 = sample_tile_irradiance(&cells[j], 1.0, x, n, Some(3.0 * natural), p, facing);
+    let none = sample_tile_irradiance(&cells[j], 1.0, x, n, None, p, facing);
+    assert!((e1 / (natural / (d * d)) - 1.0).abs() < 1e-3, "{e1} vs {}", natural / (d * d));
+    // 3 up to the tile's finite size seen from 200 (measured 3 − 4.5e-6).
+    assert!((e3 / e1 - 3.0).abs() < 2e-5, "{}", e3 / e1);
+    assert!((none / e1 - 1.0).abs() < 1e-12, "no area: the tile's own");
 }

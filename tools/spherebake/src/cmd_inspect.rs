@@ -101,7 +101,7 @@ fn inspect_sphb(path: &Path, as_json: bool) -> Result<ExitCode> {
     println!("sections:");
     for s in &table {
         let name = s.known_kind().map(|k| k.name().to_string()).unwrap_or_else(|| format!("unknown 0x{:08x}", s.kind));
-        println!("  {name:<10} offset {:>8}  length {:>8}  crc32 {:08x}", s.offset, s.length, s.crc32);
+        println!("  {name:<13} offset {:>8}  length {:>8}  crc32 {:08x}", s.offset, s.length, s.crc32);
     }
     crate::json::print_sphb_text(&file);
     Ok(ExitCode::SUCCESS)

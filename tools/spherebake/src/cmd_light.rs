@@ -655,14 +655,24 @@ pub fn compute(a: &LightArgs, proxy: &Proxy, mesh: &spherebake_geom::Mesh) -> Re
     let pass2_seconds = start.elapsed().as_secs_f64();
     if a.splat_oracle && check_samples {
         // Each sample: position, normal, its surface tile (the runtime's near-field emitter), radiance × albedo.
-        type Emitter = ([f64; 3], [f64; 3], [f64; 3], [f64; 3], f64, Cell, [f64; 3]);
+        struct Emitter {
+            x: [f64; 3],
+            n: [f64; 3],
+            rel: [f64; 3],
+            centre: [f64; 3],
+            radius: f64,
+            cell: Cell,
+            area: Option<f64>,
+            c: [f64; 3],
+        }
         let cells = voronoi_cells();
         let mut em: Vec<Emitter> = Vec::new();
         let mut k = 0usize;
         let mut missed = 0usize;
         for (i, s) in leaves.iter().enumerate() {
             let centre = s.center.map(f64::from);
-            for sp in proxy.samples_of(i) {
+            let areas = proxy.sample_areas_of(i);
+            for (q, sp) in proxy.samples_of(i).iter().enumerate() {
                 let radiance = sample_reference.get(k).copied().unwrap_or(0.0);
                 k += 1;
                 let (x, n) = (sp.position.map(f64::from), sp.normal.map(f64::from));
@@ -672,7 +682,16 @@ pub fn compute(a: &LightArgs, proxy: &Proxy, mesh: &spherebake_geom::Mesh) -> Re
                     continue;
                 };
                 let rel = [0, 1, 2].map(|q| x[q] - centre[q]);
-                em.push((x, n, rel, centre, f64::from(s.radius), *cell, al.map(|a| a * radiance)));
+                em.push(Emitter {
+                    x,
+                    n,
+                    rel,
+                    centre,
+                    radius: f64::from(s.radius),
+                    cell: *cell,
+                    area: areas.and_then(|a| a.get(q)).map(|&a| f64::from(a)),
+                    c: al.map(|a| a * radiance),
+                });
             }
         }
         if missed > 0 {
@@ -683,20 +702,20 @@ pub fn compute(a: &LightArgs, proxy: &Proxy, mesh: &spherebake_geom::Mesh) -> Re
         }
         ground_proxy.par_iter_mut().zip(ground.par_iter()).for_each(|(out, r)| {
             let mut e = [0.0; 3];
-            for (x, n, rel, centre, radius, cell, c) in &em {
-                let p = [0, 1, 2].map(|q| r.position[q] - centre[q]);
-                let kf = sample_tile_irradiance(cell, *radius, *rel, *n, p, r.normal);
+            for t in &em {
+                let p = [0, 1, 2].map(|q| r.position[q] - t.centre[q]);
+                let kf = sample_tile_irradiance(&t.cell, t.radius, t.rel, t.n, t.area, p, r.normal);
                 if kf <= 0.0 {
                     continue;
                 }
-                let w = [0, 1, 2].map(|q| r.position[q] - x[q]);
+                let w = [0, 1, 2].map(|q| r.position[q] - t.x[q]);
                 let dl = (w[0] * w[0] + w[1] * w[1] + w[2] * w[2]).sqrt().max(1e-30);
-                let xo = [0, 1, 2].map(|q| x[q] + n[q] * 1e-4 * dl);
+                let xo = [0, 1, 2].map(|q| t.x[q] + t.n[q] * 1e-4 * dl);
                 if !scene.segment_clear(r.position, xo) {
                     continue;
                 }
-                for ch in 0..3 {
-                    e[ch] += kf * c[ch];
+                for (e, c) in e.iter_mut().zip(t.c) {
+                    *e += kf * c;
                 }
             }
             *out = e;

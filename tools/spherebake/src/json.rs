@@ -22,11 +22,18 @@ pub fn sphb_to_json(file: &SphbFile) -> Value {
     let samples = file.samples.as_ref().map(|s| {
         Value::Array(
             s.per_sphere()
-                .map(|list| {
+                .enumerate()
+                .map(|(i, list)| {
+                    let areas = s.areas_of(i);
                     Value::Array(
                         list.iter()
-                            .map(|p| {
-                                json!({ "position": p.position, "normal": p.normal, "direction": p.direction, "rule": p.rule })
+                            .enumerate()
+                            .map(|(k, p)| {
+                                let mut v = json!({ "position": p.position, "normal": p.normal, "direction": p.direction, "rule": p.rule });
+                                if let (Some(a), Value::Object(o)) = (areas.and_then(|a| a.get(k)), &mut v) {
+                                    o.insert("area".into(), json!(a));
+                                }
+                                v
                             })
                             .collect(),
                     )
@@ -101,12 +108,20 @@ pub fn print_sphb_text(file: &SphbFile) {
         }
     }
     if let Some(s) = &file.samples {
-        println!("samples: {} over {} spheres (position, normal, direction, rule)", s.total(), s.sphere_count());
+        let with_areas = s.areas.is_some();
+        println!(
+            "samples: {} over {} spheres (position, normal, direction, rule{})",
+            s.total(),
+            s.sphere_count(),
+            if with_areas { ", surface area" } else { "" }
+        );
         for (i, list) in s.per_sphere().enumerate() {
             println!("  sphere {i}: {} samples", list.len());
-            for p in list {
+            let areas = s.areas_of(i);
+            for (k, p) in list.iter().enumerate() {
+                let area = areas.and_then(|a| a.get(k)).map_or(String::new(), |a| format!("  area {a:.6e}"));
                 println!(
-                    "    dir {:>2} rule {}  p ({:.6}, {:.6}, {:.6})  n ({:.4}, {:.4}, {:.4})",
+                    "    dir {:>2} rule {}  p ({:.6}, {:.6}, {:.6})  n ({:.4}, {:.4}, {:.4}){area}",
                     p.direction,
                     p.rule,
                     p.position[0],

@@ -113,7 +113,16 @@ fn inspect_json_has_the_contract_keys() {
     let s = &v["spheres"][0];
     assert_eq!(s["center"].as_array().unwrap().len(), 3);
     assert!(s["radius"].as_f64().unwrap() > 0.0);
-    assert_eq!(v["format_version"], "1.0");
+    // Minor 2: the samples carry their surface areas (spec §7.2), which sum to the capsule's area
+    // (r = 0.5 around a segment of length 1: 2πr·1 + 4πr² = 2π ≈ 6.28; the 384-triangle mesh has less).
+    assert_eq!(v["format_version"], "1.2");
+    let area: f64 = v["samples"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .flat_map(|l| l.as_array().unwrap().iter().map(|p| p["area"].as_f64().unwrap()))
+        .sum();
+    assert!((6.0..6.3).contains(&area), "{area}");
 
     let o = run(&["inspect", input.to_str().unwrap(), "--json"], dir.path());
     assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));

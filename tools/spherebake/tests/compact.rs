@@ -44,8 +44,8 @@ fn compact_bake_of_the_capsule_is_deterministic_and_keeps_everything_but_samples
     let d = dir.path();
     let model = fixture("capsule.obj");
     let (lossless, compact) = bake_both(model.to_str().unwrap(), &["--spheres", "16"], d);
-    assert_eq!(kinds(&lossless), vec![1, 2, 3, 4, 7]);
-    assert_eq!(kinds(&compact), vec![1, 2, 7, 8, 9]);
+    assert_eq!(kinds(&lossless), vec![1, 2, 3, 4, 7, 10]);
+    assert_eq!(kinds(&compact), vec![1, 2, 7, 8, 9, 10]);
     let (l, c) = (spherebake_format::read(&lossless).unwrap(), spherebake_format::read(&compact).unwrap());
     assert_eq!(l.spheres, c.spheres);
     assert_eq!(l.hierarchy, c.hierarchy);
@@ -64,13 +64,18 @@ fn compact_bake_of_the_capsule_is_deterministic_and_keeps_everything_but_samples
     assert!(!l.metadata.unwrap().settings.contains("compact"));
     // `inspect` names the format version and the compact sections with their lengths.
     let j = json_of(&run(&["inspect", "compact.sphb", "--json"], d));
-    assert_eq!(j["format_version"], "1.1");
+    assert_eq!(j["format_version"], "1.2");
     let names: Vec<&str> = j["sections"].as_array().unwrap().iter().map(|s| s["kind"].as_str().unwrap()).collect();
-    assert_eq!(names, vec!["spheres", "hierarchy", "metadata", "samples_q16", "albedo_sh_f16"]);
+    assert_eq!(names, vec!["spheres", "hierarchy", "metadata", "samples_q16", "albedo_sh_f16", "sample_areas"]);
     let n = cs.sphere_count() as u64;
     let total: u64 = cs.per_sphere().map(|v| v.len() as u64).sum();
     // Spec §7.1: 16 + pad16(4(N+1)) + 24N + 12S.
     assert_eq!(j["sections"][3]["length"], 16 + (4 * (n + 1)).div_ceil(16) * 16 + 24 * n + 12 * total);
+    // Spec §7.2, encoding 1: 16 + 2S; the areas within the f16 rounding of the lossless ones.
+    assert_eq!(j["sections"][5]["length"], 16 + 2 * total);
+    for (a, b) in ls.areas.as_ref().unwrap().iter().zip(cs.areas.as_ref().unwrap()) {
+        assert!((a - b).abs() <= a * 2f32.powi(-10) + 1e-9, "{a} vs {b}");
+    }
     // Same input and settings: the same bytes again.
     ok(&run(&["bake", model.to_str().unwrap(), "-o", "again.sphb", "-q", "--compact", "--spheres", "16"], d));
     assert!(std::fs::read(d.join("again.sphb")).unwrap() == compact);
@@ -83,7 +88,7 @@ fn compact_can_be_set_in_spherebake_toml() {
     std::fs::write(d.join("spherebake.toml"), "[defaults]\nspheres = 8\ncompact = true\n").unwrap();
     let model = fixture("capsule.obj");
     ok(&run(&["bake", model.to_str().unwrap(), "-o", "c.sphb", "-q"], d));
-    assert_eq!(kinds(&std::fs::read(d.join("c.sphb")).unwrap()), vec![1, 2, 7, 8, 9]);
+    assert_eq!(kinds(&std::fs::read(d.join("c.sphb")).unwrap()), vec![1, 2, 7, 8, 9, 10]);
 }
 
 fn shadow_error(file: &str, model: &str, d: &Path) -> f64 {

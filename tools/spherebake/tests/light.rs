@@ -283,13 +283,13 @@ fn duck_at_64_spheres_keeps_its_measured_ground_error_under_the_uniform_sky() {
         j["indirect"]["model"]["bias"].as_f64().unwrap_or(f64::NAN),
         j["direct"]["rel_rmse"].as_f64().unwrap(),
     );
-    // Issue 14's target is 0.20; the proxy measures 0.252 here (0.255 at 64² receivers and 4096 rays,
-    // docs/benchmarks.md), so the target is not met and the issue stays open. The ceilings guard the measured
-    // values (ground 0.252, model 0.936, + the reference's own noise of ≈ 0.05 / 0.09 at these settings; before the
-    // surface tiles they were 0.314 / 1.05).
-    assert!(rel <= 0.30, "Duck ground indirect relative RMSE {rel}");
+    // Issue 14's target is 0.20 (at 64² receivers and 4096 rays: 0.191 with the sample areas, docs/benchmarks.md);
+    // here, at coarser settings, the proxy measures ground 0.184, model 0.873. The ceilings are those + the
+    // reference's own noise (≈ 0.05 / 0.09 at these settings); without the sample areas (format minor 2) they were
+    // 0.252 / 0.936, before the surface tiles 0.314 / 1.05.
+    assert!(rel <= 0.23, "Duck ground indirect relative RMSE {rel}");
     let model_rel = j["indirect"]["model"]["rel_rmse"].as_f64().unwrap();
-    assert!(model_rel <= 1.03, "Duck model indirect relative RMSE {model_rel}");
+    assert!(model_rel <= 0.96, "Duck model indirect relative RMSE {model_rel}");
     // Yellow bleeding, on both sides: the ground light is redder and greener than it is blue.
     for side in ["mean_reference_rgb", "mean_proxy_rgb"] {
         let m = rgb(&g[side]);
