@@ -92,6 +92,23 @@
 //!     CesiumMan): 0.255 / 0.128 / 0.259 → areas 0.211 / 0.125 / 0.246 → and 10°–30°: 0.191 / 0.112 / 0.239
 //!     (sweep of the blend with a brute-force prototype of the areas, start–full: 5°–20° 0.190 / 0.126 / 0.239, 10°–20° 0.189 / 0.125 / 0.244,
 //!     15°–30° 0.188 / 0.111 / 0.239, 30°–50° 0.286 / 0.155 / 0.262, 0°–10° 0.197 / 0.136 / 0.230).
+//!   - *The surface's power in pass 1*: with the file's areas, a leaf's sample j is weighted by a_j / (r² Ω_j) (Ω_j
+//!     its cell's solid angle, [`crate::tile::cell_solid_angle`]), blended in by the splat's weight (fill and
+//!     coverage ramps above), so every leaf that is not a tight, fully covered sphere emits the power of the surface
+//!     it bounds, not of its sphere. This replaces, when areas are present, the estimate (t/r)² / |n·ω| that was
+//!     applied to loose leaves only: the estimate cannot see folds and empty directions, and applied to tight leaves
+//!     it had darkened blobs. Ground at 64 spheres (Duck / spot / CesiumMan): 0.191 / 0.112 / 0.239 → 0.194 / 0.157 /
+//!     0.205 (CesiumMan's far field overshot by +11 %, its tight leaves' spheres emitting more than their surface;
+//!     spot's spheres over-block each other in pass 2, which the sphere's excess area had hidden). The loose ball of
+//!     `tests/light_known.rs` given its true areas: 0.0069 against the analytic answer (0.0475 with the estimate).
+//!   - *Contact*: spheres of one proxy that intersect do not block each other (§6.2), and a sphere that contains the
+//!     receiver cannot occlude it, so the ground under a foot (the sole resting on it) was lit through the foot by
+//!     the shin's light. Now the leaf that contains the receiver and whose front-facing tiles cover the largest
+//!     share C of its cosine-weighted view (their polygon irradiance / π, without the near-plane rule) hides every
+//!     other light by (1 − C) ([`tile_coverage`]; C is direction-blind, a share of the whole view). CesiumMan at 64
+//!     spheres: the 10 receivers under its soles (reference 0) from 0.059 to 0.021, ground 0.205 → 0.194; Duck and
+//!     spot unchanged (0.194 / 0.157). Costs one pass over the containing leaves' tiles per receiver (most ground
+//!     receivers are in no sphere).
 //!   - *Albedo without zeros*: the bake fills the albedo cube map's directions without surface with the segment's
 //!     mean colour (`spherebake-bake` albedo docs); the emission is 0 there anyway (rule 2, carried by L), and the
 //!     zeros had darkened every segment's edge through the order-4 truncation of c (L ∗ c, eq. 11) more the more
@@ -284,6 +301,8 @@ pub struct LightContext {
     cell_gain: [f64; MAX_ORDER],
     /// The Voronoi cells of the 92 directions (corner directions), for the surface tiles of the splat.
     cells: Vec<crate::tile::Cell>,
+    /// Their solid angles (steradians), for the area weights of pass 1 ([`crate::tile::cell_solid_angle`]).
+    cell_solid_angles: Vec<f64>,
 }
 
 /// The per-band gain κ_l = (1/(2l + 1)) Σ_m Σ_j y_lm(ω_j) Y_j,lm of the Voronoi-cell projection (eq. 10) applied
@@ -324,12 +343,9 @@ impl LightContext {
         for v in &mut a[..order] {
             *v /= core::f64::consts::PI;
         }
-        Ok(LightContext {
-            shadow,
-            h_band: a,
-            cell_gain: voronoi_band_gains(order),
-            cells: crate::tile::voronoi_cells(),
-        })
+        let cells = crate::tile::voronoi_cells();
+        let cell_solid_angles = cells.iter().enumerate().map(|(j, c)| crate::tile::cell_solid_angle(c, j)).collect();
+        Ok(LightContext { shadow, h_band: a, cell_gain: voronoi_band_gains(order), cells, cell_solid_angles })
     }
 
     /// The per-band gains κ_l of the Voronoi projection (see [`voronoi_band_gains`]).
@@ -712,9 +728,17 @@ fn project_sample_radiance(
         let fill = f64::from(out.leaf_fill.get(i).copied().unwrap_or(1.0));
         let loose = ((AREA_FILL_TIGHT - fill) / (AREA_FILL_TIGHT - AREA_FILL_LOOSE)).clamp(0.0, 1.0);
         let mut l_i = [0.0f64; MAX_COEFFS];
+        let areas = proxy.sample_areas_of(i);
+        let near_weight = splat_weight(fill, pts.len());
         for (k, sp) in pts.iter().enumerate() {
             let rel = [sp.position[0] - c_rest[0], sp.position[1] - c_rest[1], sp.position[2] - c_rest[2]];
-            let area_w = if loose > 0.0 {
+            // With the file's sample areas (format 1.2): a leaf emits the power of its surface, area / (r² Ω), blended
+            // in by the weight the splat uses (module docs, "Tiles of the right size"; 0 for a tight, fully covered
+            // leaf, whose sphere is its surface).
+            let stored = areas.and_then(|a| a.get(k)).zip(ctx.cell_solid_angles.get(usize::from(sp.direction)));
+            let area_w = if let Some((&a, &omega)) = stored {
+                1.0 + near_weight * (f64::from(a) / (r_rest * r_rest * omega.max(1e-12)) - 1.0)
+            } else if loose > 0.0 {
                 let t2 = f64::from(rel[0] * rel[0] + rel[1] * rel[1] + rel[2] * rel[2]);
                 let t = spherebake_sh::sqrt_f64(t2).max(1e-30);
                 let nd = (f64::from(rel[0] * sp.normal[0] + rel[1] * sp.normal[1] + rel[2] * sp.normal[2]) / t).abs();
@@ -824,6 +848,43 @@ fn splat_irradiance(
         }
     }
     out
+}
+
+/// How much a leaf's own surface replaces its sphere, 0..=1: max(ramp(fill: 0.98 → 0.90), ramp(directions with a
+/// sample: 95 % → 75 %)) ([`SPLAT_FILL_TIGHT`] …). 0 for a tight, fully covered leaf (the sphere is its surface, and
+/// the SH light is exact for it); the weight of the splat up close and of the sample areas in pass 1.
+fn splat_weight(fill: f64, samples: usize) -> f64 {
+    let fw_fill = ((SPLAT_FILL_TIGHT - fill) / (SPLAT_FILL_TIGHT - SPLAT_FILL_LOOSE)).clamp(0.0, 1.0);
+    let cover = samples as f64 / GEODESIC_DIRECTION_COUNT as f64;
+    let fw_cover = ((SPLAT_COVER_FULL - cover) / (SPLAT_COVER_FULL - SPLAT_COVER_PARTIAL)).clamp(0.0, 1.0);
+    fw_fill.max(fw_cover)
+}
+
+/// Share of the receiver's cosine-weighted hemisphere (0..=1) covered by leaf `leaf`'s surface tiles that face it
+/// (module docs, "Contact"): Σ polygon irradiance / π of the tiles, scaled to their stored areas, with the receiver
+/// where it is (no near-plane rule: a receiver against a tile is covered by it). Allocation-free.
+fn tile_coverage(cells: &[crate::tile::Cell], posed: &PosedProxy<'_>, leaf: usize, p: [f32; 3], n: [f32; 3]) -> f64 {
+    let Some(s) = posed.leaves.get(leaf) else { return 0.0 };
+    let rot = posed.rotation(leaf);
+    let (c_rest, r_rest) = posed.proxy.spheres().get(leaf).map_or((s.center, s.radius), |r| (r.center, r.radius));
+    let pr = rotate_transposed(&rot, [p[0] - s.center[0], p[1] - s.center[1], p[2] - s.center[2]]).map(f64::from);
+    let nr = rotate_transposed(&rot, n).map(f64::from);
+    let areas = posed.proxy.sample_areas_of(leaf);
+    let mut cover = 0.0f64;
+    for (q, sp) in posed.proxy.samples_of(leaf).iter().enumerate() {
+        let Some(cell) = cells.get(usize::from(sp.direction)) else { continue };
+        let x = [sp.position[0] - c_rest[0], sp.position[1] - c_rest[1], sp.position[2] - c_rest[2]].map(f64::from);
+        let normal = sp.normal.map(f64::from);
+        let h = (0..3).map(|k| (pr[k] - x[k]) * normal[k]).sum::<f64>();
+        if h.is_nan() || h <= 0.0 {
+            continue;
+        }
+        let mut tile = [[0.0f64; 3]; crate::tile::CELL_MAX_CORNERS];
+        let k = crate::tile::sample_tile(cell, [0.0; 3], f64::from(r_rest), x, normal, &mut tile);
+        crate::tile::scale_tile_to_area(&mut tile[..k], x, areas.and_then(|a| a.get(q)).map(|&a| f64::from(a)));
+        cover += crate::tile::polygon_irradiance(pr, nr, &tile[..k]);
+    }
+    (cover / core::f64::consts::PI).clamp(0.0, 1.0)
 }
 
 /// Node lights from their leaves: L^c_N = Σ_j (r_j / r_N)² L^c_j, rotation polar(Σ_j r_j² R_j) (module docs).
@@ -1255,6 +1316,23 @@ impl IndirectCluster {
                 j -= 1;
             }
         }
+        // Contact (module docs): the leaf that contains the receiver and whose facing tiles cover most of its view
+        // hides the other lights by that share.
+        let mut contact = (0.0f64, usize::MAX);
+        for ai in &self.active {
+            let k = ai.entry as usize;
+            let e = &entries[k];
+            let CutEntry::Leaf(leaf) = e.blocker.source else { continue };
+            let d = [e.blocker.center[0] - p[0], e.blocker.center[1] - p[1], e.blocker.center[2] - p[2]];
+            if d[0] * d[0] + d[1] * d[1] + d[2] * d[2] > e.blocker.radius * e.blocker.radius {
+                continue;
+            }
+            let Some((posed_src, _)) = sources.get(e.source as usize) else { continue };
+            let c = tile_coverage(&ctx.cells, posed_src, leaf as usize, p, normal);
+            if c > contact.0 {
+                contact = (c, k);
+            }
+        }
         let mut h = [0.0f64; MAX_COEFFS];
         ctx.cosine_lobe([f64::from(normal[0]), f64::from(normal[1]), f64::from(normal[2])], &mut h);
         let mut total = [0.0f64; 3];
@@ -1296,12 +1374,7 @@ impl IndirectCluster {
                 let theta_raw = if d2 <= r * r { core::f32::consts::FRAC_PI_2 } else { asin_f32(r * rsqrt_f32(d2)) };
                 if theta_raw > lo {
                     let fill = f64::from(lights.leaf_fill.get(leaf as usize).copied().unwrap_or(1.0));
-                    let fw_fill = ((SPLAT_FILL_TIGHT - fill) / (SPLAT_FILL_TIGHT - SPLAT_FILL_LOOSE)).clamp(0.0, 1.0);
-                    let cover =
-                        posed_src.proxy.samples_of(leaf as usize).len() as f64 / GEODESIC_DIRECTION_COUNT as f64;
-                    let fw_cover =
-                        ((SPLAT_COVER_FULL - cover) / (SPLAT_COVER_FULL - SPLAT_COVER_PARTIAL)).clamp(0.0, 1.0);
-                    let fw = fw_fill.max(fw_cover) as f32;
+                    let fw = splat_weight(fill, posed_src.proxy.samples_of(leaf as usize).len()) as f32;
                     splat_t = fw * ((theta_raw - lo) / (hi - lo)).clamp(0.0, 1.0);
                     if splat_t > 0.0 {
                         splat = splat_irradiance(&ctx.cells, posed_src, lights, leaf as usize, p, normal);
@@ -1362,6 +1435,7 @@ impl IndirectCluster {
             } else {
                 f64::from(v0)
             };
+            let v = if contact.1 != usize::MAX && contact.1 != k { v * (1.0 - contact.0) } else { v };
             let keep = 1.0 - f64::from(splat_t);
             if splat_t > 0.0 {
                 let vis = if v0 > 0.0 { v / f64::from(v0) } else { 0.0 };

@@ -289,3 +289,20 @@ pub fn polygon_irradiance(p: [f64; 3], n: [f64; 3], corners: &[[f64; 3]]) -> f64
     }
     (0.5 * sum).abs().min(core::f64::consts::PI)
 }
+
+/// Solid angle (steradians) of the Voronoi cell of direction `j`: the fan of spherical triangles (ω_j, c_k, c_k+1)
+/// over its corners, each by Van Oosterom and Strackee's tan(Ω/2) = |a·(b×c)| / (1 + a·b + b·c + c·a).
+#[must_use]
+pub fn cell_solid_angle(cell: &Cell, j: usize) -> f64 {
+    let a = direction(j);
+    let n = cell.count.min(CELL_MAX_CORNERS);
+    let mut total = 0.0;
+    for k in 0..n {
+        let b = cell.corners[k];
+        let c = cell.corners[(k + 1) % n];
+        let num = dot(a, cross(b, c)).abs();
+        let den = 1.0 + dot(a, b) + dot(b, c) + dot(c, a);
+        total += 2.0 * spherebake_sh::atan2_f64(num, den);
+    }
+    total
+}

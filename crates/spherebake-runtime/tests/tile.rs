@@ -284,3 +284,27 @@ fn a_tile_scaled_to_an_area_has_it_and_emits_in_proportion_far_away() {
     assert!((e3 / e1 - 3.0).abs() < 2e-5, "{}", e3 / e1);
     assert!((none / e1 - 1.0).abs() < 1e-12, "no area: the tile's own");
 }
+
+#[test]
+fn cell_solid_angles_sum_to_the_sphere_and_match_a_lattice_count() {
+    let cells = voronoi_cells();
+    let omega: Vec<f64> =
+        cells.iter().enumerate().map(|(j, c)| spherebake_runtime::tile::cell_solid_angle(c, j)).collect();
+    let total: f64 = omega.iter().sum();
+    assert!((total - 4.0 * PI).abs() < 1e-9, "{total}");
+    // Independent: nearest-direction counts over a Fibonacci lattice of 200 000 equal-area points.
+    let n = 200_000;
+    let mut count = [0usize; 92];
+    let golden = PI * (3.0 - 5f64.sqrt());
+    for i in 0..n {
+        let z = 1.0 - (2.0 * i as f64 + 1.0) / n as f64;
+        let r = (1.0 - z * z).sqrt();
+        let p = [r * (golden * i as f64).cos(), r * (golden * i as f64).sin(), z];
+        let best = (0..92).max_by(|&a, &b| dot(p, dir(a)).total_cmp(&dot(p, dir(b)))).unwrap();
+        count[best] += 1;
+    }
+    for j in 0..92 {
+        let want = 4.0 * PI * count[j] as f64 / n as f64;
+        assert!((omega[j] / want - 1.0).abs() < 0.01, "cell {j}: {} vs {want}", omega[j]);
+    }
+}

@@ -283,10 +283,10 @@ fn duck_at_64_spheres_keeps_its_measured_ground_error_under_the_uniform_sky() {
         j["indirect"]["model"]["bias"].as_f64().unwrap_or(f64::NAN),
         j["direct"]["rel_rmse"].as_f64().unwrap(),
     );
-    // Issue 14's target is 0.20 (at 64² receivers and 4096 rays: 0.191 with the sample areas, docs/benchmarks.md);
-    // here, at coarser settings, the proxy measures ground 0.184, model 0.873. The ceilings are those + the
-    // reference's own noise (≈ 0.05 / 0.09 at these settings); without the sample areas (format minor 2) they were
-    // 0.252 / 0.936, before the surface tiles 0.314 / 1.05.
+    // Issue 14's target is 0.20 (at 64² receivers and 4096 rays: 0.194, docs/benchmarks.md); here, at coarser
+    // settings, the proxy measures ground 0.197, model 0.878 (the reference is seeded, so these repeat). The ceilings
+    // leave room for platform rounding and small changes; without the sample areas (format minor 2) the values
+    // were 0.252 / 0.936, before the surface tiles 0.314 / 1.05.
     assert!(rel <= 0.23, "Duck ground indirect relative RMSE {rel}");
     let model_rel = j["indirect"]["model"]["rel_rmse"].as_f64().unwrap();
     assert!(model_rel <= 0.96, "Duck model indirect relative RMSE {model_rel}");
@@ -295,4 +295,44 @@ fn duck_at_64_spheres_keeps_its_measured_ground_error_under_the_uniform_sky() {
         let m = rgb(&g[side]);
         assert!(m[0] > 10.0 * m[2] && m[1] > 10.0 * m[2], "{side}: {m:?}");
     }
+}
+
+/// CesiumMan at 64 spheres, at rest and mid-walk (t = 1 s), with and without the soft-deformation rotation
+/// (seed 000 §7.1). Issue 14: ground ≤ 0.20 at 64² receivers and 4096 rays (0.194 there, docs/benchmarks.md), and
+/// the rotation must reduce the error. At these coarser settings: rest ground 0.203; mid-walk ground / model 0.253 /
+/// 0.353 with the rotation, 0.260 / 0.484 without.
+#[test]
+fn cesium_man_at_64_spheres_and_the_soft_rotation_reduces_the_posed_error() {
+    let Some(man) = spherebake_testkit::shared_model("gltf/CesiumMan.glb") else { return };
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let model = man.to_str().unwrap();
+    ok(&run(&["bake", model, "-o", "man.sphb", "--spheres", "64", "-q"], d));
+    let errors = |extra: &[&str]| {
+        let mut args = vec![
+            "light",
+            "man.sphb",
+            "--model",
+            model,
+            "--resolution",
+            "24",
+            "--rays",
+            "2048",
+            "--model-receivers",
+            "256",
+            "--json",
+        ];
+        args.extend_from_slice(extra);
+        let j = json_of(&run(&args, d));
+        let g = j["indirect"]["ground"]["rel_rmse"].as_f64().unwrap();
+        let m = j["indirect"]["model"]["rel_rmse"].as_f64().unwrap();
+        eprintln!("CesiumMan, 64 spheres {extra:?}: ground {g:.4}, model {m:.4}");
+        (g, m)
+    };
+    let (rest, _) = errors(&[]);
+    assert!(rest <= 0.23, "CesiumMan ground indirect relative RMSE {rest}");
+    let (g_rot, m_rot) = errors(&["--time", "1.0"]);
+    let (g_no, m_no) = errors(&["--time", "1.0", "--no-soft-rotation"]);
+    assert!(g_rot < g_no, "the rotation must reduce the ground error: {g_rot} vs {g_no}");
+    assert!(m_rot < m_no, "the rotation must reduce the model error: {m_rot} vs {m_no}");
 }
