@@ -23,24 +23,83 @@ fn key_vec4(ch: &AnimChannel, comps: usize, index: usize) -> Vec4 {
 
 /// Samples one channel at `time_s` (clamped to its key range). Returns `None` for a channel
 /// without keys. For rotations the result is a normalised xyzw quaternion in a `Vec4`.
+///
+/// The value is right-continuous in time: at a key time it is the segment that *starts* there
+/// (for STEP the new key's value). [`sample_channel_before`] gives the limit from the left.
+#[must_use]
 pub fn sample_channel(ch: &AnimChannel, time_s: f32) -> Option<Vec4> {
-    let n = ch.times.len();
-    if n == 0 {
-        return None;
+    sample_channel_side(ch, time_s, false)
+}
+
+/// The limit of [`sample_channel`] as the time approaches `time_s` from below: at a STEP key the
+/// previous key's value, where two keys share a time the first one's; elsewhere (and at or
+/// before the first key or after the last, where the channel is constant) the same as
+/// [`sample_channel`].
+#[must_use]
+pub fn sample_channel_before(ch: &AnimChannel, time_s: f32) -> Option<Vec4> {
+    sample_channel_side(ch, time_s, true)
+}
+
+/// Index of the key segment `[times[k], times[k + 1]]` that [`sample_channel`] (`before` false)
+/// or [`sample_channel_before`] (`before` true) evaluates at `t`, with `t` clamped to the key
+/// range; `n - 1` (no segment: the last value) after the last key. `None` without keys.
+#[must_use]
+pub fn segment_at(times: &[f32], time_s: f32, before: bool) -> Option<usize> {
+    let (&first, &last) = (times.first()?, times.last()?);
+    // max / min rather than clamp: no panic on a NaN or unsorted key range (hostile input).
+    let t = time_s.max(first).min(last);
+    // After the last key the channel is constant: the limit from the left is its value there.
+    let k = if before && t > first && time_s <= last {
+        // Last key strictly before t.
+        times.partition_point(|&x| x < t)
+    } else {
+        // Last key at or before t.
+        times.partition_point(|&x| x <= t)
+    };
+    Some(k.saturating_sub(1))
+}
+
+/// The segment parameter `u ∈ [0, 1]` of time `time_s` in segment `k` exactly as the sampler
+/// computes it (f32, clamped to the key range, `0` for a zero-length segment).
+#[must_use]
+pub fn segment_u(times: &[f32], k: usize, time_s: f32) -> f32 {
+    let (Some(&first), Some(&last)) = (times.first(), times.last()) else { return 0.0 };
+    let (Some(&t0), Some(&t1)) = (times.get(k), times.get(k + 1)) else { return 0.0 };
+    let t = time_s.max(first).min(last);
+    let dt = t1 - t0;
+    if dt > 0.0 {
+        ((t - t0) / dt).clamp(0.0, 1.0)
+    } else {
+        0.0
     }
-    let comps = if ch.path == AnimPath::Rotation { 4 } else { 3 };
+}
+
+/// Key `index`'s value (`comps` components; CubicSpline callers pass the flattened index).
+pub(crate) fn key_value(ch: &AnimChannel, comps: usize, index: usize) -> Vec4 {
+    key_vec4(ch, comps, index)
+}
+
+/// Components per key value of a channel: 4 for rotations, 3 otherwise.
+pub(crate) fn components(ch: &AnimChannel) -> usize {
+    if ch.path == AnimPath::Rotation {
+        4
+    } else {
+        3
+    }
+}
+
+fn sample_channel_side(ch: &AnimChannel, time_s: f32, before: bool) -> Option<Vec4> {
+    let n = ch.times.len();
+    let k = segment_at(&ch.times, time_s, before)?;
+    let comps = components(ch);
     let cubic = ch.interpolation == Interpolation::CubicSpline;
     // Key k's value index in the flattened array (CubicSpline stores in-tangent, value, out-tangent).
     let value = |k: usize| if cubic { key_vec4(ch, comps, 3 * k + 1) } else { key_vec4(ch, comps, k) };
-    let t = time_s.clamp(ch.times[0], ch.times[n - 1]);
-    // Last key with time <= t.
-    let k = ch.times.partition_point(|&x| x <= t).saturating_sub(1);
     let out = if k + 1 >= n {
         value(n - 1)
     } else {
-        let (t0, t1) = (ch.times[k], ch.times[k + 1]);
-        let dt = t1 - t0;
-        let u = if dt > 0.0 { ((t - t0) / dt).clamp(0.0, 1.0) } else { 0.0 };
+        let dt = ch.times[k + 1] - ch.times[k];
+        let u = segment_u(&ch.times, k, time_s);
         match ch.interpolation {
             Interpolation::Step => value(k),
             Interpolation::Linear => {
@@ -72,11 +131,14 @@ pub fn sample_channel(ch: &AnimChannel, time_s: f32) -> Option<Vec4> {
     Some(if ch.path == AnimPath::Rotation { out.try_normalize().unwrap_or(Vec4::W) } else { out })
 }
 
+/// Threshold of [`slerp`]: above this quaternion dot product it normalises a linear blend.
+pub(crate) const SLERP_LERP_DOT: f64 = 0.9995;
+
 /// Shortest-path-ready slerp (the caller flips `b` to the same hemisphere), computed in f64.
 fn slerp(a: Quat, b: Quat, u: f32) -> Quat {
     let (a, b, u) = (a.as_dquat(), b.as_dquat(), f64::from(u));
     let d = a.dot(b).clamp(-1.0, 1.0);
-    let q = if d > 0.9995 {
+    let q = if d > SLERP_LERP_DOT {
         DQuat::from_vec4(a.to_array().into()).lerp(b, u)
     } else {
         let th = d.acos();
@@ -91,7 +153,20 @@ fn slerp(a: Quat, b: Quat, u: f32) -> Quat {
 
 /// Per node local TRS at `time_s` seconds of animation `anim` (rest TRS for nodes the animation
 /// does not drive, and for every node when `anim` is `None` or out of range).
+#[must_use]
 pub fn sample_local(skel: &Skeleton, anim: Option<usize>, time_s: f32) -> Vec<Trs> {
+    sample_local_side(skel, anim, time_s, false)
+}
+
+/// [`sample_local`] with every channel at its limit from the left ([`sample_channel_before`]):
+/// the pose just before `time_s`, which differs from the pose at `time_s` only where a STEP key
+/// (or two keys at one time) makes a channel jump at `time_s`.
+#[must_use]
+pub fn sample_local_before(skel: &Skeleton, anim: Option<usize>, time_s: f32) -> Vec<Trs> {
+    sample_local_side(skel, anim, time_s, true)
+}
+
+fn sample_local_side(skel: &Skeleton, anim: Option<usize>, time_s: f32, before: bool) -> Vec<Trs> {
     let mut out: Vec<Trs> = skel
         .nodes
         .iter()
@@ -102,7 +177,7 @@ pub fn sample_local(skel: &Skeleton, anim: Option<usize>, time_s: f32) -> Vec<Tr
         .collect();
     let Some(a) = anim.and_then(|i| skel.animations.get(i)) else { return out };
     for ch in &a.channels {
-        let (Some(slot), Some(v)) = (out.get_mut(ch.node), sample_channel(ch, time_s)) else { continue };
+        let (Some(slot), Some(v)) = (out.get_mut(ch.node), sample_channel_side(ch, time_s, before)) else { continue };
         match ch.path {
             AnimPath::Translation => slot.0 = v.truncate(),
             AnimPath::Rotation => slot.1 = Quat::from_vec4(v),
@@ -110,6 +185,37 @@ pub fn sample_local(skel: &Skeleton, anim: Option<usize>, time_s: f32) -> Vec<Tr
         }
     }
     out
+}
+
+/// The order in which [`world_matrices`] composes nodes, with the parent each node is composed
+/// onto: `(node, parent)` pairs, every parent listed before its children. `parent` is `None`
+/// for roots, for a parent index out of range and for the node of a cycle whose parent closes the
+/// cycle (the cycle is cut there). The first `n` nodes (`n` ≤ the node count).
+#[must_use]
+pub fn composition_order(skel: &Skeleton, n: usize) -> Vec<(usize, Option<usize>)> {
+    let n = n.min(skel.nodes.len());
+    let mut done = vec![false; n];
+    let mut order = Vec::with_capacity(n);
+    let mut chain = Vec::new();
+    for i in 0..n {
+        // Walk up to the first node already composed (or a root), then compose downwards.
+        chain.clear();
+        let mut cur = Some(i);
+        while let Some(c) = cur {
+            if done[c] || chain.len() > n || chain.contains(&c) {
+                break;
+            }
+            chain.push(c);
+            cur = skel.nodes[c].parent.filter(|&p| p < n);
+        }
+        let mut parent = cur.filter(|&c| done[c]);
+        for &c in chain.iter().rev() {
+            order.push((c, parent));
+            done[c] = true;
+            parent = Some(c);
+        }
+    }
+    order
 }
 
 /// World matrices from local TRS (`locals[i]` for node `i`), parents composed before children
@@ -120,26 +226,13 @@ pub fn world_matrices(skel: &Skeleton, locals: &[Trs]) -> Vec<Mat4> {
         let (t, r, s) = locals[i];
         DMat4::from_scale_rotation_translation(s.as_dvec3(), r.as_dquat().normalize(), t.as_dvec3())
     };
-    let mut world: Vec<Option<DMat4>> = vec![None; n];
-    let mut chain = Vec::new();
-    for i in 0..n {
-        // Walk up to the first node already composed (or a root), then compose downwards.
-        chain.clear();
-        let mut cur = Some(i);
-        while let Some(c) = cur {
-            if world[c].is_some() || chain.len() > n || chain.contains(&c) {
-                break;
-            }
-            chain.push(c);
-            cur = skel.nodes[c].parent.filter(|&p| p < n);
-        }
-        let mut acc = cur.and_then(|c| world[c]).unwrap_or(DMat4::IDENTITY);
-        for &c in chain.iter().rev() {
-            acc *= local(c);
-            world[c] = Some(acc);
-        }
+    let mut world: Vec<DMat4> = vec![DMat4::IDENTITY; n];
+    for (c, parent) in composition_order(skel, n) {
+        // Roots too are multiplied onto the identity, so the products are those of the
+        // walk-up composition this order was taken from, bit for bit.
+        world[c] = parent.map_or(DMat4::IDENTITY, |p| world[p]) * local(c);
     }
-    world.into_iter().map(|m| m.unwrap_or(DMat4::IDENTITY).as_mat4()).collect()
+    world.into_iter().map(|m| m.as_mat4()).collect()
 }
 
 /// Joint matrices per bone: `world(bone.node) × inverse_bind` (bind / mesh space → scene).
@@ -246,6 +339,80 @@ mod tests {
         assert!((sample_channel(&c, 2.0).unwrap().x - 1.0).abs() < 1e-6);
         // y: v0 = 0, v1 = 5, tangents 0 → smoothstep: 5 · (3u² − 2u³) at u = 0.5 = 2.5.
         assert!((sample_channel(&c, 2.0).unwrap().y - 2.5).abs() < 1e-6);
+    }
+
+    #[test]
+    fn left_limits_differ_only_where_a_channel_jumps() {
+        // STEP: just before key 1 the value of key 0, at key 1 its own.
+        let c = chan(
+            AnimPath::Scale,
+            Interpolation::Step,
+            vec![0.0, 1.0, 2.0],
+            vec![1.0, 1.0, 1.0, 2.0, 2.0, 2.0, 3.0, 3.0, 3.0],
+        );
+        assert_eq!(sample_channel_before(&c, 1.0).unwrap().x, 1.0);
+        assert_eq!(sample_channel(&c, 1.0).unwrap().x, 2.0);
+        assert_eq!(sample_channel_before(&c, 2.0).unwrap().x, 2.0);
+        assert_eq!(sample_channel(&c, 2.0).unwrap().x, 3.0);
+        // Inside a segment and at or before the first key (constant there): the same.
+        assert_eq!(sample_channel_before(&c, 0.5), sample_channel(&c, 0.5));
+        assert_eq!(sample_channel_before(&c, 0.0), sample_channel(&c, 0.0));
+        assert_eq!(sample_channel_before(&c, -1.0), sample_channel(&c, -1.0));
+        // After the last key: constant, so no jump to the left either.
+        assert_eq!(sample_channel_before(&c, 2.5).unwrap().x, 3.0);
+        // LINEAR: continuous at a key...
+        let l = chan(
+            AnimPath::Translation,
+            Interpolation::Linear,
+            vec![0.0, 1.0, 2.0],
+            vec![0.0, 0.0, 0.0, 4.0, 0.0, 0.0, 0.0, 0.0, 0.0],
+        );
+        assert_eq!(sample_channel_before(&l, 1.0).unwrap().x, 4.0);
+        assert_eq!(sample_channel(&l, 1.0).unwrap().x, 4.0);
+        // ...but two keys at one time jump from the first to the second.
+        let d = chan(
+            AnimPath::Translation,
+            Interpolation::Linear,
+            vec![0.0, 1.0, 1.0, 2.0],
+            vec![0.0, 0.0, 0.0, 4.0, 0.0, 0.0, 8.0, 0.0, 0.0, 8.0, 0.0, 0.0],
+        );
+        assert_eq!(sample_channel_before(&d, 1.0).unwrap().x, 4.0);
+        assert_eq!(sample_channel(&d, 1.0).unwrap().x, 8.0);
+        assert!((sample_channel(&d, 0.5).unwrap().x - 2.0).abs() < 1e-6);
+        // Hostile key times (NaN, unsorted) give some value, no panic.
+        for times in [vec![f32::NAN, 1.0], vec![1.0, f32::NAN], vec![2.0, 1.0]] {
+            let h = chan(AnimPath::Translation, Interpolation::Linear, times, vec![0.0; 6]);
+            for t in [f32::NAN, -1.0, 0.5, 1.5, 3.0] {
+                let _ = (sample_channel(&h, t), sample_channel_before(&h, t));
+            }
+        }
+    }
+
+    #[test]
+    fn composition_order_lists_parents_first_and_cuts_cycles() {
+        let node = |parent| Node {
+            name: String::new(),
+            parent,
+            translation: [0.0; 3],
+            rotation: [0.0, 0.0, 0.0, 1.0],
+            scale: [1.0; 3],
+        };
+        // 0 → 2 → 1 (child lists its parent), 3 ⇄ 4 a cycle, 5's parent out of range.
+        let s = Skeleton {
+            nodes: vec![node(Some(2)), node(None), node(Some(1)), node(Some(4)), node(Some(3)), node(Some(99))],
+            bones: vec![],
+            animations: vec![],
+        };
+        let order = composition_order(&s, 6);
+        assert_eq!(order.len(), 6);
+        let pos = |n: usize| order.iter().position(|x| x.0 == n).unwrap();
+        assert!(pos(1) < pos(2) && pos(2) < pos(0));
+        assert_eq!(order[pos(0)].1, Some(2));
+        assert_eq!(order[pos(1)].1, None);
+        assert_eq!(order[pos(5)].1, None);
+        // The cycle is cut once: one of 3, 4 is a root, the other its child.
+        let (p3, p4) = (order[pos(3)].1, order[pos(4)].1);
+        assert!((p3.is_none() && p4 == Some(3)) || (p4.is_none() && p3 == Some(4)), "{p3:?} {p4:?}");
     }
 
     fn two_bone_skeleton() -> Skeleton {

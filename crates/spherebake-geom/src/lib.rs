@@ -10,6 +10,7 @@
 pub mod anim;
 pub mod bvh;
 pub mod mesh;
+pub mod motion;
 pub mod mvc;
 pub mod orient;
 pub mod rng;
