@@ -483,7 +483,8 @@ fn union_outside(solid: &Solid, spheres: &[Sphere32]) -> f64 {
         let n = (u1 - u0 + 1.0).max(DVec3::ONE);
         let cells = n.x * n.y * n.z;
         let stride = if cells > 2e6 { (cells / 2e6).cbrt().ceil() as i64 } else { 1 };
-        let w = (stride * stride * stride) as f64;
+        // In f64: a hostile radius makes the stride huge, and its cube overflows i64.
+        let w = (stride as f64).powi(3);
         let (a, b) = (u0.as_i64vec3(), u1.as_i64vec3());
         for k in (a.z..=b.z).step_by(stride as usize) {
             for j in (a.y..=b.y).step_by(stride as usize) {
