@@ -3,7 +3,8 @@
 //! - centre error of the k = 4 truncation against all bones kept (mean / max, relative to the
 //!   bounding-box diagonal);
 //! - the share of skinned (welded) vertices inside the union of posed spheres, min over frames;
-//! - `--pose-margin auto`: spheres grown, largest growth, and outside-volume ratio E before/after.
+//! - `--pose-margin auto`: spheres grown, largest growth, and outside-volume ratio E before/after
+//!   (on stderr: the margin's frames and its largest motion bound between them).
 //!
 //! Spheres: `spherebake_fit::fit` with default settings and `SPHERES` spheres (env, default 64).
 //! Run: `cargo run --release -p spherebake-bake --example skin_measure`.
@@ -41,7 +42,7 @@ fn main() {
         let spheres = fit.spheres.clone();
         let skel = &mesh.skin.as_ref().expect("skinned").skeleton;
         let bones = skel.bones.len();
-        let s4 = SkinSettings { bones_per_sphere: 4, pose_margin: PoseMargin::Auto, samples_per_animation: 30 };
+        let s4 = SkinSettings { bones_per_sphere: 4, pose_margin: PoseMargin::Auto, ..Default::default() };
         let (t4, _, st4) = bake_skin(&mesh, &spheres, &s4).unwrap().unwrap();
         let (tall, _, _) = bake_skin(&mesh, &spheres, &SkinSettings { bones_per_sphere: bones, ..Default::default() })
             .unwrap()
@@ -96,7 +97,9 @@ fn main() {
             cov4 = cov4.min(union_coverage(&verts, &b4));
             cov_all = cov_all.min(union_coverage(&verts, &ball));
         }
+        let t1 = std::time::Instant::now();
         let m = grow_for_animations(&mesh, &spheres, &t4, &s4).unwrap();
+        let margin_s = t1.elapsed().as_secs_f64();
         if let Ok(dir) = std::env::var("DUMP") {
             // For the oracle cross-check: the spheres (rest scene space) and an all-bones .sphb.
             let stem = name.trim_end_matches(".glb");
@@ -142,8 +145,9 @@ fn main() {
             st4.linear_residual_max_relative,
         );
         eprintln!(
-            "  {name}: fit {fit_s:.1} s, skin bake {:.3} s, closed {}, on-surface centres {}, remainder dropped {}; centre-LBS k=4 error mean {:.2e} max {:.2e} (÷diag)",
-            st4.seconds, st4.closed, st4.centres_on_surface, st4.remainder_dropped, lbs_sum / err_n as f64, lbs_max
+            "  {name}: fit {fit_s:.1} s, skin bake {:.3} s, closed {}, on-surface centres {}, remainder dropped {}; centre-LBS k=4 error mean {:.2e} max {:.2e} (÷diag); margin {:.3} s, {} frames, motion bound ≤ {:.2e} (÷diag)",
+            st4.seconds, st4.closed, st4.centres_on_surface, st4.remainder_dropped, lbs_sum / err_n as f64, lbs_max,
+            margin_s, m.frames, m.motion_bound_max_relative
         );
     }
 }

@@ -141,11 +141,18 @@ pub struct SkinSummary {
 /// What `--pose-margin auto` did.
 #[derive(Clone, Debug, Serialize)]
 pub struct MarginSummary {
-    /// Animation frames checked (every animation, sampled).
+    /// Poses checked (the rest pose and every frame of every animation's schedule).
     pub frames: usize,
     pub grown_spheres: usize,
     /// Largest radius growth / bbox diagonal.
     pub max_growth_relative: f64,
+    /// Largest pair motion bound a vertex's coverage relied on / bbox diagonal.
+    pub motion_bound_max_relative: f64,
+    /// Animations whose refinement hit the sample cap above the tolerance.
+    pub capped_animations: usize,
+    /// Frames whose motion bound is not finite (coverage proven at the sample time only) or
+    /// that need a radius beyond f32.
+    pub unbounded_frames: usize,
     /// Smallest share of skinned vertices inside the posed union before growing.
     pub coverage_min_before: f64,
     pub outside_ratio_before: Option<f64>,
@@ -235,8 +242,8 @@ pub fn bake_imported(
     let mut spheres = fitted.spheres;
 
     // Skinning terms of the sphere centres (MVC folded into bones); with `--pose-margin auto`
-    // the radii grow so the model's own animations stay covered. Before the hierarchy, so the
-    // hierarchy bounds the final radii.
+    // the radii grow so the model's own animations stay covered at every time (skin::margin).
+    // Before the hierarchy, so the hierarchy bounds the final radii.
     let t = Instant::now();
     let skin_settings = SkinSettings {
         bones_per_sphere: settings.bones_per_sphere,
@@ -250,6 +257,12 @@ pub fn bake_imported(
         if settings.pose_margin == PoseMargin::Auto {
             let m = grow_for_animations(mesh, &spheres, terms, &skin_settings)
                 .map_err(|e| stage_err("pose margin", e.to_string()))?;
+            if m.unbounded_frames > 0 {
+                warnings.push(format!(
+                    "pose margin: {} animation frames have no finite motion bound or need a radius beyond f32 (non-finite or huge keys); their coverage is not guaranteed",
+                    m.unbounded_frames
+                ));
+            }
             spheres = m.spheres.clone();
             margin = Some(m);
         }
@@ -365,6 +378,9 @@ pub fn bake_imported(
                 frames: m.frames,
                 grown_spheres: m.grown_count,
                 max_growth_relative: m.max_growth_relative,
+                motion_bound_max_relative: m.motion_bound_max_relative,
+                capped_animations: m.capped_animations,
+                unbounded_frames: m.unbounded_frames,
                 coverage_min_before: m.coverage_min_before,
                 outside_ratio_before: m.outside_ratio_before,
                 outside_ratio_after: m.outside_ratio_after,

@@ -1,6 +1,7 @@
 //! Skinning stage: mean value coordinates of every sphere centre on the welded rest mesh, folded
 //! with the skin weights into per-bone homogeneous terms (math reference §7), truncated to the `k`
-//! largest bones; plus the optional `--pose-margin auto` radius growth.
+//! largest bones; plus the optional `--pose-margin auto` radius growth ([`margin`]: every
+//! vertex covered at every time of every animation, with the proof in its docs).
 //!
 //! Spaces: sphere centres and [`Mesh::positions`] are the rest pose in model (scene) space; the
 //! stored terms `(q_j, b_j)` are in the skin's bind (mesh) space, so the runtime poses a centre as
@@ -17,6 +18,9 @@ use spherebake_geom::anim;
 use spherebake_geom::mvc::{self, BoneTerm, MvcError, MvcLocation, SkinRow};
 use spherebake_geom::{Mesh, Skeleton};
 
+pub mod margin;
+pub use margin::{grow_for_animations, MarginResult};
+
 /// Largest `bones_per_sphere` the format stores.
 pub const MAX_BONES_PER_SPHERE: usize = 64;
 
@@ -28,8 +32,9 @@ pub enum PoseMargin {
     /// Radii as fitted (bounding at rest only). Default.
     #[default]
     None,
-    /// Grow radii as little as needed so that every skinned vertex is inside the union of posed
-    /// spheres at every sampled time of every animation of the model ([`grow_for_animations`]).
+    /// Grow radii so that every skinned vertex is inside the union of posed spheres at every
+    /// time of every animation of the model, between sampled times too
+    /// ([`grow_for_animations`]).
     Auto,
 }
 
@@ -41,14 +46,25 @@ pub struct SkinSettings {
     pub bones_per_sphere: usize,
     /// `--pose-margin` (default [`PoseMargin::None`]).
     pub pose_margin: PoseMargin,
-    /// Times sampled per animation by [`PoseMargin::Auto`] (default 30, range 1..=10000),
-    /// evenly spaced over the animation's key range, both ends included.
-    pub samples_per_animation: usize,
+    /// [`PoseMargin::Auto`]: largest motion bound left between sample times, relative to the
+    /// bounding-box diagonal (default 0.002, range (0, 1]). Intervals between key times are
+    /// bisected until the most any vertex–sphere distance can change within one is at most this;
+    /// the radii grow by up to that much beyond what the sampled poses need ([`margin`]).
+    pub margin_tolerance: f64,
+    /// [`PoseMargin::Auto`]: most sample times per animation (default 4096, range
+    /// 2..=[`margin::MAX_TIMES_PER_ANIMATION`]); at the cap the unsplit intervals keep their
+    /// larger (still covering) bounds.
+    pub max_times_per_animation: usize,
 }
 
 impl Default for SkinSettings {
     fn default() -> Self {
-        Self { bones_per_sphere: 4, pose_margin: PoseMargin::None, samples_per_animation: 30 }
+        Self {
+            bones_per_sphere: 4,
+            pose_margin: PoseMargin::None,
+            margin_tolerance: 0.002,
+            max_times_per_animation: 4096,
+        }
     }
 }
 
@@ -90,8 +106,12 @@ pub enum SkinError {
     BonesPerSphere { value: usize, max: usize },
     #[error("bones per sphere {bones_per_sphere} with a {bone_count}-bone skin needs {} slots per sphere, the format stores at most {max}", bones_per_sphere.min(bone_count))]
     TooManyBones { bones_per_sphere: usize, bone_count: usize, max: usize },
-    #[error("samples per animation is {value}, expected 1..=10000")]
-    SamplesPerAnimation { value: usize },
+    #[error("pose margin tolerance is {value}, expected a number in (0, 1]")]
+    MarginTolerance { value: f64 },
+    #[error("pose margin times per animation is {value}, expected 2..={max}")]
+    TimesPerAnimation { value: usize, max: usize },
+    #[error("animation {animation}, channel {channel}: key times are not finite and non-decreasing")]
+    AnimationKeys { animation: usize, channel: usize },
     #[error("sphere {index} is not finite or has a negative radius")]
     InvalidSphere { index: usize },
     #[error("skin {what} has {actual} entries, expected {expected} (one per vertex)")]
@@ -350,9 +370,9 @@ pub fn pose_centre(slots: &[SkinEntry], joints: &[DMat4]) -> DVec3 {
     acc
 }
 
-/// `(animation index, time in seconds)` of every sampled frame: `samples` evenly spaced times
-/// over each animation's key range (first to last key over all its channels), both ends included
-/// (one sample: the start).
+/// `(animation index, time in seconds)` of `samples` evenly spaced times over each animation's
+/// key range (first to last key over all its channels), both ends included (one sample: the
+/// start). For measurements and tests; [`grow_for_animations`] samples by [`margin`]'s schedule.
 #[must_use]
 pub fn animation_frames(skel: &Skeleton, samples: usize) -> Vec<(usize, f32)> {
     let mut out = Vec::new();
@@ -400,139 +420,6 @@ pub fn union_coverage(points: &[DVec3], spheres: &[[f64; 4]]) -> f64 {
         .iter()
         .sum::<usize>();
     inside as f64 / points.len() as f64
-}
-
-/// Result of [`grow_for_animations`].
-#[derive(Clone, Debug, PartialEq, serde::Serialize)]
-pub struct MarginResult {
-    /// The spheres with grown radii (centres unchanged), `[x, y, z, r]`.
-    pub spheres: Vec<[f32; 4]>,
-    /// Frames checked (animations × samples, plus the rest pose).
-    pub frames: usize,
-    pub grown_count: usize,
-    /// Largest radius increase, model units, and relative to the bounding-box diagonal.
-    pub max_growth: f64,
-    pub max_growth_relative: f64,
-    /// Before growing: minimum over frames of the share of skinned (welded) vertices inside the
-    /// union of posed spheres.
-    pub coverage_min_before: f64,
-    /// Outside-volume ratio E of the rest-pose set before and after growing
-    /// (`spherebake_fit::evaluate`, exact for closed meshes), when it could be measured.
-    pub outside_ratio_before: Option<f64>,
-    pub outside_ratio_after: Option<f64>,
-}
-
-/// `--pose-margin auto`: grows radii as little as needed so that every skinned (welded) vertex
-/// lies inside the union of the posed spheres at every frame of [`animation_frames`] (and at
-/// rest). Frames are visited in order; a vertex outside every sphere grows the sphere whose ball
-/// volume grows least when reaching it (`d³ − r³` smallest; ties: lower index), to
-/// `distance × (1 + 1e-5)` rounded up in f32,
-/// so that the runtime's f32 posing still covers it. Greedy: small, not proven minimal.
-/// Centres are posed from the stored f32 terms, as the runtime does.
-///
-/// Only vertices are checked: a triangle between covered vertices can still poke out of the
-/// union by its sagitta.
-///
-/// # Errors
-///
-/// Invalid spheres or settings, inconsistent skin arrays, or `terms` not matching `spheres`.
-pub fn grow_for_animations(
-    mesh: &Mesh,
-    spheres: &[[f32; 4]],
-    terms: &SkinTerms,
-    settings: &SkinSettings,
-) -> Result<MarginResult, SkinError> {
-    check_spheres(spheres)?;
-    if settings.samples_per_animation == 0 || settings.samples_per_animation > 10_000 {
-        return Err(SkinError::SamplesPerAnimation { value: settings.samples_per_animation });
-    }
-    let k = terms.bones_per_sphere as usize;
-    if k == 0 || terms.entries.len() != spheres.len() * k {
-        return Err(SkinError::TermCount { expected: spheres.len(), actual: terms.entries.len() / k.max(1) });
-    }
-    let mut out: Vec<[f32; 4]> = spheres.to_vec();
-    let Some(skin) = mesh.skin.as_ref() else {
-        return Ok(MarginResult {
-            spheres: out,
-            frames: 0,
-            grown_count: 0,
-            max_growth: 0.0,
-            max_growth_relative: 0.0,
-            coverage_min_before: 1.0,
-            outside_ratio_before: None,
-            outside_ratio_after: None,
-        });
-    };
-    let ws = welded_skin(mesh, skin)?;
-    let skel = &skin.skeleton;
-    let mut frames: Vec<(Option<usize>, f32)> = vec![(None, 0.0)];
-    frames.extend(animation_frames(skel, settings.samples_per_animation).into_iter().map(|(a, t)| (Some(a), t)));
-    // Posed welded vertices and sphere centres per frame (parallel, ordered).
-    let posed: Vec<(Vec<DVec3>, Vec<DVec3>)> = frames
-        .par_iter()
-        .map(|&(a, t)| {
-            let jm: Vec<DMat4> = animation_joint_matrices(skel, a, t).iter().map(Mat4::as_dmat4).collect();
-            let verts = lbs_rows(&ws.bind, &ws.rows, &jm);
-            let centres = (0..spheres.len()).map(|s| pose_centre(terms.of(s), &jm)).collect();
-            (verts, centres)
-        })
-        .collect();
-    let mut coverage_min_before: f64 = 1.0;
-    for (verts, centres) in &posed {
-        let ss: Vec<[f64; 4]> = centres.iter().zip(spheres).map(|(c, s)| [c.x, c.y, c.z, f64::from(s[3])]).collect();
-        coverage_min_before = coverage_min_before.min(union_coverage(verts, &ss));
-    }
-    let mut grown = vec![false; spheres.len()];
-    for (verts, centres) in &posed {
-        for p in verts {
-            let mut best = (f64::INFINITY, usize::MAX);
-            let mut covered = false;
-            for (s, c) in centres.iter().enumerate() {
-                let d = p.distance(*c);
-                let r = f64::from(out[s][3]);
-                if d <= r {
-                    covered = true;
-                    break;
-                }
-                // Added ball volume (∝ d³ − r³): growing a small sphere a little costs less
-                // than growing a large one by the same length.
-                let cost = d * d * d - r * r * r;
-                if cost < best.0 {
-                    best = (cost, s);
-                }
-            }
-            if covered || best.1 == usize::MAX {
-                continue;
-            }
-            let s = best.1;
-            let need = p.distance(centres[s]) * (1.0 + 1e-5);
-            let mut r = need as f32;
-            while f64::from(r) < need {
-                r = f32::from_bits(r.to_bits() + 1); // next f32 up (r > 0)
-            }
-            out[s][3] = r;
-            grown[s] = true;
-        }
-    }
-    let max_growth = out.iter().zip(spheres).map(|(a, b)| f64::from(a[3]) - f64::from(b[3])).fold(0.0, f64::max);
-    let diag = bbox_diagonal(&ws.positions);
-    let eval = |set: &[[f32; 4]]| {
-        let es = spherebake_fit::EvalSettings { surface_samples: 2000, ..Default::default() };
-        spherebake_fit::evaluate(&mesh.welded_positions, &ws.triangles, set, &es).ok().map(|e| e.outside_ratio_e)
-    };
-    let grown_count = grown.iter().filter(|&&g| g).count();
-    let outside_ratio_before = eval(spheres);
-    let outside_ratio_after = if grown_count == 0 { outside_ratio_before } else { eval(&out) };
-    Ok(MarginResult {
-        spheres: out,
-        frames: frames.len(),
-        grown_count,
-        max_growth,
-        max_growth_relative: if diag > 0.0 { max_growth / diag } else { 0.0 },
-        coverage_min_before,
-        outside_ratio_before,
-        outside_ratio_after,
-    })
 }
 
 /// Linear blend skinning of welded vertices (rows already normalised; a row without weight keeps

@@ -178,19 +178,23 @@ fn deterministic_across_thread_counts() {
 }
 
 #[test]
-fn pose_margin_covers_every_frame() {
+fn pose_margin_covers_every_time() {
     let m = arm();
     // Thin spheres along the axis: bounding at rest only barely, the bend pushes vertices out.
     let s: Vec<[f32; 4]> = (0..8).map(|i| [0.0, 0.125 + 0.25 * i as f32, 0.0, 0.3]).collect();
-    let settings = SkinSettings { bones_per_sphere: 2, pose_margin: PoseMargin::Auto, samples_per_animation: 30 };
+    let settings = SkinSettings { bones_per_sphere: 2, pose_margin: PoseMargin::Auto, ..Default::default() };
     let (terms, _, _) = bake_skin(&m, &s, &settings).unwrap().unwrap();
     let r = grow_for_animations(&m, &s, &terms, &settings).unwrap();
-    assert_eq!(r.frames, 31);
+    assert!(r.frames > 3 && r.capped_animations == 0 && r.unbounded_frames == 0, "{r:?}");
     assert!(r.spheres.iter().zip(&s).all(|(a, b)| a[3] >= b[3] && a[..3] == b[..3]));
-    // Independent check at the sampled times: every (unwelded) skinned vertex inside some posed sphere.
+    // Independent check at 499 times strictly between the keys (not the margin's own schedule)
+    // and at the keys: every (unwelded) skinned vertex inside some posed sphere.
     let sk = m.skin.as_ref().unwrap();
-    for (a, t) in skin::animation_frames(&sk.skeleton, 30) {
-        let j = skin::animation_joint_matrices(&sk.skeleton, Some(a), t);
+    let mut times: Vec<f32> = sk.skeleton.animations[0].channels.iter().flat_map(|c| c.times.clone()).collect();
+    let (t0, t1) = (times.iter().copied().fold(f32::INFINITY, f32::min), times.iter().copied().fold(0.0, f32::max));
+    times.extend((0..499).map(|i| t0 + (t1 - t0) * (i as f32 + 0.381_966) / 499.0));
+    for t in times {
+        let j = skin::animation_joint_matrices(&sk.skeleton, Some(0), t);
         let jd: Vec<DMat4> = j.iter().map(Mat4::as_dmat4).collect();
         let verts = anim::skin_vertices(sk, &j);
         let centres = posed(&terms, s.len(), &jd);
@@ -204,6 +208,22 @@ fn pose_margin_covers_every_frame() {
     assert!(r.grown_count > 0 && r.max_growth > 0.0);
     assert!(r.outside_ratio_after.unwrap() > r.outside_ratio_before.unwrap());
     eprintln!("{r:?}");
+}
+
+#[test]
+fn pose_margin_deterministic_across_thread_counts() {
+    let m = arm();
+    let s: Vec<[f32; 4]> = (0..8).map(|i| [0.0, 0.125 + 0.25 * i as f32, 0.0, 0.3]).collect();
+    let settings = SkinSettings { bones_per_sphere: 2, pose_margin: PoseMargin::Auto, ..Default::default() };
+    let (terms, _, _) = bake_skin(&m, &s, &settings).unwrap().unwrap();
+    let run = |threads| {
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap()
+            .install(|| grow_for_animations(&m, &s, &terms, &settings).unwrap())
+    };
+    assert_eq!(run(1), run(4));
 }
 
 #[test]

@@ -68,7 +68,7 @@ pub struct BakeArgs {
     /// Bones kept per sphere for skinning; more than the model has keeps every bone [default: 4, range 1..=64]
     #[arg(long)]
     pub bones_per_sphere: Option<usize>,
-    /// Grow radii so the model's own animations stay covered ("auto") or not ("none") [default: none]
+    /// Grow radii so the model's own animations stay covered at every time, between keys too ("auto"), or not ("none") [default: none]
     #[arg(long, value_name = "none|auto")]
     pub pose_margin: Option<String>,
     /// SH order of the albedo per sphere (n² coefficients) [default: 4, range 1..=8]
@@ -562,10 +562,12 @@ fn print_single(output: &Path, r: &spherebake_bake::BakeReport, verbose: bool) {
         );
         if let Some(m) = &k.pose_margin {
             println!(
-                "  margin    {} spheres grown (max {:.2e} of the diagonal) over {} frames; coverage before {:.4}; E {} -> {}",
+                "  margin    {} spheres grown (max {:.2e} of the diagonal) over {} frames, motion between frames ≤ {:.2e} of the diagonal{}; coverage before {:.4}; E {} -> {}",
                 m.grown_spheres,
                 m.max_growth_relative,
                 m.frames,
+                m.motion_bound_max_relative,
+                if m.capped_animations > 0 { format!(" ({} animations at the sample cap)", m.capped_animations) } else { String::new() },
                 m.coverage_min_before,
                 m.outside_ratio_before.map_or("-".into(), |e| format!("{e:.4}")),
                 m.outside_ratio_after.map_or("-".into(), |e| format!("{e:.4}"))
