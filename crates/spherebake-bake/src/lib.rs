@@ -1,4 +1,4 @@
-//! The spherebake pipeline: import → voxelize → fit → (hierarchy, samples, albedo SH, skinning)
+//! The spherebake pipeline: import → orient → voxelize → fit → (hierarchy, samples, albedo SH, skinning)
 //! → `.sphb` file bytes.
 //!
 //! Architecture invariant: no terminal, no JSON printing, no exit codes. [`bake_path`] returns
@@ -232,8 +232,26 @@ pub fn bake_imported(
 
     let positions = &mesh.welded_positions;
     let triangles = mesh.welded_triangles();
+    // Outward orientation by the solid (real meshes are not always consistently oriented),
+    // shared by the fit, the sample points and the albedo. On the welded mesh, so UV/normal
+    // seams do not split orientation patches; triangle indices are the same as in
+    // `mesh.triangles`, so the flips apply there too.
     let t = Instant::now();
-    let fitted = fit_spheres(path, positions, &triangles, settings, progress)?;
+    let winding = WindingNumber::new(positions, &triangles);
+    let orientation = outward_orientation(positions, &triangles, &winding);
+    drop(winding);
+    if orientation.flipped > 0 {
+        warnings.push(format!("{} triangles face inward; oriented outward by the solid", orientation.flipped));
+    }
+    timings.push(StageTime { stage: "orient", seconds: t.elapsed().as_secs_f64() });
+
+    // The fit sees the outward-oriented triangles: a mesh and its inside-out twin are the same
+    // input to it (same solid, same spheres), and a mesh whose only defect was the winding of
+    // some patches is closed again.
+    let oriented: Vec<[u32; 3]> =
+        triangles.iter().zip(&orientation.flip).map(|(t, &flip)| if flip { [t[0], t[2], t[1]] } else { *t }).collect();
+    let t = Instant::now();
+    let fitted = fit_spheres(path, positions, &oriented, settings, progress)?;
     timings.push(StageTime { stage: "fit", seconds: t.elapsed().as_secs_f64() });
     let fit_stages: Vec<StageTime> =
         fitted.stage_timings.iter().map(|(stage, seconds)| StageTime { stage, seconds: *seconds }).collect();
@@ -276,18 +294,9 @@ pub fn bake_imported(
     let hstats = hierarchy_stats(&hierarchy, spheres);
     timings.push(StageTime { stage: "hierarchy", seconds: t.elapsed().as_secs_f64() });
 
-    // Outward orientation by the solid (real meshes are not always consistently oriented),
-    // shared by the sample-point and albedo stages.
     let t = Instant::now();
-    // On the welded mesh, so UV/normal seams do not split orientation patches; triangle indices
-    // are the same as in `mesh.triangles`, so the flips apply there too.
-    let winding = WindingNumber::new(positions, &triangles);
-    let orientation = outward_orientation(positions, &triangles, &winding);
-    if orientation.flipped > 0 {
-        warnings.push(format!("{} triangles face inward; oriented outward by the solid", orientation.flipped));
-    }
     let bvh = TriangleBvh::new(&mesh.positions, &mesh.triangles);
-    timings.push(StageTime { stage: "orient+bvh", seconds: t.elapsed().as_secs_f64() });
+    timings.push(StageTime { stage: "bvh", seconds: t.elapsed().as_secs_f64() });
     progress(0.85);
 
     let t = Instant::now();

@@ -109,7 +109,7 @@ pub struct SampleStats {
 /// Typical wiring (the triangle order of `welded_triangles()` is that of `mesh.triangles`):
 /// ```text
 /// let welded = mesh.welded_triangles();
-/// let winding = WindingNumber::new(&mesh.welded_positions, &welded); // or the voxelizer's
+/// let winding = WindingNumber::new(&mesh.welded_positions, &welded);
 /// let orient = outward_orientation(&mesh.welded_positions, &welded, &winding);
 /// let bvh = TriangleBvh::new(&mesh.positions, &mesh.triangles);
 /// let (samples, stats) = place_samples(&mesh, &bvh, &orient.flip, &spheres);

@@ -41,3 +41,46 @@ fn the_seed_changes_the_start_and_the_file_is_complete() {
     assert_eq!(meta.units, "file units");
     assert!(meta.settings.contains("\"spheres\":24"), "{}", meta.settings);
 }
+
+/// OBJ text of a UV sphere (radius 1) without its southern quarter (triangles whose centroid has
+/// z < −½: a hole too large to fill, so the fit's solid is the voxel solid), stretched to the
+/// ellipsoid of semi-axes 2, 1, 0.7, every triangle reversed when `inward`.
+fn cut_ellipsoid_obj(inward: bool) -> String {
+    let (p, t) = spherebake_testkit::mesh::uv_sphere(16, 1.0);
+    let mut s = String::new();
+    for q in &p {
+        s += &format!("v {} {} {}\n", (2.0 * q[0]) as f32, q[1] as f32, (0.7 * q[2]) as f32);
+    }
+    for f in t {
+        if f.iter().map(|&i| p[i as usize][2]).sum::<f64>() / 3.0 < -0.5 {
+            continue;
+        }
+        let f = if inward { [f[0], f[2], f[1]] } else { f };
+        s += &format!("f {} {} {}\n", f[0] + 1, f[1] + 1, f[2] + 1);
+    }
+    s
+}
+
+/// An inward-wound open mesh and its outward twin bake to the same spheres, bit for bit: the
+/// bake orients the triangles outward by the solid before the fit, and the solid (|w| ≥ ½) does
+/// not depend on the winding.
+#[test]
+fn an_inward_wound_open_mesh_bakes_the_spheres_of_its_outward_twin() {
+    let dir = tempfile::tempdir().unwrap();
+    let bake = |inward: bool| {
+        let path = dir.path().join(if inward { "inward.obj" } else { "outward.obj" });
+        std::fs::write(&path, cut_ellipsoid_obj(inward)).unwrap();
+        bake_path(&path, &BakeSettings { spheres: 16, ..Default::default() }, &|_| {}).unwrap()
+    };
+    let (out, inw) = (bake(false), bake(true));
+    assert!(!out.report.closed && !inw.report.closed);
+    let voxel = |w: &[String]| w.iter().any(|x| x.contains("the solid is the voxel solid"));
+    assert!(voxel(&out.report.warnings) && voxel(&inw.report.warnings), "{:?}", inw.report.warnings);
+    assert!(!out.report.warnings.iter().any(|w| w.contains("face inward")), "{:?}", out.report.warnings);
+    assert!(inw.report.warnings.iter().any(|w| w.contains("face inward")), "{:?}", inw.report.warnings);
+    assert_eq!(out.file.spheres.len(), 16);
+    // A real fit: no sphere collapsed to a point.
+    assert!(out.file.spheres.iter().all(|s| s.radius > 0.01), "{:?}", out.file.spheres);
+    assert_eq!(out.file.spheres, inw.file.spheres, "the twins' spheres differ");
+    assert_eq!(out.report.outside_ratio_e, inw.report.outside_ratio_e);
+}

@@ -10,7 +10,8 @@ fn main() {
     let path = std::env::args().nth(1).expect("MODEL.obj");
     let (p32, t) = obj::load_obj(&path);
     let p: Vec<DVec3> = p32.iter().map(|v| v.as_dvec3()).collect();
-    let solid = spherebake_fit::solid::voxelize(&p, &t, 128, false);
+    let grid = spherebake_geom::voxel::voxelize(&p32, &t, &spherebake_geom::voxel::VoxelSettings { resolution: 128 });
+    let solid = spherebake_fit::solid::Solid::from_grid(grid);
     let lo = p.iter().fold(DVec3::splat(f64::INFINITY), |a, b| a.min(*b));
     let hi = p.iter().fold(DVec3::splat(f64::NEG_INFINITY), |a, b| a.max(*b));
     let mut rng = spherebake_fit::rng::SplitMix64::new(7);

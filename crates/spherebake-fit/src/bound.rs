@@ -18,8 +18,9 @@
 //!    2 r_max δ + δ², and v lies in all four "inflated" balls of radius √(r² + P). We
 //!    build each sphere's power cell within its inflated ball (a box clipped by the bisector
 //!    planes of the spheres whose inflated balls meet it), take the cell vertices of power in
-//!    (0, P], and where such a v is uncovered and inside T (voxel solid far from the surface,
-//!    generalised winding number ≥ ½ near it), grow the cheapest sphere over v; repeat until
+//!    (0, P], and where such a v is uncovered and inside T (the one inside rule,
+//!    `spherebake_geom::voxel::VoxelGrid::contains`: the voxel solid far from the surface,
+//!    |w| ≥ ½ of the triangles near it, whatever their winding), grow the cheapest sphere over v; repeat until
 //!    no such vertex remains. Degenerate vertices (five or more spheres of equal power) are
 //!    found like any other.
 

@@ -34,11 +34,17 @@
 //!
 //! **Solid.** A mesh whose every directed edge has exactly one reverse partner is closed; T is
 //! then the mesh itself (flipped if inward-oriented); so is a mesh closed but for small holes,
-//! once they are filled (`fill_small_holes`). Otherwise T is the voxel solid
-//! (majority of x/y/z ray parity at cell centres, `voxel_resolution` cells along the longest
-//! axis), E uses its closed boundary mesh, and bounding covers the original triangles plus the
-//! points whose generalised winding number is ≥ ½. Accuracy of V(T) and E for open meshes is
-//! then set by the voxel size (≈ surface area × cell size relative error).
+//! once they are filled (`fill_small_holes`). Otherwise T is the voxel solid: the cells whose
+//! centre is inside by the one rule of [`spherebake_geom::voxel`], |w| ≥ ½ for the winding
+//! number w (orientation-independent: an inward-wound open mesh has the solid of its outward
+//! twin; cells the surface passes through count by their centre only), at `voxel_resolution`
+//! cells along the longest axis; E uses its closed boundary mesh, and bounding covers the
+//! original triangles plus the points inside by the same rule ([`voxel::VoxelGrid::contains`]).
+//! A mesh that encloses nothing (a sheet) takes the cells its surface passes through. Every
+//! part's voxel grid, closed or not, comes from that module (on the BVH the exact E of a closed
+//! mesh reuses); [`solid::Solid`] is the optimiser's fast lookup built from it. Accuracy of V(T)
+//! and E for open meshes is then set by the voxel size (≈ surface area × cell size relative
+//! error, of either sign).
 //!
 //! Determinism: all randomness comes from [`rng::SplitMix64`] seeded by `seed`; parallel work
 //! uses ordered collects, so results are bit-identical for any rayon thread count.
@@ -62,7 +68,7 @@ use glam::{DVec3, Vec3};
 use rayon::prelude::*;
 use solid::Solid;
 use spherebake_geom::triangle::triangle_grid;
-use spherebake_geom::volume;
+use spherebake_geom::{volume, voxel};
 use std::f64::consts::PI;
 use std::time::Instant;
 
@@ -123,7 +129,8 @@ impl Default for FitSettings {
 pub enum SolidSource {
     /// The input mesh is closed and oriented; E is exact on it.
     ClosedMesh,
-    /// The input is open; T is the voxel solid at `voxel_resolution`.
+    /// The input is open; T is the voxel solid at `voxel_resolution` (cells whose centre has
+    /// |w| ≥ ½, [`spherebake_geom::voxel`]).
     VoxelSolid,
 }
 
@@ -294,23 +301,26 @@ fn prepare(positions: &[Vec3], triangles: &[[u32; 3]], voxel_resolution: u32) ->
             if dup { ", non-manifold or inconsistently oriented edges" } else { "" }
         ));
     }
-    let mut solid = solid::voxelize(&pos, &tris, voxel_resolution, closed);
-    if solid.solid_count == 0 {
+    // The one solid (`spherebake_geom::voxel`: cells whose centre has |w| ≥ ½), over a BVH that
+    // the closed mesh's exact E reuses.
+    let p32: Vec<Vec3> = pos.iter().map(|p| p.as_vec3()).collect();
+    let bvh = spherebake_geom::bvh::TriangleBvh::new(&p32, &tris);
+    let mut grid = voxel::voxelize_bvh(&bvh, closed, &voxel::VoxelSettings { resolution: voxel_resolution });
+    if grid.solid_count() == 0 {
         // A sheet encloses nothing: bound it anyway, with the cells its surface passes through
         // as the solid (E is then relative to that one-cell-thick layer).
         warnings.push("mesh encloses no volume: the solid is the layer of cells the surface passes through".into());
-        solid = solid.with_surface_cells(&pos, &tris);
+        grid.solid = voxel::surface_cells(&bvh, &grid);
     }
+    let solid = Solid::from_grid(grid);
     if solid.solid_count == 0 {
         return Err(FitError::EmptySolid { resolution: voxel_resolution });
     }
     let (source, exact, object_volume) = if closed {
-        let p32: Vec<Vec3> = pos.iter().map(|p| p.as_vec3()).collect();
-        let bvh = spherebake_geom::bvh::TriangleBvh::new(&p32, &tris);
         let diag = (hi - lo).length();
         (SolidSource::ClosedMesh, ExactT::Closed { pos: pos.clone(), tris: tris.clone(), bvh, diag }, vol)
     } else {
-        let (p, t, cells) = solid.boundary_mesh();
+        let (p, t, cells) = solid.grid.boundary_mesh();
         let v = solid.volume();
         (SolidSource::VoxelSolid, ExactT::Voxel { pos: p, tris: t, cells }, v)
     };
@@ -502,7 +512,7 @@ fn union_outside(solid: &Solid, spheres: &[Sphere32]) -> f64 {
             }
         }
     }
-    let cnt = mark.count_and_not(&solid.solid) as f64;
+    let cnt = mark.count_and_not(&solid.grid.solid) as f64;
     (cnt + extra) * solid.h.powi(3)
 }
 
@@ -519,15 +529,12 @@ fn spheres_before_contain(spheres: &[Sphere32], me: &Sphere32, p: DVec3) -> bool
     false
 }
 
-/// Inside test for pocket vertices: deep in the voxel solid (cell and its 26 neighbours solid)
-/// or far from it (none solid) is decided by the voxel solid; the layer in between by the
-/// generalised winding number of the input triangles (≥ ½).
-fn winding_inside(prep: &Prepared, v: DVec3) -> bool {
-    match prep.solid.neighbourhood(v) {
-        solid::Neighbourhood::AllSolid => true,
-        solid::Neighbourhood::NoneSolid => false,
-        solid::Neighbourhood::Mixed => volume::winding_number_brute(v, &prep.pos, &prep.tris) >= 0.5,
-    }
+/// Inside test for pocket vertices: the one inside rule, [`voxel::VoxelGrid::contains`] —
+/// deep in the voxel solid (cell and its 26 neighbours solid) or far from it (none solid) as
+/// the grid says, the layer in between by |w| ≥ ½ with w the exact winding number of the
+/// part's triangles (so an inward-wound open mesh has the pockets of its outward twin).
+fn pocket_inside(prep: &Prepared, v: DVec3) -> bool {
+    prep.solid.grid.contains(v, |p| volume::winding_number_brute(p, &prep.pos, &prep.tris))
 }
 
 struct Run {
@@ -823,7 +830,7 @@ fn bound_stage(
 ) -> (Vec<Sphere32>, BoundReport) {
     let solid = &prep.solid;
     let delta = BOUND_DELTA_FACTOR * 3f64.sqrt() * (pts.h * points::INTERIOR_SPACING + solid.h);
-    let inside = |v: DVec3| winding_inside(prep, v);
+    let inside = |v: DVec3| pocket_inside(prep, v);
     let weights: Vec<f64> = raw
         .par_iter()
         .map(|(c, r)| {

@@ -21,7 +21,7 @@ fn brute(s: &Solid, c: DVec3, r: f64) -> f64 {
             }
             let half = rem.sqrt();
             for i in 0..nx {
-                if s.solid[i + nx * (j + ny * k)] {
+                if s.grid.solid[i + nx * (j + ny * k)] {
                     let len = (u.x + half).min(i as f64 + 1.0) - (u.x - half).max(i as f64);
                     sum += len.max(0.0);
                 }

@@ -7,6 +7,7 @@ use glam::{DVec3, Vec3};
 use spherebake_fit::{
     evaluate, fit, powell::powell, EvalSettings, FitError, FitPlan, FitSettings, Method, SolidSource,
 };
+use spherebake_geom::voxel::{voxelize, VoxelSettings};
 use spherebake_testkit::oracle::outside_ratio;
 
 #[path = "../examples/common/obj.rs"]
@@ -266,10 +267,9 @@ fn real_models_are_bounded() {
             r.warnings
         );
         if holes {
-            // Independent check of V(T): the voxel solid of the open mesh (ray-parity
-            // majority) at 256 cells agrees with the filled mesh's volume within 1 %.
-            let pd: Vec<DVec3> = p.iter().map(|v| v.as_dvec3()).collect();
-            let v = spherebake_fit::solid::voxelize(&pd, &t, 256, false).volume();
+            // Independent check of V(T): the voxel solid of the open mesh (|w| ≥ ½ at cell
+            // centres) at 256 cells agrees with the filled mesh's volume within 1 %.
+            let v = voxelize(&p, &t, &VoxelSettings { resolution: 256 }).volume();
             assert!((r.stats.object_volume - v).abs() / v < 0.01, "{} vs voxel {v}", r.stats.object_volume);
         }
         assert_triangles_covered(&p, &t, &r.spheres);
@@ -279,6 +279,53 @@ fn real_models_are_bounded() {
             // Independent check of V(T): the reference volume of the model README.
             assert!((r.stats.object_volume - 237843.1).abs() / 237843.1 < 1e-6);
         }
+    }
+}
+
+/// A UV sphere (radius 1) without its southern quarter (triangles whose centroid has z < −½:
+/// a hole far too large to fill, so T is the voxel solid), outward-wound, then stretched to the
+/// ellipsoid of semi-axes 2, 1, 0.7 (so one sphere cannot fit it; volumes scale by 1.4).
+fn cut_ellipsoid() -> (Vec<Vec3>, Vec<[u32; 3]>) {
+    let (p, t) = spherebake_testkit::mesh::uv_sphere(16, 1.0);
+    let t = t.into_iter().filter(|f| f.iter().map(|&i| p[i as usize][2]).sum::<f64>() / 3.0 >= -0.5).collect();
+    let p = p.iter().map(|q| Vec3::new((2.0 * q[0]) as f32, q[1] as f32, (0.7 * q[2]) as f32)).collect();
+    (p, t)
+}
+
+/// The cut ellipsoid and its inward-wound twin (every triangle reversed) have one solid — the same
+/// cells, so the same V(T) to the last bit — and the fit bounds both: every triangle, and every
+/// seeded random point that is inside by the oracle's brute-force winding number (|w| ≥ 0.6,
+/// a margin off the rim of the hole where w passes ½), which the pocket check must treat as
+/// inside for the inward twin too (w ≈ −1 there).
+#[test]
+fn inward_wound_open_mesh_has_its_twins_solid_and_is_bounded() {
+    let (p, out) = cut_ellipsoid();
+    let inward: Vec<[u32; 3]> = out.iter().map(|f| [f[0], f[2], f[1]]).collect();
+    let settings = FitSettings { spheres: 24, voxel_resolution: 64, ..Default::default() };
+    let a = fit(&p, &out, &settings, &|_| {}).unwrap();
+    let b = fit(&p, &inward, &settings, &|_| {}).unwrap();
+    assert_eq!((a.stats.solid_source, b.stats.solid_source), (SolidSource::VoxelSolid, SolidSource::VoxelSolid));
+    assert_eq!(a.stats.object_volume, b.stats.object_volume, "the twins' solids differ");
+    // The solid is most of the ellipsoid: the cut removes the cap below z = −½ (of the unit
+    // sphere) only in part (w stays above ½ well below the rim), so V(T) lies between the
+    // ellipsoid above that plane and the whole ellipsoid (unit-ball volumes × 1.4).
+    let cap = 1.4 * std::f64::consts::PI * 0.5f64.powi(2) * (3.0 - 0.5) / 3.0;
+    let whole = 1.4 * 4.0 / 3.0 * std::f64::consts::PI;
+    assert!(a.stats.object_volume > 0.95 * (whole - cap) && a.stats.object_volume < whole, "{}", a.stats.object_volume);
+    let pd: Vec<[f64; 3]> = p.iter().map(|q| q.as_dvec3().to_array()).collect();
+    for (r, t) in [(&a, &out), (&b, &inward)] {
+        assert_triangles_covered(&p, t, &r.spheres);
+        let mut rng = spherebake_testkit::rng::SplitMix64::new(5);
+        let mut inside = 0;
+        for _ in 0..20_000 {
+            let x = [rng.range(-2.0, 2.0), rng.range(-1.0, 1.0), rng.range(-0.7, 0.7)];
+            let w = spherebake_testkit::oracle::winding_number(&pd, t, x);
+            if w.abs() >= 0.6 {
+                inside += 1;
+                assert!(in_some(&r.spheres, DVec3::from_array(x)), "{x:?} (w {w}) outside every sphere");
+            }
+        }
+        assert!(inside > 5_000, "{inside} inside points");
     }
 }
 
@@ -303,13 +350,12 @@ fn flat_sheet_is_bounded() {
 
 #[test]
 fn voxel_proxy_agrees_with_exact_volume() {
-    use spherebake_fit::solid::voxelize;
     use spherebake_geom::volume::ball_mesh_intersection_volume;
     let (p, t) = voxel_union(&[[0, 0, 0]], 1.0, 1);
     let pd: Vec<DVec3> = p.iter().map(|x| x.as_dvec3()).collect();
-    let solid = voxelize(&pd, &t, 64, true);
+    let solid = spherebake_fit::solid::Solid::from_grid(voxelize(&p, &t, &VoxelSettings { resolution: 64 }));
     // Cells are offset from the faces, so the voxel volume is within area × cell of 1.
-    assert!((solid.volume() - 1.0).abs() <= 6.0 * solid.h, "parity voxelization of the unit cube: {}", solid.volume());
+    assert!((solid.volume() - 1.0).abs() <= 6.0 * solid.h, "voxelization of the unit cube: {}", solid.volume());
     for (c, r) in
         [(DVec3::splat(0.5), 0.6), (DVec3::new(0.9, 0.2, 0.5), 0.4), (DVec3::ZERO, 0.5), (DVec3::splat(0.3), 0.2)]
     {

@@ -1,9 +1,11 @@
 //! Outward orientation of every triangle, decided by the solid (not by the file's winding).
 //!
 //! Real meshes are not always consistently oriented: whole files or parts are exported inside
-//! out, single triangles are flipped. Stages that need "outward" (the sample placement's back /
-//! front side test, Guerrero et al. 2008 §4.2) ask this module instead of trusting the
-//! counter-clockwise normal.
+//! out, single triangles are flipped. Stages that need "outward" ask this module instead of
+//! trusting the counter-clockwise normal: the bake orients the welded triangles once, first, and
+//! hands the oriented triangles to the fit (so an inside-out mesh and its twin fit alike) and the
+//! flips to the sample placement's back / front side test (Guerrero et al. 2008 §4.2) and the
+//! albedo.
 //!
 //! **Method**, in two steps.
 //!
@@ -15,9 +17,9 @@
 //!    Non-manifold edges (three or more triangles) and boundary edges do not join. A patch that
 //!    cannot be wound consistently (Möbius-like, or a conflict through a cycle) keeps the walk's
 //!    answer; the conflicting edges are counted in [`Orientation::inconsistent_edges`].
-//! 2. *Which side is outside (the solid).* The solid is the one the voxelizer uses: points
-//!    where the generalized winding number w has |w| ≥ ½ (see [`crate::winding`] and
-//!    [`crate::voxel`]), of the mesh with every patch wound like its root (when the file's
+//! 2. *Which side is outside (the solid).* The solid is the one of every stage: points where
+//!    the winding number w has |w| ≥ ½ ([`crate::voxel::inside`], evaluated by
+//!    [`crate::winding`]), of the mesh with every patch wound like its root (when the file's
 //!    winding disagrees with step 1 anywhere, the winding number is rebuilt over the rewound
 //!    triangles; otherwise the caller's is used). For up to 64 triangles t of each patch (evenly
 //!    spread over its triangle list), with centroid c, counter-clockwise unit normal n and scale s = √(2·area), evaluate

@@ -1,68 +1,192 @@
-//! Solid voxelization of triangle soups that need not be closed.
+//! The solid of a triangle soup: the one definition of inside, and its voxelization.
 //!
-//! A cell is **surface** when its closed box overlaps a triangle (exact separating-axis test of
-//! Akenine-Möller, in f64) and **solid** when it is surface or its centre is inside, i.e.
-//! `|w(centre)| ≥ winding_threshold` for the winding number w: the exact integer from ray votes
-//! where they are conclusive (below), else the generalized winding number ([`crate::winding`]).
+//! **Inside** ([`inside`]). A point p is inside when the winding number of the triangles at p
+//! has |w(p)| ≥ ½. For a closed surface w is the integer count of signed crossings of any ray
+//! from p to infinity; for an open soup it is the generalized winding number
+//! ([`crate::winding`], Σ signed solid angles / 4π). Every stage of a bake asks this one rule:
+//! the voxel solid here (at cell centres: the fit's energy, E of open meshes, its lattice
+//! points), [`VoxelGrid::contains`] (at any point: the fit's pocket check), and
+//! [`crate::orient`] (which side of a triangle has the larger |w|: samples, albedo).
 //!
-//! Why |w| and not w: a mesh whose triangles are all flipped (a common export error) gives w = −1
-//! inside; with |w| it voxelizes like the correctly oriented mesh. Consequences, by damage type:
-//! - **holes**: w falls off smoothly near the hole (≈ 1 − Ω_hole/4π); cells deep inside stay solid,
-//!   a hole only changes cells near the missing patch (threshold 0.5 ≈ "more than half enclosed");
-//! - **duplicated triangles / overlapping parts**: w = 2 in doubled regions, still solid;
-//! - **fully flipped mesh**: the same solid as the unflipped one (w = −1 inside);
-//! - **partly flipped parts** that overlap a correctly oriented part cancel (w = 0) in the overlap:
-//!   the one case |w| cannot fix (no orientation-free definition can, without repairing the mesh);
-//! - **open sheets** (a single plane) enclose nothing: only their surface cells are solid.
+//! Why |w| ≥ ½, and not w ≥ ½ or ray parity:
+//! - **orientation**: a mesh wound inside out gives w = −1 inside; with |w| it has the same
+//!   solid as its correctly wound twin, whether it is closed or open (an inward-wound open mesh
+//!   is not "everything outside");
+//! - **holes**: w falls off smoothly near a hole (≈ 1 − Ω_hole/4π), so ½ reads "more than half
+//!   enclosed": cells deep inside stay solid, only cells near the missing patch change. Parity
+//!   flips the whole rest of every row through a hole, which is why it needed a vote of three
+//!   axes;
+//! - **duplicated triangles / overlapping parts**: w = 2 in doubled regions, still solid
+//!   (parity calls the overlap of two closed parts outside);
+//! - **partly flipped parts** that overlap a correctly wound part cancel (w = 0) in the overlap:
+//!   the one case |w| cannot fix without repairing the mesh first (which [`crate::orient`] does:
+//!   the bake hands the fit the outward-oriented triangles);
+//! - **open sheets** (a single plane) enclose nothing: the solid is empty.
 //!
-//! Evaluating w at every cell centre would cost ~5–10 µs per cell, so the interior is classified
-//! by axis-aligned rays first: for each row of cell centres along x, y and z, one watertight ray
-//! cast records the signed crossings (+1 leaving through the front side, −1 entering). A row whose
-//! crossings sum to zero (it enters as often as it leaves: it misses every hole) gives each of its
-//! points the integer w = Σ crossings ahead of the point, which equals the winding number for any
-//! closed mesh whatever the direction. Rows that pass through a hole (non-zero sum) or touch an
-//! edge or vertex exactly (a crossing could count twice) abstain. A non-surface cell whose
-//! non-abstaining rows number at least 2 and agree takes their value; otherwise — near holes, open
-//! sheets, grazing rows, or when rows disagree — the hierarchical winding number decides.
-//! So w is evaluated only in the "shadow" of holes; a wrong unanimous vote needs two rows of a
-//! cell to pass through two holes each without a net crossing. Cells deep inside a holed mesh
-//! therefore stay solid even where the generalized winding number of a large hole would dip
-//! under the threshold (the rows see a closed object around them).
+//! **Cells the surface passes through are not solid for that reason**: a cell is solid exactly
+//! when its centre is inside. The centre rule samples the definition without bias: where the
+//! surface cuts a cell, the part of the cell inside and the part outside trade places, and the
+//! solid volume converges to V(T) with errors of both signs that largely cancel (the closed
+//! armadillo at 128 cells: +0.02 % of its exact volume, while the cells the surface cuts hold
+//! 28 % of it; `tests/voxel_models.rs`). Counting every cut cell as solid instead adds about
+//! half of that layer over the whole surface (the armadillo: +14.5 %), which would shrink E of open meshes for no better fit and bias the fit's
+//! energy outward on every mesh. The surface itself is bounded by the fit's rule 1 (every
+//! triangle inside a sphere), not through the solid. A soup that encloses nothing has an empty
+//! solid; a caller that still needs one (the fit, for sheets) takes [`surface_cells`], the
+//! layer of cells whose closed box meets a triangle.
 //!
-//! Cost model (T triangles, n cells per axis, n³ cells): BVH + expansions O(T log T); surface
-//! cells O(T · cells per triangle) SAT tests; 3n² ray casts of O(log T + hits); votes O(n³ · hits
-//! per row); winding evaluations O(log T)-ish each, only for undecided cells (bunny, res 128: 3.9k
-//! of 1.6M cells; res 256: 38k of 12.9M). Parallel over z-slabs with rayon; memory 2 bytes per cell plus the BVH (~120 B per triangle) and, only if
-//! some cell needs it, the winding expansions (~220 B per triangle). Measured (2 cores, shared
-//! machine, release): bunny 69k triangles at 64 / 128 / 256 cells: 80 / 160 / 650 ms CPU,
-//! 1.3M-triangle icosphere with a hole at 128: ~3 s wall. Every cell's result depends only on
-//! shared read-only data, so the output is identical for any thread count.
+//! **Grid.** Cubic cells of edge h = (longest bounding-box extent) / resolution; the origin is
+//! lo − 1.0137 h (the irregular offset keeps axis-aligned input faces off the cell-centre
+//! lattice and off the ray rows below) and dims = ⌈(hi − origin) / h⌉ + 2, so the mesh has at
+//! least one empty cell around it (resolution + 4 cells along the longest axis). Bits, x fastest.
+//!
+//! **Method.** w at the cell centres comes from axis-aligned rays first: for each row of cell
+//! centres along x (and, when needed, y and z), the signed crossings of the row's line with the
+//! triangles (+1 leaving through the front side, −1 entering) by the watertight test of
+//! [`crate::bvh`] (Woop, Benthin, Wald), evaluated on each triangle for the rows its projection
+//! covers: O(triangles + crossings) per axis, no tree walk, and a line through a shared edge
+//! hits both triangles (never slips between them). A row whose crossings sum to zero (it misses
+//! every hole) gives each of its points the integer w = Σ crossings ahead of it, exact for a
+//! closed mesh; a row that passes through a hole (non-zero sum) or touches an edge or vertex
+//! exactly (a crossing could count twice) abstains. Then, per cell:
+//! - **closed** soup (every directed edge has exactly one reverse partner, [`is_closed`]): the
+//!   first conclusive row of x, y, z decides (y and z rows are cast only if some x row
+//!   abstains);
+//! - **open** soup: the conclusive rows must number at least 2 and agree, since a row can pass
+//!   through two holes without a net crossing;
+//! - otherwise (near holes, open sheets, grazing rows, disagreement) the hierarchical
+//!   generalized winding number at the centre decides ([`crate::winding`], built on first use,
+//!   so a closed mesh without grazing rows never builds it).
+//!
+//! Cost model (T triangles, n cells per axis, N = n³ cells): O(T + crossings) per axis of rows;
+//! N votes (one incremental walk per x row, two binary searches per cell for open soups); the
+//! winding expansions O(T log T) plus O(log T)-ish per undecided cell (bunny, open, res 128:
+//! 0.3 % of the cells). Memory: 1 bit per cell (128 MB at 1024³) plus, while the rows are
+//! built, ~45 bytes per crossing and 9 per row. Parallel (rayon) over triangles and over blocks of cells; every cell's
+//! result depends only on shared read-only data and the crossings are sorted by value, so the
+//! output is identical for any thread count.
 
-use crate::bvh::TriangleBvh;
+use crate::bvh::{RayPre, TriangleBvh};
+use crate::triangle::cover_samples;
 use crate::winding::Expansions;
 use glam::{DVec3, Vec3};
 use rayon::prelude::*;
 use std::collections::HashMap;
 use std::sync::OnceLock;
 
+/// A point is inside when |w| is at least this (see the module docs).
+pub const INSIDE_WINDING: f64 = 0.5;
+
+/// The one definition of inside: |`winding_number`| ≥ ½ (NaN is outside).
+#[inline]
+pub fn inside(winding_number: f64) -> bool {
+    winding_number.abs() >= INSIDE_WINDING
+}
+
+/// A fixed-length bit vector (one bit per voxel cell: 128 MB at 1024³ instead of 1 GB).
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct Bits {
+    words: Vec<u64>,
+    len: usize,
+}
+
+impl Bits {
+    /// `len` bits, all clear.
+    pub fn new(len: usize) -> Self {
+        Bits { words: vec![0; len.div_ceil(64)], len }
+    }
+    /// Bit `i`. Precondition: `i < len` (checked in debug builds; beyond the last word panics).
+    #[inline]
+    pub fn get(&self, i: usize) -> bool {
+        debug_assert!(i < self.len);
+        self.words[i >> 6] >> (i & 63) & 1 == 1
+    }
+    /// Sets bit `i`. Precondition: `i < len`.
+    #[inline]
+    pub fn set(&mut self, i: usize) {
+        debug_assert!(i < self.len);
+        self.words[i >> 6] |= 1 << (i & 63);
+    }
+    pub fn len(&self) -> usize {
+        self.len
+    }
+    pub fn is_empty(&self) -> bool {
+        self.len == 0
+    }
+    pub fn count_ones(&self) -> usize {
+        self.words.iter().map(|w| w.count_ones() as usize).sum()
+    }
+    /// Number of bits set in `self` and not in `other` (same length).
+    pub fn count_and_not(&self, other: &Bits) -> usize {
+        self.words.iter().zip(&other.words).map(|(a, b)| (a & !b).count_ones() as usize).sum()
+    }
+    /// Indices of the set bits, ascending.
+    pub fn ones(&self) -> impl Iterator<Item = usize> + '_ {
+        self.words.iter().enumerate().flat_map(|(w, &word)| {
+            let mut x = word;
+            std::iter::from_fn(move || {
+                if x == 0 {
+                    return None;
+                }
+                let b = x.trailing_zeros() as usize;
+                x &= x - 1;
+                Some(w * 64 + b)
+            })
+        })
+    }
+}
+
+impl FromIterator<bool> for Bits {
+    fn from_iter<I: IntoIterator<Item = bool>>(it: I) -> Self {
+        let mut b = Bits::default();
+        for (i, v) in it.into_iter().enumerate() {
+            if i % 64 == 0 {
+                b.words.push(0);
+            }
+            if v {
+                b.words[i >> 6] |= 1 << (i & 63);
+            }
+            b.len = i + 1;
+        }
+        b
+    }
+}
+
+impl std::ops::Index<usize> for Bits {
+    type Output = bool;
+    fn index(&self, i: usize) -> &bool {
+        if self.get(i) {
+            &true
+        } else {
+            &false
+        }
+    }
+}
+
 /// Voxelization settings.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct VoxelSettings {
-    /// Cells along the longest axis of the mesh bounding box. Default 128, valid 1..=2048
-    /// (clamped); memory is 2 bytes per cell.
+    /// Cells along the longest axis of the mesh bounding box (the grid adds up to 4 empty cells
+    /// around it). Default 128, valid 1..=1024 (clamped); memory is 1 bit per cell.
     pub resolution: u32,
-    /// A cell centre is inside when |winding number| ≥ this. Default 0.5, valid (0, 1] (values
-    /// above 1 keep only multiply-covered regions; non-positive or non-finite values mean 0.5).
-    pub winding_threshold: f64,
 }
 
 impl Default for VoxelSettings {
     fn default() -> Self {
-        VoxelSettings { resolution: 128, winding_threshold: 0.5 }
+        VoxelSettings { resolution: 128 }
     }
 }
 
-/// A solid voxel grid (cubic cells, x fastest).
+/// Solid state of the 3×3×3 block of cells around a point.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Neighbourhood {
+    AllSolid,
+    NoneSolid,
+    Mixed,
+}
+
+/// A solid voxel grid (cubic cells, x fastest): cell (i, j, k) is solid when its centre is
+/// inside (see the module docs).
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct VoxelGrid {
     /// Minimum corner of cell (0, 0, 0), model space.
@@ -71,13 +195,16 @@ pub struct VoxelGrid {
     pub cell_size: f64,
     /// Cells per axis; `[0, 0, 0]` when the mesh has no valid triangle.
     pub dims: [u32; 3],
-    /// Cell is inside the solid (centre |w| ≥ threshold) or overlaps the surface.
-    pub solid: Vec<bool>,
-    /// Cell box overlaps at least one triangle.
-    pub surface: Vec<bool>,
+    /// One bit per cell, x fastest: the cell's centre is inside.
+    pub solid: Bits,
 }
 
 impl VoxelGrid {
+    /// Number of cells.
+    pub fn cell_count(&self) -> usize {
+        self.dims.iter().map(|&d| d as usize).product()
+    }
+
     /// Linear index of cell (i, j, k), x fastest. Precondition: inside `dims`.
     pub fn index(&self, i: u32, j: u32, k: u32) -> usize {
         i as usize + self.dims[0] as usize * (j as usize + self.dims[1] as usize * k as usize)
@@ -93,9 +220,69 @@ impl VoxelGrid {
         self.origin + DVec3::new(i as f64, j as f64, k as f64) * self.cell_size
     }
 
+    /// The cell containing `p` (half-open cells), if inside the grid.
+    pub fn cell_of(&self, p: DVec3) -> Option<[u32; 3]> {
+        let u = (p - self.origin) / self.cell_size;
+        let mut out = [0u32; 3];
+        for a in 0..3 {
+            let v = u[a].floor();
+            if !(v >= 0.0 && v < self.dims[a] as f64) {
+                return None;
+            }
+            out[a] = v as u32;
+        }
+        Some(out)
+    }
+
+    /// Whether the cell containing `p` is solid (false outside the grid).
+    pub fn is_solid_at(&self, p: DVec3) -> bool {
+        self.cell_of(p).is_some_and(|[i, j, k]| self.solid.get(self.index(i, j, k)))
+    }
+
+    /// Classifies the 3×3×3 block of cells around `p` (cells outside the grid count as empty; a
+    /// non-finite `p` is [`Neighbourhood::NoneSolid`]).
+    pub fn neighbourhood(&self, p: DVec3) -> Neighbourhood {
+        if !p.is_finite() {
+            return Neighbourhood::NoneSolid;
+        }
+        let u = ((p - self.origin) / self.cell_size).floor();
+        let mut n_solid = 0;
+        for dk in -1..=1 {
+            for dj in -1..=1 {
+                for di in -1..=1 {
+                    let c = [u.x + di as f64, u.y + dj as f64, u.z + dk as f64];
+                    if (0..3).all(|a| c[a] >= 0.0 && c[a] < self.dims[a] as f64)
+                        && self.solid.get(self.index(c[0] as u32, c[1] as u32, c[2] as u32))
+                    {
+                        n_solid += 1;
+                    }
+                }
+            }
+        }
+        match n_solid {
+            0 => Neighbourhood::NoneSolid,
+            27 => Neighbourhood::AllSolid,
+            _ => Neighbourhood::Mixed,
+        }
+    }
+
+    /// The inside test at any point `p`, for the same triangles the grid was built from: read
+    /// off the grid where the 3×3×3 block of cells around `p` agrees (all solid: inside; none:
+    /// outside), else [`inside`]`(winding_number(p))`, with `winding_number` evaluating those
+    /// triangles' winding number (brute force or hierarchical). The grid answers only away
+    /// from the surface, where cell centres and the point agree unless a feature thinner than
+    /// a cell passes between them.
+    pub fn contains(&self, p: DVec3, winding_number: impl FnOnce(DVec3) -> f64) -> bool {
+        match self.neighbourhood(p) {
+            Neighbourhood::AllSolid => true,
+            Neighbourhood::NoneSolid => false,
+            Neighbourhood::Mixed => inside(winding_number(p)),
+        }
+    }
+
     /// Number of solid cells.
     pub fn solid_count(&self) -> usize {
-        self.solid.iter().filter(|&&s| s).count()
+        self.solid.count_ones()
     }
 
     /// Solid volume: solid cells × cell_size³ (model units³).
@@ -107,11 +294,14 @@ impl VoxelGrid {
     /// triangles per cell face between a solid cell and an empty (or outside-the-grid) cell,
     /// vertices shared on the grid lattice, so it is watertight (every directed edge has its
     /// reverse). Edges where two solid cells touch only along an edge are non-manifold (four
-    /// faces); the enclosed volume is exactly [`VoxelGrid::volume`]. Deterministic vertex order.
-    pub fn boundary_mesh(&self) -> (Vec<DVec3>, Vec<[u32; 3]>) {
+    /// faces); the enclosed volume is exactly [`VoxelGrid::volume`]. Also returns, per
+    /// triangle, the linear index of the solid cell it bounds (ascending: cells are visited in
+    /// index order). Deterministic vertex order.
+    pub fn boundary_mesh(&self) -> (Vec<DVec3>, Vec<[u32; 3]>, Vec<u32>) {
         let [nx, ny, nz] = self.dims;
         let mut verts = Vec::new();
         let mut tris = Vec::new();
+        let mut cells = Vec::new();
         let mut ids: HashMap<[u32; 3], u32> = HashMap::new();
         let mut vid = |p: [u32; 3], verts: &mut Vec<DVec3>| -> u32 {
             *ids.entry(p).or_insert_with(|| {
@@ -123,98 +313,79 @@ impl VoxelGrid {
             if i < 0 || j < 0 || k < 0 || i >= nx as i64 || j >= ny as i64 || k >= nz as i64 {
                 return false;
             }
-            self.solid[self.index(i as u32, j as u32, k as u32)]
+            self.solid.get(self.index(i as u32, j as u32, k as u32))
         };
-        for k in 0..nz {
-            for j in 0..ny {
-                for i in 0..nx {
-                    if !self.solid[self.index(i, j, k)] {
+        for idx in self.solid.ones() {
+            let (i, r) = ((idx % nx as usize) as u32, idx / nx as usize);
+            let (j, k) = ((r % ny as usize) as u32, (r / ny as usize) as u32);
+            let c = [i, j, k];
+            for axis in 0..3 {
+                for positive in [false, true] {
+                    let mut nb = [i as i64, j as i64, k as i64];
+                    nb[axis] += if positive { 1 } else { -1 };
+                    if solid_at(nb[0], nb[1], nb[2]) {
                         continue;
                     }
-                    let c = [i, j, k];
-                    for axis in 0..3 {
-                        for positive in [false, true] {
-                            let mut nb = [i as i64, j as i64, k as i64];
-                            nb[axis] += if positive { 1 } else { -1 };
-                            if solid_at(nb[0], nb[1], nb[2]) {
-                                continue;
-                            }
-                            // Face in the plane axis = c[axis] (+1 if positive); corners in the
-                            // (b, c) axes, counter-clockwise around +axis.
-                            let b = (axis + 1) % 3;
-                            let cc = (axis + 2) % 3;
-                            let mut corner = |db: u32, dc: u32| {
-                                let mut p = c;
-                                p[axis] += positive as u32;
-                                p[b] += db;
-                                p[cc] += dc;
-                                vid(p, &mut verts)
-                            };
-                            let q = [corner(0, 0), corner(1, 0), corner(1, 1), corner(0, 1)];
-                            if positive {
-                                tris.push([q[0], q[1], q[2]]);
-                                tris.push([q[0], q[2], q[3]]);
-                            } else {
-                                tris.push([q[0], q[2], q[1]]);
-                                tris.push([q[0], q[3], q[2]]);
-                            }
-                        }
+                    // Face in the plane axis = c[axis] (+1 if positive); corners in the
+                    // (b, c) axes, counter-clockwise around +axis.
+                    let b = (axis + 1) % 3;
+                    let cc = (axis + 2) % 3;
+                    let mut corner = |db: u32, dc: u32| {
+                        let mut p = c;
+                        p[axis] += positive as u32;
+                        p[b] += db;
+                        p[cc] += dc;
+                        vid(p, &mut verts)
+                    };
+                    let q = [corner(0, 0), corner(1, 0), corner(1, 1), corner(0, 1)];
+                    if positive {
+                        tris.push([q[0], q[1], q[2]]);
+                        tris.push([q[0], q[2], q[3]]);
+                    } else {
+                        tris.push([q[0], q[2], q[1]]);
+                        tris.push([q[0], q[3], q[2]]);
                     }
+                    cells.push(idx as u32);
+                    cells.push(idx as u32);
                 }
             }
         }
-        (verts, tris)
+        (verts, tris, cells)
     }
 }
 
-/// Signed crossings of one row of cell centres, sorted by coordinate along the row's axis.
-#[derive(Default)]
-struct Row {
-    /// Crossing coordinates along the row's axis, ascending.
-    coords: Vec<f64>,
-    /// `ahead[m]` = Σ signs of crossings m.. (+1 leaving, −1 entering); one extra 0 at the end.
-    ahead: Vec<i32>,
-    /// The row abstains: its ray touched an edge or a vertex (crossings may be double-counted)
-    /// or its crossings do not sum to zero (it passes through a hole, so the counts ahead of and
-    /// behind a point disagree).
-    abstains: bool,
-}
-
-impl Row {
-    fn new(mut hits: Vec<(f64, i32)>, touched_edge: bool) -> Row {
-        hits.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
-        let mut ahead = vec![0; hits.len() + 1];
-        for m in (0..hits.len()).rev() {
-            ahead[m] = ahead[m + 1] + hits[m].1;
+/// Whether the triangles form a closed surface by their indices: every triangle has three
+/// distinct in-range corners with finite positions, and every directed edge (a, b) occurs once
+/// and its reverse (b, a) once. Then every conclusive row of [`voxelize`] is exact.
+pub fn is_closed(positions: &[Vec3], triangles: &[[u32; 3]]) -> bool {
+    let mut edges: Vec<(u32, u32)> = Vec::with_capacity(3 * triangles.len());
+    for t in triangles {
+        if t[0] == t[1] || t[1] == t[2] || t[2] == t[0] {
+            return false;
         }
-        let abstains = touched_edge || ahead[0] != 0;
-        Row { coords: hits.iter().map(|h| h.0).collect(), ahead, abstains }
-    }
-
-    /// The winding estimate at coordinate `x` (crossings exactly at `x` ignored), `None` if the
-    /// row abstains.
-    #[inline]
-    fn vote(&self, x: f64) -> Option<i32> {
-        if self.abstains {
-            return None;
+        for &v in t {
+            if !positions.get(v as usize).is_some_and(|p| p.is_finite()) {
+                return false;
+            }
         }
-        Some(self.ahead[self.coords.partition_point(|&c| c <= x)])
+        edges.extend([(t[0], t[1]), (t[1], t[2]), (t[2], t[0])]);
     }
+    edges.sort_unstable();
+    !edges.is_empty()
+        && edges.windows(2).all(|w| w[0] != w[1])
+        && edges.iter().all(|&(a, b)| edges.binary_search(&(b, a)).is_ok())
 }
 
-/// Voxelizes the triangle soup (see the module docs). Triangles with out-of-range indices or
-/// non-finite corners are ignored. Deterministic and parallel (rayon, over z-slabs).
+/// Voxelizes the triangle soup (see the module docs), closed or not as [`is_closed`] finds.
+/// Triangles with out-of-range indices or non-finite corners are ignored.
 pub fn voxelize(positions: &[Vec3], triangles: &[[u32; 3]], settings: &VoxelSettings) -> VoxelGrid {
     let bvh = TriangleBvh::new(positions, triangles);
-    voxelize_bvh(&bvh, settings)
+    voxelize_bvh(&bvh, is_closed(positions, triangles), settings)
 }
 
-/// [`voxelize`] with a prebuilt BVH (reuse one tree for voxelization and ray casts).
-pub fn voxelize_bvh(bvh: &TriangleBvh, settings: &VoxelSettings) -> VoxelGrid {
-    let Some(root) = bvh.nodes.first() else {
-        return VoxelGrid::default();
-    };
-    // Exact bounds of the valid triangles (the root box is padded).
+/// The grid layout: origin, cell size and dims (see the module docs); `None` without a valid
+/// triangle.
+fn layout(bvh: &TriangleBvh, resolution: u32) -> Option<(DVec3, f64, [u32; 3])> {
     let mut lo = DVec3::INFINITY;
     let mut hi = DVec3::NEG_INFINITY;
     for &t in &bvh.prims {
@@ -223,133 +394,283 @@ pub fn voxelize_bvh(bvh: &TriangleBvh, settings: &VoxelSettings) -> VoxelGrid {
             hi = hi.max(p);
         }
     }
-    if !lo.is_finite() || !hi.is_finite() {
-        lo = root.min;
-        hi = root.max;
+    if !(lo.is_finite() && hi.is_finite()) {
+        return None;
     }
-    let res = settings.resolution.clamp(1, 2048);
-    let extent = hi - lo;
-    let mut cell = extent.max_element() / res as f64;
-    if cell.is_nan() || cell <= 0.0 || !cell.is_finite() {
-        cell = (lo.abs().max(hi.abs()).max_element() * 1e-6).max(1e-9);
+    let res = resolution.clamp(1, 1024);
+    let extent = (hi - lo).max_element().max(1e-30);
+    let h = extent / res as f64;
+    if !(h.is_finite() && h > 0.0) {
+        return None;
     }
+    let origin = lo - DVec3::splat(h * 1.013_7);
     let mut dims = [1u32; 3];
-    let mut origin = lo;
     for a in 0..3 {
-        let n = ((extent[a] / cell) * (1.0 - 1e-12)).ceil().clamp(1.0, res as f64) as u32;
-        dims[a] = n;
-        origin[a] = lo[a] - (n as f64 * cell - extent[a]) * 0.5;
+        dims[a] = (((hi[a] - origin[a]) / h).ceil() + 2.0).clamp(1.0, res as f64 + 4.0) as u32;
     }
-    let [nx, ny, nz] = dims;
-    let cell_count = nx as usize * ny as usize * nz as usize;
-    let center = |i: u32, j: u32, k: u32| origin + (DVec3::new(i as f64, j as f64, k as f64) + 0.5) * cell;
+    Some((origin, h, dims))
+}
 
-    // Rows: x rows indexed by (j, k), y rows by (i, k), z rows by (i, j).
-    let cast = |axis: usize, p: DVec3| -> Row {
-        let mut o = p;
-        o[axis] = origin[axis] - cell;
+/// Signed crossings of every row of cell centres along one axis, one flat list.
+struct Rows {
+    /// Row r's crossings are `start[r]..start[r + 1]`.
+    start: Vec<usize>,
+    /// Crossing coordinates along the axis, ascending within a row.
+    coords: Vec<f64>,
+    /// `ahead[m]` = Σ signs of crossings m.. of the row (+1 leaving, −1 entering).
+    ahead: Vec<i32>,
+    /// The row abstains: its line touched an edge or a vertex exactly (a crossing may count
+    /// twice) or its crossings do not sum to zero (it passes through a hole).
+    abstains: Vec<bool>,
+}
+
+impl Rows {
+    /// Casts the rows along `axis` (rows indexed `iu + dims[u] · iv`, u = axis + 1, v = axis + 2).
+    fn cast(bvh: &TriangleBvh, origin: DVec3, h: f64, dims: [u32; 3], axis: usize) -> Rows {
+        let (u, v) = ((axis + 1) % 3, (axis + 2) % 3);
+        let (nu, nv) = (dims[u], dims[v]);
         let mut dir = DVec3::ZERO;
         dir[axis] = 1.0;
-        let mut hits = Vec::new();
-        let mut touched_edge = false;
-        bvh.traverse_ray(o, dir, 0.0, f64::INFINITY, |h| {
-            touched_edge |= h.bary.contains(&0.0);
-            hits.push((o[axis] + h.t, if h.exiting { 1 } else { -1 }));
-            None
-        });
-        Row::new(hits, touched_edge)
-    };
-    let rows_x: Vec<Row> = (0..ny as usize * nz as usize)
-        .into_par_iter()
-        .map(|r| cast(0, center(0, (r % ny as usize) as u32, (r / ny as usize) as u32)))
-        .collect();
-    let rows_y: Vec<Row> = (0..nx as usize * nz as usize)
-        .into_par_iter()
-        .map(|r| cast(1, center((r % nx as usize) as u32, 0, (r / nx as usize) as u32)))
-        .collect();
-    let rows_z: Vec<Row> = (0..nx as usize * ny as usize)
-        .into_par_iter()
-        .map(|r| cast(2, center((r % nx as usize) as u32, (r / nx as usize) as u32, 0)))
-        .collect();
-
-    // Triangles per z-slab.
-    let mut slab_tris: Vec<Vec<u32>> = vec![Vec::new(); nz as usize];
-    let cell_range = |a: usize, min: f64, max: f64, n: u32| -> (u32, u32) {
-        let eps = 1e-9;
-        let lo = ((min - origin[a]) / cell - eps).floor().max(0.0);
-        let hi = ((max - origin[a]) / cell + eps).floor().min(n as f64 - 1.0);
-        (lo as u32, hi.max(lo) as u32)
-    };
-    for &t in &bvh.prims {
-        let tri = &bvh.tris[t as usize];
-        let zmin = tri[0].z.min(tri[1].z).min(tri[2].z);
-        let zmax = tri[0].z.max(tri[1].z).max(tri[2].z);
-        let (k0, k1) = cell_range(2, zmin, zmax, nz);
-        for k in k0..=k1 {
-            slab_tris[k as usize].push(t);
-        }
-    }
-
-    // Built on first use only: closed meshes never need it.
-    let winding: OnceLock<Expansions> = OnceLock::new();
-    let threshold = settings.winding_threshold;
-    let threshold = if threshold.is_finite() && threshold > 0.0 { threshold } else { 0.5 };
-    let slab = nx as usize * ny as usize;
-    let mut solid = vec![false; cell_count];
-    let mut surface = vec![false; cell_count];
-    solid.par_chunks_mut(slab).zip(surface.par_chunks_mut(slab)).enumerate().for_each(|(k, (sol, sur))| {
-        let k = k as u32;
-        let half = DVec3::splat(cell * 0.5 * (1.0 + 1e-9));
-        for &t in &slab_tris[k as usize] {
-            let tri = &bvh.tris[t as usize];
-            let tmin = tri[0].min(tri[1]).min(tri[2]);
-            let tmax = tri[0].max(tri[1]).max(tri[2]);
-            let (i0, i1) = cell_range(0, tmin.x, tmax.x, nx);
-            let (j0, j1) = cell_range(1, tmin.y, tmax.y, ny);
-            for j in j0..=j1 {
-                for i in i0..=i1 {
-                    let idx = i as usize + nx as usize * j as usize;
-                    if !sur[idx] && tri_box_overlap(tri, center(i, j, k), half) {
-                        sur[idx] = true;
-                    }
-                }
-            }
-        }
-        for j in 0..ny {
-            for i in 0..nx {
-                let idx = i as usize + nx as usize * j as usize;
-                if sur[idx] {
-                    sol[idx] = true;
-                    continue;
-                }
-                let c = center(i, j, k);
-                let rows = [
-                    (&rows_x[j as usize + ny as usize * k as usize], c.x),
-                    (&rows_y[i as usize + nx as usize * k as usize], c.y),
-                    (&rows_z[i as usize + nx as usize * j as usize], c.z),
-                ];
-                let mut agreed: Option<i32> = None;
-                let mut voters = 0;
-                let mut conflict = false;
-                for (row, x) in rows {
-                    if let Some(w) = row.vote(x) {
-                        voters += 1;
-                        match agreed {
-                            None => agreed = Some(w),
-                            Some(v) if v != w => conflict = true,
-                            _ => {}
+        // Candidate rows of a coordinate range, a thousandth of a cell wider on each side (the
+        // watertight test decides exactly).
+        let range = |a: usize, min: f64, max: f64, n: u32| -> Option<(u32, u32)> {
+            let lo = ((min - origin[a]) / h - 0.5 - 1e-3).ceil().max(0.0);
+            let hi = ((max - origin[a]) / h - 0.5 + 1e-3).floor().min(n as f64 - 1.0);
+            (lo <= hi).then_some((lo as u32, hi as u32))
+        };
+        // (row, coordinate, exiting, touched an edge or vertex)
+        let mut hits: Vec<(u32, f64, bool, bool)> = bvh
+            .prims
+            .par_iter()
+            .flat_map_iter(|&t| {
+                let tri = &bvh.tris[t as usize];
+                let (mn, mx) = (tri[0].min(tri[1]).min(tri[2]), tri[0].max(tri[1]).max(tri[2]));
+                let mut out = Vec::new();
+                let (Some((u0, u1)), Some((v0, v1))) = (range(u, mn[u], mx[u], nu), range(v, mn[v], mx[v], nv)) else {
+                    return out;
+                };
+                for iv in v0..=v1 {
+                    for iu in u0..=u1 {
+                        let mut o = DVec3::ZERO;
+                        o[axis] = origin[axis] - h;
+                        o[u] = origin[u] + (iu as f64 + 0.5) * h;
+                        o[v] = origin[v] + (iv as f64 + 0.5) * h;
+                        if let Some(hit) = RayPre::new(o, dir).intersect(tri, t) {
+                            out.push((iu + nu * iv, o[axis] + hit.t, hit.exiting, hit.bary.contains(&0.0)));
                         }
                     }
                 }
-                let w = match agreed {
-                    Some(v) if !conflict && voters >= 2 => v as f64,
-                    _ => winding.get_or_init(|| Expansions::build(bvh)).eval(bvh, c),
-                };
-                sol[idx] = w.abs() >= threshold;
+                out
+            })
+            .collect();
+        // Bucketed by row (a counting sort: rows are dense), then each row's few crossings sorted
+        // by every field: equal entries are identical, so the order is the same for any thread
+        // count.
+        let rows = nu as usize * nv as usize;
+        let mut start = vec![0usize; rows + 1];
+        for hit in &hits {
+            start[hit.0 as usize + 1] += 1;
+        }
+        for r in 0..rows {
+            start[r + 1] += start[r];
+        }
+        let mut next = start.clone();
+        let mut sorted = vec![(0u32, 0.0f64, false, false); hits.len()];
+        for hit in hits.drain(..) {
+            let slot = &mut next[hit.0 as usize];
+            sorted[*slot] = hit;
+            *slot += 1;
+        }
+        let hits = sorted;
+        let mut ahead = vec![0i32; hits.len()];
+        let mut coords = vec![0.0f64; hits.len()];
+        let mut abstains = vec![false; rows];
+        let mut row_hits = Vec::new();
+        for r in 0..rows {
+            let (s, e) = (start[r], start[r + 1]);
+            if s == e {
+                continue;
+            }
+            row_hits.clear();
+            row_hits.extend_from_slice(&hits[s..e]);
+            row_hits.sort_unstable_by(|a, b| a.1.total_cmp(&b.1).then(a.2.cmp(&b.2)).then(a.3.cmp(&b.3)));
+            let mut sum = 0;
+            let mut touched = false;
+            for (m, hit) in row_hits.iter().enumerate().rev() {
+                sum += if hit.2 { 1 } else { -1 };
+                ahead[s + m] = sum;
+                coords[s + m] = hit.1;
+                touched |= hit.3;
+            }
+            abstains[r] = touched || sum != 0;
+        }
+        Rows { start, coords, ahead, abstains }
+    }
+
+    /// The winding estimate of row `r` at coordinate `x` (crossings exactly at `x` count as
+    /// behind it), `None` if the row abstains.
+    #[inline]
+    fn vote(&self, r: usize, x: f64) -> Option<i32> {
+        if self.abstains[r] {
+            return None;
+        }
+        let (s, e) = (self.start[r], self.start[r + 1]);
+        let m = s + self.coords[s..e].partition_point(|&c| c <= x);
+        Some(if m == e { 0 } else { self.ahead[m] })
+    }
+}
+
+/// [`voxelize`] with a prebuilt BVH (reuse one tree for voxelization, ray casts and exact
+/// volumes). `closed`: the caller knows the triangles form a closed surface ([`is_closed`]);
+/// then one conclusive row decides a cell. Passing `false` is always correct, only slower.
+pub fn voxelize_bvh(bvh: &TriangleBvh, closed: bool, settings: &VoxelSettings) -> VoxelGrid {
+    let Some((origin, h, dims)) = layout(bvh, settings.resolution) else {
+        return VoxelGrid::default();
+    };
+    let [nx, ny, nz] = dims.map(|d| d as usize);
+    let n = nx * ny * nz;
+    let centre = |a: usize, i: usize| origin[a] + (i as f64 + 0.5) * h;
+    let rows_x = Rows::cast(bvh, origin, h, dims, 0);
+    let (rows_y, rows_z) = if !closed || rows_x.abstains.iter().any(|&a| a) {
+        (Some(Rows::cast(bvh, origin, h, dims, 1)), Some(Rows::cast(bvh, origin, h, dims, 2)))
+    } else {
+        (None, None)
+    };
+    // Built on first use only: closed meshes without grazing rows never need it.
+    let winding: OnceLock<Expansions> = OnceLock::new();
+    let winding_at = |i: usize, j: usize, k: usize| {
+        let c = DVec3::new(centre(0, i), centre(1, j), centre(2, k));
+        winding.get_or_init(|| Expansions::build(bvh)).eval(bvh, c)
+    };
+    // The y and z votes of cell (i, j, k), `None` where not cast or abstaining.
+    let vote_y = |i: usize, j: usize, k: usize| rows_y.as_ref().and_then(|r| r.vote(k + nz * i, centre(1, j)));
+    let vote_z = |i: usize, j: usize, k: usize| rows_z.as_ref().and_then(|r| r.vote(i + nx * j, centre(2, k)));
+
+    // Cell (i, j, k) given its x row's vote.
+    let decide = |vote_x: Option<i32>, i: usize, j: usize, k: usize| -> bool {
+        let w = if closed {
+            match vote_x.or_else(|| vote_y(i, j, k)).or_else(|| vote_z(i, j, k)) {
+                Some(w) => w as f64,
+                None => winding_at(i, j, k),
+            }
+        } else {
+            let votes = [vote_x, vote_y(i, j, k), vote_z(i, j, k)];
+            let mut cast = votes.iter().flatten();
+            let first = cast.next().copied();
+            let (mut voters, mut agree) = (usize::from(first.is_some()), true);
+            for &w in cast {
+                voters += 1;
+                agree &= Some(w) == first;
+            }
+            match first {
+                Some(w) if agree && voters >= 2 => w as f64,
+                _ => winding_at(i, j, k),
+            }
+        };
+        inside(w)
+    };
+
+    const BLOCK_WORDS: usize = 256;
+    let mut words = vec![0u64; n.div_ceil(64)];
+    words.par_chunks_mut(BLOCK_WORDS).enumerate().for_each(|(b, block)| {
+        let c0 = b * BLOCK_WORDS * 64;
+        let c1 = (c0 + block.len() * 64).min(n);
+        // The x rows meeting the block, each walked once.
+        for r in c0 / nx..c1.div_ceil(nx) {
+            let (j, k) = (r % ny, r / ny);
+            let base = r * nx;
+            let (i0, i1) = (c0.max(base) - base, c1.min(base + nx) - base);
+            let mut set = |i: usize| {
+                let idx = base + i;
+                block[(idx - c0) >> 6] |= 1 << (idx & 63);
+            };
+            if rows_x.abstains[r] {
+                for i in i0..i1 {
+                    if decide(None, i, j, k) {
+                        set(i);
+                    }
+                }
+                continue;
+            }
+            let (s, e) = (rows_x.start[r], rows_x.start[r + 1]);
+            let coords = &rows_x.coords[s..e];
+            // The first crossing ahead of the cell centre.
+            let mut m = coords.partition_point(|&c| c <= centre(0, i0));
+            for i in i0..i1 {
+                let x = centre(0, i);
+                while m < coords.len() && coords[m] <= x {
+                    m += 1;
+                }
+                let w = if m == coords.len() { 0 } else { rows_x.ahead[s + m] };
+                // Closed: the conclusive x row decides alone.
+                if if closed { w != 0 } else { decide(Some(w), i, j, k) } {
+                    set(i);
+                }
             }
         }
     });
-    VoxelGrid { origin, cell_size: cell, dims, solid, surface }
+    VoxelGrid { origin, cell_size: h, dims, solid: Bits { words, len: n } }
+}
+
+/// The cells whose closed box meets a triangle of `bvh` (exact separating-axis test, boxes
+/// widened by 1e-9 relative so touching counts), on `grid`'s layout: the solid of a soup that
+/// encloses nothing (see the module docs). Candidates are the 3×3×3 blocks around samples
+/// spaced half a cell on each triangle ([`cover_samples`]: every point of a triangle is within
+/// half a cell of one, so every cell it meets is in the block of one), so a sliver costs its
+/// length in cells, not its bounding box. Deterministic, parallel over triangles.
+pub fn surface_cells(bvh: &TriangleBvh, grid: &VoxelGrid) -> Bits {
+    let mut bits = Bits::new(grid.cell_count());
+    if bits.is_empty() {
+        return bits;
+    }
+    let h = grid.cell_size;
+    let half = DVec3::splat(h * 0.5 * (1.0 + 1e-9));
+    let dims = grid.dims.map(|d| d as i64);
+    let (nx, ny) = (grid.dims[0] as usize, grid.dims[1] as usize);
+    let cells: Vec<Vec<u32>> = bvh
+        .prims
+        .par_iter()
+        .map(|&t| {
+            let tri = &bvh.tris[t as usize];
+            // The cells of the samples, then their 3×3×3 blocks, each list deduplicated (a
+            // sliver has about two samples per cell along its length).
+            let mut sampled: Vec<[i64; 3]> = Vec::new();
+            cover_samples(tri[0], tri[1], tri[2], 0.5 * h, |p| {
+                let u = ((p - grid.origin) / h).floor();
+                if u.is_finite() {
+                    sampled.push([u.x as i64, u.y as i64, u.z as i64]);
+                }
+            });
+            sampled.sort_unstable();
+            sampled.dedup();
+            let mut cand: Vec<u32> = Vec::with_capacity(sampled.len() * 9);
+            for c in sampled {
+                for dk in -1..=1 {
+                    for dj in -1..=1 {
+                        for di in -1..=1 {
+                            let q = [c[0] + di, c[1] + dj, c[2] + dk];
+                            if (0..3).all(|a| q[a] >= 0 && q[a] < dims[a]) {
+                                cand.push(grid.index(q[0] as u32, q[1] as u32, q[2] as u32) as u32);
+                            }
+                        }
+                    }
+                }
+            }
+            cand.sort_unstable();
+            cand.dedup();
+            cand.retain(|&idx| {
+                let idx = idx as usize;
+                let c = grid.cell_center((idx % nx) as u32, (idx / nx % ny) as u32, (idx / (nx * ny)) as u32);
+                tri_box_overlap(tri, c, half)
+            });
+            cand.shrink_to_fit();
+            cand
+        })
+        .collect();
+    for idx in cells.into_iter().flatten() {
+        bits.set(idx as usize);
+    }
+    bits
 }
 
 /// Triangle / axis-aligned box overlap (Akenine-Möller 2001, separating axis theorem), closed
@@ -396,6 +717,41 @@ mod tests {
 
     fn check(tri: [DVec3; 3], expected: bool) {
         assert_eq!(tri_box_overlap(&tri, DVec3::ZERO, DVec3::splat(0.5)), expected, "{tri:?}");
+    }
+
+    #[test]
+    fn closedness_by_indices() {
+        // Octahedron: closed; without a face, with a face twice, flipped face, bad index.
+        let p = vec![Vec3::X, -Vec3::X, Vec3::Y, -Vec3::Y, Vec3::Z, -Vec3::Z];
+        let t = vec![[0, 2, 4], [2, 1, 4], [1, 3, 4], [3, 0, 4], [2, 0, 5], [1, 2, 5], [3, 1, 5], [0, 3, 5]];
+        assert!(is_closed(&p, &t));
+        let reversed: Vec<[u32; 3]> = t.iter().map(|f| [f[0], f[2], f[1]]).collect();
+        assert!(is_closed(&p, &reversed));
+        assert!(!is_closed(&p, &t[1..]));
+        let mut twice = t.clone();
+        twice.push(t[0]);
+        assert!(!is_closed(&p, &twice));
+        let mut flipped = t.clone();
+        flipped[3] = [t[3][0], t[3][2], t[3][1]];
+        assert!(!is_closed(&p, &flipped));
+        let mut bad = t.clone();
+        bad[0][0] = 9;
+        assert!(!is_closed(&p, &bad));
+        let mut nan = p.clone();
+        nan[0] = Vec3::NAN;
+        assert!(!is_closed(&nan, &t));
+        assert!(!is_closed(&p, &[]));
+    }
+
+    #[test]
+    fn bits_ones_are_the_set_bits() {
+        let pattern = |i: usize| i % 7 == 0 || i % 64 == 63 || i == 129;
+        let b: Bits = (0..200).map(pattern).collect();
+        let ones: Vec<usize> = b.ones().collect();
+        let want: Vec<usize> = (0..200).filter(|&i| pattern(i)).collect();
+        assert_eq!(ones, want);
+        assert_eq!(b.count_ones(), want.len());
+        assert!(Bits::new(0).ones().next().is_none());
     }
 
     #[test]

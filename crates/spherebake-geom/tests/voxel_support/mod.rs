@@ -94,3 +94,18 @@ impl Rng {
         DVec3::new(self.range(lo, hi), self.range(lo, hi), self.range(lo, hi))
     }
 }
+
+/// The cells the surface passes through, on `g`'s layout (`voxel::surface_cells`).
+pub fn surface(v: &[Vec3], f: &[[u32; 3]], g: &spherebake_geom::voxel::VoxelGrid) -> spherebake_geom::voxel::Bits {
+    spherebake_geom::voxel::surface_cells(&spherebake_geom::bvh::TriangleBvh::new(v, f), g)
+}
+
+/// Volume bounds of the solid from its grid: cells the surface does not meet lie wholly inside
+/// or wholly outside and are classified by their centre, so (solid, not surface) cells ≤ V ≤
+/// (solid or surface) cells, in units³.
+pub fn volume_bounds(g: &spherebake_geom::voxel::VoxelGrid, surf: &spherebake_geom::voxel::Bits) -> (f64, f64) {
+    let h3 = g.cell_size.powi(3);
+    let certain = g.solid.count_and_not(surf);
+    let possible = g.solid_count() + surf.count_and_not(&g.solid);
+    (certain as f64 * h3, possible as f64 * h3)
+}
