@@ -135,28 +135,8 @@ pub struct SkinSummary {
     pub linear_residual_max_relative: f64,
     /// Largest |b| weight share dropped by keeping `bones_per_sphere` bones.
     pub dropped_weight_max: f64,
-    pub pose_margin: Option<MarginSummary>,
-}
-
-/// What `--pose-margin auto` did.
-#[derive(Clone, Debug, Serialize)]
-pub struct MarginSummary {
-    /// Poses checked (the rest pose and every frame of every animation's schedule).
-    pub frames: usize,
-    pub grown_spheres: usize,
-    /// Largest radius growth / bbox diagonal.
-    pub max_growth_relative: f64,
-    /// Largest pair motion bound a vertex's coverage relied on / bbox diagonal.
-    pub motion_bound_max_relative: f64,
-    /// Animations whose refinement hit the sample cap above the tolerance.
-    pub capped_animations: usize,
-    /// Frames whose motion bound is not finite (coverage proven at the sample time only) or
-    /// that need a radius beyond f32.
-    pub unbounded_frames: usize,
-    /// Smallest share of skinned vertices inside the posed union before growing.
-    pub coverage_min_before: f64,
-    pub outside_ratio_before: Option<f64>,
-    pub outside_ratio_after: Option<f64>,
+    /// What `--pose-margin auto` did ([`MarginResult`]).
+    pub pose_margin: Option<MarginResult>,
 }
 
 /// Sphere hierarchy statistics (Ren et al. 2006 §6.3).
@@ -281,7 +261,7 @@ pub fn bake_imported(
                     m.unbounded_frames
                 ));
             }
-            spheres = m.spheres.clone();
+            spheres.clone_from(&m.spheres);
             margin = Some(m);
         }
     }
@@ -383,17 +363,7 @@ pub fn bake_imported(
             bones_per_sphere: st.bones_per_sphere,
             linear_residual_max_relative: st.linear_residual_max_relative,
             dropped_weight_max: st.dropped_weight_max,
-            pose_margin: margin.as_ref().map(|m| MarginSummary {
-                frames: m.frames,
-                grown_spheres: m.grown_count,
-                max_growth_relative: m.max_growth_relative,
-                motion_bound_max_relative: m.motion_bound_max_relative,
-                capped_animations: m.capped_animations,
-                unbounded_frames: m.unbounded_frames,
-                coverage_min_before: m.coverage_min_before,
-                outside_ratio_before: m.outside_ratio_before,
-                outside_ratio_after: m.outside_ratio_after,
-            }),
+            pose_margin: margin,
         }),
         hierarchy: HierarchySummary {
             levels: hstats.levels,

@@ -211,30 +211,47 @@ fn sample_areas(mesh: &Mesh, ctx: &Ctx<'_>, samples: &Samples) -> (Vec<f32>, Are
     let Some(&median) = radii.get(radii.len() / 2) else {
         return (vec![0.0; total], totals);
     };
-    let tris: Vec<Option<([DVec3; 3], f64)>> = (0..mesh.triangles.len() as u32)
+    // Longest edge per triangle (NaN where it cannot be used): the subdivision's only input that the
+    // budget loop below needs; corners are read again in the parallel pass.
+    let corners = |t: usize| ctx.corners(t as u32).filter(|c| c.iter().all(|v| v.is_finite()));
+    let longest: Vec<f64> = (0..mesh.triangles.len())
         .map(|t| {
-            let c = ctx.corners(t)?;
-            let longest = (c[1] - c[0]).length().max((c[2] - c[1]).length()).max((c[0] - c[2]).length());
-            (c.iter().all(|v| v.is_finite()) && longest.is_finite()).then_some((c, longest))
+            corners(t)
+                .map_or(f64::NAN, |c| (c[1] - c[0]).length().max((c[2] - c[1]).length()).max((c[0] - c[2]).length()))
         })
         .collect();
     let split = |h: f64, longest: f64| -> u64 { ((longest / h).ceil() as u64).clamp(1, AREA_MAX_SPLIT) };
     let mut h = AREA_EDGE_PER_RADIUS * median;
     for _ in 0..32 {
-        let count: u64 = tris.iter().flatten().map(|&(_, l)| split(h, l).pow(2)).sum();
+        let count: u64 = longest.iter().filter(|l| l.is_finite()).map(|&l| split(h, l).pow(2)).sum();
         if count <= AREA_MAX_POINTS {
             break;
         }
         h *= ((count as f64 / AREA_MAX_POINTS as f64).sqrt()).max(1.01);
     }
     let dirs: Vec<DVec3> = GEODESIC_DIRECTIONS.iter().map(|w| Vec3::from(*w).as_dvec3()).collect();
-    let per_chunk: Vec<(Vec<(u32, f64)>, AreaTotals)> = tris
+    // The sample that carries a surface point: its segment's sphere, then the nearest direction.
+    let carrier_of = |x: DVec3| -> Option<u32> {
+        let (k, ck) = ctx.tree.owner(&ctx.spheres, x)?;
+        let d = x - ck;
+        let mut best = (f64::NEG_INFINITY, 0usize);
+        for (q, wq) in dirs.iter().enumerate() {
+            let v = wq.dot(d);
+            if v > best.0 {
+                best = (v, q);
+            }
+        }
+        carrier.get(k * GEODESIC_DIRECTION_COUNT + best.1).copied().filter(|&g| g != u32::MAX)
+    };
+    let per_chunk: Vec<(Vec<(u32, f64)>, AreaTotals)> = longest
         .par_chunks(AREA_CHUNK)
-        .map(|chunk| {
+        .enumerate()
+        .map(|(ci, chunk)| {
             let mut out: Vec<(u32, f64)> = Vec::new();
             let mut t = AreaTotals::default();
-            for &(c, longest) in chunk.iter().flatten() {
-                let m = split(h, longest);
+            for (k, &edge) in chunk.iter().enumerate() {
+                let Some(c) = corners(ci * AREA_CHUNK + k).filter(|_| edge.is_finite()) else { continue };
+                let m = split(h, edge);
                 let area = 0.5 * (c[1] - c[0]).cross(c[2] - c[0]).length();
                 if !(area.is_finite() && area > 0.0) {
                     continue;
@@ -249,25 +266,11 @@ fn sample_areas(mesh: &Mesh, ctx: &Ctx<'_>, samples: &Samples) -> (Vec<f32>, Are
                             if !ok {
                                 continue;
                             }
-                            let x = c[0] + e1 * (i as f64 + off) + e2 * (j as f64 + off);
                             t.points += 1;
-                            match ctx.tree.owner(&ctx.spheres, x) {
-                                Some((k, ck)) => {
-                                    let d = x - ck;
-                                    let mut best = (f64::NEG_INFINITY, 0usize);
-                                    for (q, wq) in dirs.iter().enumerate() {
-                                        let v = wq.dot(d);
-                                        if v > best.0 {
-                                            best = (v, q);
-                                        }
-                                    }
-                                    match carrier.get(k * GEODESIC_DIRECTION_COUNT + best.1) {
-                                        Some(&g) if g != u32::MAX => {
-                                            out.push((g, w));
-                                            t.assigned += w;
-                                        }
-                                        _ => t.unassigned += w,
-                                    }
+                            match carrier_of(c[0] + e1 * (i as f64 + off) + e2 * (j as f64 + off)) {
+                                Some(g) => {
+                                    out.push((g, w));
+                                    t.assigned += w;
                                 }
                                 None => t.unassigned += w,
                             }
@@ -515,38 +518,32 @@ impl SphereTree {
     /// the lowest index (the answer [`segment_of`] gives); `None` without spheres.
     fn owner(&self, spheres: &[(DVec3, f64, usize)], p: DVec3) -> Option<(usize, DVec3)> {
         let mut best: Option<(f64, usize, DVec3)> = None;
-        if self.nodes.is_empty() {
-            return None;
-        }
-        let mut stack = [0u32; 64];
-        let mut top = 1;
-        while top > 0 {
-            top -= 1;
-            let n = self.nodes[stack[top] as usize];
-            if let Some((bd, _, _)) = best {
-                let gap = (p - p.clamp(n.min, n.max)).length();
-                if gap > bd * n.r_max * (1.0 + 1e-9) {
-                    continue;
-                }
+        self.walk(spheres, p, f64::INFINITY, |c, dj, j, bound| {
+            if best.is_none_or(|(bd, bj, _)| dj < bd || (dj == bd && j < bj)) {
+                best = Some((dj, j, c));
+                *bound = dj;
             }
-            if n.leaf {
-                for &(c, r, j) in &spheres[n.start as usize..n.end as usize] {
-                    let dj = (p - c).length() / r;
-                    if best.is_none_or(|(bd, bj, _)| dj < bd || (dj == bd && j < bj)) {
-                        best = Some((dj, j, c));
-                    }
-                }
-            } else if top + 2 <= stack.len() {
-                stack[top] = n.start;
-                stack[top + 1] = n.end;
-                top += 2;
-            }
-        }
+            false
+        });
         best.map(|(_, j, c)| (j, c))
     }
 
     /// Whether a sphere j ≠ i has d_j < dᵢ, or d_j = dᵢ with j < i, at `p`.
     fn any_beats(&self, spheres: &[(DVec3, f64, usize)], p: DVec3, i: usize, di: f64) -> bool {
+        self.walk(spheres, p, di, |_, dj, j, _| j != i && (dj < di || (dj == di && j < i)))
+    }
+
+    /// Visits the spheres of the nodes that may hold one with scaled distance d_j ≤ `bound` at `p`
+    /// (a node is skipped when dist(p, box) / r_max > bound, with a relative margin so rounding
+    /// never prunes an exact tie), calling `visit(c_j, d_j, j, &mut bound)`, which may lower the
+    /// bound; stops and returns true as soon as `visit` does.
+    fn walk(
+        &self,
+        spheres: &[(DVec3, f64, usize)],
+        p: DVec3,
+        mut bound: f64,
+        mut visit: impl FnMut(DVec3, f64, usize, &mut f64) -> bool,
+    ) -> bool {
         if self.nodes.is_empty() {
             return false;
         }
@@ -556,17 +553,12 @@ impl SphereTree {
             top -= 1;
             let n = self.nodes[stack[top] as usize];
             let gap = (p - p.clamp(n.min, n.max)).length();
-            // A relative margin keeps rounding from pruning an exact tie.
-            if gap > di * n.r_max * (1.0 + 1e-9) {
+            if gap > bound * n.r_max * (1.0 + 1e-9) {
                 continue;
             }
             if n.leaf {
                 for &(c, r, j) in &spheres[n.start as usize..n.end as usize] {
-                    if j == i {
-                        continue;
-                    }
-                    let dj = (p - c).length() / r;
-                    if dj < di || (dj == di && j < i) {
+                    if visit(c, (p - c).length() / r, j, &mut bound) {
                         return true;
                     }
                 }

@@ -824,30 +824,60 @@ fn splat_irradiance(
     n: [f32; 3],
 ) -> [f64; 3] {
     let mut out = [0.0f64; 3];
-    let Some(s) = posed.leaves.get(leaf) else { return out };
-    let rot = posed.rotation(leaf);
-    let (c_rest, r_rest) = posed.proxy.spheres().get(leaf).map_or((s.center, s.radius), |r| (r.center, r.radius));
-    // The receiver in the leaf's rest frame, relative to its centre: tiles are built there (the rotation is rigid).
-    let pr = rotate_transposed(&rot, [p[0] - s.center[0], p[1] - s.center[1], p[2] - s.center[2]]);
-    let nr = rotate_transposed(&rot, n);
-    let pr = pr.map(f64::from);
-    let nr = nr.map(f64::from);
-    let areas = posed.proxy.sample_areas_of(leaf);
-    for (q, sp) in posed.proxy.samples_of(leaf).iter().enumerate() {
-        let Some(v) = lights.leaf_cells.get(leaf * GEODESIC_DIRECTION_COUNT + usize::from(sp.direction)) else {
-            continue;
-        };
-        let Some(cell) = cells.get(usize::from(sp.direction)) else { continue };
-        let x = [sp.position[0] - c_rest[0], sp.position[1] - c_rest[1], sp.position[2] - c_rest[2]].map(f64::from);
-        let area = areas.and_then(|a| a.get(q)).map(|&a| f64::from(a));
-        let f = crate::tile::sample_tile_irradiance(cell, f64::from(r_rest), x, sp.normal.map(f64::from), area, pr, nr);
+    for_each_tile(cells, posed, leaf, p, n, |direction, tile| {
+        let Some(v) = lights.leaf_cells.get(leaf * GEODESIC_DIRECTION_COUNT + direction) else { return };
+        let f =
+            crate::tile::sample_tile_irradiance(tile.cell, tile.radius, tile.x, tile.normal, tile.area, tile.p, tile.n);
         if f > 0.0 {
             for c in 0..3 {
                 out[c] += f * f64::from(v[c]);
             }
         }
-    }
+    });
     out
+}
+
+/// One sample's tile and the receiver, in its leaf's rest frame relative to the centre ([`for_each_tile`]).
+struct LeafTile<'c> {
+    cell: &'c crate::tile::Cell,
+    radius: f64,
+    x: [f64; 3],
+    normal: [f64; 3],
+    area: Option<f64>,
+    p: [f64; 3],
+    n: [f64; 3],
+}
+
+/// Calls `f(direction, tile)` for each sample of leaf `leaf`, with the receiver (`p`, unit normal `n`, world space)
+/// turned into the leaf's rest frame relative to its centre, where tiles are built (the rotation is rigid).
+fn for_each_tile<'c>(
+    cells: &'c [crate::tile::Cell],
+    posed: &PosedProxy<'_>,
+    leaf: usize,
+    p: [f32; 3],
+    n: [f32; 3],
+    mut f: impl FnMut(usize, &LeafTile<'c>),
+) {
+    let Some(s) = posed.leaves.get(leaf) else { return };
+    let rot = posed.rotation(leaf);
+    let (c_rest, r_rest) = posed.proxy.spheres().get(leaf).map_or((s.center, s.radius), |r| (r.center, r.radius));
+    let pr = rotate_transposed(&rot, [p[0] - s.center[0], p[1] - s.center[1], p[2] - s.center[2]]).map(f64::from);
+    let nr = rotate_transposed(&rot, n).map(f64::from);
+    let areas = posed.proxy.sample_areas_of(leaf);
+    for (q, sp) in posed.proxy.samples_of(leaf).iter().enumerate() {
+        let direction = usize::from(sp.direction);
+        let Some(cell) = cells.get(direction) else { continue };
+        let tile = LeafTile {
+            cell,
+            radius: f64::from(r_rest),
+            x: [sp.position[0] - c_rest[0], sp.position[1] - c_rest[1], sp.position[2] - c_rest[2]].map(f64::from),
+            normal: sp.normal.map(f64::from),
+            area: areas.and_then(|a| a.get(q)).map(|&a| f64::from(a)),
+            p: pr,
+            n: nr,
+        };
+        f(direction, &tile);
+    }
 }
 
 /// How much a leaf's own surface replaces its sphere, 0..=1: max(ramp(fill: 0.98 → 0.90), ramp(directions with a
@@ -864,27 +894,11 @@ fn splat_weight(fill: f64, samples: usize) -> f64 {
 /// (module docs, "Contact"): Σ polygon irradiance / π of the tiles, scaled to their stored areas, with the receiver
 /// where it is (no near-plane rule: a receiver against a tile is covered by it). Allocation-free.
 fn tile_coverage(cells: &[crate::tile::Cell], posed: &PosedProxy<'_>, leaf: usize, p: [f32; 3], n: [f32; 3]) -> f64 {
-    let Some(s) = posed.leaves.get(leaf) else { return 0.0 };
-    let rot = posed.rotation(leaf);
-    let (c_rest, r_rest) = posed.proxy.spheres().get(leaf).map_or((s.center, s.radius), |r| (r.center, r.radius));
-    let pr = rotate_transposed(&rot, [p[0] - s.center[0], p[1] - s.center[1], p[2] - s.center[2]]).map(f64::from);
-    let nr = rotate_transposed(&rot, n).map(f64::from);
-    let areas = posed.proxy.sample_areas_of(leaf);
     let mut cover = 0.0f64;
-    for (q, sp) in posed.proxy.samples_of(leaf).iter().enumerate() {
-        let Some(cell) = cells.get(usize::from(sp.direction)) else { continue };
-        let x = [sp.position[0] - c_rest[0], sp.position[1] - c_rest[1], sp.position[2] - c_rest[2]].map(f64::from);
-        let normal = sp.normal.map(f64::from);
-        let h = (0..3).map(|k| (pr[k] - x[k]) * normal[k]).sum::<f64>();
-        if h.is_nan() || h <= 0.0 {
-            continue;
-        }
-        let mut tile = [[0.0f64; 3]; crate::tile::CELL_MAX_CORNERS];
-        let k = crate::tile::sample_tile(cell, [0.0; 3], f64::from(r_rest), x, normal, &mut tile);
-        crate::tile::scale_tile_to_area(&mut tile[..k], x, areas.and_then(|a| a.get(q)).map(|&a| f64::from(a)));
-        cover += crate::tile::polygon_irradiance(pr, nr, &tile[..k]);
-    }
-    (cover / core::f64::consts::PI).clamp(0.0, 1.0)
+    for_each_tile(cells, posed, leaf, p, n, |_, t| {
+        cover += crate::tile::sample_tile_cover(t.cell, t.radius, t.x, t.normal, t.area, t.p, t.n);
+    });
+    cover.clamp(0.0, 1.0)
 }
 
 /// Node lights from their leaves: L^c_N = Σ_j (r_j / r_N)² L^c_j, rotation polar(Σ_j r_j² R_j) (module docs).

@@ -218,9 +218,7 @@ pub fn sample_tile_irradiance(
     if h.is_nan() || h <= 0.0 {
         return 0.0;
     }
-    let mut tile = [[0.0f64; 3]; CELL_MAX_CORNERS];
-    let k = sample_tile(cell, [0.0; 3], radius, x, normal, &mut tile);
-    scale_tile_to_area(&mut tile[..k], x, area);
+    let (tile, k) = scaled_tile(cell, radius, x, normal, area);
     let h_min = TILE_MIN_HEIGHT * norm(x);
     // Over the tile: the receiver's foot point on the plane lies within the tile's reach from the sample.
     let d = sub(p, x);
@@ -233,6 +231,41 @@ pub fn sample_tile_irradiance(
         p
     };
     polygon_irradiance(q, n, &tile[..k])
+}
+
+/// The tile of a sample relative to its sphere's centre, scaled to `area` ([`sample_tile`], [`scale_tile_to_area`]).
+fn scaled_tile(
+    cell: &Cell,
+    radius: f64,
+    x: [f64; 3],
+    normal: [f64; 3],
+    area: Option<f64>,
+) -> ([[f64; 3]; CELL_MAX_CORNERS], usize) {
+    let mut tile = [[0.0f64; 3]; CELL_MAX_CORNERS];
+    let k = sample_tile(cell, [0.0; 3], radius, x, normal, &mut tile);
+    scale_tile_to_area(&mut tile[..k], x, area);
+    (tile, k)
+}
+
+/// Share of the cosine-weighted view of a receiver at `p` (unit normal `n`) that one sample's tile covers, in [0, 1]
+/// (its polygon irradiance / π), arguments as in [`sample_tile_irradiance`] but with the receiver where it is (no
+/// near-plane rule: a receiver against a tile is covered by it). 0 behind the tile's plane. Allocation-free.
+#[must_use]
+pub fn sample_tile_cover(
+    cell: &Cell,
+    radius: f64,
+    x: [f64; 3],
+    normal: [f64; 3],
+    area: Option<f64>,
+    p: [f64; 3],
+    n: [f64; 3],
+) -> f64 {
+    let h = dot(sub(p, x), normal);
+    if h.is_nan() || h <= 0.0 {
+        return 0.0;
+    }
+    let (tile, k) = scaled_tile(cell, radius, x, normal, area);
+    polygon_irradiance(p, n, &tile[..k]) / core::f64::consts::PI
 }
 
 /// Irradiance at `p` (unit normal `n`) from a planar polygon of unit radiance (module docs): its projected solid

@@ -563,7 +563,7 @@ fn print_single(output: &Path, r: &spherebake_bake::BakeReport, verbose: bool) {
         if let Some(m) = &k.pose_margin {
             println!(
                 "  margin    {} spheres grown (max {:.2e} of the diagonal) over {} frames, motion between frames ≤ {:.2e} of the diagonal{}; coverage before {:.4}; E {} -> {}",
-                m.grown_spheres,
+                m.grown_count,
                 m.max_growth_relative,
                 m.frames,
                 m.motion_bound_max_relative,

@@ -253,16 +253,12 @@ fn results_do_not_depend_on_the_thread_count() {
     assert!(outs[0] == outs[1], "values differ between 1 and 2 threads");
 }
 
-#[test]
-fn duck_at_64_spheres_keeps_its_measured_ground_error_under_the_uniform_sky() {
-    let Some(duck) = spherebake_testkit::shared_model("gltf/Duck.glb") else { return };
-    let dir = tempfile::tempdir().unwrap();
-    let d = dir.path();
-    let model = duck.to_str().unwrap();
-    ok(&run(&["bake", model, "-o", "duck.sphb", "--spheres", "64", "-q"], d));
-    let args = [
+/// `spherebake light FILE --model MODEL` at the real-model tests' settings (24² ground receivers, 2048 rays, 256
+/// model receivers) plus `extra`, as JSON.
+fn real_model_light(d: &Path, file: &str, model: &str, extra: &[&str]) -> Value {
+    let mut args = vec![
         "light",
-        "duck.sphb",
+        file,
         "--model",
         model,
         "--resolution",
@@ -273,7 +269,18 @@ fn duck_at_64_spheres_keeps_its_measured_ground_error_under_the_uniform_sky() {
         "256",
         "--json",
     ];
-    let j = json_of(&run(&args, d));
+    args.extend_from_slice(extra);
+    json_of(&run(&args, d))
+}
+
+#[test]
+fn duck_at_64_spheres_keeps_its_measured_ground_error_under_the_uniform_sky() {
+    let Some(duck) = spherebake_testkit::shared_model("gltf/Duck.glb") else { return };
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let model = duck.to_str().unwrap();
+    ok(&run(&["bake", model, "-o", "duck.sphb", "--spheres", "64", "-q"], d));
+    let j = real_model_light(d, "duck.sphb", model, &[]);
     let g = &j["indirect"]["ground"];
     let rel = g["rel_rmse"].as_f64().unwrap();
     eprintln!(
@@ -309,21 +316,7 @@ fn cesium_man_at_64_spheres_and_the_soft_rotation_reduces_the_posed_error() {
     let model = man.to_str().unwrap();
     ok(&run(&["bake", model, "-o", "man.sphb", "--spheres", "64", "-q"], d));
     let errors = |extra: &[&str]| {
-        let mut args = vec![
-            "light",
-            "man.sphb",
-            "--model",
-            model,
-            "--resolution",
-            "24",
-            "--rays",
-            "2048",
-            "--model-receivers",
-            "256",
-            "--json",
-        ];
-        args.extend_from_slice(extra);
-        let j = json_of(&run(&args, d));
+        let j = real_model_light(d, "man.sphb", model, extra);
         let g = j["indirect"]["ground"]["rel_rmse"].as_f64().unwrap();
         let m = j["indirect"]["model"]["rel_rmse"].as_f64().unwrap();
         eprintln!("CesiumMan, 64 spheres {extra:?}: ground {g:.4}, model {m:.4}");

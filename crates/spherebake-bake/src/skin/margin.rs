@@ -93,16 +93,20 @@ use spherebake_geom::{Mesh, Skeleton};
 use super::{bbox_diagonal, check_spheres, lbs_rows, pose_centre, welded_skin, SkinError, SkinSettings};
 use spherebake_geom::mvc::SkinRow;
 
-/// Result of [`grow_for_animations`].
+/// Result of [`grow_for_animations`]; also the bake report's `skin.pose_margin` (serialized
+/// without the spheres and the absolute growth, `grown_count` as `grown_spheres`).
 #[derive(Clone, Debug, PartialEq, serde::Serialize)]
 pub struct MarginResult {
     /// The spheres with grown radii (centres unchanged), `[x, y, z, r]`.
+    #[serde(skip)]
     pub spheres: Vec<[f32; 4]>,
     /// Poses checked: the rest pose and every frame of every animation (a sample time is two
     /// frames where a channel jumps there).
     pub frames: usize,
+    #[serde(rename = "grown_spheres")]
     pub grown_count: usize,
     /// Largest radius increase, model units, and relative to the bounding-box diagonal.
+    #[serde(skip)]
     pub max_growth: f64,
     pub max_growth_relative: f64,
     /// Largest pair bound `D(v, s)` a vertex's coverage relied on (the most that vertex–centre
