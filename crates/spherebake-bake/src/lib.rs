@@ -163,6 +163,8 @@ pub struct SampleSummary {
     pub area_assigned: f64,
     /// Mesh area in segments of spheres without samples (carried by no sample), model units².
     pub area_unassigned: f64,
+    /// Surface points (sub-triangle centroids) that measured the sample areas.
+    pub area_points: u64,
 }
 
 /// The result of a bake: the file (as data and as bytes) and the report.
@@ -378,6 +380,7 @@ pub fn bake_imported(
             share_rule3_empty: sample_stats.share_rule3_empty,
             area_assigned: sample_stats.area_assigned,
             area_unassigned: sample_stats.area_unassigned,
+            area_points: sample_stats.area_points,
         },
         timings,
         fit_stages,

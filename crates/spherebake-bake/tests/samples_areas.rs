@@ -88,3 +88,24 @@ fn areas_add_up_to_the_mesh_area_and_do_not_depend_on_threads() {
         }
     }
 }
+
+#[test]
+fn tiny_spheres_do_not_blow_up_the_area_work() {
+    // A fit may leave spheres tiny but valid (the capsule at `--voxels 64` left more than half
+    // below 1e-6): the median radius then sets a tiny sub-triangle edge. The work must follow
+    // the samples written: at most 256 sub-triangles per sample (or one per triangle).
+    let mesh = capsule_mesh(0.5, 0.5, 24, 12);
+    let mut spheres = vec![[0.0, 0.0, 0.0, 1.1f32]];
+    for i in 0..40 {
+        spheres.push([0.01 * i as f32 - 0.2, 0.0, 0.0, 1e-7]);
+    }
+    let (samples, stats, _) = run(&mesh, &spheres);
+    let total = samples.total() as u64;
+    assert!(total > 0);
+    let bound = (256 * total).max(mesh.triangles.len() as u64);
+    assert!(stats.area_points <= bound, "{} sub-triangles for {total} samples", stats.area_points);
+    // Still a partition of the surface.
+    let area = mesh_area(&mesh);
+    let sum = stats.area_assigned + stats.area_unassigned;
+    assert!((sum - area).abs() < 1e-9 * area, "{sum} vs {area}");
+}

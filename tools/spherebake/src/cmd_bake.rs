@@ -580,13 +580,14 @@ fn print_single(output: &Path, r: &spherebake_bake::BakeReport, verbose: bool) {
         h.levels, h.mean_branching, h.tightness_mean, h.tightness_max
     );
     println!(
-        "  samples   {:.1} per sphere (min {}), empty directions: rule 2 {:.1}%, rule 3 {:.1}%; area {:.4} carried, {:.4} in spheres without samples",
+        "  samples   {:.1} per sphere (min {}), empty directions: rule 2 {:.1}%, rule 3 {:.1}%; area {:.4} carried, {:.4} in spheres without samples ({} points)",
         r.samples.per_sphere_mean,
         r.samples.per_sphere_min,
         100.0 * r.samples.share_rule2_empty,
         100.0 * r.samples.share_rule3_empty,
         r.samples.area_assigned,
-        r.samples.area_unassigned
+        r.samples.area_unassigned,
+        r.samples.area_points
     );
     println!("  file      {} bytes, input hash {}", r.file_bytes, r.input_hash);
     for w in &r.warnings {
