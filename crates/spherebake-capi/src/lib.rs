@@ -1523,7 +1523,8 @@ unsafe fn sources_of<'a>(
 /// **Pass 2, per receiver**: the indirect irradiance E (linear RGB, ∫ L_in cos dω; 3 doubles
 /// into `out`) at receiver `p` (3 floats) with unit `normal` (3 floats) from the cluster's lights.
 /// `sources` / `lights` must be the arrays the cluster was built from. Reuses the cluster's
-/// buffers: one thread at a time per cluster.
+/// buffers: one thread at a time per cluster. Each channel is at least 0 (SH lights can dip
+/// below 0; irradiance cannot).
 #[no_mangle]
 pub unsafe extern "C" fn sphb_indirect_irradiance(
     cluster: *mut SphbIndirectCluster,

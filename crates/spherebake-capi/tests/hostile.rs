@@ -448,7 +448,7 @@ fn drive_light(p: *mut SphbProxy, leaves: &[SphbSphere], joints: &[f32], lit: bo
         };
         assert_eq!(irradiance(null(), &mut out), SPHB_ERR_NULL);
         assert_eq!(irradiance(up.as_ptr(), &mut out), SPHB_OK);
-        assert!(out.iter().all(|v| v.is_finite() && *v >= 0.0));
+        assert!(out.iter().all(|v| v.is_finite() && *v >= 0.0), "{out:?}");
         unsafe { sphb_indirect_cluster_free(ic) };
     } else {
         assert_eq!(status, SPHB_ERR_MISSING_DATA);

@@ -1261,7 +1261,9 @@ impl IndirectCluster {
 
     /// The indirect irradiance E^I (linear RGB, ∫ L_in cos dω) at receiver `p` with unit normal `normal` from the
     /// cluster's lights (eq. 14 with the reflection ratios of eq. 26). Allocation-free once the buffers have grown
-    /// to the cluster's size (the first call after a larger build may allocate).
+    /// to the cluster's size (the first call after a larger build may allocate). Each channel is at least 0:
+    /// irradiance cannot be negative, but SH lights can dip below 0 (ringing of a band-limited albedo or radiance,
+    /// or an albedo SH that is negative where a hostile file put it), and an engine adds this to its lighting.
     ///
     /// # Errors
     ///
@@ -1276,7 +1278,8 @@ impl IndirectCluster {
         if self.order != ctx.order() {
             return Err(LightError::Mismatch { what: "order" });
         }
-        self.contribution(ctx, sources, Which::Entries, p, normal, |_| true)
+        let e = self.contribution(ctx, sources, Which::Entries, p, normal, |_| true)?;
+        Ok(e.map(|v| v.max(0.0)))
     }
 
     /// Σ over the entries with `include(k)` of π L̃ Ṽ t, the blockers being all entries of the chosen list.

@@ -300,3 +300,20 @@ fn a_sole_over_a_receiver_hides_the_lights_above_it() {
     assert!(both[0][0] < 0.1 * ball_alone[0][0], "under the sole {:?} vs the ball alone {:?}", both[0], ball_alone[0]);
     assert!((both[1][0] / ball_alone[1][0] - 1.0).abs() < 0.1, "beside {:?} vs {:?}", both[1], ball_alone[1]);
 }
+
+#[test]
+fn irradiance_is_never_negative_even_from_a_negative_albedo() {
+    // A valid file may carry albedo SH that is negative (ringing, or a hostile file): the light it emits in that
+    // channel is negative, and the irradiance an engine adds to its lighting must still be ≥ 0. The other
+    // channels keep their analytic answer.
+    let albedo = [-0.5f32, 0.5, -1e20];
+    let proxy = sphere_proxy(&[(Sphere { center: [0.0, 2.0, 0.0], radius: 1.0 }, albedo)], 4);
+    let ctx = LightContext::new(4, ExpMethod::default()).unwrap();
+    let xs: Vec<[f32; 3]> = (0..16).map(|i| [-3.0 + 0.4 * i as f32, 0.0, 0.3]).collect();
+    let got = ground_irradiance(&proxy, &ctx, &xs);
+    for (x, g) in xs.iter().zip(&got) {
+        assert!(g[0] == 0.0 && g[2] == 0.0, "{x:?}: {g:?}");
+        let want = analytic_ground([0.0, 2.0, 0.0], 1.0, 0.5, x.map(f64::from));
+        assert!((g[1] - want).abs() <= 0.02 * want + 1e-6, "{x:?}: {} vs {want}", g[1]);
+    }
+}
