@@ -2,7 +2,8 @@
 //! e.g. `... -- bunny.obj 16,32,64,128,256 variational,kmeans,octree 3`.
 //! Prints E (exact), the union outside ratio, and wall time (median of `runs`) per stage.
 //! Environment overrides: SB_POINTS, SB_VOXEL, SB_ITERS, SB_POLISH, SB_SEED, SB_STARTS,
-//! SB_TRIALS, SB_SEAMS, SB_TELE, SB_SUBDIV; SB_PRESET=fast|default|best starts from that plan.
+//! SB_TRIALS, SB_SEAMS, SB_TELE, SB_SUBDIV,
+//! SB_SEAM_TRIALS, SB_BUDGET, SB_SEAM_BUDGET; SB_PRESET=fast|default|best starts from that plan.
 
 #[path = "common/obj.rs"]
 mod obj;
@@ -79,6 +80,15 @@ fn main() {
             }
             if let Some(v) = env("SB_TELE") {
                 settings.plan.teleport_attempts = v;
+            }
+            if let Some(v) = env("SB_SEAM_TRIALS") {
+                settings.plan.seam_trials = v;
+            }
+            if let Some(v) = env("SB_BUDGET") {
+                settings.plan.descent_work_budget = v as u64;
+            }
+            if let Some(v) = env("SB_SEAM_BUDGET") {
+                settings.plan.seam_work_budget = v as u64;
             }
             if let Some(v) = env("SB_STARTS") {
                 settings.plan.starts = v;

@@ -107,6 +107,23 @@ struct Node {
 /// triangle's bounding box), largest first, until the leaves inside or on the boundary number
 /// at least `k` (it can overshoot by up to 6). Spheres are the leaf cubes' circumspheres.
 pub fn octree(positions: &[DVec3], triangles: &[[u32; 3]], solid: &Solid, k: usize) -> Vec<(DVec3, f64)> {
+    octree_leaves(positions, triangles, solid, k, false)
+}
+
+/// [`octree`] stopped before the split that would pass `k`: at most `k` spheres (at least
+/// `k − 6` when the tree can grow that far), every point of the surface and of the solid's
+/// cells still inside one.
+pub fn octree_at_most(positions: &[DVec3], triangles: &[[u32; 3]], solid: &Solid, k: usize) -> Vec<(DVec3, f64)> {
+    octree_leaves(positions, triangles, solid, k, true)
+}
+
+fn octree_leaves(
+    positions: &[DVec3],
+    triangles: &[[u32; 3]],
+    solid: &Solid,
+    k: usize,
+    at_most: bool,
+) -> Vec<(DVec3, f64)> {
     let mut lo = DVec3::splat(f64::INFINITY);
     let mut hi = DVec3::splat(f64::NEG_INFINITY);
     let boxes: Vec<(DVec3, DVec3)> = triangles
@@ -141,6 +158,7 @@ pub fn octree(positions: &[DVec3], triangles: &[[u32; 3]], solid: &Solid, k: usi
         let (c0, h0) = (nodes[ni].centre, nodes[ni].half);
         let tris = std::mem::take(&mut nodes[ni].tris);
         let h = h0 * 0.5;
+        let mut children: Vec<(Node, bool)> = Vec::with_capacity(8);
         for oct in 0..8 {
             let off = DVec3::new(
                 if oct & 1 != 0 { h } else { -h },
@@ -159,15 +177,27 @@ pub fn octree(positions: &[DVec3], triangles: &[[u32; 3]], solid: &Solid, k: usi
                 .collect();
             if sub.is_empty() {
                 if solid.is_solid_at(c) {
-                    nodes.push(Node { centre: c, half: h, tris: sub });
-                    inside_leaves.push(nodes.len() - 1);
-                    count += 1;
+                    children.push((Node { centre: c, half: h, tris: sub }, true));
                 }
             } else {
-                nodes.push(Node { centre: c, half: h, tris: sub });
-                heap.push((h.to_bits(), std::cmp::Reverse(nodes.len() - 1)));
-                count += 1;
+                children.push((Node { centre: c, half: h, tris: sub }, false));
             }
+        }
+        if at_most && count + children.len() > k {
+            // This split would pass k: the node stays a leaf, and the tree is done (the other
+            // leaves are as large or smaller, so their splits would pass k too or skew it).
+            nodes[ni].tris = tris;
+            heap.push((h0.to_bits(), std::cmp::Reverse(ni)));
+            break;
+        }
+        for (node, inside) in children {
+            nodes.push(node);
+            if inside {
+                inside_leaves.push(nodes.len() - 1);
+            } else {
+                heap.push((h.to_bits(), std::cmp::Reverse(nodes.len() - 1)));
+            }
+            count += 1;
         }
     }
     let mut leaves: Vec<usize> = heap.into_iter().map(|(_, std::cmp::Reverse(i))| i).collect();
@@ -179,6 +209,50 @@ pub fn octree(positions: &[DVec3], triangles: &[[u32; 3]], solid: &Solid, k: usi
 #[cfg(test)]
 mod kmeanspp_tests {
     use super::*;
+
+    #[test]
+    fn the_octree_at_most_k_stays_at_most_k_and_covers_the_surface() {
+        // A unit cube (12 triangles) on a solid grid of 32 cells.
+        let pos: Vec<DVec3> =
+            (0..8).map(|i| DVec3::new((i & 1) as f64, ((i >> 1) & 1) as f64, (i >> 2) as f64)).collect();
+        let tris: Vec<[u32; 3]> = vec![
+            [0, 2, 1],
+            [1, 2, 3],
+            [4, 5, 6],
+            [5, 7, 6],
+            [0, 1, 4],
+            [1, 5, 4],
+            [2, 6, 3],
+            [3, 6, 7],
+            [0, 4, 2],
+            [2, 4, 6],
+            [1, 3, 5],
+            [3, 7, 5],
+        ];
+        let h = 1.0 / 32.0;
+        let cells: crate::solid::Bits = (0..32 * 32 * 32).map(|_| true).collect();
+        let solid = Solid::from_cells(DVec3::ZERO, h, [32, 32, 32], cells);
+        let mut rng = SplitMix64::new(5);
+        for k in 1..=80 {
+            let s = octree_at_most(&pos, &tris, &solid, k);
+            let full = octree(&pos, &tris, &solid, k);
+            assert!(s.len() <= k && !s.is_empty(), "k {k}: {}", s.len());
+            // The unlimited octree reaches k with at most 6 more (one split adds ≤ 7).
+            assert!(full.len() >= k && full.len() <= k + 6, "k {k}: {}", full.len());
+            if k >= 8 {
+                assert!(s.len() + 7 > k, "k {k}: only {} of at most {k}", s.len());
+            }
+            for _ in 0..200 {
+                let t = tris[rng.below(12) as usize].map(|v| pos[v as usize]);
+                let (mut a, mut b) = (rng.next_f64(), rng.next_f64());
+                if a + b > 1.0 {
+                    (a, b) = (1.0 - a, 1.0 - b);
+                }
+                let p = t[0] + (t[1] - t[0]) * a + (t[2] - t[0]) * b;
+                assert!(s.iter().any(|(c, r)| p.distance(*c) <= *r * (1.0 + 1e-12)), "k {k}: {p} uncovered");
+            }
+        }
+    }
 
     #[test]
     fn seeds_are_distinct_and_cover_separate_clusters() {

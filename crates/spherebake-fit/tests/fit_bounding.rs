@@ -417,3 +417,21 @@ fn unreferenced_vertices_do_not_constrain_the_fit() {
     let b = fit(&p2, &t, &s, &|_| {}).unwrap();
     assert_eq!(a.spheres, b.spheres);
 }
+
+#[test]
+fn variational_beats_the_octree_on_the_unit_cube() {
+    // Issue 16: a fit that loses to a grid on the simplest solid has a start or move-set
+    // problem. 12 triangles; the octree is the baseline of Ren et al. Fig. 4 (it may use up to
+    // 6 spheres more than asked; the fit uses exactly k). Below 32 spheres the octree's extra
+    // spheres decide (at 16 it uses 22), so the claim starts at 32.
+    let (p, t) = voxel_union(&[[0, 0, 0]], 1.0, 1);
+    assert_eq!(t.len(), 12);
+    for k in [32, 64, 128, 256] {
+        let run = |method| fit(&p, &t, &FitSettings { method, spheres: k, ..Default::default() }, &|_| {}).unwrap();
+        let (v, o) = (run(Method::Variational), run(Method::Octree));
+        assert!(v.spheres.len() <= k);
+        assert_triangles_covered(&p, &t, &v.spheres);
+        let (ev, eo) = (v.stats.outside_ratio_e, o.stats.outside_ratio_e);
+        assert!(ev < eo, "k {k}: variational E {ev} should beat the octree's {eo}");
+    }
+}
