@@ -100,7 +100,7 @@ fn capsule_stays_under_its_e_ceiling() {
 
 #[test]
 fn skinned_arm_stays_under_its_e_ceiling() {
-    fixture_case(&Case { rel: "skinned-arm.gltf", measured: 0.1440, ceiling: 0.1512 });
+    fixture_case(&Case { rel: "skinned-arm.gltf", measured: 0.1480, ceiling: 0.1554 });
 }
 
 #[test]

@@ -807,6 +807,10 @@ fn descent_stage(prep: &Prepared, dpts: &[DVec3], sp: &mut [(DVec3, f64)], plan:
     descent::exclusive_descent(&prep.solid, dpts, sp, &opts)
 }
 
+/// Seam points one round adds at most, as a share of the descent points it joins (at least
+/// 1024).
+const SEAM_MAX_SHARE: f64 = 0.25;
+
 /// Stage 6, one seam round: the surface points between vertices that no sphere covers
 /// (barycentric grid of spacing `plan.seam_spacing_cells` voxel cells on every triangle no
 /// single sphere contains) join the descent points, so the optimiser rather than the greedy
@@ -819,7 +823,8 @@ fn seam_round(
     sp: &mut [(DVec3, f64)],
     plan: &FitPlan,
 ) -> Option<descent::DescentStats> {
-    let seam = descent::seam_points(sp, &prep.pos, &prep.tris, plan.seam_spacing_cells * prep.solid.h);
+    let max_points = ((SEAM_MAX_SHARE * dpts.len() as f64) as usize).max(1024);
+    let seam = descent::seam_points(sp, &prep.pos, &prep.tris, plan.seam_spacing_cells * prep.solid.h, max_points);
     if seam.is_empty() {
         return None;
     }
