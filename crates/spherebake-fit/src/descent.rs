@@ -697,15 +697,9 @@ pub fn seam_points(
             if spheres.iter().any(|s| t.iter().all(|p| inside(*p, s))) {
                 return out;
             }
-            let (lo, hi) = (t[0].min(t[1]).min(t[2]), t[0].max(t[1]).max(t[2]));
-            let near: Vec<(DVec3, f64)> =
-                spheres.iter().copied().filter(|s| s.0.clamp(lo, hi).distance_squared(s.0) <= s.1 * s.1).collect();
+            let near = meeting_box(spheres, &t);
             if wanted_divisions(&t, spacing) <= SEAM_GRID_MAX {
-                out.extend(
-                    triangle_grid(t[0], t[1], t[2], m)
-                        .map(|(_, _, p)| p)
-                        .filter(|p| !near.iter().any(|s| inside(*p, s))),
-                );
+                grid_outside(t, m, &near, &mut out);
             } else {
                 seam_piece(t, &near, spacing, depth, &mut out);
             }
@@ -726,6 +720,17 @@ fn inside(p: DVec3, s: &(DVec3, f64)) -> bool {
     p.distance_squared(s.0) <= s.1 * s.1
 }
 
+/// The balls of `balls` that meet the bounding box of `t`.
+fn meeting_box(balls: &[(DVec3, f64)], t: &[DVec3; 3]) -> Vec<(DVec3, f64)> {
+    let (lo, hi) = (t[0].min(t[1]).min(t[2]), t[0].max(t[1]).max(t[2]));
+    balls.iter().copied().filter(|s| s.0.clamp(lo, hi).distance_squared(s.0) <= s.1 * s.1).collect()
+}
+
+/// The points of `t`'s barycentric grid with `m` divisions that no ball of `near` holds.
+fn grid_outside(t: [DVec3; 3], m: usize, near: &[(DVec3, f64)], out: &mut Vec<DVec3>) {
+    out.extend(triangle_grid(t[0], t[1], t[2], m).map(|(_, _, p)| p).filter(|p| !near.iter().any(|s| inside(*p, s))));
+}
+
 /// Divisions per edge a piece needs for the seam spacing (NaN and overflow give 0).
 fn wanted_divisions(t: &[DVec3; 3], spacing: f64) -> usize {
     let l = (t[1] - t[0]).length().max((t[2] - t[1]).length()).max((t[0] - t[2]).length());
@@ -744,16 +749,11 @@ fn seam_piece(t: [DVec3; 3], near: &[(DVec3, f64)], spacing: f64, depth: usize, 
     }
     let want = wanted_divisions(&t, spacing);
     if want <= SEAM_GRID_MAX || depth == 0 {
-        let m = want.clamp(SEAM_GRID, SEAM_GRID_MAX);
-        out.extend(
-            triangle_grid(t[0], t[1], t[2], m).map(|(_, _, p)| p).filter(|p| !near.iter().any(|s| inside(*p, s))),
-        );
+        grid_outside(t, want.clamp(SEAM_GRID, SEAM_GRID_MAX), near, out);
         return;
     }
-    let (lo, hi) = (t[0].min(t[1]).min(t[2]), t[0].max(t[1]).max(t[2]));
     let mid = [(t[0] + t[1]) * 0.5, (t[1] + t[2]) * 0.5, (t[2] + t[0]) * 0.5];
-    let sub: Vec<(DVec3, f64)> =
-        near.iter().copied().filter(|s| s.0.clamp(lo, hi).distance_squared(s.0) <= s.1 * s.1).collect();
+    let sub = meeting_box(near, &t);
     for piece in [[t[0], mid[0], mid[2]], [mid[0], t[1], mid[1]], [mid[2], mid[1], t[2]], [mid[0], mid[1], mid[2]]] {
         seam_piece(piece, &sub, spacing, depth - 1, out);
     }
