@@ -813,7 +813,7 @@ const AREA_FILL_LOOSE: f64 = 0.70;
 
 /// Irradiance (linear RGB) at `p` (unit normal `n`) from leaf `leaf`'s own samples as small Lambertian emitters
 /// (module docs, "Loose lights"): sample j, radiance L_pj c(ω_j), as its surface tile
-/// ([`crate::tile::sample_tile_irradiance`], built in the leaf's rest frame, into which the receiver is turned). No
+/// ([`crate::tile::SampleTile::irradiance`], built in the leaf's rest frame, into which the receiver is turned). No
 /// visibility inside the leaf's own segment; the caller multiplies by the light's visible share. Allocation-free.
 fn splat_irradiance(
     cells: &[crate::tile::Cell],
@@ -826,8 +826,7 @@ fn splat_irradiance(
     let mut out = [0.0f64; 3];
     for_each_tile(cells, posed, leaf, p, n, |direction, tile| {
         let Some(v) = lights.leaf_cells.get(leaf * GEODESIC_DIRECTION_COUNT + direction) else { return };
-        let f =
-            crate::tile::sample_tile_irradiance(tile.cell, tile.radius, tile.x, tile.normal, tile.area, tile.p, tile.n);
+        let f = tile.tile.irradiance(tile.p, tile.n);
         if f > 0.0 {
             for c in 0..3 {
                 out[c] += f * f64::from(v[c]);
@@ -837,13 +836,10 @@ fn splat_irradiance(
     out
 }
 
-/// One sample's tile and the receiver, in its leaf's rest frame relative to the centre ([`for_each_tile`]).
+/// One sample's tile and the receiver (`p`, unit normal `n`), in its leaf's rest frame relative to the centre
+/// ([`for_each_tile`]).
 struct LeafTile<'c> {
-    cell: &'c crate::tile::Cell,
-    radius: f64,
-    x: [f64; 3],
-    normal: [f64; 3],
-    area: Option<f64>,
+    tile: crate::tile::SampleTile<'c>,
     p: [f64; 3],
     n: [f64; 3],
 }
@@ -868,11 +864,13 @@ fn for_each_tile<'c>(
         let direction = usize::from(sp.direction);
         let Some(cell) = cells.get(direction) else { continue };
         let tile = LeafTile {
-            cell,
-            radius: f64::from(r_rest),
-            x: [sp.position[0] - c_rest[0], sp.position[1] - c_rest[1], sp.position[2] - c_rest[2]].map(f64::from),
-            normal: sp.normal.map(f64::from),
-            area: areas.and_then(|a| a.get(q)).map(|&a| f64::from(a)),
+            tile: crate::tile::SampleTile {
+                cell,
+                radius: f64::from(r_rest),
+                x: [sp.position[0] - c_rest[0], sp.position[1] - c_rest[1], sp.position[2] - c_rest[2]].map(f64::from),
+                normal: sp.normal.map(f64::from),
+                area: areas.and_then(|a| a.get(q)).map(|&a| f64::from(a)),
+            },
             p: pr,
             n: nr,
         };
@@ -896,7 +894,7 @@ fn splat_weight(fill: f64, samples: usize) -> f64 {
 fn tile_coverage(cells: &[crate::tile::Cell], posed: &PosedProxy<'_>, leaf: usize, p: [f32; 3], n: [f32; 3]) -> f64 {
     let mut cover = 0.0f64;
     for_each_tile(cells, posed, leaf, p, n, |_, t| {
-        cover += crate::tile::sample_tile_cover(t.cell, t.radius, t.x, t.normal, t.area, t.p, t.n);
+        cover += t.tile.cover(t.p, t.n);
     });
     cover.clamp(0.0, 1.0)
 }

@@ -198,74 +198,67 @@ pub fn scale_tile_to_area(tile: &mut [[f64; 3]], x: [f64; 3], area: Option<f64>)
     }
 }
 
-/// Irradiance at a receiver from one sample's tile, per unit radiance, everything relative to the sphere's centre
-/// (module docs): the sample at `x` with unit outward normal `normal` along direction cell `cell` of a sphere of
-/// radius `radius`, the receiver at `p` with unit normal `n`; with the file's sample `area` (spec §7.2) the tile is
-/// first scaled to it about the sample ([`scale_tile_to_area`], module docs "Areas"). 0 when the receiver stands
-/// behind the tile's plane (tiles emit on their front side); over the tile and closer to its plane than
-/// [`TILE_MIN_HEIGHT`] · |x| it is moved out to that height (module docs, "Near the plane"). Allocation-free.
-#[must_use]
-pub fn sample_tile_irradiance(
-    cell: &Cell,
-    radius: f64,
-    x: [f64; 3],
-    normal: [f64; 3],
-    area: Option<f64>,
-    p: [f64; 3],
-    n: [f64; 3],
-) -> f64 {
-    let h = dot(sub(p, x), normal);
-    if h.is_nan() || h <= 0.0 {
-        return 0.0;
-    }
-    let (tile, k) = scaled_tile(cell, radius, x, normal, area);
-    let h_min = TILE_MIN_HEIGHT * norm(x);
-    // Over the tile: the receiver's foot point on the plane lies within the tile's reach from the sample.
-    let d = sub(p, x);
-    let lateral2 = dot(d, d) - h * h;
-    let reach2 = tile[..k].iter().map(|c| dot(sub(*c, x), sub(*c, x))).fold(0.0f64, f64::max);
-    let q = if h < h_min && lateral2 <= reach2 {
-        let s = h_min - h;
-        [p[0] + s * normal[0], p[1] + s * normal[1], p[2] + s * normal[2]]
-    } else {
-        p
-    };
-    polygon_irradiance(q, n, &tile[..k])
+/// One sample's tile, everything relative to its sphere's centre: the direction cell `cell` of a sphere of radius
+/// `radius`, the sample at `x` with unit outward normal `normal`, and the file's sample `area` (spec §7.2; the tile
+/// is scaled to it about the sample, [`scale_tile_to_area`], module docs "Areas").
+#[derive(Clone, Copy, Debug)]
+pub struct SampleTile<'c> {
+    /// The Voronoi cell of the sample's direction ([`voronoi_cells`]).
+    pub cell: &'c Cell,
+    /// The sphere's radius, model units.
+    pub radius: f64,
+    /// The sample point relative to the centre.
+    pub x: [f64; 3],
+    /// The sample's unit outward normal.
+    pub normal: [f64; 3],
+    /// The sample's surface area (model units²), or `None` for the tile's own.
+    pub area: Option<f64>,
 }
 
-/// The tile of a sample relative to its sphere's centre, scaled to `area` ([`sample_tile`], [`scale_tile_to_area`]).
-fn scaled_tile(
-    cell: &Cell,
-    radius: f64,
-    x: [f64; 3],
-    normal: [f64; 3],
-    area: Option<f64>,
-) -> ([[f64; 3]; CELL_MAX_CORNERS], usize) {
-    let mut tile = [[0.0f64; 3]; CELL_MAX_CORNERS];
-    let k = sample_tile(cell, [0.0; 3], radius, x, normal, &mut tile);
-    scale_tile_to_area(&mut tile[..k], x, area);
-    (tile, k)
-}
-
-/// Share of the cosine-weighted view of a receiver at `p` (unit normal `n`) that one sample's tile covers, in [0, 1]
-/// (its polygon irradiance / π), arguments as in [`sample_tile_irradiance`] but with the receiver where it is (no
-/// near-plane rule: a receiver against a tile is covered by it). 0 behind the tile's plane. Allocation-free.
-#[must_use]
-pub fn sample_tile_cover(
-    cell: &Cell,
-    radius: f64,
-    x: [f64; 3],
-    normal: [f64; 3],
-    area: Option<f64>,
-    p: [f64; 3],
-    n: [f64; 3],
-) -> f64 {
-    let h = dot(sub(p, x), normal);
-    if h.is_nan() || h <= 0.0 {
-        return 0.0;
+impl SampleTile<'_> {
+    /// Irradiance at a receiver at `p` with unit normal `n` (relative to the centre too) from the tile, per unit
+    /// radiance. 0 when the receiver stands behind the tile's plane (tiles emit on their front side); over the tile
+    /// and closer to its plane than [`TILE_MIN_HEIGHT`] · |x| it is moved out to that height (module docs, "Near
+    /// the plane"). Allocation-free.
+    #[must_use]
+    pub fn irradiance(&self, p: [f64; 3], n: [f64; 3]) -> f64 {
+        let (x, normal) = (self.x, self.normal);
+        let Some((tile, k, h)) = self.facing(p) else { return 0.0 };
+        let h_min = TILE_MIN_HEIGHT * norm(x);
+        // Over the tile: the receiver's foot point on the plane lies within the tile's reach from the sample.
+        let d = sub(p, x);
+        let lateral2 = dot(d, d) - h * h;
+        let reach2 = tile[..k].iter().map(|c| dot(sub(*c, x), sub(*c, x))).fold(0.0f64, f64::max);
+        let q = if h < h_min && lateral2 <= reach2 {
+            let s = h_min - h;
+            [p[0] + s * normal[0], p[1] + s * normal[1], p[2] + s * normal[2]]
+        } else {
+            p
+        };
+        polygon_irradiance(q, n, &tile[..k])
     }
-    let (tile, k) = scaled_tile(cell, radius, x, normal, area);
-    polygon_irradiance(p, n, &tile[..k]) / core::f64::consts::PI
+
+    /// Share of the cosine-weighted view of a receiver at `p` (unit normal `n`) that the tile covers, in [0, 1] (its
+    /// polygon irradiance / π), as [`SampleTile::irradiance`] but with the receiver where it is (no near-plane rule:
+    /// a receiver against a tile is covered by it). 0 behind the tile's plane. Allocation-free.
+    #[must_use]
+    pub fn cover(&self, p: [f64; 3], n: [f64; 3]) -> f64 {
+        let Some((tile, k, _)) = self.facing(p) else { return 0.0 };
+        polygon_irradiance(p, n, &tile[..k]) / core::f64::consts::PI
+    }
+
+    /// The tile scaled to its area ([`sample_tile`], [`scale_tile_to_area`]), its corner count and the receiver's
+    /// height over its plane; `None` when the receiver is not in front of it.
+    fn facing(&self, p: [f64; 3]) -> Option<([[f64; 3]; CELL_MAX_CORNERS], usize, f64)> {
+        let h = dot(sub(p, self.x), self.normal);
+        if h.is_nan() || h <= 0.0 {
+            return None;
+        }
+        let mut tile = [[0.0f64; 3]; CELL_MAX_CORNERS];
+        let k = sample_tile(self.cell, [0.0; 3], self.radius, self.x, self.normal, &mut tile);
+        scale_tile_to_area(&mut tile[..k], self.x, self.area);
+        Some((tile, k, h))
+    }
 }
 
 /// Irradiance at `p` (unit normal `n`) from a planar polygon of unit radiance (module docs): its projected solid

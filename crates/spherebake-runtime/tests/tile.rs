@@ -3,8 +3,7 @@
 //! just under it.
 
 use spherebake_runtime::tile::{
-    polygon_area, polygon_irradiance, sample_tile, sample_tile_irradiance, scale_tile_to_area, voronoi_cells,
-    CELL_MAX_CORNERS,
+    polygon_area, polygon_irradiance, sample_tile, scale_tile_to_area, voronoi_cells, SampleTile, CELL_MAX_CORNERS,
 };
 use spherebake_runtime::GEODESIC_DIRECTIONS;
 use spherebake_testkit::oracle::triangle_solid_angle;
@@ -198,17 +197,23 @@ fn tiles_of_a_plane_fill_the_view_from_just_under_it() {
 
 #[test]
 fn a_sample_tile_emits_on_its_front_side_and_saturates_near_its_plane() {
-    use spherebake_runtime::tile::{sample_tile_irradiance, TILE_MIN_HEIGHT};
+    use spherebake_runtime::tile::TILE_MIN_HEIGHT;
     let cells = voronoi_cells();
     // The sample straight below the centre of a unit sphere, on the plane y = −1 (outward normal −Y).
     let j = (0..92).min_by(|&a, &b| dir(a)[1].total_cmp(&dir(b)[1])).unwrap();
     let x = dir(j);
     let nrm = [0.0, -1.0, 0.0];
     let h_plane = -x[1]; // the plane through x, perpendicular to Y
-    let at =
-        |h: f64| sample_tile_irradiance(&cells[j], 1.0, x, nrm, None, [x[0], -(h_plane + h), x[2]], [0.0, 1.0, 0.0]);
+    let at = |h: f64| {
+        SampleTile { cell: &cells[j], radius: 1.0, x, normal: nrm, area: None }
+            .irradiance([x[0], -(h_plane + h), x[2]], [0.0, 1.0, 0.0])
+    };
     // Behind the plane (inside the object): nothing.
-    assert_eq!(sample_tile_irradiance(&cells[j], 1.0, x, nrm, None, [x[0], 0.0, x[2]], [0.0, 1.0, 0.0]), 0.0);
+    assert_eq!(
+        SampleTile { cell: &cells[j], radius: 1.0, x, normal: nrm, area: None }
+            .irradiance([x[0], 0.0, x[2]], [0.0, 1.0, 0.0]),
+        0.0
+    );
     // Closer than h_min it is evaluated at h_min: the same value all the way to the plane.
     let h_min = TILE_MIN_HEIGHT * (x[0] * x[0] + x[1] * x[1] + x[2] * x[2]).sqrt();
     let v = at(h_min);
@@ -226,7 +231,8 @@ fn a_sample_tile_emits_on_its_front_side_and_saturates_near_its_plane() {
     // Beside the tile (its foot point on the plane beyond every corner), near the plane's extension: not moved.
     let reach = tile[..k].iter().map(|c| ((c[0] - x[0]).powi(2) + (c[2] - x[2]).powi(2)).sqrt()).fold(0.0, f64::max);
     let beside = [x[0] + 1.5 * reach, -(h_plane + 1e-3), x[2]];
-    let got = sample_tile_irradiance(&cells[j], 1.0, x, nrm, None, beside, [-1.0, 0.0, 0.0]);
+    let got =
+        SampleTile { cell: &cells[j], radius: 1.0, x, normal: nrm, area: None }.irradiance(beside, [-1.0, 0.0, 0.0]);
     assert_eq!(got, polygon_irradiance(beside, [-1.0, 0.0, 0.0], &tile[..k]));
     assert!(got > 0.0);
 }
@@ -276,9 +282,9 @@ fn a_tile_scaled_to_an_area_has_it_and_emits_in_proportion_far_away() {
     let d = 200.0;
     let p = [x[0] + d * n[0], x[1] + d * n[1], x[2] + d * n[2]];
     let facing = n.map(|c| -c);
-    let e1 = sample_tile_irradiance(&cells[j], 1.0, x, n, Some(natural), p, facing);
-    let e3 = sample_tile_irradiance(&cells[j], 1.0, x, n, Some(3.0 * natural), p, facing);
-    let none = sample_tile_irradiance(&cells[j], 1.0, x, n, None, p, facing);
+    let e1 = SampleTile { cell: &cells[j], radius: 1.0, x, normal: n, area: Some(natural) }.irradiance(p, facing);
+    let e3 = SampleTile { cell: &cells[j], radius: 1.0, x, normal: n, area: Some(3.0 * natural) }.irradiance(p, facing);
+    let none = SampleTile { cell: &cells[j], radius: 1.0, x, normal: n, area: None }.irradiance(p, facing);
     assert!((e1 / (natural / (d * d)) - 1.0).abs() < 1e-3, "{e1} vs {}", natural / (d * d));
     // 3 up to the tile's finite size seen from 200 (measured 3 − 4.5e-6).
     assert!((e3 / e1 - 3.0).abs() < 2e-5, "{}", e3 / e1);

@@ -36,7 +36,7 @@ use spherebake_runtime::light::{
     Pass1Settings, PosedProxy, SphereLights,
 };
 use spherebake_runtime::shadow::{coeff_count, lobe_light, uniform_light, ClusterBlockers, ExpMethod, MAX_COEFFS};
-use spherebake_runtime::tile::{sample_tile_irradiance, voronoi_cells, Cell};
+use spherebake_runtime::tile::{voronoi_cells, Cell, SampleTile};
 use spherebake_runtime::{rest_node_spheres, HierarchyPlan, Proxy, Sphere};
 use std::f64::consts::PI;
 use std::path::{Path, PathBuf};
@@ -704,7 +704,8 @@ pub fn compute(a: &LightArgs, proxy: &Proxy, mesh: &spherebake_geom::Mesh) -> Re
             let mut e = [0.0; 3];
             for t in &em {
                 let p = [0, 1, 2].map(|q| r.position[q] - t.centre[q]);
-                let kf = sample_tile_irradiance(&t.cell, t.radius, t.rel, t.n, t.area, p, r.normal);
+                let tile = SampleTile { cell: &t.cell, radius: t.radius, x: t.rel, normal: t.n, area: t.area };
+                let kf = tile.irradiance(p, r.normal);
                 if kf <= 0.0 {
                     continue;
                 }
