@@ -3,7 +3,8 @@
 //! Prints E (exact), the union outside ratio, and wall time (median of `runs`) per stage.
 //! Environment overrides: SB_POINTS, SB_VOXEL, SB_ITERS, SB_POLISH, SB_SEED, SB_STARTS,
 //! SB_TRIALS, SB_SEAMS, SB_TELE, SB_SUBDIV,
-//! SB_SEAM_TRIALS, SB_BUDGET, SB_SEAM_BUDGET; SB_PRESET=fast|default|best starts from that plan.
+//! SB_SEAM_TRIALS, SB_BUDGET, SB_SEAM_BUDGET, SB_DGRID (descent_grid_cells), SB_SEAM_SPACING,
+//! SB_PCELL, SB_PBUDGET; SB_PRESET=fast|default|best starts from that plan.
 
 #[path = "common/obj.rs"]
 mod obj;
@@ -89,6 +90,19 @@ fn main() {
             }
             if let Some(v) = env("SB_SEAM_BUDGET") {
                 settings.plan.seam_work_budget = v as u64;
+            }
+            let envf = |name: &str| std::env::var(name).ok().and_then(|v| v.parse::<f64>().ok());
+            if let Some(v) = envf("SB_DGRID") {
+                settings.plan.descent_grid_cells = v;
+            }
+            if let Some(v) = envf("SB_SEAM_SPACING") {
+                settings.plan.seam_spacing_cells = v;
+            }
+            if let Some(v) = envf("SB_PCELL") {
+                settings.plan.point_cell = v;
+            }
+            if let Some(v) = env("SB_PBUDGET") {
+                settings.plan.point_budget = v;
             }
             if let Some(v) = env("SB_STARTS") {
                 settings.plan.starts = v;

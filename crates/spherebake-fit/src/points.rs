@@ -118,6 +118,35 @@ pub fn lattice_points(solid: &Solid, lo: DVec3, hi: DVec3, h: f64) -> Vec<DVec3>
     out
 }
 
+/// Which of `points` to keep so that no cube of edge `cell` (cells aligned on `origin`) holds
+/// more than `cap` of them: the first `cap` of each cell in input order. This holds a point set
+/// to what the voxel grid resolves (cost follows the grid, not the triangle count: the bunny
+/// subdivided to 1.1 M triangles has about ten vertices per voxel cell). Deterministic; cost
+/// O(n log n). `cap` = 0 keeps everything.
+pub fn keep_per_cell(points: &[DVec3], origin: DVec3, cell: f64, cap: usize) -> Vec<bool> {
+    let n = points.len();
+    if cap == 0 || cell.is_nan() || cell <= 0.0 {
+        return vec![true; n];
+    }
+    let mut keyed: Vec<((i64, i64, i64), u32)> =
+        points.iter().enumerate().map(|(i, p)| (key(*p, origin, cell), i as u32)).collect();
+    keyed.sort_unstable();
+    let mut keep = vec![false; n];
+    let mut s0 = 0;
+    while s0 < keyed.len() {
+        let mut e = s0;
+        while e < keyed.len() && keyed[e].0 == keyed[s0].0 {
+            e += 1;
+        }
+        // Sorted by (cell, index): the group's first `cap` are its first in input order.
+        for x in &keyed[s0..e.min(s0 + cap)] {
+            keep[x.1 as usize] = true;
+        }
+        s0 = e;
+    }
+    keep
+}
+
 /// Points a barycentric grid of `m` divisions per edge holds.
 fn grid_points(m: usize) -> usize {
     (m + 1) * (m + 2) / 2
@@ -229,6 +258,26 @@ pub fn build(positions: &[DVec3], triangles: &[[u32; 3]], solid: &Solid, lo: DVe
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn keep_per_cell_keeps_the_first_cap_points_of_each_cell() {
+        let mut rng = crate::rng::SplitMix64::new(11);
+        let (origin, cell) = (DVec3::new(-0.3, 0.1, -2.0), 0.25);
+        // Clustered points, so many cells hold several.
+        let points: Vec<DVec3> =
+            (0..2000).map(|_| DVec3::new(rng.next_f64(), rng.next_f64(), rng.next_f64() * 0.1)).collect();
+        for cap in [1usize, 2, 5] {
+            let keep = keep_per_cell(&points, origin, cell, cap);
+            // Brute force: a point is kept iff fewer than `cap` earlier points share its cell.
+            let cell_of = |p: DVec3| ((p - origin) / cell).floor().to_array().map(|v| v as i64);
+            for (i, p) in points.iter().enumerate() {
+                let earlier = points[..i].iter().filter(|q| cell_of(**q) == cell_of(*p)).count();
+                assert_eq!(keep[i], earlier < cap, "point {i}, cap {cap}");
+            }
+            assert!(keep.iter().filter(|&&k| !k).count() > 0, "cap {cap} thins something");
+        }
+        assert!(keep_per_cell(&points, origin, cell, 0).iter().all(|&k| k));
+    }
 
     #[test]
     fn neighbours_are_the_points_in_the_same_or_a_face_adjacent_bin() {

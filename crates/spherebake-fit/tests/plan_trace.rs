@@ -179,3 +179,59 @@ fn target_mode_keeps_every_runs_trace_and_times() {
     );
     assert!(covered(&p, &r));
 }
+
+/// The descent point set's size for a fit, from its trace.
+fn descent_points(r: &FitResult) -> usize {
+    r.stats.trace.iter().find(|e| e.stage == "descent_points").expect("descent points traced").points
+}
+
+#[test]
+fn a_mesh_finer_than_the_grid_is_thinned_to_it_and_still_bound() {
+    // 256 rings: about 130 000 vertices, some 40 per voxel cell of the sphere's surface at
+    // resolution 32.
+    let (p, t) = uv_sphere(256);
+    // The default cube (half a cell) with a budget this mesh exceeds (the default budget,
+    // 400 000 points, is for meshes of a million triangles; the cost is what is tested).
+    let plan = FitPlan { point_budget: 100_000, ..FitPlan::default() };
+    assert_eq!(plan.point_cell, 0.5, "the default this test measures");
+    let s = FitSettings { spheres: 8, voxel_resolution: 32, plan, ..FitSettings::default() };
+    let thin = fit(&p, &t, &s, &|_| {}).expect("fits");
+    let all = FitSettings { plan: FitPlan { point_cell: 0.0, ..s.plan.clone() }, ..s.clone() };
+    let full = fit(&p, &t, &all, &|_| {}).expect("fits");
+    let (n_thin, n_full) = (descent_points(&thin), descent_points(&full));
+    // Without thinning every vertex is a descent point.
+    assert!(n_full >= p.len(), "{n_full} descent points for {} vertices", p.len());
+    // Half-cell cubes (edge 1/32 at most, the box being 2 wide) that a unit sphere's surface
+    // meets: at most its shell of half-width √3·c over c³, 4π·2√3/c² ≈ 44 600, plus the
+    // interior lattice (the point resolution 40 over a width of 2: at most (4/3)π·20³ ≈ 33 500).
+    eprintln!(
+        "descent points: {n_thin} thinned, {n_full} all; E {} / {}",
+        thin.stats.outside_ratio_e, full.stats.outside_ratio_e
+    );
+    let c = 1.0 / 32.0;
+    let bound = 4.0 * std::f64::consts::PI * 2.0 * 3f64.sqrt() / (c * c) + 4.0 / 3.0 * std::f64::consts::PI * 8000.0;
+    assert!((n_thin as f64) <= bound && 2 * n_thin < n_full, "thinned {n_thin} (bound {bound:.0}), all {n_full}");
+    assert!(covered(&p, &thin), "every vertex bound after thinning");
+    let (e_thin, e_full) = (thin.stats.outside_ratio_e, full.stats.outside_ratio_e);
+    assert!(e_thin <= 1.1 * e_full, "E thinned {e_thin} vs all points {e_full}");
+}
+
+#[test]
+fn a_point_set_within_the_budget_is_not_thinned() {
+    // 96 rings: 18 200 vertices, 36 500 triangles.
+    let (p, t) = uv_sphere(96);
+    let s = FitSettings { spheres: 8, voxel_resolution: 32, ..FitSettings::default() };
+    let all = FitSettings { plan: FitPlan { point_cell: 0.0, ..FitPlan::default() }, ..s.clone() };
+    let (a, b) = (fit(&p, &t, &s, &|_| {}).expect("fits"), fit(&p, &t, &all, &|_| {}).expect("fits"));
+    let dense = |r: &FitResult| r.stats.trace.iter().find(|e| e.stage == "dense_points").expect("traced").points;
+    assert!(
+        dense(&b) < s.plan.point_budget && descent_points(&b) < s.plan.point_budget,
+        "{} {}",
+        dense(&b),
+        descent_points(&b)
+    );
+    // Thinned to half-cell cubes, this mesh's sets would lose points (some 18 200 vertices
+    // on about 13 000 cubes of the surface).
+    assert_eq!((dense(&a), descent_points(&a)), (dense(&b), descent_points(&b)));
+    assert_eq!(a.spheres, b.spheres);
+}
