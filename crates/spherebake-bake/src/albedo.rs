@@ -42,8 +42,13 @@
 //! Spheres are independent and run in parallel (rayon, ordered collect): the coefficients are
 //! bit-identical for any thread count.
 //!
-//! **Cost.** Per sphere every triangle is set up once (back faces of other segments only for
-//! coverage, until every texel has a back-facing hit); memory ≈ 6N² × 90 bytes per thread.
+//! **Cost.** Per sphere its segment's triangles are drawn, then the other triangles only mark
+//! which texels have some back-facing surface (rule 2), until every texel has one. They are
+//! visited in runs of 32 in Morton order, and a run whose bounding box can reach no unmarked
+//! texel is skipped whole (`raster::CubeGrid::box_covered`, conservative, so the maps are
+//! unchanged). A triangle whose corners lie in one face's pyramid is tested against that face
+//! only. The bunny subdivided to 1.1 M triangles, 64 spheres: 8.0 s → 3.6 s for the stage,
+//! byte-identical files. Memory ≈ 6N² × 90 bytes per thread.
 //!
 //! **Measured** (`examples/albedo_measure.rs`, 64 spheres from `spherebake_fit::fit`, order 4,
 //! release build): CesiumMan 0.09 s on 1 thread, 0.18–0.19 s with `RAYON_NUM_THREADS=2` on a
@@ -659,6 +664,10 @@ struct Context<'a> {
     orient: Vec<f64>,
     spheres: Vec<SphereF64>,
     assigned: Vec<Vec<u32>>,
+    /// Triangles in Morton order of their centroids, in runs of [`CLUSTER_SIZE`] with their
+    /// bounding boxes: the coverage pass skips a run whose texels are all covered already.
+    clusters: Vec<Cluster>,
+    cluster_tris: Vec<u32>,
     shade: Vec<TriShade>,
     /// The colour lookup (shared with the reference path tracer).
     surface: SurfaceAlbedo<'a>,
@@ -688,12 +697,77 @@ impl SphereCounts {
     }
 }
 
+/// One sphere's render targets: the farthest back-facing and nearest front-facing segment
+/// surface per texel, whether any back-facing surface covers it, and how many do not.
+struct Canvas {
+    back: Vec<Hit>,
+    front: Vec<Hit>,
+    any_back: Vec<bool>,
+    uncovered: usize,
+}
+
 /// A stored candidate surface for one texel.
 #[derive(Clone, Copy)]
 struct Hit {
     dist: f64,
     tri: u32,
     bary: [f64; 3],
+}
+
+/// Triangles per coverage run ([`Context::clusters`]).
+const CLUSTER_SIZE: usize = 32;
+
+/// A run of triangles in Morton order and the bounding box of their corners (model space;
+/// non-finite when a corner is).
+struct Cluster {
+    lo: DVec3,
+    hi: DVec3,
+    start: u32,
+    end: u32,
+}
+
+/// The triangles sorted by the 30-bit Morton code of their centroids in the mesh's bounding
+/// box (ties by index; non-finite centroids code 0), cut into runs of [`CLUSTER_SIZE`].
+fn clusters(pos: &[DVec3], triangles: &[[u32; 3]]) -> (Vec<Cluster>, Vec<u32>) {
+    let finite = pos.iter().filter(|p| p.is_finite());
+    let lo = finite.clone().fold(DVec3::INFINITY, |a, &p| a.min(p));
+    let hi = finite.fold(DVec3::NEG_INFINITY, |a, &p| a.max(p));
+    let extent = (hi - lo).max(DVec3::splat(f64::MIN_POSITIVE));
+    let code = |t: &[u32; 3]| -> u32 {
+        let c = (pos[t[0] as usize] + pos[t[1] as usize] + pos[t[2] as usize]) / 3.0;
+        let q =
+            ((c - lo) / extent * 1023.0)
+                .to_array()
+                .map(|v| if v.is_finite() { v.clamp(0.0, 1023.0) as u32 } else { 0 });
+        let mut m = 0u32;
+        for bit in 0..10 {
+            for (k, v) in q.iter().enumerate() {
+                m |= ((v >> bit) & 1) << (3 * bit + k as u32);
+            }
+        }
+        m
+    };
+    let mut keyed: Vec<(u32, u32)> = triangles.iter().enumerate().map(|(i, t)| (code(t), i as u32)).collect();
+    keyed.sort_unstable();
+    let order: Vec<u32> = keyed.into_iter().map(|(_, i)| i).collect();
+    let runs = order
+        .chunks(CLUSTER_SIZE)
+        .enumerate()
+        .map(|(k, run)| {
+            let (mut lo, mut hi) = (DVec3::INFINITY, DVec3::NEG_INFINITY);
+            for &v in run.iter().flat_map(|&t| &triangles[t as usize]) {
+                lo = lo.min(pos[v as usize]);
+                hi = hi.max(pos[v as usize]);
+            }
+            // A non-finite corner makes the box NaN (never skipped: `box_covered`).
+            if run.iter().flat_map(|&t| &triangles[t as usize]).any(|&v| !pos[v as usize].is_finite()) {
+                (lo, hi) = (DVec3::NAN, DVec3::NAN);
+            }
+            let start = (k * CLUSTER_SIZE) as u32;
+            Cluster { lo, hi, start, end: start + run.len() as u32 }
+        })
+        .collect();
+    (runs, order)
 }
 
 impl<'a> Context<'a> {
@@ -761,12 +835,15 @@ impl<'a> Context<'a> {
                 TriShade { normal, texels_per_area }
             })
             .collect();
+        let (clusters, cluster_tris) = clusters(&pos, &mesh.triangles);
         Ok(Self {
             mesh,
             pos,
             orient,
             spheres: sph,
             assigned,
+            clusters,
+            cluster_tris,
             shade,
             surface,
             grid: CubeGrid::new(settings.cubemap_size),
@@ -812,53 +889,74 @@ impl<'a> Context<'a> {
         }
     }
 
+    /// Draws triangle `t` for the sphere centred at `centre`: back-facing from the centre it
+    /// marks the texels that have some back surface (rule 2), and in the sphere's own segment
+    /// (`mine`) it is a rule 1 (back) or rule 3 (front, seen through the centre) candidate.
+    fn draw(&self, cv: &mut Canvas, t: usize, mine: bool, centre: DVec3) {
+        let [a, b, c] = self.mesh.triangles[t].map(|v| self.pos[v as usize] - centre);
+        // det(a, b, c) = CCW normal · (a − centre): > 0 when the CCW side faces away.
+        let det = a.dot(b.cross(c)) * self.orient[t];
+        if det > 0.0 {
+            // Back-facing from the centre: seen along +ω.
+            self.grid.rasterize(a, b, c, |f: Fragment| {
+                if !cv.any_back[f.texel] {
+                    cv.any_back[f.texel] = true;
+                    cv.uncovered -= 1;
+                }
+                if mine {
+                    let h = &mut cv.back[f.texel];
+                    if f.dist > h.dist {
+                        *h = Hit { dist: f.dist, tri: t as u32, bary: f.bary };
+                    }
+                }
+            });
+        } else if det < 0.0 && mine {
+            // Front-facing: seen through the centre (direction −(p − c)).
+            self.grid.rasterize(-a, -b, -c, |f: Fragment| {
+                let h = &mut cv.front[f.texel];
+                if f.dist < h.dist {
+                    *h = Hit { dist: f.dist, tri: t as u32, bary: f.bary };
+                }
+            });
+        }
+    }
+
     /// Renders sphere `s`'s cube map (linear RGB, face-major), with per texel whether a surface point covers it
     /// (rule 1 or rule 3).
     fn render_sphere(&self, s: usize) -> (Vec<[f32; 3]>, SphereCounts, Vec<bool>) {
         let centre = self.spheres[s].c;
         let n_texels = self.grid.texel_count();
         // Empty entries: back at distance −∞ (any hit is farther), front at +∞ (any is nearer).
-        let mut back = vec![Hit { dist: f64::NEG_INFINITY, tri: u32::MAX, bary: [0.0; 3] }; n_texels];
-        let mut front = vec![Hit { dist: f64::INFINITY, tri: u32::MAX, bary: [0.0; 3] }; n_texels];
-        let mut any_back = vec![false; n_texels];
-        let mut uncovered = n_texels;
+        let mut cv = Canvas {
+            back: vec![Hit { dist: f64::NEG_INFINITY, tri: u32::MAX, bary: [0.0; 3] }; n_texels],
+            front: vec![Hit { dist: f64::INFINITY, tri: u32::MAX, bary: [0.0; 3] }; n_texels],
+            any_back: vec![false; n_texels],
+            uncovered: n_texels,
+        };
         let assigned = &self.assigned[s];
-        let mut next = 0usize;
-        for (t, tri) in self.mesh.triangles.iter().enumerate() {
-            let mine = assigned.get(next).is_some_and(|&a| a as usize == t);
-            if mine {
-                next += 1;
+        // The segment's own triangles in increasing order (ties in distance keep the first).
+        for &t in assigned {
+            self.draw(&mut cv, t as usize, true, centre);
+        }
+        // The other triangles only mark the texels that have some back surface, until every
+        // texel has: a run of them whose box covers only marked texels changes nothing.
+        for cl in &self.clusters {
+            if cv.uncovered == 0 {
+                break;
             }
-            if !mine && uncovered == 0 {
+            if self.grid.box_covered(cl.lo - centre, cl.hi - centre, &cv.any_back) {
                 continue;
             }
-            let [a, b, c] = tri.map(|v| self.pos[v as usize] - centre);
-            // det(a, b, c) = CCW normal · (a − centre): > 0 when the CCW side faces away.
-            let det = a.dot(b.cross(c)) * self.orient[t];
-            if det > 0.0 {
-                // Back-facing from the centre: seen along +ω.
-                self.grid.rasterize(a, b, c, |f: Fragment| {
-                    if !any_back[f.texel] {
-                        any_back[f.texel] = true;
-                        uncovered -= 1;
-                    }
-                    if mine {
-                        let h = &mut back[f.texel];
-                        if f.dist > h.dist {
-                            *h = Hit { dist: f.dist, tri: t as u32, bary: f.bary };
-                        }
-                    }
-                });
-            } else if det < 0.0 && mine {
-                // Front-facing: seen through the centre (direction −(p − c)).
-                self.grid.rasterize(-a, -b, -c, |f: Fragment| {
-                    let h = &mut front[f.texel];
-                    if f.dist < h.dist {
-                        *h = Hit { dist: f.dist, tri: t as u32, bary: f.bary };
-                    }
-                });
+            for &t in &self.cluster_tris[cl.start as usize..cl.end as usize] {
+                if cv.uncovered == 0 {
+                    break;
+                }
+                if assigned.binary_search(&t).is_err() {
+                    self.draw(&mut cv, t as usize, false, centre);
+                }
             }
         }
+        let Canvas { back, front, any_back, .. } = cv;
         let mut counts = SphereCounts { triangles: assigned.len() as u64, ..Default::default() };
         let mut out = vec![[0.0f32; 3]; n_texels];
         let mut covered = vec![false; n_texels];

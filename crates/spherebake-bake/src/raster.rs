@@ -86,6 +86,19 @@ impl CubeGrid {
         self.nominal_solid_angle[t % (self.n * self.n)]
     }
 
+    /// The face whose major axis has the largest coordinate of `p` (the first on ties), so
+    /// that p lies in its closed pyramid; `None` for the origin or a non-finite `p`.
+    fn face_of(&self, p: DVec3) -> Option<usize> {
+        let mut best = (0usize, f64::NEG_INFINITY);
+        for (face, frame) in self.frames.iter().enumerate() {
+            let m = p.dot(frame[0]);
+            if m > best.1 {
+                best = (face, m);
+            }
+        }
+        (best.1 > 0.0 && best.1.is_finite()).then_some(best.0)
+    }
+
     /// Calls `f` for every texel whose centre direction lies in the cone of the triangle
     /// (`a`, `b`, `c` relative to the cube-map centre), in increasing texel order per face.
     /// Triangles whose plane contains the origin (seen edge-on) or with non-finite corners
@@ -102,7 +115,13 @@ impl CubeGrid {
         let abs_det = det.abs();
         let n = self.n;
         let nf = n as f64;
+        // Corners in one face's closed pyramid: so is the triangle (convex), and no other
+        // face's texel centre (strictly inside its own pyramid) can lie in its cone.
+        let only = self.face_of(a).filter(|&f| self.face_of(b) == Some(f) && self.face_of(c) == Some(f));
         for (face, frame) in self.frames.iter().enumerate() {
+            if only.is_some_and(|f| f != face) {
+                continue;
+            }
             let Some((i0, i1, j0, j1)) = face_texel_range(frame, [a, b, c], nf) else { continue };
             for j in j0..=j1 {
                 let row = (face * n + j) * n;
@@ -121,6 +140,62 @@ impl CubeGrid {
                 }
             }
         }
+    }
+}
+
+impl CubeGrid {
+    /// Whether every texel whose centre direction could meet the box [`lo`, `hi`] (relative
+    /// to the cube-map centre) is set in `covered` (one flag per texel), so that no triangle
+    /// inside the box can cover an unset texel. Conservative: a box that holds the centre or
+    /// is not finite is never covered; a face the box meets only partly (some corner outside
+    /// its pyramid) is checked whole; otherwise the texels of the corners' projected bounding
+    /// rectangle, which holds the projection of the whole box (u = sc/ma is quasi-linear where
+    /// ma > 0), with the rasteriser's own margin.
+    pub fn box_covered(&self, lo: DVec3, hi: DVec3, covered: &[bool]) -> bool {
+        if !(lo.is_finite() && hi.is_finite()) || (lo.cmple(DVec3::ZERO).all() && hi.cmpge(DVec3::ZERO).all()) {
+            return false;
+        }
+        let corners: [DVec3; 8] = std::array::from_fn(|k| {
+            DVec3::new(
+                if k & 1 == 0 { lo.x } else { hi.x },
+                if k & 2 == 0 { lo.y } else { hi.y },
+                if k & 4 == 0 { lo.z } else { hi.z },
+            )
+        });
+        let (n, nf) = (self.n, self.n as f64);
+        for (face, frame) in self.frames.iter().enumerate() {
+            let q = corners.map(|p| [p.dot(frame[0]), p.dot(frame[1]), p.dot(frame[2])]);
+            // Every corner outside one plane of the face's pyramid: so is the whole box.
+            let outside = |k: usize, sgn: f64| q.iter().all(|v| sgn * v[k] > v[0]);
+            if outside(1, 1.0) || outside(1, -1.0) || outside(2, 1.0) || outside(2, -1.0) {
+                continue;
+            }
+            let inside = q.iter().all(|v| v[0] > 0.0 && v[1].abs() <= v[0] && v[2].abs() <= v[0]);
+            let (cols, rows) = if inside {
+                let (mut umin, mut umax, mut vmin, mut vmax) =
+                    (f64::INFINITY, f64::NEG_INFINITY, f64::INFINITY, f64::NEG_INFINITY);
+                for v in &q {
+                    let (u, w) = (v[1] / v[0], v[2] / v[0]);
+                    umin = umin.min(u);
+                    umax = umax.max(u);
+                    vmin = vmin.min(w);
+                    vmax = vmax.max(w);
+                }
+                match (texel_range(umin, umax, nf), texel_range(vmin, vmax, nf)) {
+                    (Some(c), Some(r)) => (c, r),
+                    _ => continue,
+                }
+            } else {
+                ((0, n - 1), (0, n - 1))
+            };
+            for j in rows.0..=rows.1 {
+                let row = (face * n + j) * n;
+                if !covered[row + cols.0..=row + cols.1].iter().all(|&c| c) {
+                    return false;
+                }
+            }
+        }
+        true
     }
 }
 
@@ -171,18 +246,21 @@ fn face_texel_range(frame: &[DVec3; 3], tri: [DVec3; 3], nf: f64) -> Option<(usi
             (umin, umax, vmin, vmax) = (-1.0, 1.0, -1.0, 1.0);
         }
     }
-    let range = |lo: f64, hi: f64| -> Option<(usize, usize)> {
-        // Texel centre k is at s = (k + ½)/n, s = (u + 1)/2: k = (u + 1)/2·n − ½.
-        let lo = ((lo.max(-1.0) + 1.0) * 0.5 * nf - 0.5 - 1e-6).ceil().max(0.0);
-        let hi = ((hi.min(1.0) + 1.0) * 0.5 * nf - 0.5 + 1e-6).floor().min(nf - 1.0);
-        if lo > hi || !lo.is_finite() || !hi.is_finite() {
-            return None;
-        }
-        Some((lo as usize, hi as usize))
-    };
-    let (i0, i1) = range(umin, umax)?;
-    let (j0, j1) = range(vmin, vmax)?;
+    let (i0, i1) = texel_range(umin, umax, nf)?;
+    let (j0, j1) = texel_range(vmin, vmax, nf)?;
     Some((i0, i1, j0, j1))
+}
+
+/// The texel columns (or rows) whose centres may lie in the face coordinate interval
+/// [lo, hi] (u = sc/ma), widened by a tiny margin; `None` when there are none.
+fn texel_range(lo: f64, hi: f64, nf: f64) -> Option<(usize, usize)> {
+    // Texel centre k is at s = (k + ½)/n, s = (u + 1)/2: k = (u + 1)/2·n − ½.
+    let lo = ((lo.max(-1.0) + 1.0) * 0.5 * nf - 0.5 - 1e-6).ceil().max(0.0);
+    let hi = ((hi.min(1.0) + 1.0) * 0.5 * nf - 0.5 + 1e-6).floor().min(nf - 1.0);
+    if lo > hi || !lo.is_finite() || !hi.is_finite() {
+        return None;
+    }
+    Some((lo as usize, hi as usize))
 }
 
 /// Clips a triangle given in face coordinates (ma, sc, tc) to the pyramid |sc| ≤ ma, |tc| ≤ ma.
@@ -251,6 +329,70 @@ mod tests {
             got.sort_unstable();
             assert_eq!(got, brute(&grid, a, b, c), "triangle {k}: {a} {b} {c}");
         }
+    }
+
+    /// Brute force: the texels whose centre ray from the origin meets the box (slab test).
+    fn reachable(grid: &CubeGrid, lo: DVec3, hi: DVec3) -> Vec<usize> {
+        (0..grid.texel_count())
+            .filter(|&t| {
+                let d = grid.direction(t);
+                let (mut t0, mut t1) = (0.0f64, f64::INFINITY);
+                for k in 0..3 {
+                    if d[k] == 0.0 {
+                        if lo[k] > 0.0 || hi[k] < 0.0 {
+                            return false;
+                        }
+                        continue;
+                    }
+                    let (a, b) = (lo[k] / d[k], hi[k] / d[k]);
+                    t0 = t0.max(a.min(b));
+                    t1 = t1.min(a.max(b));
+                }
+                t0 <= t1
+            })
+            .collect()
+    }
+
+    #[test]
+    fn a_covered_box_has_every_texel_it_can_reach_covered() {
+        let grid = CubeGrid::new(8);
+        let mut x = 0x0bad_cafe_1234_5678u64;
+        let mut rnd = || {
+            x ^= x << 13;
+            x ^= x >> 7;
+            x ^= x << 17;
+            (x >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
+        };
+        let (mut skipped, mut caught) = (0, 0);
+        for k in 0..600 {
+            // Small boxes inside one face, boxes across faces, boxes around the origin.
+            let size = [0.02, 0.2, 1.0][k % 3];
+            let c = DVec3::new(rnd(), rnd(), rnd()) * 1.2;
+            let e = DVec3::new(rnd().abs(), rnd().abs(), rnd().abs()) * size;
+            let (lo, hi) = (c - e, c + e);
+            let reach = reachable(&grid, lo, hi);
+            // Everything covered: the box is covered unless it holds the origin.
+            let all = vec![true; grid.texel_count()];
+            let holds_origin = lo.cmple(DVec3::ZERO).all() && hi.cmpge(DVec3::ZERO).all();
+            assert_eq!(grid.box_covered(lo, hi, &all), !holds_origin, "box {k}");
+            // One texel the box reaches left unset: never covered.
+            if let Some(&t) = reach.get(k % reach.len().max(1)) {
+                let mut one = all.clone();
+                one[t] = false;
+                assert!(!grid.box_covered(lo, hi, &one), "box {k}, texel {t}");
+                caught += 1;
+            }
+            // Random masks: covered implies every reachable texel set.
+            let mask: Vec<bool> = (0..grid.texel_count()).map(|_| rnd() > -0.9).collect();
+            if grid.box_covered(lo, hi, &mask) {
+                skipped += 1;
+                assert!(reach.iter().all(|&t| mask[t]), "box {k}");
+            }
+        }
+        assert!(caught > 300 && skipped > 20, "caught {caught}, skipped {skipped}");
+        // Non-finite boxes are never covered.
+        let all = vec![true; grid.texel_count()];
+        assert!(!grid.box_covered(DVec3::NAN, DVec3::ONE, &all));
     }
 
     #[test]
