@@ -47,7 +47,8 @@
 //! visited in runs of 32 in Morton order, and a run whose bounding box can reach no unmarked
 //! texel is skipped whole (`raster::CubeGrid::box_covered`, conservative, so the maps are
 //! unchanged). A triangle whose corners lie in one face's pyramid is tested against that face
-//! only. The bunny subdivided to 1.1 M triangles, 64 spheres: 8.0 s → 3.6 s for the stage,
+//! only. Segment assignment skips the exact dominance test where a bound already settles it.
+//! The bunny subdivided to 1.1 M triangles, 64 spheres: 8.0 s → 2.4 s for the stage,
 //! byte-identical files. Memory ≈ 6N² × 90 bytes per thread.
 //!
 //! **Measured** (`examples/albedo_measure.rs`, 64 spheres from `spherebake_fit::fit`, order 4,
@@ -392,6 +393,20 @@ fn assign(pos: &[DVec3], triangles: &[[u32; 3]], spheres: &[SphereF64]) -> Vec<V
                     }
                 }
             }
+            // A quick sufficient test for an owner's dominance: d_o is convex, so it is largest
+            // at a corner, and d_i is at least its value at the triangle's bounding box; when
+            // some owner's largest corner value is clearly below sphere i's bound everywhere,
+            // that owner dominates i (`dominates` would say so; skipping it saves its cost).
+            // (No spheres, or a NaN anywhere: +∞, no skipping.)
+            let mut owner_max = f64::INFINITY;
+            for &o in owners.iter().filter(|&&o| o < spheres.len()) {
+                let d =
+                    t.iter()
+                        .map(|p| spheres[o].d2(*p))
+                        .fold(0.0f64, |a, d| if d.is_nan() { f64::INFINITY } else { a.max(d) });
+                owner_max = owner_max.min(d);
+            }
+            let (lo, hi) = (t[0].min(t[1]).min(t[2]), t[0].max(t[1]).max(t[2]));
             let mut out = Vec::new();
             for (i, si) in spheres.iter().enumerate() {
                 if si.inv_r2.is_infinite() {
@@ -400,6 +415,10 @@ fn assign(pos: &[DVec3], triangles: &[[u32; 3]], spheres: &[SphereF64]) -> Vec<V
                 }
                 if owners.contains(&i) {
                     out.push(i as u32);
+                    continue;
+                }
+                let bound = si.c.clamp(lo, hi).distance_squared(si.c) * si.inv_r2;
+                if bound > owner_max * (1.0 + 1e-9) + f64::MIN_POSITIVE {
                     continue;
                 }
                 if owners.iter().any(|&o| dominates(&spheres[o], si, &t)) {
