@@ -128,10 +128,37 @@ pub fn keep_per_cell(points: &[DVec3], origin: DVec3, cell: f64, cap: usize) -> 
     if cap == 0 || cell.is_nan() || cell <= 0.0 {
         return vec![true; n];
     }
-    let mut keyed: Vec<((i64, i64, i64), u32)> =
-        points.iter().enumerate().map(|(i, p)| (key(*p, origin, cell), i as u32)).collect();
-    keyed.sort_unstable();
+    use rayon::prelude::*;
+    let keys: Vec<(i64, i64, i64)> = points.par_iter().map(|p| key(*p, origin, cell)).collect();
+    // Cells packed into one u64 (21 bits per axis, offset from the lowest) when they fit, so
+    // the sort moves 16-byte pairs; a parallel sort of unique (cell, index) pairs is
+    // deterministic.
+    let lo = keys.iter().fold((i64::MAX, i64::MAX, i64::MAX), |a, k| (a.0.min(k.0), a.1.min(k.1), a.2.min(k.2)));
+    let fits = keys.iter().all(|k| {
+        [k.0.wrapping_sub(lo.0), k.1.wrapping_sub(lo.1), k.2.wrapping_sub(lo.2)]
+            .iter()
+            .all(|&d| (0..1 << 21).contains(&d))
+    });
     let mut keep = vec![false; n];
+    if fits {
+        let mut packed: Vec<(u64, u32)> = keys
+            .par_iter()
+            .enumerate()
+            .map(|(i, k)| {
+                let d = [k.0 - lo.0, k.1 - lo.1, k.2 - lo.2].map(|v| v as u64);
+                ((d[2] << 42) | (d[1] << 21) | d[0], i as u32)
+            })
+            .collect();
+        packed.par_sort_unstable();
+        for group in packed.chunk_by(|a, b| a.0 == b.0) {
+            for x in &group[..group.len().min(cap)] {
+                keep[x.1 as usize] = true;
+            }
+        }
+        return keep;
+    }
+    let mut keyed: Vec<((i64, i64, i64), u32)> = keys.into_iter().enumerate().map(|(i, k)| (k, i as u32)).collect();
+    keyed.sort_unstable();
     let mut s0 = 0;
     while s0 < keyed.len() {
         let mut e = s0;
@@ -277,6 +304,13 @@ mod tests {
             assert!(keep.iter().filter(|&&k| !k).count() > 0, "cap {cap} thins something");
         }
         assert!(keep_per_cell(&points, origin, cell, 0).iter().all(|&k| k));
+        // Cells too far apart to pack into 21 bits per axis take the general path.
+        let far: Vec<DVec3> = points.iter().enumerate().map(|(i, p)| *p + DVec3::X * 1e9 * (i % 2) as f64).collect();
+        let keep = keep_per_cell(&far, origin, cell, 1);
+        let cell_of = |p: DVec3| ((p - origin) / cell).floor().to_array().map(|v| v as i64);
+        for (i, p) in far.iter().enumerate() {
+            assert_eq!(keep[i], !far[..i].iter().any(|q| cell_of(*q) == cell_of(*p)), "far point {i}");
+        }
     }
 
     #[test]
