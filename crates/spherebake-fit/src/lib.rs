@@ -706,7 +706,7 @@ fn run_once(prep: &Prepared, pts: &points::PointSet, settings: &FitSettings, k: 
 /// leave the bounding pass far less to grow (measured: bunny 64 E 0.305 → 0.294, armadillo
 /// 64 0.544 → 0.539). More surface points than `plan.point_budget` are then held to one per
 /// cube of `plan.point_cell` voxel cells (the bunny subdivided to 1.1 M triangles: 3.36 M →
-/// 221 000; the 70 000-triangle bunny's 277 000 are within the budget). Cost O(vertices + triangles + grid points), the grid held to
+/// 67 000; the 70 000-triangle bunny's 277 000 are within the budget). Cost O(vertices + triangles + grid points), the grid held to
 /// `points::GRID_BUDGET` points; skipped (no points) when the plan has no polish rounds.
 fn dense_points(prep: &Prepared, pts: &points::PointSet, plan: &FitPlan) -> Vec<points::Rep> {
     let mut all: Vec<points::Rep> = Vec::with_capacity(prep.pos.len() + 2 * prep.tris.len() + pts.points.len());
@@ -795,8 +795,8 @@ fn octree_start(prep: &Prepared, k: usize) -> (Vec<(DVec3, f64)>, f64) {
 /// `plan.point_budget` surface points, one per cube of `plan.point_cell` voxel cells), and the
 /// interior lattice points. Cost O(vertices + triangles + grid points), held to
 /// `points::GRID_BUDGET`; the set is at most the budget or the surface's cubes: the bunny
-/// subdivided to 1.1 M triangles gives 574 000 descent points unthinned, 194 000 thinned, and
-/// its descent costs in proportion (8.3 s → 3.0 s).
+/// subdivided to 1.1 M triangles gives 574 000 descent points unthinned, 63 900 thinned (the
+/// 70 000-triangle bunny has 55 700), and its descent costs in proportion (8.3 s → 2.2 s).
 fn descent_points(prep: &Prepared, pts: &points::PointSet, plan: &FitPlan) -> Vec<DVec3> {
     let mut referenced = vec![false; prep.pos.len()];
     for t in &prep.tris {

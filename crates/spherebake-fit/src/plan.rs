@@ -163,7 +163,7 @@ impl Default for FitPlan {
             point_resolution: 40,
             dense_points_per_spacing: 2.0,
             dense_grid_cap: 256,
-            point_cell: 0.5,
+            point_cell: 1.0,
             point_budget: 400_000,
             max_iterations: 24,
             teleport_attempts: 2,

@@ -190,10 +190,10 @@ fn a_mesh_finer_than_the_grid_is_thinned_to_it_and_still_bound() {
     // 256 rings: about 130 000 vertices, some 40 per voxel cell of the sphere's surface at
     // resolution 32.
     let (p, t) = uv_sphere(256);
-    // The default cube (half a cell) with a budget this mesh exceeds (the default budget,
+    // The default cube (one voxel cell) with a budget this mesh exceeds (the default budget,
     // 400 000 points, is for meshes of a million triangles; the cost is what is tested).
     let plan = FitPlan { point_budget: 100_000, ..FitPlan::default() };
-    assert_eq!(plan.point_cell, 0.5, "the default this test measures");
+    assert_eq!(plan.point_cell, 1.0, "the default this test measures");
     let s = FitSettings { spheres: 8, voxel_resolution: 32, plan, ..FitSettings::default() };
     let thin = fit(&p, &t, &s, &|_| {}).expect("fits");
     let all = FitSettings { plan: FitPlan { point_cell: 0.0, ..s.plan.clone() }, ..s.clone() };
@@ -201,14 +201,15 @@ fn a_mesh_finer_than_the_grid_is_thinned_to_it_and_still_bound() {
     let (n_thin, n_full) = (descent_points(&thin), descent_points(&full));
     // Without thinning every vertex is a descent point.
     assert!(n_full >= p.len(), "{n_full} descent points for {} vertices", p.len());
-    // Half-cell cubes (edge 1/32 at most, the box being 2 wide) that a unit sphere's surface
-    // meets: at most its shell of half-width √3·c over c³, 4π·2√3/c² ≈ 44 600, plus the
-    // interior lattice (the point resolution 40 over a width of 2: at most (4/3)π·20³ ≈ 33 500).
+    // Voxel-cell cubes (edge at least 1/16: 32 cells over a box 2 wide) that a unit sphere's
+    // surface meets: at most its shell of half-width √3·c over c³, 4π·2√3/c² ≈ 11 100 for
+    // c = 1/16, plus the interior lattice (the point resolution 40 over a width of 2: at most
+    // (4/3)π·20³ ≈ 33 500).
     eprintln!(
         "descent points: {n_thin} thinned, {n_full} all; E {} / {}",
         thin.stats.outside_ratio_e, full.stats.outside_ratio_e
     );
-    let c = 1.0 / 32.0;
+    let c = 1.0 / 16.0;
     let bound = 4.0 * std::f64::consts::PI * 2.0 * 3f64.sqrt() / (c * c) + 4.0 / 3.0 * std::f64::consts::PI * 8000.0;
     assert!((n_thin as f64) <= bound && 2 * n_thin < n_full, "thinned {n_thin} (bound {bound:.0}), all {n_full}");
     assert!(covered(&p, &thin), "every vertex bound after thinning");
@@ -230,8 +231,8 @@ fn a_point_set_within_the_budget_is_not_thinned() {
         dense(&b),
         descent_points(&b)
     );
-    // Thinned to half-cell cubes, this mesh's sets would lose points (some 18 200 vertices
-    // on about 13 000 cubes of the surface).
+    // Thinned to voxel-cell cubes, this mesh's sets would lose points (some 18 200 vertices
+    // on about 3 200 cubes of the surface).
     assert_eq!((dense(&a), descent_points(&a)), (dense(&b), descent_points(&b)));
     assert_eq!(a.spheres, b.spheres);
 }
