@@ -294,6 +294,17 @@ fn clip_to_pyramid(tri: &[[f64; 3]; 3]) -> Vec<[f64; 3]> {
 mod tests {
     use super::*;
 
+    /// Deterministic xorshift64 numbers in [−1, 1).
+    fn uniform(seed: u64) -> impl FnMut() -> f64 {
+        let mut x = seed;
+        move || {
+            x ^= x << 13;
+            x ^= x >> 7;
+            x ^= x << 17;
+            (x >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
+        }
+    }
+
     /// Brute force: every texel direction tested against the cone, no bounding boxes.
     fn brute(grid: &CubeGrid, a: DVec3, b: DVec3, c: DVec3) -> Vec<usize> {
         let det = a.dot(b.cross(c));
@@ -311,13 +322,7 @@ mod tests {
         let grid = CubeGrid::new(16);
         // Deterministic pseudo-random triangles of all sizes and positions around the origin,
         // including ones spanning several faces and ones surrounding the origin closely.
-        let mut x = 0x1234_5678_9abc_def0u64;
-        let mut rnd = || {
-            x ^= x << 13;
-            x ^= x >> 7;
-            x ^= x << 17;
-            (x >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
-        };
+        let mut rnd = uniform(0x1234_5678_9abc_def0);
         for k in 0..400 {
             let scale = [0.01, 0.3, 1.0, 5.0][k % 4];
             let centre = DVec3::new(rnd(), rnd(), rnd()) * 1.5;
@@ -356,13 +361,7 @@ mod tests {
     #[test]
     fn a_covered_box_has_every_texel_it_can_reach_covered() {
         let grid = CubeGrid::new(8);
-        let mut x = 0x0bad_cafe_1234_5678u64;
-        let mut rnd = || {
-            x ^= x << 13;
-            x ^= x >> 7;
-            x ^= x << 17;
-            (x >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
-        };
+        let mut rnd = uniform(0x0bad_cafe_1234_5678);
         let (mut skipped, mut caught) = (0, 0);
         for k in 0..600 {
             // Small boxes inside one face, boxes across faces, boxes around the origin.

@@ -58,58 +58,32 @@ fn main() {
             other => panic!("unknown method {other}"),
         };
         for &k in &counts {
-            let env = |name: &str| std::env::var(name).ok().and_then(|v| v.parse::<usize>().ok());
             let preset = std::env::var("SB_PRESET").ok().and_then(|v| Preset::from_name(&v)).unwrap_or_default();
             let mut settings = FitSettings { method, spheres: k, plan: preset.plan(), ..Default::default() };
-            if let Some(v) = env("SB_POINTS") {
-                settings.plan.point_resolution = v as u32;
+            // `set!(field, "SB_NAME")`: the field from the environment when set and parseable.
+            macro_rules! set {
+                ($($field:ident).+, $name:literal) => {
+                    if let Some(v) = std::env::var($name).ok().and_then(|v| v.parse().ok()) {
+                        settings.$($field).+ = v;
+                    }
+                };
             }
-            if let Some(v) = env("SB_VOXEL") {
-                settings.voxel_resolution = v as u32;
-            }
-            if let Some(v) = env("SB_ITERS") {
-                settings.plan.max_iterations = v;
-            }
-            if let Some(v) = env("SB_POLISH") {
-                settings.plan.polish_rounds = v;
-            }
-            if let Some(v) = env("SB_TRIALS") {
-                settings.plan.descent_trials = v;
-            }
-            if let Some(v) = env("SB_SEAMS") {
-                settings.plan.seam_rounds = v;
-            }
-            if let Some(v) = env("SB_TELE") {
-                settings.plan.teleport_attempts = v;
-            }
-            if let Some(v) = env("SB_SEAM_TRIALS") {
-                settings.plan.seam_trials = v;
-            }
-            if let Some(v) = env("SB_BUDGET") {
-                settings.plan.descent_work_budget = v as u64;
-            }
-            if let Some(v) = env("SB_SEAM_BUDGET") {
-                settings.plan.seam_work_budget = v as u64;
-            }
-            let envf = |name: &str| std::env::var(name).ok().and_then(|v| v.parse::<f64>().ok());
-            if let Some(v) = envf("SB_DGRID") {
-                settings.plan.descent_grid_cells = v;
-            }
-            if let Some(v) = envf("SB_SEAM_SPACING") {
-                settings.plan.seam_spacing_cells = v;
-            }
-            if let Some(v) = envf("SB_PCELL") {
-                settings.plan.point_cell = v;
-            }
-            if let Some(v) = env("SB_PBUDGET") {
-                settings.plan.point_budget = v;
-            }
-            if let Some(v) = env("SB_STARTS") {
-                settings.plan.starts = v;
-            }
-            if let Some(v) = env("SB_SEED") {
-                settings.seed = v as u64;
-            }
+            set!(plan.point_resolution, "SB_POINTS");
+            set!(voxel_resolution, "SB_VOXEL");
+            set!(plan.max_iterations, "SB_ITERS");
+            set!(plan.polish_rounds, "SB_POLISH");
+            set!(plan.descent_trials, "SB_TRIALS");
+            set!(plan.seam_rounds, "SB_SEAMS");
+            set!(plan.teleport_attempts, "SB_TELE");
+            set!(plan.seam_trials, "SB_SEAM_TRIALS");
+            set!(plan.descent_work_budget, "SB_BUDGET");
+            set!(plan.seam_work_budget, "SB_SEAM_BUDGET");
+            set!(plan.descent_grid_cells, "SB_DGRID");
+            set!(plan.seam_spacing_cells, "SB_SEAM_SPACING");
+            set!(plan.point_cell, "SB_PCELL");
+            set!(plan.point_budget, "SB_PBUDGET");
+            set!(plan.starts, "SB_STARTS");
+            set!(seed, "SB_SEED");
             let mut times = Vec::new();
             let mut last = None;
             for _ in 0..runs {
