@@ -48,7 +48,7 @@
 //! texel is skipped whole (`raster::CubeGrid::box_covered`, conservative, so the maps are
 //! unchanged). A triangle whose corners lie in one face's pyramid is tested against that face
 //! only. Segment assignment skips the exact dominance test where a bound already settles it.
-//! The bunny subdivided to 1.1 M triangles, 64 spheres: 8.0 s → 2.4 s for the stage,
+//! The bunny subdivided to 1.1 M triangles, 64 spheres: 7.8–8.0 s → 2.4–3.0 s for the stage,
 //! byte-identical files. Memory ≈ 6N² × 90 bytes per thread.
 //!
 //! **Measured** (`examples/albedo_measure.rs`, 64 spheres from `spherebake_fit::fit`, order 4,

@@ -22,8 +22,7 @@
 //!    handed to neighbouring spheres where that lowers the summed outside volume), centre
 //!    update ignoring members that another sphere already covers (all but the last round);
 //! 4. **descent points**: vertices, a grid on triangles longer than two voxel cells (held
-//!    as the dense points beyond the budget), the interior lattice
-//!    points;
+//!    as the dense points beyond the budget), the interior lattice points;
 //! 5. **exclusive descent** ([`descent`]-module): Gauss–Seidel per sphere on the points only
 //!    it covers (monotone), split/delete trials under a deterministic work budget;
 //! 6. **seam rounds**: the uncovered surface points between vertices join the descent points
@@ -706,8 +705,9 @@ fn run_once(prep: &Prepared, pts: &points::PointSet, settings: &FitSettings, k: 
 /// leave the bounding pass far less to grow (measured: bunny 64 E 0.305 → 0.294, armadillo
 /// 64 0.544 → 0.539). More surface points than `plan.point_budget` are then held to one per
 /// cube of `plan.point_cell` voxel cells (the bunny subdivided to 1.1 M triangles: 3.36 M →
-/// 67 000; the 70 000-triangle bunny's 277 000 are within the budget). Cost O(vertices + triangles + grid points), the grid held to
-/// `points::GRID_BUDGET` points; skipped (no points) when the plan has no polish rounds.
+/// 67 000; the 70 000-triangle bunny's 277 000 are within the budget). Cost O(vertices +
+/// triangles + grid points), the grid held to `points::GRID_BUDGET` points; skipped (no
+/// points) when the plan has no polish rounds.
 fn dense_points(prep: &Prepared, pts: &points::PointSet, plan: &FitPlan) -> Vec<points::Rep> {
     let mut all: Vec<points::Rep> = Vec::with_capacity(prep.pos.len() + 2 * prep.tris.len() + pts.points.len());
     let mut used = vec![false; prep.pos.len()];
