@@ -736,8 +736,7 @@ struct Hit {
 /// Triangles per coverage run ([`Context::clusters`]).
 const CLUSTER_SIZE: usize = 32;
 
-/// A run of triangles in Morton order and the bounding box of their corners (model space;
-/// non-finite when a corner is).
+/// A run of triangles in Morton order and the bounding box of their corners (model space).
 struct Cluster {
     lo: DVec3,
     hi: DVec3,
@@ -774,13 +773,10 @@ fn clusters(pos: &[DVec3], triangles: &[[u32; 3]]) -> (Vec<Cluster>, Vec<u32>) {
         .enumerate()
         .map(|(k, run)| {
             let (mut lo, mut hi) = (DVec3::INFINITY, DVec3::NEG_INFINITY);
+            // (A triangle with a non-finite corner draws nothing, so the box may leave it out.)
             for &v in run.iter().flat_map(|&t| &triangles[t as usize]) {
                 lo = lo.min(pos[v as usize]);
                 hi = hi.max(pos[v as usize]);
-            }
-            // A non-finite corner makes the box NaN (never skipped: `box_covered`).
-            if run.iter().flat_map(|&t| &triangles[t as usize]).any(|&v| !pos[v as usize].is_finite()) {
-                (lo, hi) = (DVec3::NAN, DVec3::NAN);
             }
             let start = (k * CLUSTER_SIZE) as u32;
             Cluster { lo, hi, start, end: start + run.len() as u32 }

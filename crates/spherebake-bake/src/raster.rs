@@ -166,31 +166,18 @@ impl CubeGrid {
         for (face, frame) in self.frames.iter().enumerate() {
             let q = corners.map(|p| [p.dot(frame[0]), p.dot(frame[1]), p.dot(frame[2])]);
             // Every corner outside one plane of the face's pyramid: so is the whole box.
-            let outside = |k: usize, sgn: f64| q.iter().all(|v| sgn * v[k] > v[0]);
-            if outside(1, 1.0) || outside(1, -1.0) || outside(2, 1.0) || outside(2, -1.0) {
-                continue;
-            }
-            let inside = q.iter().all(|v| v[0] > 0.0 && v[1].abs() <= v[0] && v[2].abs() <= v[0]);
-            let (cols, rows) = if inside {
-                let (mut umin, mut umax, mut vmin, mut vmax) =
-                    (f64::INFINITY, f64::NEG_INFINITY, f64::INFINITY, f64::NEG_INFINITY);
-                for v in &q {
-                    let (u, w) = (v[1] / v[0], v[2] / v[0]);
-                    umin = umin.min(u);
-                    umax = umax.max(u);
-                    vmin = vmin.min(w);
-                    vmax = vmax.max(w);
-                }
-                match (texel_range(umin, umax, nf), texel_range(vmin, vmax, nf)) {
-                    (Some(c), Some(r)) => (c, r),
-                    _ => continue,
+            let Some(inside) = pyramid_side(&q) else { continue };
+            let (i0, i1, j0, j1) = if inside {
+                match projected_texels(&q, nf) {
+                    Some(r) => r,
+                    None => continue,
                 }
             } else {
-                ((0, n - 1), (0, n - 1))
+                (0, n - 1, 0, n - 1)
             };
-            for j in rows.0..=rows.1 {
+            for j in j0..=j1 {
                 let row = (face * n + j) * n;
-                if !covered[row + cols.0..=row + cols.1].iter().all(|&c| c) {
+                if !covered[row + i0..=row + i1].iter().all(|&c| c) {
                     return false;
                 }
             }
@@ -204,12 +191,9 @@ impl CubeGrid {
 fn face_texel_range(frame: &[DVec3; 3], tri: [DVec3; 3], nf: f64) -> Option<(usize, usize, usize, usize)> {
     // Face coordinates (ma, sc, tc) of each corner.
     let q = tri.map(|p| [p.dot(frame[0]), p.dot(frame[1]), p.dot(frame[2])]);
-    // Trivial rejection: all corners outside the same face plane.
-    let outside = |k: usize, sgn: f64| q.iter().all(|v| sgn * v[k] > v[0]);
-    if outside(1, 1.0) || outside(1, -1.0) || outside(2, 1.0) || outside(2, -1.0) {
-        return None;
+    if pyramid_side(&q)? {
+        return projected_texels(&q, nf);
     }
-    let inside = q.iter().all(|v| v[0] > 0.0 && v[1].abs() <= v[0] && v[2].abs() <= v[0]);
     let (mut umin, mut umax, mut vmin, mut vmax) = (f64::INFINITY, f64::NEG_INFINITY, f64::INFINITY, f64::NEG_INFINITY);
     let mut add = |v: &[f64; 3]| -> bool {
         if v[0] <= 0.0 {
@@ -225,26 +209,49 @@ fn face_texel_range(frame: &[DVec3; 3], tri: [DVec3; 3], nf: f64) -> Option<(usi
         vmax = vmax.max(w);
         true
     };
-    if inside {
-        for v in &q {
-            add(v);
+    let poly = clip_to_pyramid(&q);
+    if poly.is_empty() {
+        return None;
+    }
+    let mut full = false;
+    for v in &poly {
+        // A clipped corner at (or numerically near) the apex has no stable projection:
+        // fall back to the whole face (the cone test still decides coverage).
+        if !add(v) || v[0] <= 1e-12 * (v[1].abs() + v[2].abs() + v[0].abs()).max(f64::MIN_POSITIVE) {
+            full = true;
         }
-    } else {
-        let poly = clip_to_pyramid(&q);
-        if poly.is_empty() {
-            return None;
-        }
-        let mut full = false;
-        for v in &poly {
-            // A clipped corner at (or numerically near) the apex has no stable projection:
-            // fall back to the whole face (the cone test still decides coverage).
-            if !add(v) || v[0] <= 1e-12 * (v[1].abs() + v[2].abs() + v[0].abs()).max(f64::MIN_POSITIVE) {
-                full = true;
-            }
-        }
-        if full {
-            (umin, umax, vmin, vmax) = (-1.0, 1.0, -1.0, 1.0);
-        }
+    }
+    if full {
+        (umin, umax, vmin, vmax) = (-1.0, 1.0, -1.0, 1.0);
+    }
+    let (i0, i1) = texel_range(umin, umax, nf)?;
+    let (j0, j1) = texel_range(vmin, vmax, nf)?;
+    Some((i0, i1, j0, j1))
+}
+
+/// Where points in face coordinates (ma, sc, tc) lie against the face's pyramid |sc| ≤ ma,
+/// |tc| ≤ ma: `None` when all are outside one of its four planes (then so is their convex
+/// hull), `Some(true)` when all are inside with ma > 0, `Some(false)` otherwise.
+fn pyramid_side(q: &[[f64; 3]]) -> Option<bool> {
+    let outside = |k: usize, sgn: f64| q.iter().all(|v| sgn * v[k] > v[0]);
+    if outside(1, 1.0) || outside(1, -1.0) || outside(2, 1.0) || outside(2, -1.0) {
+        return None;
+    }
+    Some(q.iter().all(|v| v[0] > 0.0 && v[1].abs() <= v[0] && v[2].abs() <= v[0]))
+}
+
+/// Inclusive texel ranges `(i0, i1, j0, j1)` of the bounding rectangle of the projections
+/// (u, v) = (sc, tc)/ma of points inside the face's pyramid ([`pyramid_side`] `Some(true)`),
+/// which holds the projection of their convex hull (u is quasi-linear where ma > 0); `None`
+/// when no texel centre lies in it.
+fn projected_texels(q: &[[f64; 3]], nf: f64) -> Option<(usize, usize, usize, usize)> {
+    let (mut umin, mut umax, mut vmin, mut vmax) = (f64::INFINITY, f64::NEG_INFINITY, f64::INFINITY, f64::NEG_INFINITY);
+    for v in q {
+        let (u, w) = (v[1] / v[0], v[2] / v[0]);
+        umin = umin.min(u);
+        umax = umax.max(u);
+        vmin = vmin.min(w);
+        vmax = vmax.max(w);
     }
     let (i0, i1) = texel_range(umin, umax, nf)?;
     let (j0, j1) = texel_range(vmin, vmax, nf)?;
