@@ -107,7 +107,7 @@ pub struct FitTraceEntry {
     pub spheres: usize,
     /// The seed of the run (restarts of the `best` preset run other seeds).
     pub seed: u64,
-    /// `dense_points`, `lloyd`, `octree_start`, `polish`, `descent_points`, `descent`, `seam`, `bound`,
+    /// `dense_points`, `lloyd`, `lattice_start`, `polish`, `descent_points`, `descent`, `seam`, `bound`,
     /// `exact_e` (baselines: `kmeans`, `octree`).
     pub stage: &'static str,
     /// Seam round (1, 2, ...) for `seam`, else 0.

@@ -1,6 +1,8 @@
 //! The two baselines: k-means of surface points (each sphere the bounding sphere of its
 //! cluster about the centroid) and adaptive-octree leaf-cube spheres (Ren et al. 2006 Fig. 4).
-//! Both pass through the same exactness rules as the variational fit afterwards.
+//! Both pass through the same exactness rules as the variational fit afterwards. The box
+//! lattices here ([`lattices_at_most`]) are no baseline: with the octree stopped at most k
+//! they are the candidates of the variational fit's lattice start.
 
 use crate::rng::SplitMix64;
 use crate::solid::Solid;
@@ -206,6 +208,91 @@ fn octree_leaves(
     leaves.iter().map(|&i| (nodes[i].centre, nodes[i].half * 3f64.sqrt())).collect()
 }
 
+/// Box lattices for a start of at most `k` spheres: the box `lo..hi` cut into a × b × c
+/// equal cells, each cell that holds one of `points` (surface samples and interior lattice
+/// points) giving its circumsphere, in cell order (x fastest). The lattices are the
+/// near-cubic one (cells as close to cubes as whole counts allow) with the most cells that
+/// keeps at most `k`, and its neighbours with −1..=+2 cells per axis that keep at most `k`
+/// too (so the unit cube at 16 gets 2 × 2 × 3 and 2 × 2 × 4 besides 2 × 2 × 2, which the
+/// octree cannot express). Empty lists for an empty or non-finite box. Cost O(points ×
+/// (log k + 64)); at most 65 lattices of at most 64 k cells each.
+pub fn lattices_at_most(lo: DVec3, hi: DVec3, points: &[DVec3], k: usize) -> Vec<Vec<(DVec3, f64)>> {
+    let ext = hi - lo;
+    let longest = ext.max_element();
+    if k == 0 || !(longest > 0.0 && longest.is_finite()) || !lo.is_finite() || ext.min_element() < 0.0 {
+        return Vec::new();
+    }
+    // Cells per axis of the near-cubic lattice with `n` cells along the longest axis.
+    let near_cubic =
+        |n: usize| -> [usize; 3] { [0, 1, 2].map(|a| ((n as f64 * ext[a] / longest).round() as usize).clamp(1, n)) };
+    let cell_cap = k.saturating_mul(64);
+    let occupied = |d: [usize; 3]| -> Option<Vec<bool>> {
+        let cells = d[0].checked_mul(d[1])?.checked_mul(d[2])?;
+        if cells > cell_cap {
+            return None;
+        }
+        let mut occ = vec![false; cells];
+        for p in points {
+            let mut idx = 0usize;
+            for a in (0..3).rev() {
+                let t = if ext[a] > 0.0 { (p[a] - lo[a]) / ext[a] * d[a] as f64 } else { 0.0 };
+                // NaN and out-of-box points clamp to the border cells.
+                let i = if t >= 0.0 { (t as usize).min(d[a] - 1) } else { 0 };
+                idx = idx * d[a] + i;
+            }
+            occ[idx] = true;
+        }
+        Some(occ)
+    };
+    let kept = |d: [usize; 3]| occupied(d).map_or(usize::MAX, |o| o.iter().filter(|&&x| x).count());
+    // The largest n whose near-cubic lattice keeps at most k cells (binary search: the kept
+    // count grows with n but for rounding, and the search only picks a base).
+    let (mut lo_n, mut hi_n) = (1usize, k.max(1));
+    if kept(near_cubic(1)) > k {
+        return Vec::new();
+    }
+    while lo_n < hi_n {
+        let mid = lo_n + (hi_n - lo_n).div_ceil(2);
+        if kept(near_cubic(mid)) <= k {
+            lo_n = mid;
+        } else {
+            hi_n = mid - 1;
+        }
+    }
+    let base = near_cubic(lo_n);
+    let mut dims: Vec<[usize; 3]> = Vec::new();
+    for dx in -1i64..=2 {
+        for dy in -1i64..=2 {
+            for dz in -1i64..=2 {
+                let d = [(base[0] as i64 + dx), (base[1] as i64 + dy), (base[2] as i64 + dz)];
+                if d.iter().all(|&v| v >= 1) {
+                    let d = d.map(|v| v as usize);
+                    if !dims.contains(&d) {
+                        dims.push(d);
+                    }
+                }
+            }
+        }
+    }
+    let mut out = Vec::new();
+    for d in dims {
+        let Some(occ) = occupied(d) else { continue };
+        if occ.iter().filter(|&&x| x).count() > k {
+            continue;
+        }
+        let size = DVec3::new(ext.x / d[0] as f64, ext.y / d[1] as f64, ext.z / d[2] as f64);
+        let r = size.length() * 0.5;
+        let mut sp = Vec::new();
+        for (idx, _) in occ.iter().enumerate().filter(|(_, &o)| o) {
+            let (i, j, l) = (idx % d[0], (idx / d[0]) % d[1], idx / (d[0] * d[1]));
+            let c = lo + DVec3::new(i as f64 + 0.5, j as f64 + 0.5, l as f64 + 0.5) * size;
+            sp.push((c, r));
+        }
+        out.push(sp);
+    }
+    out
+}
+
 #[cfg(test)]
 mod kmeanspp_tests {
     use super::*;
@@ -252,6 +339,46 @@ mod kmeanspp_tests {
                 assert!(s.iter().any(|(c, r)| p.distance(*c) <= *r * (1.0 + 1e-12)), "k {k}: {p} uncovered");
             }
         }
+    }
+
+    #[test]
+    fn lattices_keep_at_most_k_cells_and_cover_their_points() {
+        // Random points in the box [0, 2] × [0, 1] × [0, 1]; every cell of a lattice with a
+        // point in it must hold a sphere whose ball contains that point, no lattice may keep
+        // more than k, and the near-cubic base must be the largest such lattice.
+        let mut rng = SplitMix64::new(11);
+        let (lo, hi) = (DVec3::ZERO, DVec3::new(2.0, 1.0, 1.0));
+        let pts: Vec<DVec3> =
+            (0..4000).map(|_| DVec3::new(2.0 * rng.next_f64(), rng.next_f64(), rng.next_f64())).collect();
+        for k in [1usize, 2, 7, 16, 64, 300] {
+            let lats = lattices_at_most(lo, hi, &pts, k);
+            assert!(!lats.is_empty(), "k {k}");
+            for sp in &lats {
+                assert!(!sp.is_empty() && sp.len() <= k, "k {k}: {} spheres", sp.len());
+                for p in &pts {
+                    assert!(sp.iter().any(|(c, r)| p.distance(*c) <= r * (1.0 + 1e-12)), "k {k}: {p} uncovered");
+                }
+                // Equal cells: one radius.
+                assert!(sp.iter().all(|s| s.1 == sp[0].1));
+            }
+            // 4000 points fill every cell of these small lattices, so a lattice keeps a × b × c
+            // cells: the near-cubic 2n × n × n with the largest n has 2n³ ≤ k.
+            let n = (1..).take_while(|n: &usize| 2 * n * n * n <= k).last().unwrap_or(0);
+            if n > 0 {
+                let r = 3f64.sqrt() / (2.0 * n as f64); // cubic cells of edge 1/n
+                assert!(lats.iter().any(|sp| sp.len() == 2 * n * n * n && (sp[0].1 - r).abs() < 1e-12), "k {k}");
+            }
+        }
+        // The unit cube at 16: 2 × 2 × 3 cells of 1/2 × 1/2 × 1/3 (half-diagonal
+        // √(1/4 + 1/4 + 1/9) / 2) are among the lattices.
+        let cube: Vec<DVec3> = (0..4000).map(|_| DVec3::new(rng.next_f64(), rng.next_f64(), rng.next_f64())).collect();
+        let r223 = (0.25f64 + 0.25 + 1.0 / 9.0).sqrt() / 2.0;
+        let lats = lattices_at_most(DVec3::ZERO, DVec3::ONE, &cube, 16);
+        assert!(lats.iter().any(|sp| sp.len() == 12 && (sp[0].1 - r223).abs() < 1e-12));
+        // Empty or non-finite boxes and k = 0 give nothing.
+        assert!(lattices_at_most(DVec3::ZERO, DVec3::ONE, &cube, 0).is_empty());
+        assert!(lattices_at_most(DVec3::ONE, DVec3::ONE, &cube, 16).is_empty());
+        assert!(lattices_at_most(DVec3::ZERO, DVec3::splat(f64::NAN), &cube, 16).is_empty());
     }
 
     #[test]

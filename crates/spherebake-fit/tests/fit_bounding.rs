@@ -433,5 +433,11 @@ fn variational_beats_the_octree_on_the_unit_cube() {
         assert_triangles_covered(&p, &t, &v.spheres);
         let (ev, eo) = (v.stats.outside_ratio_e, o.stats.outside_ratio_e);
         assert!(ev < eo, "k {k}: variational E {ev} should beat the octree's {eo}");
+        // The box-lattice start (2 × 2 × 3-like cells the octree cannot cut) beats it clearly
+        // once the lattice is fine: without it 0.338 against 0.418 at 128, 0.333 against
+        // 0.347 at 256; with it 0.279 and 0.199.
+        if k >= 128 {
+            assert!(ev <= 0.8 * eo, "k {k}: variational E {ev} should be at most 0.8 × the octree's {eo}");
+        }
     }
 }

@@ -42,9 +42,9 @@ fn the_trace_lists_each_stage_once_in_order() {
     let s = FitSettings { spheres: 12, voxel_resolution: 48, ..FitSettings::default() };
     let r = fit(&p, &t, &s, &|_| {}).expect("fits");
     let got = stages(&r);
-    // dense_points, lloyd, octree_start, polish, descent_points, descent, 0..=5 seam rounds
+    // dense_points, lloyd, lattice_start, polish, descent_points, descent, 0..=5 seam rounds
     // numbered 1, 2, ..., bound, exact_e: written out, not derived from the code's list.
-    assert_eq!(&got[..6], ["dense_points", "lloyd", "octree_start", "polish", "descent_points", "descent"], "{got:?}");
+    assert_eq!(&got[..6], ["dense_points", "lloyd", "lattice_start", "polish", "descent_points", "descent"], "{got:?}");
     assert_eq!(&got[got.len() - 2..], ["bound", "exact_e"], "{got:?}");
     let seams: Vec<&TraceEntry> = r.stats.trace[6..got.len() - 2].iter().collect();
     assert!(seams.len() <= 5, "{got:?}");
@@ -72,7 +72,7 @@ fn the_trace_lists_each_stage_once_in_order() {
     // A dumbbell is no box: the descent starts from the polish, not from the octree.
     assert_eq!((r.stats.trace[2].iterations, r.stats.trace[3].iterations), (0, s.plan.polish_rounds));
     // Every stage's time is in the stage timings too.
-    for st in ["dense_points", "lloyd", "octree_start", "polish", "descent_points", "descent", "bound", "exact_e"] {
+    for st in ["dense_points", "lloyd", "lattice_start", "polish", "descent_points", "descent", "bound", "exact_e"] {
         assert!(r.stats.timings.iter().any(|(n, _)| *n == st), "{st} missing from {:?}", r.stats.timings);
     }
 }
