@@ -86,6 +86,8 @@ pub struct BakeReport {
     /// Surface sample statistics.
     pub samples: SampleSummary,
     /// Per-stage wall times, in pipeline order (fit sub-stages are prefixed by the fitter).
+    /// `topology` runs beside the winding-number build of `orient`, and `bvh` beside `fit`: each
+    /// reports its own time, so the sum can exceed the bake's wall time.
     pub timings: Vec<StageTime>,
     /// The fitter's own sub-stages (they add up to the `fit` stage, roughly).
     pub fit_stages: Vec<StageTime>,
@@ -194,6 +196,13 @@ pub fn bake_path(
     Ok(out)
 }
 
+/// Runs `f` and returns its result with its wall time in seconds.
+fn timed<T>(f: impl FnOnce() -> T) -> (T, f64) {
+    let t = Instant::now();
+    let v = f();
+    (v, t.elapsed().as_secs_f64())
+}
+
 /// Bakes an already imported mesh (see [`bake_path`]).
 pub fn bake_imported(
     path: &Path,
@@ -205,36 +214,40 @@ pub fn bake_imported(
     let mut timings = Vec::new();
     let mut warnings: Vec<String> = imported.warnings.iter().map(|w| w.0.clone()).collect();
 
-    let t = Instant::now();
-    let topology = TopologyReport::compute(mesh);
-    timings.push(StageTime { stage: "topology", seconds: t.elapsed().as_secs_f64() });
     if mesh.triangles.is_empty() {
         return Err(BakeError::EmptyMesh { path: path.to_path_buf() });
     }
-
     let positions = &mesh.welded_positions;
     let triangles = mesh.welded_triangles();
     // Outward orientation by the solid (real meshes are not always consistently oriented),
     // shared by the fit, the sample points and the albedo. On the welded mesh, so UV/normal
     // seams do not split orientation patches; triangle indices are the same as in
-    // `mesh.triangles`, so the flips apply there too.
+    // `mesh.triangles`, so the flips apply there too. The topology report (serial) is
+    // computed while the winding number's tree (serial) is built: neither reads the other.
+    let ((topology, topology_s), (winding, winding_s)) =
+        rayon::join(|| timed(|| TopologyReport::compute(mesh)), || timed(|| WindingNumber::new(positions, &triangles)));
+    timings.push(StageTime { stage: "topology", seconds: topology_s });
     let t = Instant::now();
-    let winding = WindingNumber::new(positions, &triangles);
     let orientation = outward_orientation(positions, &triangles, &winding);
     drop(winding);
     if orientation.flipped > 0 {
         warnings.push(format!("{} triangles face inward; oriented outward by the solid", orientation.flipped));
     }
-    timings.push(StageTime { stage: "orient", seconds: t.elapsed().as_secs_f64() });
+    timings.push(StageTime { stage: "orient", seconds: winding_s + t.elapsed().as_secs_f64() });
 
     // The fit sees the outward-oriented triangles: a mesh and its inside-out twin are the same
     // input to it (same solid, same spheres), and a mesh whose only defect was the winding of
     // some patches is closed again.
     let oriented: Vec<[u32; 3]> =
         triangles.iter().zip(&orientation.flip).map(|(t, &flip)| if flip { [t[0], t[2], t[1]] } else { *t }).collect();
-    let t = Instant::now();
-    let fitted = fit_spheres(path, positions, &oriented, settings, progress)?;
-    timings.push(StageTime { stage: "fit", seconds: t.elapsed().as_secs_f64() });
+    // The sample points' BVH (serial to build) needs only the mesh: it is built while the fit
+    // runs, each timed on its own.
+    let ((fitted, fit_s), (bvh, bvh_s)) = rayon::join(
+        || timed(|| fit_spheres(path, positions, &oriented, settings, progress)),
+        || timed(|| TriangleBvh::new(&mesh.positions, &mesh.triangles)),
+    );
+    let fitted = fitted?;
+    timings.push(StageTime { stage: "fit", seconds: fit_s });
     let fit_stages: Vec<StageTime> =
         fitted.stage_timings.iter().map(|(stage, seconds)| StageTime { stage, seconds: *seconds }).collect();
     let fit_trace = fitted.trace;
@@ -276,9 +289,7 @@ pub fn bake_imported(
     let hstats = hierarchy_stats(&hierarchy, spheres);
     timings.push(StageTime { stage: "hierarchy", seconds: t.elapsed().as_secs_f64() });
 
-    let t = Instant::now();
-    let bvh = TriangleBvh::new(&mesh.positions, &mesh.triangles);
-    timings.push(StageTime { stage: "bvh", seconds: t.elapsed().as_secs_f64() });
+    timings.push(StageTime { stage: "bvh", seconds: bvh_s });
     progress(0.85);
 
     let t = Instant::now();

@@ -247,15 +247,16 @@ impl<'a> Cover<'a> {
             }
         }
         for class in classes {
+            let this = &*self;
+            // Exclusive sets read the cover only: in parallel, collected in class order.
             let jobs: Vec<(usize, u64, Vec<u32>)> = class
-                .iter()
+                .par_iter()
                 .filter_map(|&i| {
-                    let ex = self.exclusive(i);
-                    let kk = key(self.spheres[i], &ex);
-                    (self.tried[i] != kk).then_some((i, kk, ex))
+                    let ex = this.exclusive(i);
+                    let kk = key(this.spheres[i], &ex);
+                    (this.tried[i] != kk).then_some((i, kk, ex))
                 })
                 .collect();
-            let this = &*self;
             let res: Vec<(DVec3, f64, f64)> = jobs
                 .par_iter()
                 .map(|(i, _, ex)| best_ball(this.solid, this.pts, ex, this.spheres[*i].0, &this.work))

@@ -275,12 +275,17 @@ fn prepare(positions: &[Vec3], triangles: &[[u32; 3]], voxel_resolution: u32) ->
         }
         edges.extend([(t[0], t[1]), (t[1], t[2]), (t[2], t[0])]);
     }
-    edges.sort_unstable();
-    let dup = edges.windows(2).any(|w| w[0] == w[1]);
-    let boundary = edges.iter().filter(|&&(a, b)| edges.binary_search(&(b, a)).is_err()).count();
+    // Parallel: a sorted list is the same whatever the thread count, and so is the ordered
+    // collect of the boundary edges (directed edges without a reverse partner).
+    edges.par_sort_unstable();
+    let dup = edges.par_windows(2).any(|w| w[0] == w[1]);
+    let boundary_edges: Vec<(u32, u32)> =
+        edges.par_iter().copied().filter(|&(a, b)| edges.binary_search(&(b, a)).is_err()).collect();
+    drop(edges);
+    let boundary = boundary_edges.len();
     let mut filled = 0;
     if !degenerate && !dup && boundary > 0 {
-        if let Some(n) = fill_small_holes(&mut pos, &mut tris, &edges) {
+        if let Some(n) = fill_small_holes(&mut pos, &mut tris, &boundary_edges) {
             filled = n;
         }
     }
@@ -342,20 +347,18 @@ const MAX_HOLE_AREA: f64 = 0.05;
 /// gets a fan of triangles to a new vertex at the loop's centroid, oriented to match. Only when
 /// every boundary vertex has exactly one outgoing boundary edge (manifold boundary) and the
 /// fans add at most [`MAX_HOLE_AREA`] of the mesh's area; then returns the number of holes
-/// filled, else leaves the mesh untouched and returns `None`. `edges` is the sorted list of
-/// directed edges.
-fn fill_small_holes(pos: &mut Vec<DVec3>, tris: &mut Vec<[u32; 3]>, edges: &[(u32, u32)]) -> Option<usize> {
-    let boundary: Vec<(u32, u32)> =
-        edges.iter().copied().filter(|&(a, b)| edges.binary_search(&(b, a)).is_err()).collect();
+/// filled, else leaves the mesh untouched and returns `None`. `boundary` lists the directed
+/// edges without a reverse partner, sorted.
+fn fill_small_holes(pos: &mut Vec<DVec3>, tris: &mut Vec<[u32; 3]>, boundary: &[(u32, u32)]) -> Option<usize> {
     let mut next: std::collections::BTreeMap<u32, u32> = std::collections::BTreeMap::new();
-    for &(a, b) in &boundary {
+    for &(a, b) in boundary {
         if next.insert(a, b).is_some() {
             return None;
         }
     }
     let mut seen: std::collections::BTreeSet<u32> = std::collections::BTreeSet::new();
     let mut loops: Vec<Vec<u32>> = Vec::new();
-    for &(start, _) in &boundary {
+    for &(start, _) in boundary {
         if seen.contains(&start) {
             continue;
         }

@@ -5,6 +5,7 @@
 
 use crate::solid::Solid;
 use glam::DVec3;
+use rayon::prelude::*;
 
 /// Surface sample thinning cell, in lattice spacings.
 const SURFACE_SPACING: f64 = 1.0;
@@ -128,7 +129,6 @@ pub fn keep_per_cell(points: &[DVec3], origin: DVec3, cell: f64, cap: usize) -> 
     if cap == 0 || cell.is_nan() || cell <= 0.0 {
         return vec![true; n];
     }
-    use rayon::prelude::*;
     let keys: Vec<(i64, i64, i64)> = points.par_iter().map(|p| key(*p, origin, cell)).collect();
     // Cells packed into one u64 (21 bits per axis, offset from the lowest) when they fit, so
     // the sort moves 16-byte pairs; a parallel sort of unique (cell, index) pairs is
@@ -223,55 +223,27 @@ pub const GRID_BUDGET: usize = 2_000_000;
 pub fn build(positions: &[DVec3], triangles: &[[u32; 3]], solid: &Solid, lo: DVec3, hi: DVec3, h: f64) -> PointSet {
     let fine = h * SURFACE_SPACING;
     let mut samples: Vec<DVec3> = Vec::with_capacity(triangles.len() * 2);
-    let mut normals: Vec<DVec3> = Vec::with_capacity(triangles.len() * 2);
     let plan = grid_plan(positions, triangles, |l| (l / fine).ceil().clamp(1.0, 256.0) as usize, 1, GRID_BUDGET);
     for (t, &m) in triangles.iter().zip(&plan) {
         let a = positions[t[0] as usize];
         let b = positions[t[1] as usize];
         let c = positions[t[2] as usize];
-        let first = samples.len();
         if m <= 1 {
             samples.push(a);
-            samples.push((a + b + c) / 3.0);
         } else {
             samples.extend(spherebake_geom::triangle::triangle_grid(a, b, c, m).map(|(_, _, p)| p));
-            samples.push((a + b + c) / 3.0);
         }
-        let nrm = (b - a).cross(c - a);
-        normals.resize(samples.len(), nrm);
-        debug_assert!(normals.len() - first == samples.len() - first);
+        samples.push((a + b + c) / 3.0);
     }
-    // One conservative patch representative per fine cell (cells in key order).
+    // One representative per fine cell, cells in key order: the cell's first sample in mesh
+    // order. (Conservative patches — the cell's centroid with a normal and a disc bound —
+    // over-inflated spheres by about a sample cell; a plain sample point per cell measured
+    // better, the dense polish and the exactness pass restoring full coverage.) The keys are
+    // distinct (sample index), so the parallel sort is the same whatever the thread count.
     let mut keyed: Vec<((i64, i64, i64), u32)> =
-        samples.iter().enumerate().map(|(i, p)| (key(*p, lo, fine), i as u32)).collect();
-    keyed.sort_unstable();
-    let mut reps: Vec<Rep> = Vec::new();
-    let mut s0 = 0;
-    while s0 < keyed.len() {
-        let mut e = s0;
-        while e < keyed.len() && keyed[e].0 == keyed[s0].0 {
-            e += 1;
-        }
-        let group = &keyed[s0..e];
-        let m = group.len() as f64;
-        let centre = group.iter().map(|x| samples[x.1 as usize]).sum::<DVec3>() / m;
-        let nsum: DVec3 = group.iter().map(|x| normals[x.1 as usize].normalize_or_zero()).sum();
-        let n = if nsum.length() > 0.5 * m { nsum.normalize() } else { DVec3::ZERO };
-        let mut sr = 0.0f64;
-        let mut tr = 0.0f64;
-        for x in group {
-            let d = samples[x.1 as usize] - centre;
-            let w = d.dot(n);
-            tr = tr.max(w.abs());
-            sr = sr.max((d.length_squared() - w * w).max(0.0).sqrt());
-        }
-        // Conservative patches (Rep { p: centre, n, s, t }) over-inflate spheres by about a
-        // sample cell; a plain sample point per cell measured better (the dense polish and the
-        // exactness pass restore full coverage), so the patch bound is kept for reference only.
-        let _patch = Rep { p: centre, n, s: sr, t: tr };
-        reps.push(Rep::point(samples[group[0].1 as usize]));
-        s0 = e;
-    }
+        samples.par_iter().enumerate().map(|(i, p)| (key(*p, lo, fine), i as u32)).collect();
+    keyed.par_sort_unstable();
+    let mut reps: Vec<Rep> = keyed.chunk_by(|a, b| a.0 == b.0).map(|g| Rep::point(samples[g[0].1 as usize])).collect();
     let mut points: Vec<DVec3> = reps.iter().map(|r| r.p).collect();
     let surface_count = points.len();
     let interior = lattice_points(solid, lo, hi, h * INTERIOR_SPACING);

@@ -84,20 +84,20 @@ fn pad_box(min: DVec3, max: DVec3) -> (DVec3, DVec3) {
 impl TriangleBvh {
     /// Builds the tree. `positions` in model space; `triangles` index `positions`.
     pub fn new(positions: &[Vec3], triangles: &[[u32; 3]]) -> Self {
-        let mut tris = Vec::with_capacity(triangles.len());
+        use rayon::prelude::*;
+        // The f64 corners in parallel (an ordered collect); invalid triangles get zeros.
+        let valid = |tri: &[u32; 3]| match tri.map(|i| positions.get(i as usize).copied()) {
+            [Some(a), Some(b), Some(c)] if a.is_finite() && b.is_finite() && c.is_finite() => Some([a, b, c]),
+            _ => None,
+        };
+        let tris: Vec<[DVec3; 3]> =
+            triangles.par_iter().map(|tri| valid(tri).map_or([DVec3::ZERO; 3], |t| t.map(|p| p.as_dvec3()))).collect();
         let mut aabbs = Vec::new();
         let mut indices = Vec::new();
         for (ti, tri) in triangles.iter().enumerate() {
-            let corners = tri.map(|i| positions.get(i as usize).copied());
-            match corners {
-                [Some(a), Some(b), Some(c)] if a.is_finite() && b.is_finite() && c.is_finite() => {
-                    tris.push([a.as_dvec3(), b.as_dvec3(), c.as_dvec3()]);
-                    let min = a.min(b).min(c);
-                    let max = a.max(b).max(c);
-                    aabbs.push(Aabb::new(min.into(), max.into()));
-                    indices.push(ti as u32);
-                }
-                _ => tris.push([DVec3::ZERO; 3]),
+            if let Some([a, b, c]) = valid(tri) {
+                aabbs.push(Aabb::new(a.min(b).min(c).into(), a.max(b).max(c).into()));
+                indices.push(ti as u32);
             }
         }
         let mut bvh = TriangleBvh { tris, nodes: Vec::new(), prims: Vec::with_capacity(indices.len()) };
@@ -133,26 +133,28 @@ impl TriangleBvh {
                 stack.push((n.first_index as usize + 1, left + 1));
             }
         }
-        // Children always have larger indices than their parent: refit in reverse order.
+        // Leaf boxes from their triangles (in parallel: each reads only its own), then the
+        // inner nodes: children always have larger indices than their parent, so a reverse
+        // pass refits them.
+        let (tris, prims) = (&bvh.tris, &bvh.prims);
+        bvh.nodes.par_iter_mut().filter(|n| n.is_leaf()).for_each(|n| {
+            let mut min = DVec3::INFINITY;
+            let mut max = DVec3::NEG_INFINITY;
+            for &t in &prims[n.first as usize..(n.first + n.count) as usize] {
+                for p in tris[t as usize] {
+                    min = min.min(p);
+                    max = max.max(p);
+                }
+            }
+            (n.min, n.max) = pad_box(min, max);
+        });
         for i in (0..bvh.nodes.len()).rev() {
             let n = bvh.nodes[i];
-            let (min, max) = if n.is_leaf() {
-                let mut min = DVec3::INFINITY;
-                let mut max = DVec3::NEG_INFINITY;
-                for &t in &bvh.prims[n.first as usize..(n.first + n.count) as usize] {
-                    for p in bvh.tris[t as usize] {
-                        min = min.min(p);
-                        max = max.max(p);
-                    }
-                }
-                pad_box(min, max)
-            } else {
+            if !n.is_leaf() {
                 let l = bvh.nodes[n.first as usize];
                 let r = bvh.nodes[n.first as usize + 1];
-                (l.min.min(r.min), l.max.max(r.max))
-            };
-            bvh.nodes[i].min = min;
-            bvh.nodes[i].max = max;
+                (bvh.nodes[i].min, bvh.nodes[i].max) = (l.min.min(r.min), l.max.max(r.max));
+            }
         }
         bvh
     }

@@ -111,9 +111,10 @@ pub fn outward_orientation(positions: &[Vec3], triangles: &[[u32; 3]], winding: 
             edges.push((a.min(b), a.max(b), a < b, t as u32));
         }
     }
-    edges.sort_unstable();
-    // Adjacency through manifold edges: (neighbour, same_direction).
-    let mut adj: Vec<Vec<(u32, bool)>> = vec![Vec::new(); n];
+    // Distinct tuples: the sorted order is the same whatever the thread count.
+    edges.par_sort_unstable();
+    // Manifold edges (two triangles), in edge order: (e, f, same_direction).
+    let mut pairs: Vec<(u32, u32, bool)> = Vec::new();
     let mut i = 0;
     while i < edges.len() {
         let mut j = i + 1;
@@ -122,12 +123,31 @@ pub fn outward_orientation(positions: &[Vec3], triangles: &[[u32; 3]], winding: 
         }
         if j - i == 2 && edges[i].3 != edges[i + 1].3 {
             let (e, f) = (edges[i], edges[i + 1]);
-            let same = e.2 == f.2;
-            adj[e.3 as usize].push((f.3, same));
-            adj[f.3 as usize].push((e.3, same));
+            pairs.push((e.3, f.3, e.2 == f.2));
         }
         i = j;
     }
+    drop(edges);
+    // Adjacency through manifold edges as one flat list per triangle (CSR: `adj_start[t]..
+    // adj_start[t + 1]` into `adj`), each list in edge order: (neighbour, same_direction).
+    let mut adj_start = vec![0u32; n + 1];
+    for &(e, f, _) in &pairs {
+        adj_start[e as usize + 1] += 1;
+        adj_start[f as usize + 1] += 1;
+    }
+    for t in 0..n {
+        adj_start[t + 1] += adj_start[t];
+    }
+    let mut fill = adj_start.clone();
+    let mut adj = vec![(0u32, false); adj_start[n] as usize];
+    for &(e, f, same) in &pairs {
+        adj[fill[e as usize] as usize] = (f, same);
+        fill[e as usize] += 1;
+        adj[fill[f as usize] as usize] = (e, same);
+        fill[f as usize] += 1;
+    }
+    drop((pairs, fill));
+    let neighbours = |t: u32| &adj[adj_start[t as usize] as usize..adj_start[t as usize + 1] as usize];
 
     // Breadth-first walk: patch id and "wound against the patch root" per triangle.
     let mut patch = vec![u32::MAX; n];
@@ -144,7 +164,7 @@ pub fn outward_orientation(positions: &[Vec3], triangles: &[[u32; 3]], winding: 
         patch[root] = id;
         queue.push_back(root as u32);
         while let Some(t) = queue.pop_front() {
-            for &(u, same) in &adj[t as usize] {
+            for &(u, same) in neighbours(t) {
                 // Neighbours agree when they traverse the shared edge in opposite directions.
                 let want = against[t as usize] ^ same;
                 if patch[u as usize] == u32::MAX {
