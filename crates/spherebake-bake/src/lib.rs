@@ -30,7 +30,6 @@ use serde::Serialize;
 use spherebake_fit::hierarchy::{build_hierarchy, hierarchy_stats, HierarchySettings};
 use spherebake_fit::{FitSettings, Method as FitMethod};
 use spherebake_format::{Metadata, SphbFile, Sphere};
-use spherebake_geom::bvh::TriangleBvh;
 use spherebake_geom::orient::outward_orientation;
 use spherebake_geom::winding::WindingNumber;
 use spherebake_geom::TopologyReport;
@@ -86,8 +85,8 @@ pub struct BakeReport {
     /// Surface sample statistics.
     pub samples: SampleSummary,
     /// Per-stage wall times, in pipeline order (fit sub-stages are prefixed by the fitter).
-    /// `topology` runs beside the winding-number build of `orient`, and `bvh` beside `fit`: each
-    /// reports its own time, so the sum can exceed the bake's wall time.
+    /// `topology` runs beside the winding-number build of `orient`: each reports its own time,
+    /// so the sum can exceed the bake's wall time.
     pub timings: Vec<StageTime>,
     /// The fitter's own sub-stages (they add up to the `fit` stage, roughly).
     pub fit_stages: Vec<StageTime>,
@@ -229,7 +228,9 @@ pub fn bake_imported(
     timings.push(StageTime { stage: "topology", seconds: topology_s });
     let t = Instant::now();
     let orientation = outward_orientation(positions, &triangles, &winding);
-    drop(winding);
+    // Its tree is the sample points' BVH too: the welded triangles are `mesh.triangles` in the
+    // same order with the same corners (the weld joins bit-identical positions, −0.0 as 0.0).
+    let bvh = winding.into_bvh();
     if orientation.flipped > 0 {
         warnings.push(format!("{} triangles face inward; oriented outward by the solid", orientation.flipped));
     }
@@ -240,12 +241,9 @@ pub fn bake_imported(
     // some patches is closed again.
     let oriented: Vec<[u32; 3]> =
         triangles.iter().zip(&orientation.flip).map(|(t, &flip)| if flip { [t[0], t[2], t[1]] } else { *t }).collect();
-    // The sample points' BVH (serial to build) needs only the mesh: it is built while the fit
-    // runs, each timed on its own.
-    let ((fitted, fit_s), (bvh, bvh_s)) = rayon::join(
-        || timed(|| fit_spheres(path, positions, &oriented, settings, progress)),
-        || timed(|| TriangleBvh::new(&mesh.positions, &mesh.triangles)),
-    );
+    let t = Instant::now();
+    let fitted = fit_spheres(path, positions, &oriented, settings, progress);
+    let fit_s = t.elapsed().as_secs_f64();
     let fitted = fitted?;
     timings.push(StageTime { stage: "fit", seconds: fit_s });
     let fit_stages: Vec<StageTime> =
@@ -289,7 +287,6 @@ pub fn bake_imported(
     let hstats = hierarchy_stats(&hierarchy, spheres);
     timings.push(StageTime { stage: "hierarchy", seconds: t.elapsed().as_secs_f64() });
 
-    timings.push(StageTime { stage: "bvh", seconds: bvh_s });
     progress(0.85);
 
     let t = Instant::now();

@@ -101,8 +101,9 @@ pub struct SampleStats {
 
 /// Places the surface samples of every sphere (see the module docs).
 ///
-/// `bvh` must be built on `mesh.positions` / `mesh.triangles` (the unwelded vertices, so the hit
-/// barycentrics index the vertex normals). `flip[t]` is true when triangle t's counter-clockwise
+/// `bvh` must be built on `mesh.triangles` in their order, over `mesh.positions` or over the
+/// welded ids and positions (the same corners; the hit barycentrics are applied to the
+/// unwelded vertices' normals). `flip[t]` is true when triangle t's counter-clockwise
 /// normal points inward ([`spherebake_geom::orient::outward_orientation`]). `spheres` are
 /// `[x, y, z, r]`, model space, the stored f32 values.
 ///
@@ -111,7 +112,7 @@ pub struct SampleStats {
 /// let welded = mesh.welded_triangles();
 /// let winding = WindingNumber::new(&mesh.welded_positions, &welded);
 /// let orient = outward_orientation(&mesh.welded_positions, &welded, &winding);
-/// let bvh = TriangleBvh::new(&mesh.positions, &mesh.triangles);
+/// let bvh = winding.into_bvh(); // or TriangleBvh::new(&mesh.positions, &mesh.triangles)
 /// let (samples, stats) = place_samples(&mesh, &bvh, &orient.flip, &spheres);
 /// ```
 pub fn place_samples(mesh: &Mesh, bvh: &TriangleBvh, flip: &[bool], spheres: &[[f32; 4]]) -> (Samples, SampleStats) {

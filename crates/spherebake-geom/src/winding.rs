@@ -205,6 +205,11 @@ impl WindingNumber {
         &self.bvh
     }
 
+    /// The BVH, the expansions dropped (for ray casts over the same triangles).
+    pub fn into_bvh(self) -> TriangleBvh {
+        self.bvh
+    }
+
     /// Fast hierarchical winding number at `p` (model space): ≈1 inside, ≈0 outside.
     pub fn eval(&self, p: DVec3) -> f64 {
         self.exps.eval(&self.bvh, p)
