@@ -765,11 +765,12 @@ fn clusters(pos: &[DVec3], triangles: &[[u32; 3]]) -> (Vec<Cluster>, Vec<u32>) {
         }
         m
     };
-    let mut keyed: Vec<(u32, u32)> = triangles.iter().enumerate().map(|(i, t)| (code(t), i as u32)).collect();
-    keyed.sort_unstable();
+    // (code, index) pairs are distinct: the parallel sort is the same whatever the threads.
+    let mut keyed: Vec<(u32, u32)> = triangles.par_iter().enumerate().map(|(i, t)| (code(t), i as u32)).collect();
+    keyed.par_sort_unstable();
     let order: Vec<u32> = keyed.into_iter().map(|(_, i)| i).collect();
     let runs = order
-        .chunks(CLUSTER_SIZE)
+        .par_chunks(CLUSTER_SIZE)
         .enumerate()
         .map(|(k, run)| {
             let (mut lo, mut hi) = (DVec3::INFINITY, DVec3::NEG_INFINITY);
@@ -816,17 +817,18 @@ impl<'a> Context<'a> {
         }
         let shared_triangles = count.iter().filter(|&&c| c >= 2).count();
 
-        let mut textured_without_uvs = 0;
-        let shade: Vec<TriShade> = mesh
+        // Per triangle, in parallel (an ordered collect): its shading terms, and whether it is
+        // textured without UVs.
+        let shaded: Vec<(TriShade, bool)> = mesh
             .triangles
-            .iter()
+            .par_iter()
             .enumerate()
             .map(|(t, tri)| {
                 let [a, b, c] = tri.map(|v| pos[v as usize]);
                 let n = (b - a).cross(c - a);
                 let area2 = n.length();
                 let normal = if area2 > 0.0 { n / area2 * orient[t] } else { DVec3::ZERO };
-                let mut texels_per_area = 0.0;
+                let (mut texels_per_area, mut without_uvs) = (0.0, false);
                 let mi = mesh.triangle_materials.get(t).map_or(usize::MAX, |&m| m as usize);
                 if let (Some(m), Some(Some(ti))) = (mesh.materials.get(mi), texture_of_material.get(mi)) {
                     let tr = m.base_color_texture.as_ref().expect("texture_of_material is Some");
@@ -844,12 +846,14 @@ impl<'a> Context<'a> {
                                     uv_area2 / area2 * scale * f64::from(tex.width) * f64::from(tex.height);
                             }
                         }
-                        None => textured_without_uvs += 1,
+                        None => without_uvs = true,
                     }
                 }
-                TriShade { normal, texels_per_area }
+                (TriShade { normal, texels_per_area }, without_uvs)
             })
             .collect();
+        let textured_without_uvs = shaded.iter().filter(|x| x.1).count();
+        let shade: Vec<TriShade> = shaded.into_iter().map(|x| x.0).collect();
         let (clusters, cluster_tris) = clusters(&pos, &mesh.triangles);
         Ok(Self {
             mesh,
