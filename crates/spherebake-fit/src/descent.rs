@@ -684,7 +684,7 @@ pub fn seam_points(
     let corners = |t: &[u32; 3]| [pos[t[0] as usize], pos[t[1] as usize], pos[t[2] as usize]];
     // Depth allowed to the triangles that need splitting, from the piece budget (fixed before
     // the parallel pass, so the result does not depend on the thread count).
-    let large = tris.iter().filter(|t| SEAM_GRID_MAX < wanted_divisions(&corners(t), spacing)).count();
+    let large = tris.par_iter().filter(|t| SEAM_GRID_MAX < wanted_divisions(&corners(t), spacing)).count();
     let mut depth = SEAM_MAX_DEPTH;
     while depth > 0 && large.saturating_mul(1 << (2 * depth)) > SEAM_PIECE_BUDGET {
         depth -= 1;

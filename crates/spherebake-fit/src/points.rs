@@ -188,12 +188,14 @@ fn grid_points(m: usize) -> usize {
 pub fn grid_plan(
     positions: &[DVec3],
     triangles: &[[u32; 3]],
-    want: impl Fn(f64) -> usize,
+    want: impl Fn(f64) -> usize + Sync,
     min: usize,
     budget: usize,
 ) -> Vec<usize> {
+    // Per triangle in parallel (an ordered collect of a pure function; the total is an
+    // integer sum): the same plan whatever the thread count.
     let mut ms: Vec<usize> = triangles
-        .iter()
+        .par_iter()
         .map(|t| {
             let (a, b, c) = (positions[t[0] as usize], positions[t[1] as usize], positions[t[2] as usize]);
             let l = (b - a).length().max((c - b).length()).max((a - c).length());
@@ -206,12 +208,10 @@ pub fn grid_plan(
             m.min(cap.max(min))
         })
         .collect();
-    let total: usize = ms.iter().map(|&m| grid_points(m)).sum();
+    let total: usize = ms.par_iter().map(|&m| grid_points(m)).sum();
     if total > budget {
         let f = (budget as f64 / total as f64).sqrt();
-        for m in &mut ms {
-            *m = ((*m as f64 * f).floor() as usize).max(min);
-        }
+        ms.par_iter_mut().for_each(|m| *m = ((*m as f64 * f).floor() as usize).max(min));
     }
     ms
 }
