@@ -713,29 +713,43 @@ fn run_once(prep: &Prepared, pts: &points::PointSet, settings: &FitSettings, k: 
 /// triangles + grid points), the grid held to `points::GRID_BUDGET` points; skipped (no
 /// points) when the plan has no polish rounds.
 fn dense_points(prep: &Prepared, pts: &points::PointSet, plan: &FitPlan) -> Vec<points::Rep> {
-    let mut all: Vec<points::Rep> = Vec::with_capacity(prep.pos.len() + 2 * prep.tris.len() + pts.points.len());
-    let mut used = vec![false; prep.pos.len()];
     let (f, cap) = (plan.dense_points_per_spacing, plan.dense_grid_cap as f64);
     let grid =
         points::grid_plan(&prep.pos, &prep.tris, |l| (f * l / pts.h).ceil().min(cap) as usize, 0, points::GRID_BUDGET);
-    for (t, &m) in prep.tris.iter().zip(&grid) {
-        for &v in t {
-            if !used[v as usize] {
-                used[v as usize] = true;
-                all.push(points::Rep::point(prep.pos[v as usize]));
+    // Which corners each triangle is the first (in mesh order) to use, one bit per corner.
+    let mut used = vec![false; prep.pos.len()];
+    let first_use: Vec<u8> = prep
+        .tris
+        .iter()
+        .map(|t| {
+            let mut mask = 0u8;
+            for (k, &v) in t.iter().enumerate() {
+                if !std::mem::replace(&mut used[v as usize], true) {
+                    mask |= 1 << k;
+                }
             }
-        }
-        let (a, b, c) = (prep.pos[t[0] as usize], prep.pos[t[1] as usize], prep.pos[t[2] as usize]);
-        all.push(points::Rep::point((a + b + c) / 3.0));
-        for (x, y, px, py) in [(t[0], t[1], a, b), (t[1], t[2], b, c), (t[2], t[0], c, a)] {
-            if x < y {
-                all.push(points::Rep::point((px + py) * 0.5));
-            }
-        }
-        if m > 1 {
-            all.extend(triangle_grid(a, b, c, m).map(|(_, _, p)| points::Rep::point(p)));
-        }
-    }
+            mask
+        })
+        .collect();
+    drop(used);
+    // Per triangle, in mesh order (an ordered parallel collect): its first-used corners, the
+    // centroid, the midpoints of the edges it lists low → high, the grid.
+    let mut all: Vec<points::Rep> = prep
+        .tris
+        .par_iter()
+        .zip(&grid)
+        .zip(&first_use)
+        .flat_map_iter(|((t, &m), &mask)| {
+            let [a, b, c] = t.map(|v| prep.pos[v as usize]);
+            let corners = [a, b, c].into_iter().enumerate().filter(move |(k, _)| mask >> k & 1 == 1).map(|(_, p)| p);
+            let mids = [(t[0], t[1], a, b), (t[1], t[2], b, c), (t[2], t[0], c, a)]
+                .into_iter()
+                .filter(|(x, y, _, _)| x < y)
+                .map(|(_, _, px, py)| (px + py) * 0.5);
+            let grid = (m > 1).then(|| triangle_grid(a, b, c, m).map(|(_, _, p)| p)).into_iter().flatten();
+            corners.chain(std::iter::once((a + b + c) / 3.0)).chain(mids).chain(grid).map(points::Rep::point)
+        })
+        .collect();
     thin_surface(&mut all, |r| r.p, prep, plan);
     all.extend(pts.points[pts.surface_count..].iter().map(|p| points::Rep::point(*p)));
     all

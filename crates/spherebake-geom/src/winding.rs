@@ -23,6 +23,7 @@
 
 use crate::bvh::TriangleBvh;
 use glam::{DVec3, Vec3};
+use rayon::prelude::*;
 use std::f64::consts::PI;
 
 /// Opening criterion: a node is approximated when |q − p̃| > BETA · r.
@@ -127,22 +128,31 @@ impl Expansions {
             return Expansions(Vec::new());
         }
         let g = (nodes[0].min + nodes[0].max) * 0.5;
-        let mut raws = vec![Raw::default(); nodes.len()];
+        // Leaves from their triangles (in parallel, each summed in its own order), then the
+        // inner nodes in reverse order: the same sums whatever the thread count.
+        let mut raws: Vec<Raw> = nodes
+            .par_iter()
+            .map(|n| {
+                let mut r = Raw::default();
+                if n.is_leaf() {
+                    for &t in &bvh.prims[n.first as usize..(n.first + n.count) as usize] {
+                        r.add(&Raw::of_triangle(&bvh.tris[t as usize], g));
+                    }
+                }
+                r
+            })
+            .collect();
         for i in (0..nodes.len()).rev() {
             let n = nodes[i];
-            let mut r = Raw::default();
-            if n.is_leaf() {
-                for &t in &bvh.prims[n.first as usize..(n.first + n.count) as usize] {
-                    r.add(&Raw::of_triangle(&bvh.tris[t as usize], g));
-                }
-            } else {
-                r = raws[n.first as usize];
+            if !n.is_leaf() {
+                let mut r = raws[n.first as usize];
                 let right = raws[n.first as usize + 1];
                 r.add(&right);
+                raws[i] = r;
             }
-            raws[i] = r;
         }
         let exps = (0..nodes.len())
+            .into_par_iter()
             .map(|i| {
                 let n = nodes[i];
                 let raw = &raws[i];
