@@ -242,10 +242,8 @@ pub fn bake_imported(
     let oriented: Vec<[u32; 3]> =
         triangles.iter().zip(&orientation.flip).map(|(t, &flip)| if flip { [t[0], t[2], t[1]] } else { *t }).collect();
     let t = Instant::now();
-    let fitted = fit_spheres(path, positions, &oriented, settings, progress);
-    let fit_s = t.elapsed().as_secs_f64();
-    let fitted = fitted?;
-    timings.push(StageTime { stage: "fit", seconds: fit_s });
+    let fitted = fit_spheres(path, positions, &oriented, settings, progress)?;
+    timings.push(StageTime { stage: "fit", seconds: t.elapsed().as_secs_f64() });
     let fit_stages: Vec<StageTime> =
         fitted.stage_timings.iter().map(|(stage, seconds)| StageTime { stage, seconds: *seconds }).collect();
     let fit_trace = fitted.trace;
