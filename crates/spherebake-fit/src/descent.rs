@@ -673,6 +673,20 @@ pub fn seam_points(
     spacing: f64,
     max_points: usize,
 ) -> Vec<DVec3> {
+    surface_points_near_seams(spheres, pos, tris, spacing, None, max_points)
+}
+
+/// The seam search of [`seam_points`], also keeping (`band` = `Some(w)`) the grid points
+/// within `w` of a sphere's surface on the triangles that no single sphere contains with
+/// margin `w`: the points where a sphere's boundary crosses the surface, at the seam spacing.
+pub fn surface_points_near_seams(
+    spheres: &[(DVec3, f64)],
+    pos: &[DVec3],
+    tris: &[[u32; 3]],
+    spacing: f64,
+    band: Option<f64>,
+    max_points: usize,
+) -> Vec<DVec3> {
     use rayon::prelude::*;
     let plan = crate::points::grid_plan(
         pos,
@@ -682,6 +696,7 @@ pub fn seam_points(
         crate::points::GRID_BUDGET,
     );
     let corners = |t: &[u32; 3]| [pos[t[0] as usize], pos[t[1] as usize], pos[t[2] as usize]];
+    let w = band.unwrap_or(0.0);
     // Depth allowed to the triangles that need splitting, from the piece budget (fixed before
     // the parallel pass, so the result does not depend on the thread count).
     let large = tris.par_iter().filter(|t| SEAM_GRID_MAX < wanted_divisions(&corners(t), spacing)).count();
@@ -695,14 +710,14 @@ pub fn seam_points(
         .flat_map_iter(|(t, &m)| {
             let t = corners(t);
             let mut out = Vec::new();
-            if spheres.iter().any(|s| t.iter().all(|p| inside(*p, s))) {
+            if spheres.iter().any(|s| t.iter().all(|p| inside_by(*p, s, w))) {
                 return out;
             }
-            let near = meeting_box(spheres, &t);
+            let near = meeting_box(spheres, &t, w);
             if wanted_divisions(&t, spacing) <= SEAM_GRID_MAX {
-                grid_outside(t, m, &near, &mut out);
+                grid_keep(t, m, &near, band, &mut out);
             } else {
-                seam_piece(t, &near, spacing, depth, &mut out);
+                seam_piece(t, &near, spacing, band, depth, &mut out);
             }
             out
         })
@@ -721,15 +736,27 @@ fn inside(p: DVec3, s: &(DVec3, f64)) -> bool {
     p.distance_squared(s.0) <= s.1 * s.1
 }
 
-/// The balls of `balls` that meet the bounding box of `t`.
-fn meeting_box(balls: &[(DVec3, f64)], t: &[DVec3; 3]) -> Vec<(DVec3, f64)> {
-    let (lo, hi) = (t[0].min(t[1]).min(t[2]), t[0].max(t[1]).max(t[2]));
+/// `p` lies in `s` at least `w` from its surface (`w` = 0: [`inside`]).
+#[inline]
+fn inside_by(p: DVec3, s: &(DVec3, f64), w: f64) -> bool {
+    let r = s.1 - w;
+    r >= 0.0 && p.distance_squared(s.0) <= r * r
+}
+
+/// The balls of `balls` that meet the bounding box of `t` grown by `w`.
+fn meeting_box(balls: &[(DVec3, f64)], t: &[DVec3; 3], w: f64) -> Vec<(DVec3, f64)> {
+    let (lo, hi) = (t[0].min(t[1]).min(t[2]) - w, t[0].max(t[1]).max(t[2]) + w);
     balls.iter().copied().filter(|s| s.0.clamp(lo, hi).distance_squared(s.0) <= s.1 * s.1).collect()
 }
 
-/// The points of `t`'s barycentric grid with `m` divisions that no ball of `near` holds.
-fn grid_outside(t: [DVec3; 3], m: usize, near: &[(DVec3, f64)], out: &mut Vec<DVec3>) {
-    out.extend(triangle_grid(t[0], t[1], t[2], m).map(|(_, _, p)| p).filter(|p| !near.iter().any(|s| inside(*p, s))));
+/// The points of `t`'s barycentric grid with `m` divisions that no ball of `near` holds, and
+/// with `band` = `Some(w)` also those within `w` of a ball's surface.
+fn grid_keep(t: [DVec3; 3], m: usize, near: &[(DVec3, f64)], band: Option<f64>, out: &mut Vec<DVec3>) {
+    let keep = |p: &DVec3| match band {
+        None => !near.iter().any(|s| inside(*p, s)),
+        Some(w) => !near.iter().any(|s| inside(*p, s)) || near.iter().any(|s| (p.distance(s.0) - s.1).abs() <= w),
+    };
+    out.extend(triangle_grid(t[0], t[1], t[2], m).map(|(_, _, p)| p).filter(keep));
 }
 
 /// Divisions per edge a piece needs for the seam spacing (NaN and overflow give 0).
@@ -744,19 +771,27 @@ fn wanted_divisions(t: &[DVec3; 3], spacing: f64) -> usize {
 }
 
 /// The seam search on one piece of a large triangle (see [`seam_points`]).
-fn seam_piece(t: [DVec3; 3], near: &[(DVec3, f64)], spacing: f64, depth: usize, out: &mut Vec<DVec3>) {
-    if near.iter().any(|s| t.iter().all(|p| inside(*p, s))) {
+fn seam_piece(
+    t: [DVec3; 3],
+    near: &[(DVec3, f64)],
+    spacing: f64,
+    band: Option<f64>,
+    depth: usize,
+    out: &mut Vec<DVec3>,
+) {
+    let w = band.unwrap_or(0.0);
+    if near.iter().any(|s| t.iter().all(|p| inside_by(*p, s, w))) {
         return;
     }
     let want = wanted_divisions(&t, spacing);
     if want <= SEAM_GRID_MAX || depth == 0 {
-        grid_outside(t, want.clamp(SEAM_GRID, SEAM_GRID_MAX), near, out);
+        grid_keep(t, want.clamp(SEAM_GRID, SEAM_GRID_MAX), near, band, out);
         return;
     }
     let mid = [(t[0] + t[1]) * 0.5, (t[1] + t[2]) * 0.5, (t[2] + t[0]) * 0.5];
-    let sub = meeting_box(near, &t);
+    let sub = meeting_box(near, &t, w);
     for piece in [[t[0], mid[0], mid[2]], [mid[0], t[1], mid[1]], [mid[2], mid[1], t[2]], [mid[0], mid[1], mid[2]]] {
-        seam_piece(piece, &sub, spacing, depth - 1, out);
+        seam_piece(piece, &sub, spacing, band, depth - 1, out);
     }
 }
 
@@ -1043,5 +1078,59 @@ mod tests {
             let (lo, hi) = (0.5 * band as f64, 0.5 * (band + 1) as f64);
             assert!(few.iter().any(|p| p.y >= lo && p.y <= hi), "capped: no seam point with {lo} ≤ y ≤ {hi}");
         }
+    }
+
+    #[test]
+    fn band_points_are_the_seam_points_and_the_grid_points_near_a_sphere_surface() {
+        // A 4 × 1 strip (two triangles, at most 41 divisions per edge at spacing 0.1, so no
+        // triangle is split) and three spheres: two crossing it with a gap between them, one
+        // holding a corner. Reference: every grid point of every triangle that no sphere holds
+        // with margin w, kept when it is outside every sphere or within w of some sphere's
+        // surface, scanning all spheres (the search asks only those near each triangle).
+        let pos = vec![DVec3::ZERO, DVec3::X * 4.0, DVec3::new(4.0, 1.0, 0.0), DVec3::Y];
+        let tris = vec![[0, 1, 2], [0, 2, 3]];
+        let spheres = vec![
+            (DVec3::new(0.5, 0.5, 0.3), 1.4),
+            (DVec3::new(3.5, 0.5, -0.2), 1.35),
+            (DVec3::new(4.0, 1.0, 0.0), 0.4),
+        ];
+        let (spacing, w) = (0.1, 0.15);
+        let sp = &spheres;
+        let reference: Vec<DVec3> = tris
+            .iter()
+            .flat_map(|t| {
+                let c = [pos[t[0] as usize], pos[t[1] as usize], pos[t[2] as usize]];
+                let held = sp.iter().any(|s| c.iter().all(|p| p.distance(s.0) <= s.1 - w));
+                let l = (c[1] - c[0]).length().max((c[2] - c[1]).length()).max((c[0] - c[2]).length());
+                let m = grid_divisions(l, spacing, SEAM_GRID);
+                triangle_grid(c[0], c[1], c[2], m).map(|(_, _, p)| p).filter(move |p| {
+                    !held
+                        && (sp.iter().all(|s| p.distance(s.0) > s.1)
+                            || sp.iter().any(|s| (p.distance(s.0) - s.1).abs() <= w))
+                })
+            })
+            .collect();
+        let band = surface_points_near_seams(&spheres, &pos, &tris, spacing, Some(w), usize::MAX);
+        assert_eq!(band, reference);
+        // The band holds the seam points and more: points inside a sphere near its surface.
+        let seam = seam_points(&spheres, &pos, &tris, spacing, usize::MAX);
+        assert!(!seam.is_empty() && seam.iter().all(|p| band.contains(p)));
+        let inside_near = band.iter().filter(|p| spheres.iter().any(|s| p.distance(s.0) <= s.1)).count();
+        assert!(inside_near > seam.len(), "{inside_near} band points inside a sphere, {} seam points", seam.len());
+        // No band point lies deeper than w inside every sphere holding it.
+        for p in &band {
+            assert!(
+                spheres.iter().any(|s| (p.distance(s.0) - s.1).abs() <= w)
+                    || spheres.iter().all(|s| p.distance(s.0) > s.1),
+                "{p}"
+            );
+        }
+        // A sphere holding the whole strip with margin: no band point.
+        assert!(surface_points_near_seams(&[(DVec3::new(2.0, 0.5, 0.0), 3.0)], &pos, &tris, spacing, Some(w), 99)
+            .is_empty());
+        // Capped to the cap, a subset.
+        let few = surface_points_near_seams(&spheres, &pos, &tris, spacing, Some(w), 50);
+        assert_eq!(few.len(), 50);
+        assert!(few.iter().all(|p| band.contains(p)));
     }
 }

@@ -28,7 +28,10 @@
 //!    it covers (monotone), split/delete trials under a deterministic work budget;
 //! 6. **seam rounds**: the uncovered surface points between vertices join the descent points
 //!    (triangles too large for one grid are split where no single sphere holds them) and the
-//!    descent runs again;
+//!    descent runs again; then the **band** (stage 6b): the surface grid points at the seam
+//!    spacing near each sphere's surface join the descent points and Gauss–Seidel sweeps (no
+//!    trials) run once more, so the gaps the bounding pass closes are a seam spacing wide
+//!    ([`FitPlan::band_sweeps`]);
 //! 7. **bound** ([`bound`]): rounding to f32 and growing until exactly bounding, the sphere
 //!    with the least weighted growth (volume × outside share of a thin shell) first;
 //! 8. **exact E** of the stored spheres.
@@ -566,17 +569,18 @@ pub struct TraceEntry {
     /// The seed of this run (`FitSettings::seed`, or a derived one for the restarts of
     /// [`FitPlan::restarts`]).
     pub seed: u64,
-    /// `dense_points`, `lloyd`, `lattice_start`, `polish`, `descent_points`, `descent`, `seam`, `bound`,
-    /// `exact_e`; the baselines record `kmeans` or `octree`, then `bound` and `exact_e`.
+    /// `dense_points`, `lloyd`, `lattice_start`, `polish`, `descent_points`, `descent`, `seam`, `band`,
+    /// `bound`, `exact_e`; the baselines record `kmeans` or `octree`, then `bound` and `exact_e`.
     pub stage: &'static str,
     /// Seam round (1, 2, ...) for `seam`, else 0.
     pub round: usize,
     /// Proxy E (voxel proxy outside volume over the solid's volume) of the spheres after the
     /// stage; `None` for the point stages. After `exact_e`: the exact E of the part.
     pub e: Option<f64>,
-    /// Points the stage built (point stages) or worked on (descent, seam), else 0.
+    /// Points the stage built (point stages) or worked on (descent, seam), the band points it
+    /// added (band), else 0.
     pub points: usize,
-    /// Lloyd iterations (lloyd), rounds (polish), Gauss–Seidel sweeps (descent, seam).
+    /// Lloyd iterations (lloyd), rounds (polish), Gauss–Seidel sweeps (descent, seam, band).
     pub iterations: usize,
     /// Trials tried: teleportations (lloyd), split/delete trials (descent, seam).
     pub trials: usize,
@@ -679,6 +683,15 @@ fn run_once(prep: &Prepared, pts: &points::PointSet, settings: &FitSettings, k: 
                     x.work = d.work;
                 });
             }
+            if plan.band_sweeps > 0 {
+                let (n, d) = band_stage(prep, &dpts, &mut sp, plan);
+                tr.record("band", Some(proxy_e_of(solid, &sp)), |x| {
+                    x.points = n;
+                    x.iterations = d.sweeps;
+                    x.work = d.work;
+                });
+            }
+            drop(dpts);
             (sp, out.iterations, (out.teleports_accepted, out.teleports_tried), history)
         }
         Method::Kmeans => {
@@ -899,6 +912,46 @@ fn seam_round(
         work_budget: plan.seam_work_budget,
     };
     Some(descent::exclusive_descent(&prep.solid, dpts, sp, &opts))
+}
+
+/// Band points the band stage adds at most, as a multiple of the descent points (more are
+/// thinned evenly in the order found).
+const BAND_MAX_SHARE: f64 = 4.0;
+
+/// Stage 6b, band: the descent points alone let a sphere's boundary cross the surface anywhere
+/// between two of them, and on such a crossing between two spheres the points both miss form
+/// a gap as wide as the point spacing, which the bounding pass then closes by growing a whole
+/// sphere. So the grid points at the seam spacing (`plan.seam_spacing_cells`) within
+/// `plan.band_width_cells` of a sphere's surface, on the triangles no sphere holds with that
+/// margin, join the descent points, and Gauss–Seidel sweeps (no split/delete trials) move the
+/// spheres once more: the gaps left are a seam spacing wide, not a descent spacing. Measured at
+/// 64 spheres (exact E, seed 1): bunny 0.2393 → 0.2325, armadillo 0.4159 → 0.4106, spot
+/// 0.1714 → 0.1674, Duck 0.1119 → 0.1109, unit cube 0.3813 → 0.3790, capsule 0.0721 →
+/// 0.0719, for about 5 % more CPU. Returns (band points, sweep statistics). Cost: the band
+/// search O(triangles × nearby spheres + grid points), at most [`BAND_MAX_SHARE`] × the
+/// descent points, then the sweeps of stage 5.
+fn band_stage(
+    prep: &Prepared,
+    dpts: &[DVec3],
+    sp: &mut [(DVec3, f64)],
+    plan: &FitPlan,
+) -> (usize, descent::DescentStats) {
+    let h = prep.solid.h;
+    let max_points = (BAND_MAX_SHARE * dpts.len() as f64) as usize;
+    let band = descent::surface_points_near_seams(
+        sp,
+        &prep.pos,
+        &prep.tris,
+        plan.seam_spacing_cells * h,
+        Some(plan.band_width_cells * h),
+        max_points,
+    );
+    let n = band.len();
+    let mut all = Vec::with_capacity(dpts.len() + n);
+    all.extend_from_slice(dpts);
+    all.extend(band);
+    let opts = descent::Options { sweeps: plan.band_sweeps, trials: 0, max_fails: 1, work_budget: 0 };
+    (n, descent::exclusive_descent(&prep.solid, &all, sp, &opts))
 }
 
 /// How far any point of T can be from a covered point, as a multiple of the interior lattice

@@ -2,8 +2,8 @@
 //! with the presets [`FitPlan::fast`], [`FitPlan::default`] and [`FitPlan::best`].
 //!
 //! The stages these knobs drive, in order (see `run_once` in the crate root): dense points,
-//! Lloyd (+ teleportation), polish, descent points, exclusive descent, seam rounds, bound,
-//! exact E. Every budget counts work, not time, so a plan gives the same spheres on any machine
+//! Lloyd (+ teleportation), polish, descent points, exclusive descent, seam rounds, band,
+//! bound, exact E. Every budget counts work, not time, so a plan gives the same spheres on any machine
 //! and for any thread count.
 
 use crate::FitError;
@@ -134,6 +134,16 @@ pub struct FitPlan {
     /// Work budget of each seam round's trials (as `descent_work_budget`). Range ≤ 10¹².
     pub seam_work_budget: u64,
 
+    // --- band ---
+    /// Gauss–Seidel sweeps of the band stage at most (0: no band stage). After the seam
+    /// rounds, the surface grid points at the seam spacing within `band_width_cells` of a
+    /// sphere's surface join the descent points and the spheres are swept once more (no
+    /// trials), so the gaps the bounding pass must close are a seam spacing wide, not a descent
+    /// spacing. Range 0..=100.
+    pub band_sweeps: usize,
+    /// Half-width of the band around each sphere's surface, in voxel cells. Range (0, 64].
+    pub band_width_cells: f64,
+
     // --- bound ---
     /// The bounding pass grows the sphere with the least weighted growth; a sphere's weight
     /// is the outside share of a one-cell shell around it, clamped to [this, 1] so a sphere
@@ -182,6 +192,8 @@ impl Default for FitPlan {
             seam_trials: 16,
             seam_max_fails: 3,
             seam_work_budget: 15_000_000,
+            band_sweeps: 8,
+            band_width_cells: 1.0,
             bound_weight_min: 0.02,
             target_start: 8,
             target_max_spheres: 1024,
@@ -211,6 +223,7 @@ impl FitPlan {
             seam_trials: 4,
             seam_max_fails: 2,
             seam_work_budget: 4_000_000,
+            band_sweeps: 4,
             ..Self::default()
         }
     }
@@ -255,6 +268,8 @@ impl FitPlan {
         range("seam_trials", self.seam_trials, 0, 1000, "0..=1000")?;
         range("seam_max_fails", self.seam_max_fails, 1, 1000, "1..=1000")?;
         range("seam_work_budget", self.seam_work_budget, 0, 1_000_000_000_000, "0..=1e12")?;
+        range("band_sweeps", self.band_sweeps, 0, 100, "0..=100")?;
+        positive("band_width_cells", self.band_width_cells, 64.0, "(0, 64]")?;
         range("bound_weight_min", self.bound_weight_min, 0.0, 1.0, "[0, 1]")?;
         range("target_start", self.target_start, 1, 4096, "1..=4096")?;
         range("target_max_spheres", self.target_max_spheres, 1, 4096, "1..=4096")?;
@@ -288,6 +303,7 @@ mod tests {
                 p.seam_rounds as u64,
                 p.seam_trials as u64,
                 p.seam_work_budget,
+                p.band_sweeps as u64,
             ]
         };
         let (wf, wd, wb) = (work(&f), work(&d), work(&b));
