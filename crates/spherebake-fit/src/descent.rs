@@ -678,7 +678,9 @@ pub fn seam_points(
 
 /// The seam search of [`seam_points`], also keeping (`band` = `Some(w)`) the grid points
 /// within `w` of a sphere's surface on the triangles that no single sphere contains with
-/// margin `w`: the points where a sphere's boundary crosses the surface, at the seam spacing.
+/// margin `w`: the points where a sphere's boundary crosses the surface, at the seam spacing
+/// (with a band, a triangle gets the divisions the spacing asks for, at least one, not
+/// [`SEAM_GRID`]).
 pub fn surface_points_near_seams(
     spheres: &[(DVec3, f64)],
     pos: &[DVec3],
@@ -688,13 +690,12 @@ pub fn surface_points_near_seams(
     max_points: usize,
 ) -> Vec<DVec3> {
     use rayon::prelude::*;
-    let plan = crate::points::grid_plan(
-        pos,
-        tris,
-        |l| grid_divisions(l, spacing, SEAM_GRID),
-        SEAM_GRID,
-        crate::points::GRID_BUDGET,
-    );
+    // The seam search grids even small triangles finely (narrow gaps hide inside them); the
+    // band wants the spacing only, so a triangle smaller than it keeps just its corners (a
+    // mesh finer than the grid would otherwise give tens of points per triangle).
+    let min = if band.is_some() { 1 } else { SEAM_GRID };
+    let plan =
+        crate::points::grid_plan(pos, tris, |l| grid_divisions(l, spacing, min), min, crate::points::GRID_BUDGET);
     let corners = |t: &[u32; 3]| [pos[t[0] as usize], pos[t[1] as usize], pos[t[2] as usize]];
     let w = band.unwrap_or(0.0);
     // Depth allowed to the triangles that need splitting, from the piece budget (fixed before
@@ -1102,7 +1103,7 @@ mod tests {
                 let c = [pos[t[0] as usize], pos[t[1] as usize], pos[t[2] as usize]];
                 let held = sp.iter().any(|s| c.iter().all(|p| p.distance(s.0) <= s.1 - w));
                 let l = (c[1] - c[0]).length().max((c[2] - c[1]).length()).max((c[0] - c[2]).length());
-                let m = grid_divisions(l, spacing, SEAM_GRID);
+                let m = grid_divisions(l, spacing, 1);
                 triangle_grid(c[0], c[1], c[2], m).map(|(_, _, p)| p).filter(move |p| {
                     !held
                         && (sp.iter().all(|s| p.distance(s.0) > s.1)

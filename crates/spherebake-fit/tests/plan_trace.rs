@@ -247,9 +247,9 @@ fn the_band_stage_narrows_what_the_bounding_pass_adds_on_the_bunny() {
     // The bunny at 64 spheres, the default plan with and without the band stage (the same run
     // up to the seam rounds). Without it the last seam round's moves leave gaps between
     // descent points that the bounding pass closes by growing whole spheres; measured (seed
-    // 1, this loader): the bound added 0.0071 to E without the band and 0.0055 with it, and
-    // exact E fell 0.2383 → 0.2370 (seeds 2–4: 0.2424 → 0.2406, 0.2497 → 0.2476,
-    // 0.2437 → 0.2398).
+    // 1, this loader): the bound added 0.0071 to E without the band and 0.0051 with it, and
+    // exact E fell 0.2383 → 0.2367 (seeds 2–4: 0.2424 → 0.2398, 0.2497 → 0.2471,
+    // 0.2437 → 0.2391).
     let Some(path) = spherebake_testkit::shared_model("obj/stanford-bunny.obj") else { return };
     let (p, t) = obj::load_obj(path.to_str().expect("UTF-8 path"));
     let run = |band_sweeps: usize| {
@@ -268,7 +268,7 @@ fn the_band_stage_narrows_what_the_bounding_pass_adds_on_the_bunny() {
     assert!(a_with < 0.85 * a_without, "bound added {a_with:.4} after the band, {a_without:.4} without");
     let (e_with, e_without) = (with.stats.outside_ratio_e, without.stats.outside_ratio_e);
     assert!(e_with < e_without, "E {e_with:.4} with the band, {e_without:.4} without");
-    assert!(e_with <= 0.2370 * 1.01, "E {e_with:.4}");
+    assert!(e_with <= 0.2367 * 1.01, "E {e_with:.4}");
     // The band stage added points and swept; it ran no trial.
     let b = with.stats.trace.iter().find(|e| e.stage == "band").expect("band traced");
     assert!(b.points > 0 && b.iterations >= 1 && b.trials == 0, "{b:?}");
