@@ -79,7 +79,8 @@ pub struct FitPlan {
     /// [`FitPlan::point_cell`] cube. Sets below it (every shared test model's: at most
     /// 280 000 dense and 112 000 descent points at 64 spheres) are kept whole, since thinning
     /// them saves little and moves the result within its seed-to-seed spread; the bunny
-    /// subdivided to 1.1 M triangles has 3.4 M dense and 574 000 descent points. Range ≥ 1.
+    /// subdivided to 1.1 M triangles has 3.4 M dense and 574 000 descent points. The band
+    /// stage keeps at most this many band points too. Range ≥ 1.
     pub point_budget: usize,
 
     // --- Lloyd ---
