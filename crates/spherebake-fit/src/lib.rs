@@ -684,7 +684,7 @@ fn run_once(prep: &Prepared, pts: &points::PointSet, settings: &FitSettings, k: 
                 });
             }
             if plan.band_sweeps > 0 {
-                let (n, d) = band_stage(prep, &dpts, &mut sp, plan);
+                let (n, d) = band_stage(prep, &mut dpts, &mut sp, plan);
                 tr.record("band", Some(proxy_e_of(solid, &sp)), |x| {
                     x.points = n;
                     x.iterations = d.sweeps;
@@ -936,7 +936,7 @@ const BAND_MAX_SHARE: f64 = 4.0;
 /// 400 000 instead of 770 000, E 0.2286 against 0.2285), then the sweeps of stage 5.
 fn band_stage(
     prep: &Prepared,
-    dpts: &[DVec3],
+    dpts: &mut Vec<DVec3>,
     sp: &mut [(DVec3, f64)],
     plan: &FitPlan,
 ) -> (usize, descent::DescentStats) {
@@ -951,11 +951,10 @@ fn band_stage(
         max_points,
     );
     let n = band.len();
-    let mut all = Vec::with_capacity(dpts.len() + n);
-    all.extend_from_slice(dpts);
-    all.extend(band);
+    // The descent points are not read after this stage: the band joins them in place.
+    dpts.extend(band);
     let opts = descent::Options { sweeps: plan.band_sweeps, trials: 0, max_fails: 1, work_budget: 0 };
-    (n, descent::exclusive_descent(&prep.solid, &all, sp, &opts))
+    (n, descent::exclusive_descent(&prep.solid, dpts, sp, &opts))
 }
 
 /// How far any point of T can be from a covered point, as a multiple of the interior lattice
