@@ -641,7 +641,14 @@ fn uncovered_directions_take_the_segment_mean_so_a_one_colour_segment_stays_one_
     let worst = |fill: bool| -> f64 {
         let s = AlbedoSettings { fill_uncovered: fill, ..settings(4, 32) };
         let (sh, stats) = bake_albedo(&mesh, &flip, &spheres, &s).unwrap();
-        assert!(stats.texels_rule2 > 0, "each sphere must see the other's half");
+        if fill {
+            // One colour: known from the segments alone (the other half is not drawn).
+            assert_eq!(stats.one_colour_spheres, 2, "{stats:?}");
+            assert!(stats.texels_unclassified > 0 && stats.texels_rule2 == 0, "{stats:?}");
+        } else {
+            assert!(stats.texels_rule2 > 0, "each sphere must see the other's half");
+            assert_eq!(stats.one_colour_spheres, 0);
+        }
         let nc = coeff_count(4);
         let mut y = vec![0.0; nc];
         let mut worst = 0.0f64;
@@ -674,4 +681,57 @@ fn uncovered_directions_take_the_segment_mean_so_a_one_colour_segment_stays_one_
     let (filled, zero) = (worst(true), worst(false));
     assert!(filled < 2e-3, "filled: worst relative colour error on the own half {filled}");
     assert!(zero > 0.1, "left 0, the split should darken the own half near it (worst {zero})");
+}
+
+#[test]
+fn a_one_colour_mesh_skips_the_coverage_pass_and_bakes_what_the_full_render_gives() {
+    // The reference: every cube map rendered in full without the fill (`render_albedo_cubemaps`),
+    // its uncovered (zero) texels set to its covered texels' colour when it has any, projected by
+    // `project_cubemaps`. Spheres: the two halves of a unit sphere (rule 1 texels: the shortcut),
+    // a small sphere whose centre lies outside the surface above it (its cap is seen through
+    // the centre, rule 3 only: rendered in full), and one of radius 0 (no segment: all 0).
+    let colour = [0.8f32, 0.6, 0.2];
+    let spheres = [[0.5f32, 0.0, 0.0, 1.2], [-0.5, 0.0, 0.0, 1.2], [0.0, 0.0, 1.3, 0.45], [0.0, 0.2, 0.0, 0.0]];
+    let reference = |mesh: &Mesh, flip: &[bool]| -> Vec<[f32; 3]> {
+        let s = AlbedoSettings { fill_uncovered: false, ..settings(4, 16) };
+        let (mut maps, _) = render_albedo_cubemaps(mesh, flip, &spheres, &s).unwrap();
+        for m in &mut maps {
+            if let Some(&c) = m.texels_linear.iter().find(|t| **t != [0.0; 3]) {
+                for t in m.texels_linear.iter_mut().filter(|t| **t == [0.0; 3]) {
+                    *t = c;
+                }
+            }
+        }
+        project_cubemaps(&maps, 4).unwrap().coefficients
+    };
+    let mut mesh = icosphere(3);
+    mesh.materials[0].base_color_factor_linear = [colour[0], colour[1], colour[2], 1.0];
+    // One colour also with a second material of the same factor and a constant COLOR_0.
+    mesh.materials.push(mesh.materials[0].clone());
+    for (t, m) in mesh.triangle_materials.iter_mut().enumerate() {
+        *m = (t % 2) as u32;
+    }
+    mesh.colors_linear = vec![[0.5, 1.0, 0.25, 0.3]; mesh.positions.len()];
+    let flip = vec![false; mesh.triangles.len()];
+    let (sh, stats) = bake_albedo(&mesh, &flip, &spheres, &settings(4, 16)).unwrap();
+    assert_eq!(stats.one_colour_spheres, 2, "{stats:?}");
+    assert!(stats.texels_rule3 > 0, "the outside sphere is rendered in full: {stats:?}");
+    let want = reference(&mesh, &flip);
+    let nc = coeff_count(4);
+    assert!(want[2 * nc][0] > 0.0 && want[3 * nc..].iter().flatten().all(|&v| v == 0.0));
+    for (q, (a, b)) in sh.coefficients.iter().zip(&want).enumerate() {
+        for k in 0..3 {
+            assert!((a[k] - b[k]).abs() <= 1e-6 * (1.0 + b[k].abs()), "coefficient {q}: {a:?} vs {b:?}");
+        }
+    }
+    // Not one colour: a vertex colour differs, or a factor does; every sphere is rendered in full.
+    let mut varied = mesh.clone();
+    varied.colors_linear[0][1] = 0.9;
+    let mut two = mesh.clone();
+    two.materials[1].base_color_factor_linear[2] = 0.3;
+    for m in [&varied, &two] {
+        let (_, stats) = bake_albedo(m, &flip, &spheres, &settings(4, 16)).unwrap();
+        assert_eq!((stats.one_colour_spheres, stats.texels_unclassified), (0, 0), "{stats:?}");
+        assert!(stats.texels_rule2 > 0, "the coverage pass ran: {stats:?}");
+    }
 }
