@@ -439,12 +439,53 @@ struct JobPlan {
     reason: String,
 }
 
-/// Estimated peak memory of one bake at `voxels` cells along the longest axis: the measured
-/// ~300 MB of a 1024³ cube (bit-packed solid and marks, run lists) plus a margin for the mesh,
-/// point sets and textures.
-fn bake_memory_estimate(voxels: u32) -> u64 {
+/// Estimated peak memory of one bake at `voxels` cells along the longest axis, of an asset whose
+/// files hold `input_bytes`: the measured ~300 MB of a 1024³ cube (bit-packed solid and marks,
+/// run lists), a 256 MiB margin, and [`BYTES_PER_INPUT_BYTE`] per byte of input for the mesh,
+/// its point sets and decoded textures.
+fn bake_memory_estimate(voxels: u32, input_bytes: u64) -> u64 {
     let cells = (voxels as u64).pow(3);
-    (256 << 20) + cells / 2
+    (256 << 20) + cells / 2 + input_bytes.saturating_mul(BYTES_PER_INPUT_BYTE)
+}
+
+/// Peak memory per byte of input beyond the fixed part of [`bake_memory_estimate`]. Measured
+/// at 64 spheres (peak RSS less that part, per input byte; 2026-12-03): the bunny subdivided
+/// to 1.1 M triangles (43 MB OBJ) 944 MB, ≈ 16; CesiumMilkTruck (447 kB GLB, JPEG-compressed
+/// textures decoded to linear f32 with mips) 203 MB (all of it within the fixed part);
+/// GlassHurricaneCandleHolder (3.4 MB GLB) 262 MB. Compressed textures can expand by far more
+/// than this, so the estimate bounds meshes better than texture-heavy assets.
+const BYTES_PER_INPUT_BYTE: u64 = 24;
+
+/// Bytes of the files an asset reads, as far as can be told before importing it: the file
+/// itself, and for `.gltf` the buffers and images its JSON names by a relative URI in its own
+/// folder (sizes only, read from the file system's metadata; data URIs are inside the JSON
+/// already; a JSON larger than 64 MiB or not parsable counts as itself alone).
+fn asset_bytes(input: &Path) -> u64 {
+    let own = std::fs::metadata(input).map_or(0, |m| m.len());
+    let is_gltf = input.extension().is_some_and(|e| e.eq_ignore_ascii_case("gltf"));
+    if !is_gltf || own > 64 << 20 {
+        return own;
+    }
+    let Some(json) = std::fs::read(input).ok().and_then(|b| serde_json::from_slice::<serde_json::Value>(&b).ok())
+    else {
+        return own;
+    };
+    let dir = input.parent().unwrap_or(Path::new(""));
+    let uris = ["buffers", "images"]
+        .iter()
+        .filter_map(|k| json.get(k).and_then(|v| v.as_array()))
+        .flatten()
+        .filter_map(|e| e.get("uri").and_then(|u| u.as_str()));
+    let mut total = own;
+    for uri in uris {
+        let rel = Path::new(uri);
+        let inside = !uri.contains(':')
+            && rel.components().all(|c| matches!(c, std::path::Component::Normal(_) | std::path::Component::CurDir));
+        if inside {
+            total = total.saturating_add(std::fs::metadata(dir.join(rel)).map_or(0, |m| m.len()));
+        }
+    }
+    total
 }
 
 /// Available memory (Linux `MemAvailable`), if known.
@@ -461,7 +502,8 @@ impl JobPlan {
             return JobPlan { jobs: n as usize, reason: "--jobs".into() };
         }
         let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
-        let per = jobs.iter().map(|j| bake_memory_estimate(j.settings.voxels)).max().unwrap_or(0);
+        let per =
+            jobs.iter().map(|j| bake_memory_estimate(j.settings.voxels, asset_bytes(&j.input))).max().unwrap_or(0);
         JobPlan::from_budget(cores, available_memory(), per)
     }
 
@@ -635,16 +677,47 @@ mod job_tests {
     fn the_default_is_one_bake_per_core_within_half_the_memory() {
         const MIB: u64 = 1 << 20;
         // 8 cores, 4 GiB free, 768 MiB per bake (--voxels 1024): 2048 / 768 = 2 at a time.
-        let p = JobPlan::from_budget(8, Some(4096 * MIB), bake_memory_estimate(1024));
-        assert_eq!(bake_memory_estimate(1024), 768 * MIB);
+        let p = JobPlan::from_budget(8, Some(4096 * MIB), bake_memory_estimate(1024, 0));
+        assert_eq!(bake_memory_estimate(1024, 0), 768 * MIB);
         assert_eq!(p.jobs, 2);
         assert_eq!(p.reason, "8 cores, limited by memory: 4096 MiB available, ~768 MiB per bake");
         // Plenty of memory: the cores decide.
-        let p = JobPlan::from_budget(2, Some(64 * 1024 * MIB), bake_memory_estimate(128));
+        let p = JobPlan::from_budget(2, Some(64 * 1024 * MIB), bake_memory_estimate(128, 0));
         assert_eq!(p.jobs, 2);
         assert!(p.reason.starts_with("2 cores, memory: 65536 MiB available"), "{}", p.reason);
         // Less than one bake's worth: still one.
         assert_eq!(JobPlan::from_budget(4, Some(100 * MIB), 768 * MIB).jobs, 1);
         assert_eq!(JobPlan::from_budget(3, None, 768 * MIB).reason, "3 cores, memory unknown");
+    }
+
+    #[test]
+    fn the_estimate_grows_with_the_asset_and_counts_a_gltf_s_own_files_only() {
+        const MIB: u64 = 1 << 20;
+        // The 1.1 M-triangle bunny (43 MB OBJ) peaked at 944 MB: the estimate must not be below.
+        assert!(bake_memory_estimate(128, 43_341_290) >= 944 * MIB);
+        // Twice the input, more memory; a large mesh lowers the number of bakes at a time.
+        assert!(bake_memory_estimate(128, 2 * MIB) < bake_memory_estimate(128, 4 * MIB));
+        let p = JobPlan::from_budget(8, Some(4096 * MIB), bake_memory_estimate(128, 43 * MIB));
+        assert!(p.jobs <= 2, "{}", p.reason);
+
+        let dir = tempfile::tempdir().unwrap();
+        let d = dir.path().join("asset");
+        std::fs::create_dir(&d).unwrap();
+        std::fs::write(d.join("mesh.bin"), vec![0u8; 1000]).unwrap();
+        std::fs::write(d.join("albedo.png"), vec![0u8; 300]).unwrap();
+        // Outside the asset's folder, an absolute path and a data URI: not counted.
+        std::fs::write(dir.path().join("outside.bin"), vec![0u8; 5000]).unwrap();
+        let abs = dir.path().join("outside.bin");
+        let json = format!(
+            r#"{{"buffers":[{{"uri":"mesh.bin"}},{{"uri":"../outside.bin"}},{{"uri":{abs:?}}},{{"uri":"data:application/octet-stream;base64,AAAA"}},{{"byteLength":4}}],
+               "images":[{{"uri":"./albedo.png"}},{{"uri":"missing.png"}}]}}"#
+        );
+        std::fs::write(d.join("a.gltf"), &json).unwrap();
+        assert_eq!(asset_bytes(&d.join("a.gltf")), json.len() as u64 + 1000 + 300);
+        // Not JSON: the file alone. An OBJ: the file alone. Missing: 0.
+        std::fs::write(d.join("b.gltf"), "not json").unwrap();
+        assert_eq!(asset_bytes(&d.join("b.gltf")), 8);
+        assert_eq!(asset_bytes(&d.join("mesh.bin")), 1000);
+        assert_eq!(asset_bytes(&d.join("none.obj")), 0);
     }
 }
