@@ -39,7 +39,8 @@
 //!    is rendered in full (it may have rule 3 texels or none). The coefficients are those of the
 //!    full render (the same texels, up to the f32 rounding of the barycentric interpolation of
 //!    COLOR_0), without the coverage pass: on the bunny subdivided to 1.1 M triangles (one
-//!    colour) the stage fell from ≈ 3.6 s to ≈ 0.2 s.
+//!    colour, 64 spheres) the stage fell from 4.5–4.6 s to 1.2 s, byte-identical files
+//!    (`docs/benchmarks.md`).
 //! 3. **Colour** = base colour factor × base-colour texture × COLOR_0, linear RGB (alpha is
 //!    ignored). The texture is sampled at the true (perspective-correct) barycentric point,
 //!    with the material's UV set, KHR_texture_transform and wrap modes, trilinearly from a box-
