@@ -257,6 +257,40 @@ fn check_mesh(positions: &[Vec3], triangles: &[[u32; 3]]) -> Result<(), FitError
     Ok(())
 }
 
+/// Closed and oriented means every directed edge has exactly one reverse partner. Returns
+/// (some directed edge occurs twice, the directed edges without a reverse partner in ascending
+/// order, a repeated one as often as it occurs). An edge from a vertex to itself is its own
+/// reverse, never a boundary edge. The edges are sorted once by their undirected key (in
+/// parallel; a sorted list is the same whatever the thread count) and read group by group: a
+/// sort and a linear scan, where a binary search per edge cost the 1.1 M-triangle bunny 0.3 s.
+fn directed_edge_pairing(tris: &[[u32; 3]]) -> (bool, Vec<(u32, u32)>) {
+    // (undirected key, whether the edge runs from the larger index to the smaller).
+    let mut edges: Vec<(u64, bool)> = tris
+        .par_iter()
+        .flat_map_iter(|t| [(t[0], t[1]), (t[1], t[2]), (t[2], t[0])])
+        .map(|(a, b)| ((u64::from(a.min(b)) << 32) | u64::from(a.max(b)), a > b))
+        .collect();
+    edges.par_sort_unstable();
+    let mut dup = false;
+    let mut boundary = Vec::new();
+    for group in edges.chunk_by(|x, y| x.0 == y.0) {
+        let backward = group.iter().filter(|e| e.1).count();
+        let forward = group.len() - backward;
+        dup |= forward > 1 || backward > 1;
+        let (lo, hi) = ((group[0].0 >> 32) as u32, group[0].0 as u32);
+        if lo == hi {
+            continue;
+        }
+        match (forward, backward) {
+            (f, 0) => boundary.extend(std::iter::repeat_n((lo, hi), f)),
+            (0, b) => boundary.extend(std::iter::repeat_n((hi, lo), b)),
+            _ => {}
+        }
+    }
+    boundary.sort_unstable();
+    (dup, boundary)
+}
+
 fn prepare(positions: &[Vec3], triangles: &[[u32; 3]], voxel_resolution: u32) -> Result<Prepared, FitError> {
     check_mesh(positions, triangles)?;
     let mut pos: Vec<DVec3> = positions.iter().map(|p| p.as_dvec3()).collect();
@@ -269,22 +303,8 @@ fn prepare(positions: &[Vec3], triangles: &[[u32; 3]], voxel_resolution: u32) ->
             hi = hi.max(pos[v as usize]);
         }
     }
-    // Closed and oriented: every directed edge has exactly one reverse partner.
-    let mut edges: Vec<(u32, u32)> = Vec::with_capacity(tris.len() * 3);
-    let mut degenerate = false;
-    for t in &tris {
-        if t[0] == t[1] || t[1] == t[2] || t[2] == t[0] {
-            degenerate = true;
-        }
-        edges.extend([(t[0], t[1]), (t[1], t[2]), (t[2], t[0])]);
-    }
-    // Parallel: a sorted list is the same whatever the thread count, and so is the ordered
-    // collect of the boundary edges (directed edges without a reverse partner).
-    edges.par_sort_unstable();
-    let dup = edges.par_windows(2).any(|w| w[0] == w[1]);
-    let boundary_edges: Vec<(u32, u32)> =
-        edges.par_iter().copied().filter(|&(a, b)| edges.binary_search(&(b, a)).is_err()).collect();
-    drop(edges);
+    let degenerate = tris.iter().any(|t| t[0] == t[1] || t[1] == t[2] || t[2] == t[0]);
+    let (dup, boundary_edges) = directed_edge_pairing(&tris);
     let boundary = boundary_edges.len();
     let mut filled = 0;
     if !degenerate && !dup && boundary > 0 {
@@ -1637,6 +1657,33 @@ mod tests_support {
 mod tests {
     use super::tests_support::uv_sphere;
     use super::*;
+
+    #[test]
+    fn edge_pairing_matches_the_definition_on_random_soups() {
+        // The definition, edge by edge: a directed edge (a, b) is a boundary edge when no
+        // directed edge (b, a) exists; "dup" when some directed edge occurs twice. Random
+        // triangles over few vertices give duplicates, non-manifold fans, self edges and
+        // holes.
+        let mut rng = spherebake_geom::rng::SplitMix64::new(7);
+        for case in 0..200 {
+            let nv = 3 + (rng.next_u64() % 8) as u32;
+            let nt = 1 + (rng.next_u64() % 12) as usize;
+            let tris: Vec<[u32; 3]> =
+                (0..nt).map(|_| std::array::from_fn(|_| (rng.next_u64() % u64::from(nv)) as u32)).collect();
+            let edges: Vec<(u32, u32)> = tris.iter().flat_map(|t| [(t[0], t[1]), (t[1], t[2]), (t[2], t[0])]).collect();
+            let mut want: Vec<(u32, u32)> = edges.iter().copied().filter(|&(a, b)| !edges.contains(&(b, a))).collect();
+            want.sort_unstable();
+            let want_dup = edges.iter().enumerate().any(|(i, e)| edges[..i].contains(e));
+            assert_eq!(directed_edge_pairing(&tris), (want_dup, want), "case {case}: {tris:?}");
+        }
+        // A closed tetrahedron has neither; removing a face leaves its three edges reversed.
+        let tet = [[0, 2, 1], [0, 1, 3], [1, 2, 3], [0, 3, 2]];
+        assert_eq!(directed_edge_pairing(&tet), (false, vec![]));
+        assert_eq!(directed_edge_pairing(&tet[1..]), (false, vec![(0, 1), (1, 2), (2, 0)]));
+        // Indices above 2³¹ keep their order in the key.
+        let big = u32::MAX;
+        assert_eq!(directed_edge_pairing(&[[big, 0, 1]]), (false, vec![(0, 1), (1, big), (big, 0)]));
+    }
 
     #[test]
     fn union_outside_of_a_sphere_far_larger_than_the_grid_is_sampled() {

@@ -35,8 +35,16 @@ fn check_lines(path: &Path, bytes: &[u8]) -> Result<(), IoError> {
             joined.push(' ');
             continue;
         }
-        joined.push_str(raw);
-        let line = std::mem::take(&mut joined);
+        // A continued line is joined into `whole`; every other line is read in place (no
+        // allocation per line: this check was a quarter of a 43 MB OBJ's import).
+        let whole: String;
+        let line = if joined.is_empty() {
+            raw
+        } else {
+            joined.push_str(raw);
+            whole = std::mem::take(&mut joined);
+            whole.as_str()
+        };
         let line = line.split('#').next().unwrap_or("");
         let mut tok = line.split_whitespace();
         match tok.next() {
@@ -50,11 +58,11 @@ fn check_lines(path: &Path, bytes: &[u8]) -> Result<(), IoError> {
             Some("vt") => nt += 1,
             Some("vn") => nn += 1,
             Some("f") => {
-                let corners: Vec<&str> = tok.collect();
-                if corners.len() < 3 {
-                    return Err(err(start, format!("face with {} vertices (a face needs at least 3)", corners.len())));
+                let corners = tok.clone().count();
+                if corners < 3 {
+                    return Err(err(start, format!("face with {corners} vertices (a face needs at least 3)")));
                 }
-                for c in corners {
+                for c in tok {
                     for (slot, (what, count)) in c.split('/').zip([("vertex", nv), ("texture", nt), ("normal", nn)]) {
                         if slot.is_empty() && what != "vertex" {
                             continue;

@@ -330,3 +330,22 @@ fn box_vertex_colors_are_read() {
     assert_eq!(imp.mesh.colors_linear.len(), 24);
     assert!(imp.mesh.colors_linear.iter().any(|c| c[0] != c[1] || c[1] != c[2]), "coloured");
 }
+
+#[test]
+fn obj_line_errors_name_the_line_and_a_continued_line_by_its_first() {
+    let p = Path::new("mem/x.obj");
+    let msg = |src: &str| match load_mesh_from_bytes(p, src.as_bytes()) {
+        Err(IoError::Obj { message, .. }) => message,
+        other => panic!("expected an OBJ line error, got {other:?}"),
+    };
+    // A comment line is not read. The check joins a `\`-continued line and names it by its
+    // first line.
+    let ok = load_mesh_from_bytes(p, b"v 0 0 0\nv 1 0 0\nv 0 1 0\n# f 9 9\nf 1 2 3\n").unwrap();
+    assert_eq!(ok.mesh.triangles.len(), 1);
+    assert_eq!(msg("v 0 0 0\nv 1 0 0\n# f 1 2\nf 1 \\\n2\n"), "line 4: face with 2 vertices (a face needs at least 3)");
+    assert_eq!(msg("v 0 0 0\nv 1 0 x\n"), "line 2: vertex needs three numbers");
+    assert_eq!(
+        msg("v 0 0 0\nv 1 0 0\nv 0 1 0\n\nf 1 2 \\\n \\\n 4\n"),
+        "line 5: vertex index 4 out of range (3 defined so far)"
+    );
+}
