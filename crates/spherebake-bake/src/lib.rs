@@ -242,7 +242,7 @@ pub fn bake_imported(
     let oriented: Vec<[u32; 3]> =
         triangles.iter().zip(&orientation.flip).map(|(t, &flip)| if flip { [t[0], t[2], t[1]] } else { *t }).collect();
     let t = Instant::now();
-    let fitted = fit_spheres(path, positions, &oriented, settings, progress)?;
+    let fitted = fit_spheres(path, positions, &oriented, &bvh, settings, progress)?;
     timings.push(StageTime { stage: "fit", seconds: t.elapsed().as_secs_f64() });
     let fit_stages: Vec<StageTime> =
         fitted.stage_timings.iter().map(|(stage, seconds)| StageTime { stage, seconds: *seconds }).collect();
@@ -406,10 +406,13 @@ struct Fitted {
     warnings: Vec<String>,
 }
 
+/// `tree`: the winding number's tree over the same triangles (file winding), which the fit
+/// reuses for its own (`spherebake_fit::fit_reusing`).
 fn fit_spheres(
     path: &Path,
     positions: &[glam::Vec3],
     triangles: &[[u32; 3]],
+    tree: &spherebake_geom::bvh::TriangleBvh,
     settings: &BakeSettings,
     progress: &(dyn Fn(f32) + Sync),
 ) -> Result<Fitted, BakeError> {
@@ -426,11 +429,8 @@ fn fit_spheres(
         plan: settings.preset.plan(),
     };
     let fit_progress = |f: f32| progress(0.8 * f);
-    let r = spherebake_fit::fit(positions, triangles, &fit_settings, &fit_progress).map_err(|e| BakeError::Stage {
-        path: path.to_path_buf(),
-        stage: "fit",
-        message: e.to_string(),
-    })?;
+    let r = spherebake_fit::fit_reusing(positions, triangles, Some(tree), &fit_settings, &fit_progress)
+        .map_err(|e| BakeError::Stage { path: path.to_path_buf(), stage: "fit", message: e.to_string() })?;
     // Target mode's result is among the fit's warnings once ("target mode: k spheres give E = ...").
     let warnings = r.warnings;
     // A sphere of radius 0 bounds a single point; store the smallest positive radius instead so

@@ -159,6 +159,74 @@ impl TriangleBvh {
         bvh
     }
 
+    /// A tree over `triangles` that reuses `base`'s where it can, instead of building one (the
+    /// build is serial: 0.6 s for the 1.1 M-triangle bunny). It can when the first
+    /// `base.triangle_count()` triangles are `base`'s in the same order, each with the same
+    /// three corners in any order (a rewound triangle has the same box): their tree is
+    /// `base`'s, and the triangles after them (a hole filling's fans, say) get a tree of their
+    /// own beside it under a new root. Otherwise (other corners, an invalid or all-zero
+    /// triangle among the first) it is [`TriangleBvh::new`]. Either way every query answers as
+    /// a new build's would, since no answer depends on the tree's shape (module docs); only
+    /// sums over the tree (the winding number's far-field expansions) round in another order.
+    /// Cost O(T) and a build over the added triangles only.
+    pub fn reuse(base: &TriangleBvh, positions: &[Vec3], triangles: &[[u32; 3]]) -> Self {
+        use rayon::prelude::*;
+        let n0 = base.tris.len();
+        if triangles.len() < n0 {
+            return Self::new(positions, triangles);
+        }
+        let corners = |tri: &[u32; 3]| match tri.map(|i| positions.get(i as usize).copied()) {
+            [Some(a), Some(b), Some(c)] if a.is_finite() && b.is_finite() && c.is_finite() => {
+                Some([a, b, c].map(|p| p.as_dvec3()))
+            }
+            _ => None,
+        };
+        let same = |old: &[DVec3; 3], tri: &[u32; 3]| match corners(tri) {
+            Some(t) if t != [DVec3::ZERO; 3] => {
+                let (a, b, c) = (t[0], t[1], t[2]);
+                [[a, b, c], [b, c, a], [c, a, b], [a, c, b], [c, b, a], [b, a, c]].contains(old).then_some(t)
+            }
+            _ => None,
+        };
+        let first: Option<Vec<[DVec3; 3]>> =
+            base.tris.par_iter().zip(&triangles[..n0]).map(|(old, tri)| same(old, tri)).collect();
+        let Some(mut tris) = first else {
+            return Self::new(positions, triangles);
+        };
+        let rest = Self::new(positions, &triangles[n0..]);
+        tris.extend_from_slice(&rest.tris);
+        let mut prims = base.prims.clone();
+        prims.extend(rest.prims.iter().map(|&t| t + n0 as u32));
+        if rest.nodes.is_empty() || base.nodes.is_empty() {
+            let (nodes, off) =
+                if base.nodes.is_empty() { (rest.nodes, base.prims.len() as u32) } else { (base.nodes.clone(), 0) };
+            let nodes =
+                nodes.into_iter().map(|n| if n.is_leaf() { Node { first: n.first + off, ..n } } else { n }).collect();
+            return TriangleBvh { tris, nodes, prims };
+        }
+        // New root 0; base's root at 1 and rest's at 2 (children stay adjacent, and after
+        // their parent); base's other nodes from 3, then rest's. Leaves of rest index its
+        // prims after base's.
+        let (nb, pb) = (base.nodes.len() as u32, base.prims.len() as u32);
+        let at_base = |i: u32| if i == 0 { 1 } else { i + 2 };
+        let at_rest = |i: u32| if i == 0 { 2 } else { i + nb + 1 };
+        let moved = |n: &Node, at: &dyn Fn(u32) -> u32, prim_off: u32| {
+            if n.is_leaf() {
+                Node { first: n.first + prim_off, ..*n }
+            } else {
+                Node { first: at(n.first), ..*n }
+            }
+        };
+        let (rb, rr) = (base.nodes[0], rest.nodes[0]);
+        let mut nodes = Vec::with_capacity(base.nodes.len() + rest.nodes.len() + 1);
+        nodes.push(Node { min: rb.min.min(rr.min), max: rb.max.max(rr.max), first: 1, count: 0 });
+        nodes.push(moved(&rb, &at_base, 0));
+        nodes.push(moved(&rr, &at_rest, pb));
+        nodes.extend(base.nodes[1..].iter().map(|n| moved(n, &at_base, 0)));
+        nodes.extend(rest.nodes[1..].iter().map(|n| moved(n, &at_rest, pb)));
+        TriangleBvh { tris, nodes, prims }
+    }
+
     /// Number of input triangles (including invalid ones that are never hit).
     pub fn triangle_count(&self) -> usize {
         self.tris.len()
@@ -413,6 +481,75 @@ mod tests {
         assert_eq!(h.exiting, expect_exiting);
         let p = tri[0] * h.bary[0] + tri[1] * h.bary[1] + tri[2] * h.bary[2];
         assert!((p - DVec3::new(0.0, 0.0, 1.0)).length() < 1e-12);
+    }
+
+    /// Every query of `a` and `b` answers alike on random rays, balls and boxes.
+    fn same_answers(a: &TriangleBvh, b: &TriangleBvh, seed: u64, min_hits: usize) {
+        let mut rng = crate::rng::SplitMix64::new(seed);
+        let mut r = || (rng.next_f64() * 2.4 - 1.2) as f32;
+        let (mut ha, mut hb, mut ta, mut tb) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
+        let mut hits = 0;
+        for _ in 0..300 {
+            let (o, d) = (Vec3::new(r(), r(), r()), Vec3::new(r(), r(), r()));
+            a.ray_hits(o, d, -10.0, 10.0, &mut ha);
+            b.ray_hits(o, d, -10.0, 10.0, &mut hb);
+            assert_eq!(ha, hb);
+            hits += ha.len();
+            assert_eq!(a.closest_hit(o, d, 0.0, 10.0), b.closest_hit(o, d, 0.0, 10.0));
+            let rad = r().abs() * 0.5;
+            a.triangles_near_sphere(o, rad, &mut ta);
+            b.triangles_near_sphere(o, rad, &mut tb);
+            assert_eq!(ta, tb);
+            a.triangles_in_aabb(o.min(d), o.max(d), &mut ta);
+            b.triangles_in_aabb(o.min(d), o.max(d), &mut tb);
+            assert_eq!(ta, tb);
+        }
+        assert!(hits >= min_hits, "the rays should hit something ({hits})");
+    }
+
+    #[test]
+    fn a_reused_tree_answers_as_a_new_build() {
+        let mut rng = crate::rng::SplitMix64::new(3);
+        let positions: Vec<Vec3> =
+            (0..120).map(|_| Vec3::new(rng.next_f64() as f32, rng.next_f64() as f32, rng.next_f64() as f32)).collect();
+        let mut tri = |n: u64| [0; 3].map(|_| rng.below(n) as u32);
+        let base_tris: Vec<[u32; 3]> = (0..400).map(|_| tri(120)).collect();
+        // Rewound in every way, then 60 more triangles (two of them invalid: out of range).
+        let mut tris: Vec<[u32; 3]> = base_tris
+            .iter()
+            .enumerate()
+            .map(|(i, &[a, b, c])| [[a, b, c], [b, c, a], [c, a, b], [a, c, b], [c, b, a], [b, a, c]][i % 6])
+            .collect();
+        tris.extend((0..60).map(|_| tri(120)));
+        tris[410][1] = 999;
+        tris[450][0] = 120;
+        let base = TriangleBvh::new(&positions, &base_tris);
+        let fresh = TriangleBvh::new(&positions, &tris);
+        let reused = TriangleBvh::reuse(&base, &positions, &tris);
+        // The reuse happened: base's tree and the added triangles' own under one new root.
+        let rest = TriangleBvh::new(&positions, &tris[400..]);
+        assert_eq!(reused.nodes.len(), base.nodes.len() + rest.nodes.len() + 1);
+        assert_eq!(reused.triangle_count(), tris.len());
+        same_answers(&reused, &fresh, 11, 300);
+        // Nothing added; the base alone (every triangle rewound).
+        let reused = TriangleBvh::reuse(&base, &positions, &tris[..400]);
+        assert_eq!(reused.nodes.len(), base.nodes.len());
+        same_answers(&reused, &TriangleBvh::new(&positions, &tris[..400]), 12, 300);
+        // A base over other corners, or over fewer triangles than it has, is not reused.
+        let moved: Vec<Vec3> = positions.iter().map(|p| *p + Vec3::splat(1e-3)).collect();
+        let other = TriangleBvh::new(&moved, &base_tris);
+        let rebuilt = TriangleBvh::reuse(&other, &positions, &tris);
+        assert_eq!(rebuilt.nodes.len(), fresh.nodes.len());
+        same_answers(&rebuilt, &fresh, 13, 300);
+        same_answers(
+            &TriangleBvh::reuse(&base, &positions, &tris[..10]),
+            &TriangleBvh::new(&positions, &tris[..10]),
+            14,
+            10,
+        );
+        // An empty base: the new triangles' own tree.
+        let empty = TriangleBvh::new(&positions, &[]);
+        same_answers(&TriangleBvh::reuse(&empty, &positions, &tris), &fresh, 15, 300);
     }
 
     #[test]
