@@ -777,7 +777,9 @@ fn dense_points(prep: &Prepared, pts: &points::PointSet, plan: &FitPlan) -> Vec<
     drop(used);
     // Per triangle, in mesh order (an ordered parallel collect): its first-used corners, the
     // centroid, the midpoints of the edges it lists low → high, the grid.
-    let mut all: Vec<points::Rep> = prep
+    // Positions first (24 bytes each, not a 64-byte `Rep`): a mesh finer than the grid makes
+    // millions of them (the 1.1 M bunny 3.4 M) before the thinning keeps one per cell.
+    let mut all: Vec<DVec3> = prep
         .tris
         .par_iter()
         .zip(&grid)
@@ -790,23 +792,21 @@ fn dense_points(prep: &Prepared, pts: &points::PointSet, plan: &FitPlan) -> Vec<
                 .filter(|(x, y, _, _)| x < y)
                 .map(|(_, _, px, py)| (px + py) * 0.5);
             let grid = (m > 1).then(|| triangle_grid(a, b, c, m).map(|(_, _, p)| p)).into_iter().flatten();
-            corners.chain(std::iter::once((a + b + c) / 3.0)).chain(mids).chain(grid).map(points::Rep::point)
+            corners.chain(std::iter::once((a + b + c) / 3.0)).chain(mids).chain(grid)
         })
         .collect();
-    thin_surface(&mut all, |r| r.p, prep, plan);
-    all.extend(pts.points[pts.surface_count..].iter().map(|p| points::Rep::point(*p)));
-    all
+    thin_surface(&mut all, prep, plan);
+    all.iter().chain(&pts.points[pts.surface_count..]).map(|p| points::Rep::point(*p)).collect()
 }
 
 /// When `v` holds more than `plan.point_budget` surface points, keeps one per cube of
 /// `plan.point_cell` voxel cells ([`points::keep_per_cell`], cubes aligned on the solid's
 /// grid), in their order; a cell of 0 keeps all.
-fn thin_surface<T>(v: &mut Vec<T>, pos: impl Fn(&T) -> DVec3, prep: &Prepared, plan: &FitPlan) {
+fn thin_surface(v: &mut Vec<DVec3>, prep: &Prepared, plan: &FitPlan) {
     if plan.point_cell <= 0.0 || v.len() <= plan.point_budget {
         return;
     }
-    let p: Vec<DVec3> = v.iter().map(&pos).collect();
-    let keep = points::keep_per_cell(&p, prep.solid.origin, plan.point_cell * prep.solid.h, 1);
+    let keep = points::keep_per_cell(v, prep.solid.origin, plan.point_cell * prep.solid.h, 1);
     let mut i = 0;
     v.retain(|_| {
         i += 1;
@@ -893,7 +893,7 @@ fn descent_points(prep: &Prepared, pts: &points::PointSet, plan: &FitPlan) -> Ve
         let corner = |i: usize, j: usize| (i == 0 || i == m) && j == 0 || i == 0 && j == m;
         dpts.extend(triangle_grid(a, b, c, m).filter(|&(i, j, _)| !corner(i, j)).map(|(_, _, p)| p));
     }
-    thin_surface(&mut dpts, |p| *p, prep, plan);
+    thin_surface(&mut dpts, prep, plan);
     dpts.extend(pts.points[pts.surface_count..].iter().copied());
     dpts
 }

@@ -75,6 +75,14 @@ pub struct TriangleBvh {
     pub(crate) prims: Vec<u32>,
 }
 
+/// The corners of `tri` when it is valid: every index in range, every corner finite.
+fn valid_corners(positions: &[Vec3], tri: &[u32; 3]) -> Option<[Vec3; 3]> {
+    match tri.map(|i| positions.get(i as usize).copied()) {
+        [Some(a), Some(b), Some(c)] if a.is_finite() && b.is_finite() && c.is_finite() => Some([a, b, c]),
+        _ => None,
+    }
+}
+
 fn pad_box(min: DVec3, max: DVec3) -> (DVec3, DVec3) {
     let scale = min.abs().max(max.abs()).max_element() + (max - min).max_element();
     let pad = DVec3::splat(scale * 1e-12 + f64::MIN_POSITIVE);
@@ -86,10 +94,7 @@ impl TriangleBvh {
     pub fn new(positions: &[Vec3], triangles: &[[u32; 3]]) -> Self {
         use rayon::prelude::*;
         // The f64 corners in parallel (an ordered collect); invalid triangles get zeros.
-        let valid = |tri: &[u32; 3]| match tri.map(|i| positions.get(i as usize).copied()) {
-            [Some(a), Some(b), Some(c)] if a.is_finite() && b.is_finite() && c.is_finite() => Some([a, b, c]),
-            _ => None,
-        };
+        let valid = |tri: &[u32; 3]| valid_corners(positions, tri);
         let tris: Vec<[DVec3; 3]> =
             triangles.par_iter().map(|tri| valid(tri).map_or([DVec3::ZERO; 3], |t| t.map(|p| p.as_dvec3()))).collect();
         let mut aabbs = Vec::new();
@@ -175,19 +180,14 @@ impl TriangleBvh {
         if triangles.len() < n0 {
             return Self::new(positions, triangles);
         }
-        let corners = |tri: &[u32; 3]| match tri.map(|i| positions.get(i as usize).copied()) {
-            [Some(a), Some(b), Some(c)] if a.is_finite() && b.is_finite() && c.is_finite() => {
-                Some([a, b, c].map(|p| p.as_dvec3()))
-            }
-            _ => None,
-        };
-        let same = |old: &[DVec3; 3], tri: &[u32; 3]| match corners(tri) {
-            Some(t) if t != [DVec3::ZERO; 3] => {
-                let (a, b, c) = (t[0], t[1], t[2]);
-                [[a, b, c], [b, c, a], [c, a, b], [a, c, b], [c, b, a], [b, a, c]].contains(old).then_some(t)
-            }
-            _ => None,
-        };
+        let same =
+            |old: &[DVec3; 3], tri: &[u32; 3]| match valid_corners(positions, tri).map(|t| t.map(|p| p.as_dvec3())) {
+                Some(t) if t != [DVec3::ZERO; 3] => {
+                    let (a, b, c) = (t[0], t[1], t[2]);
+                    [[a, b, c], [b, c, a], [c, a, b], [a, c, b], [c, b, a], [b, a, c]].contains(old).then_some(t)
+                }
+                _ => None,
+            };
         let first: Option<Vec<[DVec3; 3]>> =
             base.tris.par_iter().zip(&triangles[..n0]).map(|(old, tri)| same(old, tri)).collect();
         let Some(mut tris) = first else {
