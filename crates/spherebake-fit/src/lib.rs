@@ -494,7 +494,8 @@ fn closed_intersection(
     } else if x < -1e-9 * vb {
         1.0
     } else {
-        volume::winding_number_brute(c, pos, tris).round()
+        voxel::closed_winding_by_rays(bvh, c)
+            .map_or_else(|| volume::winding_number_brute(c, pos, tris).round(), f64::from)
     };
     (w * vb + x).clamp(0.0, vb)
 }
@@ -576,7 +577,20 @@ fn spheres_before_contain(spheres: &[Sphere32], me: &Sphere32, p: DVec3) -> bool
 /// the grid says, the layer in between by |w| ≥ ½ with w the exact winding number of the
 /// part's triangles (so an inward-wound open mesh has the pockets of its outward twin).
 fn pocket_inside(prep: &Prepared, v: DVec3) -> bool {
-    prep.solid.grid.contains(v, |p| volume::winding_number_brute(p, &prep.pos, &prep.tris))
+    prep.solid.grid.contains(v, |p| exact_winding(prep, p))
+}
+
+/// The exact winding number of the part's triangles at `p`: for a closed mesh the integer of
+/// the first conclusive axis line through the tree ([`voxel::closed_winding_by_rays`],
+/// O(log T)), else (open meshes, or a point whose three lines all graze an edge) the
+/// solid-angle sum over every triangle, O(T): the bunny subdivided to 1.1 M triangles spent
+/// 0.87 s of CPU on 16 pocket vertices that way.
+fn exact_winding(prep: &Prepared, p: DVec3) -> f64 {
+    let by_rays = match &prep.exact {
+        ExactT::Closed { bvh, .. } => voxel::closed_winding_by_rays(bvh, p),
+        ExactT::Voxel { .. } => None,
+    };
+    by_rays.map_or_else(|| volume::winding_number_brute(p, &prep.pos, &prep.tris), f64::from)
 }
 
 struct Run {
