@@ -263,7 +263,7 @@ fn check_mesh(positions: &[Vec3], triangles: &[[u32; 3]]) -> Result<(), FitError
 /// order, a repeated one as often as it occurs). An edge from a vertex to itself is its own
 /// reverse, never a boundary edge. The edges are sorted once by their undirected key (in
 /// parallel; a sorted list is the same whatever the thread count) and read group by group: a
-/// sort and a linear scan, where a binary search per edge cost the 1.1 M-triangle bunny 0.3 s.
+/// sort and a linear scan, where a binary search per edge cost the 1.1 M-triangle bunny 0.45 s (the whole check).
 fn directed_edge_pairing(tris: &[[u32; 3]]) -> (bool, Vec<(u32, u32)>) {
     // (undirected key, whether the edge runs from the larger index to the smaller).
     let mut edges: Vec<(u64, bool)> = tris
