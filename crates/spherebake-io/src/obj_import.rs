@@ -19,10 +19,11 @@ type MtlRead = (PathBuf, Result<Vec<u8>, IoError>);
 /// the line (1-based; a `\`-continued line by its first line).
 ///
 /// A large file is checked in pieces in parallel (rayon; a quarter of a 43 MB OBJ's import
-/// was this check, serial): the text is cut at line ends that do not continue a line, each
-/// piece's lines and `v` / `vt` / `vn` lines are counted, and each piece is then checked
-/// from the counts before it. The first error in file order is returned, so the answer is the
-/// one-piece check's for any thread count.
+/// was this check, serial): the text is cut at line ends that do not continue a line, and each
+/// piece is checked once from its own start ([`check_piece`]), keeping its lines and `v` /
+/// `vt` / `vn` counts and the face indices that need definitions before it. Then, in file
+/// order with the counts of the pieces before, the first error is found: the one-piece check's
+/// answer for any thread count and any cut.
 fn check_lines(path: &Path, bytes: &[u8]) -> Result<(), IoError> {
     check_lines_in(path, bytes, CHECK_PIECE_BYTES)
 }
