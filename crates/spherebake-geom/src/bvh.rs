@@ -86,8 +86,8 @@ fn valid_corners(positions: &[Vec3], tri: &[u32; 3]) -> Option<[Vec3; 3]> {
     }
 }
 
-/// Above this many valid triangles [`TriangleBvh::new`] cuts them in two at the median
-/// centroid along the longest axis of their centroids' box and builds the halves in parallel
+/// Above this many valid triangles [`TriangleBvh::new`] cuts them in two at the median centre
+/// of their boxes along the longest axis of those centres' box and builds the halves in parallel
 /// (rayon), each the same way, joined under a new root ([`join`]); obvhs' own parallel build is
 /// not deterministic. The cut depends on the triangles only, never on the thread count, so
 /// the tree is the same on every run; no query answer depends on its shape (module docs).
