@@ -200,11 +200,13 @@ pub enum FitError {
 }
 
 /// Exact T for the energy.
+#[derive(Clone)]
 enum ExactT {
     Closed { pos: Vec<DVec3>, tris: Vec<[u32; 3]>, bvh: spherebake_geom::bvh::TriangleBvh, diag: f64 },
     Voxel { pos: Vec<DVec3>, tris: Vec<[u32; 3]>, cells: Vec<u32> },
 }
 
+#[derive(Clone)]
 struct Prepared {
     pos: Vec<DVec3>,
     tris: Vec<[u32; 3]>,
@@ -517,39 +519,62 @@ fn union_outside(solid: &Solid, spheres: &[Sphere32]) -> f64 {
             continue;
         }
         let centre = |i: i64, j: i64, k: i64| solid.origin + (DVec3::new(i as f64, j as f64, k as f64) + 0.5) * solid.h;
-        // Inside the grid: every cell.
+        let inside = |i: i64, j: i64, k: i64| centre(i, j, k).distance_squared(c) <= r * r;
+        // Inside the grid: every cell, a row at a time. The row's cells in the ball are one run
+        // around the chord; its ends are found from the chord (widened by a cell) and trimmed
+        // by the same test a cell-by-cell scan makes, so the same cells are marked.
         let lo = u0.max(DVec3::ZERO);
         let hi = u1.min(DVec3::new(nx as f64 - 1.0, ny as f64 - 1.0, nz as f64 - 1.0));
+        let uc = (c - solid.origin) / solid.h;
+        let ru2 = (r / solid.h).powi(2);
         if hi.cmpge(lo).all() {
-            for k in lo.z as usize..=hi.z as usize {
-                for j in lo.y as usize..=hi.y as usize {
-                    for i in lo.x as usize..=hi.x as usize {
-                        if centre(i as i64, j as i64, k as i64).distance_squared(c) <= r * r {
-                            mark.set(solid.index(i, j, k));
-                        }
+            for k in lo.z as i64..=hi.z as i64 {
+                for j in lo.y as i64..=hi.y as i64 {
+                    let (dy, dz) = (j as f64 + 0.5 - uc.y, k as f64 + 0.5 - uc.z);
+                    let rem = ru2 - dy * dy - dz * dz;
+                    if rem < -1e-9 * (ru2 + 1.0) {
+                        continue;
+                    }
+                    let w = rem.max(0.0).sqrt();
+                    let mut a = ((uc.x - w - 0.5).floor() - 1.0).max(lo.x) as i64;
+                    let mut b = ((uc.x + w - 0.5).ceil() + 1.0).min(hi.x) as i64;
+                    while a <= b && !inside(a, j, k) {
+                        a += 1;
+                    }
+                    while b >= a && !inside(b, j, k) {
+                        b -= 1;
+                    }
+                    for i in a..=b {
+                        mark.set(solid.index(i as usize, j as usize, k as usize));
                     }
                 }
             }
         }
-        // Beyond the grid: sampled.
+        // Beyond the grid: sampled (a row's cells inside the grid are skipped in one step).
         let n = (u1 - u0 + 1.0).max(DVec3::ONE);
         let cells = n.x * n.y * n.z;
         let stride = if cells > 2e6 { (cells / 2e6).cbrt().ceil() as i64 } else { 1 };
         // In f64: a hostile radius makes the stride huge, and its cube overflows i64.
         let w = (stride as f64).powi(3);
         let (a, b) = (u0.as_i64vec3(), u1.as_i64vec3());
+        let (nx, ny, nz) = (nx as i64, ny as i64, nz as i64);
         for k in (a.z..=b.z).step_by(stride as usize) {
             for j in (a.y..=b.y).step_by(stride as usize) {
-                for i in (a.x..=b.x).step_by(stride as usize) {
-                    let inside_grid =
-                        i >= 0 && j >= 0 && k >= 0 && (i as usize) < nx && (j as usize) < ny && (k as usize) < nz;
-                    if inside_grid {
+                let row_in_grid = j >= 0 && k >= 0 && j < ny && k < nz;
+                let mut i = a.x;
+                while i <= b.x {
+                    if row_in_grid && i >= 0 && i < nx {
+                        // The first i of the row's lattice at or beyond the grid's end.
+                        // (i128: a hostile radius puts a.x near i64::MIN.)
+                        let (ax, st) = (a.x as i128, stride as i128);
+                        i = (ax + (nx as i128 - ax + st - 1) / st * st).min(i64::MAX as i128) as i64;
                         continue;
                     }
-                    let p = centre(i, j, k);
-                    if p.distance_squared(c) <= r * r && !spheres_before_contain(spheres, s, p) {
+                    if inside(i, j, k) && !spheres_before_contain(spheres, s, centre(i, j, k)) {
                         extra += w;
                     }
+                    let Some(next) = i.checked_add(stride) else { break };
+                    i = next;
                 }
             }
         }
@@ -688,6 +713,16 @@ fn proxy_e_of(solid: &Solid, spheres: &[(DVec3, f64)]) -> f64 {
 /// each recorded in `tr`.
 fn run_once(prep: &Prepared, pts: &points::PointSet, settings: &FitSettings, k: usize, tr: &mut Tracer) -> Run {
     let plan = &settings.plan;
+    // A closed mesh of few triangles: every stage's ball volume exact (`solid::exact_is_cheaper`).
+    let exact_prep;
+    let prep = if prep.source == SolidSource::ClosedMesh
+        && solid::exact_is_cheaper(prep.tris.len(), prep.solid.solid_count, k)
+    {
+        exact_prep = Prepared { solid: prep.solid.with_exact_mesh(&prep.pos, &prep.tris), ..prep.clone() };
+        &exact_prep
+    } else {
+        prep
+    };
     let solid = &prep.solid;
     let (raw, iterations, teleports, history) = match settings.method {
         Method::Variational => {
@@ -1776,6 +1811,62 @@ mod tests {
         assert_eq!(union_outside(&solid, &[[4.0, 4.0, 4.0, 2.0]]), 0.0);
         let outside = union_outside(&solid, &[[20.5, 20.5, 20.5, 1.0]]);
         assert_eq!(outside, 7.0); // the centre cell and its 6 face neighbours
+    }
+
+    #[test]
+    fn union_outside_by_rows_marks_the_cells_a_cell_by_cell_scan_marks() {
+        // Oracle: every cell of the grid tested one by one (centre in some ball, not solid),
+        // plus every lattice cell beyond the grid in some ball, each once. Random solid (a
+        // ball of cells with holes), random balls inside, across and beyond the grid, some
+        // centred on cell centres and rows (ends exactly on the chord).
+        let n = 12usize;
+        let mut rng = rng::SplitMix64::new(11);
+        let solid_cells: solid::Bits = (0..n * n * n)
+            .map(|i| {
+                let p = DVec3::new((i % n) as f64, (i / n % n) as f64, (i / (n * n)) as f64) + 0.5 - 6.0;
+                p.length() < 4.5 && rng.next_f64() > 0.1
+            })
+            .collect();
+        let h = 0.5;
+        let origin = DVec3::new(-1.0, 2.0, 0.5);
+        let sd = Solid::from_cells(origin, h, [n; 3], solid_cells.clone());
+        let mut compared = 0;
+        for round in 0..60 {
+            let count = 1 + round % 5;
+            let spheres: Vec<Sphere32> = (0..count)
+                .map(|m| {
+                    let u = DVec3::new(rng.next_f64(), rng.next_f64(), rng.next_f64()) * 16.0 - 2.0;
+                    // Every third ball centred on a cell centre with a radius of whole cells.
+                    let (u, r) = if m % 3 == 0 {
+                        (u.floor() + 0.5, (1 + rng.next_u64() % 5) as f64)
+                    } else {
+                        (u, 0.3 + 5.0 * rng.next_f64())
+                    };
+                    let c = origin + u * h;
+                    [c.x as f32, c.y as f32, c.z as f32, (r * h) as f32]
+                })
+                .collect();
+            let mut want = 0.0;
+            let balls: Vec<(DVec3, f64)> =
+                spheres.iter().map(|s| (DVec3::new(s[0] as f64, s[1] as f64, s[2] as f64), s[3] as f64)).collect();
+            let in_some = |p: DVec3| balls.iter().any(|(c, r)| p.distance_squared(*c) <= r * r);
+            let centre = |i: i64, j: i64, k: i64| origin + (DVec3::new(i as f64, j as f64, k as f64) + 0.5) * h;
+            for k in -20..32i64 {
+                for j in -20..32i64 {
+                    for i in -20..32i64 {
+                        let in_grid = [i, j, k].iter().all(|&x| (0..n as i64).contains(&x));
+                        let solid = in_grid && solid_cells.get(i as usize + n * (j as usize + n * k as usize));
+                        if !solid && in_some(centre(i, j, k)) {
+                            want += h * h * h;
+                        }
+                    }
+                }
+            }
+            let got = union_outside(&sd, &spheres);
+            assert!((got - want).abs() < 1e-9, "round {round}: {got} vs {want}");
+            compared += usize::from(want > 0.0);
+        }
+        assert!(compared > 40, "{compared}");
     }
 
     #[test]

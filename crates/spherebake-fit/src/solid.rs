@@ -4,10 +4,38 @@
 //! is built by [`spherebake_geom::voxel`]; [`Solid`] wraps that grid with per-row run lists, so
 //! the volume of ball ∩ solid is a sum over the rows inside the ball's disc of one difference of
 //! two piecewise-linear prefix lookups: O((r/h)²) per evaluation and continuous in the centre.
+//!
+//! A closed mesh of few triangles (a box, a prism: [`exact_is_cheaper`]) is answered exactly
+//! instead ([`Solid::with_exact_mesh`]): V(ball ∩ mesh) summed over every triangle, O(T) per
+//! evaluation. Its spheres are many cells wide, so their rows cost more than its triangles: a
+//! 12-triangle cube at 64 spheres evaluates about 6 times faster (measured in
+//! `docs/benchmarks.md`). The exact volume is the same solid the voxel grid samples (a closed
+//! outward mesh has w ∈ {0, 1}), without the grid's error.
 
 use glam::DVec3;
+use spherebake_geom::volume;
 pub use spherebake_geom::voxel::Bits;
 use spherebake_geom::voxel::VoxelGrid;
+use std::sync::Arc;
+
+/// What one triangle's term of the exact ball volume costs, in voxel rows of
+/// [`Solid::ball_volume`] (measured on the unit cube at 64 spheres: the rows of its
+/// ≈ 20-cell balls took 6 times as long as its 12 triangle terms, ≈ 17 rows per triangle).
+pub const TRIANGLE_ROWS: f64 = 16.0;
+
+/// Whether the exact volume of a closed mesh of `triangles` triangles is cheaper per evaluation
+/// than the rows of a typical ball of a fit of `k` spheres to a solid of `solid_cells` cells:
+/// `triangles` × [`TRIANGLE_ROWS`] ≤ π r², with r (cells) the radius of a ball of the solid's
+/// volume over k. Deterministic (it reads counts only). The unit cube (12 triangles, 128³ cells)
+/// qualifies up to 1000 spheres; 384 triangles need balls of r ≥ 44 cells (a sphere or two at
+/// 128 voxels); the 70 000-triangle bunny never.
+pub fn exact_is_cheaper(triangles: usize, solid_cells: usize, k: usize) -> bool {
+    let r = (3.0 * solid_cells as f64 / (4.0 * std::f64::consts::PI * k.max(1) as f64)).cbrt();
+    triangles as f64 * TRIANGLE_ROWS <= std::f64::consts::PI * r * r
+}
+
+/// A closed outward mesh: positions and triangles.
+type ExactMesh = (Vec<DVec3>, Vec<[u32; 3]>);
 
 /// Voxel solid on a regular grid (cell centres at `origin + (i + 0.5) h`): the geom grid and
 /// its row runs.
@@ -37,6 +65,9 @@ pub struct Solid {
     multi_start: Vec<usize>,
     /// Number of solid cells.
     pub solid_count: usize,
+    /// A closed outward mesh (positions, triangles) whose exact volume answers
+    /// [`Solid::ball_volume`] instead of the rows ([`Solid::with_exact_mesh`]).
+    exact: Option<Arc<ExactMesh>>,
 }
 
 impl Solid {
@@ -54,10 +85,19 @@ impl Solid {
         self.solid_count as f64 * self.h * self.h * self.h
     }
 
-    /// Proxy of V(ball ∩ solid), units³: rows of cells through the disc, fractional ends.
+    /// Proxy of V(ball ∩ solid), units³: rows of cells through the disc, fractional ends; or,
+    /// [`Solid::with_exact_mesh`], the exact V(ball ∩ mesh) (clamped to [0, V(ball)]).
     pub fn ball_volume(&self, c: DVec3, r: f64) -> f64 {
         if r <= 0.0 {
             return 0.0;
+        }
+        if let Some(mesh) = &self.exact {
+            let (pos, tris) = (&mesh.0, &mesh.1);
+            let v: f64 = tris
+                .iter()
+                .map(|t| volume::triangle_ball_volume(c, r, pos[t[0] as usize], pos[t[1] as usize], pos[t[2] as usize]))
+                .sum();
+            return v.clamp(0.0, volume::ball_volume_f64(r));
         }
         let h = self.h;
         let nx = self.dims[0];
@@ -261,7 +301,93 @@ impl Solid {
             multi,
             multi_start,
             solid_count: count,
+            exact: None,
         }
+    }
+
+    /// This solid answering [`Solid::ball_volume`] exactly over a closed, outward-oriented mesh
+    /// (the one the grid was voxelized from; indices in range): Σ over every triangle of the
+    /// signed volume of the cone from the centre over the triangle, cut by the ball
+    /// ([`volume::triangle_ball_volume`]), which for a closed mesh is V(ball ∩ mesh) with no
+    /// winding number needed. O(triangles) per evaluation: for small meshes only
+    /// ([`exact_is_cheaper`]). The grid and its other queries are unchanged.
+    pub fn with_exact_mesh(&self, positions: &[DVec3], triangles: &[[u32; 3]]) -> Solid {
+        Solid { exact: Some(Arc::new((positions.to_vec(), triangles.to_vec()))), ..self.clone() }
+    }
+
+    /// Whether [`Solid::ball_volume`] is the exact volume ([`Solid::with_exact_mesh`]).
+    pub fn is_exact(&self) -> bool {
+        self.exact.is_some()
+    }
+}
+
+#[cfg(test)]
+mod exact_tests {
+    use super::*;
+    use std::f64::consts::PI;
+
+    /// The unit cube [0, 1]³ as 12 outward triangles, and its voxel solid at 16 cells.
+    fn cube() -> (Vec<DVec3>, Vec<[u32; 3]>, Solid) {
+        let pos: Vec<DVec3> =
+            (0..8).map(|i| DVec3::new((i & 1) as f64, (i >> 1 & 1) as f64, (i >> 2 & 1) as f64)).collect();
+        // Faces as quads (outward, counter-clockwise), split into two triangles each.
+        let quads = [[0, 2, 3, 1], [4, 5, 7, 6], [0, 1, 5, 4], [2, 6, 7, 3], [0, 4, 6, 2], [1, 3, 7, 5]];
+        let tris = quads.iter().flat_map(|q| [[q[0], q[1], q[2]], [q[0], q[2], q[3]]]).collect();
+        let n = 16;
+        let mut cells = Bits::new(n * n * n);
+        (0..n * n * n).for_each(|i| cells.set(i));
+        let solid = Solid::from_cells(DVec3::ZERO, 1.0 / n as f64, [n; 3], cells);
+        (pos, tris, solid)
+    }
+
+    #[test]
+    fn the_exact_ball_volume_of_a_cube_is_the_analytic_one() {
+        let (pos, tris, rows) = cube();
+        let exact = rows.with_exact_mesh(&pos, &tris);
+        assert!(exact.is_exact() && !rows.is_exact());
+        let ball = |r: f64| 4.0 / 3.0 * PI * r * r * r;
+        let r = 0.3;
+        // Inside; centred on a face, an edge, a corner (the cube cuts a half, a quarter, an
+        // eighth); a ball holding the whole cube; a ball beside it.
+        let cases = [
+            (DVec3::splat(0.5), ball(r)),
+            (DVec3::new(0.5, 0.5, 0.0), ball(r) / 2.0),
+            (DVec3::new(0.5, 0.0, 0.0), ball(r) / 4.0),
+            (DVec3::ZERO, ball(r) / 8.0),
+            (DVec3::new(1.0, 1.0, 1.0), ball(r) / 8.0),
+        ];
+        for (c, want) in cases {
+            let got = exact.ball_volume(c, r);
+            assert!((got - want).abs() < 1e-12, "centre {c}: {got} vs {want}");
+        }
+        assert!((exact.ball_volume(DVec3::splat(0.5), 0.9) - 1.0).abs() < 1e-12);
+        assert_eq!(exact.ball_volume(DVec3::new(3.0, 0.5, 0.5), 0.5), 0.0);
+        assert_eq!(exact.ball_volume(DVec3::splat(0.5), 0.0), 0.0);
+        // The rows agree within the grid's error (16 cells: a few per cent of the ball) at
+        // random balls; the grid is unchanged.
+        let mut rng = spherebake_geom::rng::SplitMix64::new(7);
+        for _ in 0..200 {
+            let c = DVec3::new(rng.next_f64(), rng.next_f64(), rng.next_f64()) * 1.4 - 0.2;
+            let r = 0.1 + 0.4 * rng.next_f64();
+            let (e, v) = (exact.ball_volume(c, r), rows.ball_volume(c, r));
+            assert!((e - v).abs() <= 0.08 * ball(r), "c {c} r {r}: exact {e}, rows {v}");
+        }
+        assert_eq!(exact.solid_count, rows.solid_count);
+    }
+
+    #[test]
+    fn the_exact_volume_is_chosen_when_its_triangles_cost_less_than_a_balls_rows() {
+        // The unit cube at 128 cells (2.1 M solid cells): a ball of 1/64 of it has r ≈ 19.8
+        // cells, 1237 rows against 12 × 16 = 192; at 1024 spheres r ≈ 7.9 cells, 194 rows.
+        let cube = 128usize.pow(3);
+        assert!(exact_is_cheaper(12, cube, 64));
+        assert!(exact_is_cheaper(12, cube, 1000));
+        assert!(!exact_is_cheaper(12, cube, 1100));
+        // 384 triangles (the capsule fixture) need r ≥ 44.2 cells, a ball of 362 000 cells.
+        assert!(exact_is_cheaper(384, 400_000, 1));
+        assert!(!exact_is_cheaper(384, 400_000, 2));
+        // The bunny (70 000 triangles) never.
+        assert!(!exact_is_cheaper(70_000, cube, 1));
     }
 }
 
