@@ -133,7 +133,7 @@ fn radius(pts: &[DVec3], mem: &[u32], c: DVec3) -> f64 {
 /// volume).
 ///
 /// Adds its work to `work`: proxy evaluations × (1 + (r/h)²), about the voxel rows read. An
-/// exact solid ([`Solid::with_exact_mesh`], cheaper per evaluation) is counted alike, so a
+/// exact solid ([`Solid::set_exact_mesh`], cheaper per evaluation) is counted alike, so a
 /// plan's trials do not depend on which of the two answers.
 fn best_ball(solid: &Solid, pts: &[DVec3], mem: &[u32], c0: DVec3, work: &AtomicU64) -> (DVec3, f64, f64) {
     if mem.is_empty() {

@@ -714,11 +714,12 @@ fn proxy_e_of(solid: &Solid, spheres: &[(DVec3, f64)]) -> f64 {
 fn run_once(prep: &Prepared, pts: &points::PointSet, settings: &FitSettings, k: usize, tr: &mut Tracer) -> Run {
     let plan = &settings.plan;
     // A closed mesh of few triangles: every stage's ball volume exact (`solid::exact_is_cheaper`).
-    let exact_prep;
+    let mut exact_prep;
     let prep = if prep.source == SolidSource::ClosedMesh
         && solid::exact_is_cheaper(prep.tris.len(), prep.solid.solid_count, k)
     {
-        exact_prep = Prepared { solid: prep.solid.with_exact_mesh(&prep.pos, &prep.tris), ..prep.clone() };
+        exact_prep = prep.clone();
+        exact_prep.solid.set_exact_mesh(&prep.pos, &prep.tris);
         &exact_prep
     } else {
         prep

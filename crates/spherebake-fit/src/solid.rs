@@ -6,7 +6,7 @@
 //! two piecewise-linear prefix lookups: O((r/h)²) per evaluation and continuous in the centre.
 //!
 //! A closed mesh of few triangles (a box, a prism: [`exact_is_cheaper`]) is answered exactly
-//! instead ([`Solid::with_exact_mesh`]): V(ball ∩ mesh) summed over every triangle, O(T) per
+//! instead ([`Solid::set_exact_mesh`]): V(ball ∩ mesh) summed over every triangle, O(T) per
 //! evaluation. Its spheres are many cells wide, so their rows cost more than its triangles: a
 //! 12-triangle cube at 64 spheres evaluates about 6 times faster (measured in
 //! `docs/benchmarks.md`). The exact volume is the same solid the voxel grid samples (a closed
@@ -66,7 +66,7 @@ pub struct Solid {
     /// Number of solid cells.
     pub solid_count: usize,
     /// A closed outward mesh (positions, triangles) whose exact volume answers
-    /// [`Solid::ball_volume`] instead of the rows ([`Solid::with_exact_mesh`]).
+    /// [`Solid::ball_volume`] instead of the rows ([`Solid::set_exact_mesh`]).
     exact: Option<Arc<ExactMesh>>,
 }
 
@@ -86,7 +86,7 @@ impl Solid {
     }
 
     /// Proxy of V(ball ∩ solid), units³: rows of cells through the disc, fractional ends; or,
-    /// [`Solid::with_exact_mesh`], the exact V(ball ∩ mesh) (clamped to [0, V(ball)]).
+    /// [`Solid::set_exact_mesh`], the exact V(ball ∩ mesh) (clamped to [0, V(ball)]).
     pub fn ball_volume(&self, c: DVec3, r: f64) -> f64 {
         if r <= 0.0 {
             return 0.0;
@@ -305,17 +305,17 @@ impl Solid {
         }
     }
 
-    /// This solid answering [`Solid::ball_volume`] exactly over a closed, outward-oriented mesh
-    /// (the one the grid was voxelized from; indices in range): Σ over every triangle of the
-    /// signed volume of the cone from the centre over the triangle, cut by the ball
+    /// Makes [`Solid::ball_volume`] answer exactly over a closed, outward-oriented mesh (the
+    /// one the grid was voxelized from; indices in range): Σ over every triangle of the signed
+    /// volume of the cone from the centre over the triangle, cut by the ball
     /// ([`volume::triangle_ball_volume`]), which for a closed mesh is V(ball ∩ mesh) with no
     /// winding number needed. O(triangles) per evaluation: for small meshes only
     /// ([`exact_is_cheaper`]). The grid and its other queries are unchanged.
-    pub fn with_exact_mesh(&self, positions: &[DVec3], triangles: &[[u32; 3]]) -> Solid {
-        Solid { exact: Some(Arc::new((positions.to_vec(), triangles.to_vec()))), ..self.clone() }
+    pub fn set_exact_mesh(&mut self, positions: &[DVec3], triangles: &[[u32; 3]]) {
+        self.exact = Some(Arc::new((positions.to_vec(), triangles.to_vec())));
     }
 
-    /// Whether [`Solid::ball_volume`] is the exact volume ([`Solid::with_exact_mesh`]).
+    /// Whether [`Solid::ball_volume`] is the exact volume ([`Solid::set_exact_mesh`]).
     pub fn is_exact(&self) -> bool {
         self.exact.is_some()
     }
@@ -343,7 +343,8 @@ mod exact_tests {
     #[test]
     fn the_exact_ball_volume_of_a_cube_is_the_analytic_one() {
         let (pos, tris, rows) = cube();
-        let exact = rows.with_exact_mesh(&pos, &tris);
+        let mut exact = rows.clone();
+        exact.set_exact_mesh(&pos, &tris);
         assert!(exact.is_exact() && !rows.is_exact());
         let ball = |r: f64| 4.0 / 3.0 * PI * r * r * r;
         let r = 0.3;
