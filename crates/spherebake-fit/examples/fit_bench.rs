@@ -85,6 +85,7 @@ fn main() {
             set!(plan.starts, "SB_STARTS");
             set!(plan.band_sweeps, "SB_BAND_SWEEPS");
             set!(plan.band_width_cells, "SB_BAND_WIDTH");
+            set!(plan.start_tie, "SB_START_TIE");
             set!(seed, "SB_SEED");
             let mut times = Vec::new();
             let mut last = None;

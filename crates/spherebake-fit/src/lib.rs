@@ -18,7 +18,9 @@
 //!    maximal relative overlap, keep only if E drops) when progress stalls;
 //!    then the **lattice start**: the circumspheres of an octree's leaf cubes or of a box
 //!    lattice's cells (at most k, the candidate of lowest proxy E) replace Lloyd's spheres,
-//!    and the polish is skipped, when their proxy E is lower (box-like solids);
+//!    and the polish is skipped, when their proxy E is lower (box-like solids); at a near
+//!    tie ([`FitPlan::start_tie`]) the stages below run from both and the lower exact E is
+//!    kept;
 //! 3. **polish** on the dense points: assignment, joint radius shrinking (farthest members
 //!    handed to neighbouring spheres where that lowers the summed outside volume), centre
 //!    update ignoring members that another sphere already covers (all but the last round);
@@ -647,9 +649,12 @@ pub struct TraceEntry {
     /// The seed of this run (`FitSettings::seed`, or a derived one for the restarts of
     /// [`FitPlan::restarts`]).
     pub seed: u64,
-    /// `dense_points`, `lloyd`, `lattice_start`, `polish`, `descent_points`, `descent`, `seam`, `band`,
-    /// `bound`, `exact_e`, and `start_kept` after a lattice start (E: the start's exact E once
-    /// bounded; iterations 1 when it was returned instead); the baselines record `kmeans` or `octree`, then `bound` and `exact_e`.
+    /// `dense_points`, `lloyd`, `lattice_start`, `polish`, `descent_points`, `descent`, `seam`,
+    /// `band`, `bound`, `exact_e`, and `start_kept` after a lattice start (E: the start's exact
+    /// E once bounded; iterations 1 when it was returned instead). When both starts run
+    /// (`lattice_start` iterations 2, see [`FitPlan::start_tie`]) the stages from `polish` to
+    /// `exact_e` appear twice, Lloyd's run first. The baselines record `kmeans` or `octree`,
+    /// then `bound` and `exact_e`.
     pub stage: &'static str,
     /// Seam round (1, 2, ...) for `seam`, else 0.
     pub round: usize,
@@ -659,7 +664,8 @@ pub struct TraceEntry {
     /// Points the stage built (point stages) or worked on (descent, seam), the band points it
     /// added (band), else 0.
     pub points: usize,
-    /// Lloyd iterations (lloyd), rounds (polish), Gauss–Seidel sweeps (descent, seam, band).
+    /// Lloyd iterations (lloyd), rounds (polish), Gauss–Seidel sweeps (descent, seam, band);
+    /// for `lattice_start` 0 (the descent from Lloyd's), 1 (from the lattice) or 2 (both).
     pub iterations: usize,
     /// Trials tried: teleportations (lloyd), split/delete trials (descent, seam).
     pub trials: usize,
@@ -728,88 +734,150 @@ fn run_once(prep: &Prepared, pts: &points::PointSet, settings: &FitSettings, k: 
         prep
     };
     let solid = &prep.solid;
-    // The lattice start when the descent began from it (see the end).
-    let mut lattice: Option<Vec<(DVec3, f64)>> = None;
-    let (raw, iterations, teleports, history) = match settings.method {
-        Method::Variational => {
-            // Without polish rounds (the fast plan) nothing reads the dense points.
-            let all = if plan.polish_rounds > 0 { dense_points(prep, pts, plan) } else { Vec::new() };
-            tr.record("dense_points", None, |x| x.points = all.len());
-            let ctx = lloyd::Ctx { solid, pts, all: &pts.reps, powell_sweeps: plan.powell_sweeps };
-            let out = lloyd_stage(&ctx, k, settings.seed, plan);
-            let history: Vec<(f64, f64, bool)> =
-                out.history.iter().map(|h| (h.e_before, h.e_trial, h.accepted)).collect();
-            let sp: Vec<(DVec3, f64)> = out.state.centres.iter().zip(&out.state.radii).map(|(c, r)| (*c, *r)).collect();
-            tr.record("lloyd", Some(proxy_e_of(solid, &sp)), |x| {
-                x.points = pts.points.len();
-                x.iterations = out.iterations;
-                x.trials = out.teleports_tried;
-            });
-            let (start, e_start) = lattice_start(prep, pts, k);
-            let taken = e_start < proxy_e_of(solid, &sp);
-            tr.record("lattice_start", Some(e_start), |x| x.iterations = usize::from(taken));
-            let dense = lloyd::Ctx { all: &all, ..ctx };
-            let (mut sp, rounds) =
-                if taken { (start.clone(), 0) } else { (polish_stage(&dense, &sp, plan), plan.polish_rounds) };
-            lattice = taken.then_some(start);
-            tr.record("polish", Some(proxy_e_of(solid, &sp)), |x| {
-                x.points = all.len();
-                x.iterations = rounds;
-            });
-            drop(all);
-            let mut dpts = descent_points(prep, pts, plan);
-            tr.record("descent_points", None, |x| x.points = dpts.len());
-            let d = descent_stage(prep, &dpts, &mut sp, plan);
-            tr.record("descent", Some(proxy_e_of(solid, &sp)), |x| {
-                x.points = dpts.len();
-                x.iterations = d.sweeps;
-                x.trials = d.trials;
-                x.work = d.work;
-            });
-            for round in 1..=plan.seam_rounds {
-                let Some(d) = seam_round(prep, &mut dpts, &mut sp, plan) else { break };
-                tr.record("seam", Some(proxy_e_of(solid, &sp)), |x| {
-                    x.round = round;
-                    x.points = dpts.len();
-                    x.iterations = d.sweeps;
-                    x.trials = d.trials;
-                    x.work = d.work;
-                });
-            }
-            if plan.band_sweeps > 0 {
-                let (n, d) = band_stage(prep, &mut dpts, &mut sp, plan);
-                tr.record("band", Some(proxy_e_of(solid, &sp)), |x| {
-                    x.points = n;
-                    x.iterations = d.sweeps;
-                    x.work = d.work;
-                });
-            }
-            drop(dpts);
-            (sp, out.iterations, (out.teleports_accepted, out.teleports_tried), history)
-        }
+    let baseline = |sp: Vec<(DVec3, f64)>, tr: &mut Tracer| finish(prep, pts, plan, &sp, LloydInfo::default(), tr);
+    match settings.method {
+        Method::Variational => variational_run(prep, pts, settings, k, tr),
         Method::Kmeans => {
             let sp = baselines::kmeans(&pts.points[..pts.surface_count], k, settings.seed, 50);
             tr.record("kmeans", Some(proxy_e_of(solid, &sp)), |_| {});
-            (sp, 0, (0, 0), Vec::new())
+            baseline(sp, tr)
         }
         Method::Octree => {
             let sp = baselines::octree(&prep.pos, &prep.tris, solid, k);
             tr.record("octree", Some(proxy_e_of(solid, &sp)), |_| {});
-            (sp, 0, (0, 0), Vec::new())
+            baseline(sp, tr)
         }
+    }
+}
+
+/// What Lloyd's stage reports into a [`Run`]: iterations, teleportations (accepted, tried) and
+/// their history (E before, E of the trial, accepted).
+#[derive(Clone, Default)]
+struct LloydInfo {
+    iterations: usize,
+    teleports: (usize, usize),
+    history: Vec<(f64, f64, bool)>,
+}
+
+/// The variational stages 1–9 on one part. After Lloyd (stage 2) and the lattice start (2b)
+/// the descent starts from the one of lower proxy E, or from both when their proxy E are
+/// within [`FitPlan::start_tie`] of each other (Lloyd's first), keeping the run of lower exact
+/// E (Lloyd's on a tie): before the descent the two proxies do not tell which start ends
+/// lower (see `lattice_start`).
+fn variational_run(prep: &Prepared, pts: &points::PointSet, settings: &FitSettings, k: usize, tr: &mut Tracer) -> Run {
+    let (plan, solid) = (&settings.plan, &prep.solid);
+    // Without polish rounds (the fast plan) nothing reads the dense points.
+    let all = if plan.polish_rounds > 0 { dense_points(prep, pts, plan) } else { Vec::new() };
+    tr.record("dense_points", None, |x| x.points = all.len());
+    let ctx = lloyd::Ctx { solid, pts, all: &pts.reps, powell_sweeps: plan.powell_sweeps };
+    let out = lloyd_stage(&ctx, k, settings.seed, plan);
+    let info = LloydInfo {
+        iterations: out.iterations,
+        teleports: (out.teleports_accepted, out.teleports_tried),
+        history: out.history.iter().map(|h| (h.e_before, h.e_trial, h.accepted)).collect(),
     };
-    let proxy_e = proxy_e_of(solid, &raw);
-    let (spheres, bound) = bound_stage(prep, pts, plan, &raw);
+    let sp: Vec<(DVec3, f64)> = out.state.centres.iter().zip(&out.state.radii).map(|(c, r)| (*c, *r)).collect();
+    let e_lloyd = proxy_e_of(solid, &sp);
+    tr.record("lloyd", Some(e_lloyd), |x| {
+        x.points = pts.points.len();
+        x.iterations = out.iterations;
+        x.trials = out.teleports_tried;
+    });
+    let (start, e_start) = lattice_start(prep, pts, k);
+    let lower = e_start < e_lloyd;
+    let tie = (e_start / e_lloyd - 1.0).abs() < plan.start_tie;
+    let (from_lloyd, from_lattice) = (!lower || tie, lower || tie);
+    tr.record("lattice_start", Some(e_start), |x| x.iterations = usize::from(from_lattice) + usize::from(tie));
+    let lloyd_run = from_lloyd.then(|| {
+        let dense = lloyd::Ctx { all: &all, ..ctx };
+        let sp = polish_stage(&dense, &sp, plan);
+        tr.record("polish", Some(proxy_e_of(solid, &sp)), |x| {
+            x.points = all.len();
+            x.iterations = plan.polish_rounds;
+        });
+        let raw = descend(prep, pts, plan, sp, tr);
+        finish(prep, pts, plan, &raw, info.clone(), tr)
+    });
+    drop(all);
+    let lattice_run = from_lattice.then(|| {
+        tr.record("polish", Some(e_start), |_| {});
+        let raw = descend(prep, pts, plan, start.clone(), tr);
+        let run = finish(prep, pts, plan, &raw, info, tr);
+        keep_the_better_start(prep, pts, plan, run, &start, tr)
+    });
+    match (lloyd_run, lattice_run) {
+        (Some(a), Some(b)) => {
+            if b.outside.iter().sum::<f64>() < a.outside.iter().sum::<f64>() {
+                b
+            } else {
+                a
+            }
+        }
+        (Some(a), None) | (None, Some(a)) => a,
+        // from_lloyd || from_lattice always holds; Lloyd's spheres as the fallback.
+        (None, None) => finish(prep, pts, plan, &sp, LloydInfo::default(), tr),
+    }
+}
+
+/// Stages 4–6b from a start: descent points, the exclusive descent, the seam rounds and the
+/// band, each recorded in `tr`. Returns the spheres before the bounding pass.
+fn descend(
+    prep: &Prepared,
+    pts: &points::PointSet,
+    plan: &FitPlan,
+    mut sp: Vec<(DVec3, f64)>,
+    tr: &mut Tracer,
+) -> Vec<(DVec3, f64)> {
+    let solid = &prep.solid;
+    let mut dpts = descent_points(prep, pts, plan);
+    tr.record("descent_points", None, |x| x.points = dpts.len());
+    let d = descent_stage(prep, &dpts, &mut sp, plan);
+    tr.record("descent", Some(proxy_e_of(solid, &sp)), |x| {
+        x.points = dpts.len();
+        x.iterations = d.sweeps;
+        x.trials = d.trials;
+        x.work = d.work;
+    });
+    for round in 1..=plan.seam_rounds {
+        let Some(d) = seam_round(prep, &mut dpts, &mut sp, plan) else { break };
+        tr.record("seam", Some(proxy_e_of(solid, &sp)), |x| {
+            x.round = round;
+            x.points = dpts.len();
+            x.iterations = d.sweeps;
+            x.trials = d.trials;
+            x.work = d.work;
+        });
+    }
+    if plan.band_sweeps > 0 {
+        let (n, d) = band_stage(prep, &mut dpts, &mut sp, plan);
+        tr.record("band", Some(proxy_e_of(solid, &sp)), |x| {
+            x.points = n;
+            x.iterations = d.sweeps;
+            x.work = d.work;
+        });
+    }
+    sp
+}
+
+/// Stages 7–8: the bounding pass and the exact E of the stored spheres.
+fn finish(
+    prep: &Prepared,
+    pts: &points::PointSet,
+    plan: &FitPlan,
+    raw: &[(DVec3, f64)],
+    info: LloydInfo,
+    tr: &mut Tracer,
+) -> Run {
+    let solid = &prep.solid;
+    let proxy_e = proxy_e_of(solid, raw);
+    let (spheres, bound) = bound_stage(prep, pts, plan, raw);
     let wide: Vec<(DVec3, f64)> =
         spheres.iter().map(|s| (DVec3::new(s[0] as f64, s[1] as f64, s[2] as f64), s[3] as f64)).collect();
     tr.record("bound", Some(proxy_e_of(solid, &wide)), |_| {});
     let outside = exact_outside(prep, &spheres);
     tr.record("exact_e", Some(outside.iter().sum::<f64>() / prep.object_volume), |_| {});
-    let run = Run { spheres, outside, proxy_e, iterations, teleports, history, bound };
-    match lattice {
-        Some(start) => keep_the_better_start(prep, pts, plan, run, &start, tr),
-        None => run,
-    }
+    let LloydInfo { iterations, teleports, history } = info;
+    Run { spheres, outside, proxy_e, iterations, teleports, history, bound }
 }
 
 /// Stage 9, the start kept: a lattice start is a set of cell circumspheres, already (nearly)
