@@ -883,7 +883,7 @@ fn finish(
 /// Stage 9, the start kept: a lattice start is a set of cell circumspheres, already (nearly)
 /// bounding, and on a box the descent's point proxy can trade it for a set that the seam
 /// rounds and the bounding pass then make worse (the unit cube at 8 spheres: the octants'
-/// circumspheres E 0.9006, the fit 0.9229). So the start is made bounding by the same pass
+/// circumspheres E 0.8999, the fit 0.9229). So the start is made bounding by the same pass
 /// and, when its exact E is lower, returned instead: the fit never ends above its own start.
 /// Cost one bounding pass and one exact E of k spheres, only when the lattice start was
 /// taken.
@@ -896,6 +896,9 @@ fn keep_the_better_start(
     tr: &mut Tracer,
 ) -> Run {
     let live: Vec<(DVec3, f64)> = start.iter().copied().filter(|s| s.1 > 0.0).collect();
+    if live.is_empty() {
+        return run;
+    }
     let proxy_e = proxy_e_of(&prep.solid, &live);
     let (spheres, bound) = bound_stage(prep, pts, plan, &live);
     let outside = exact_outside(prep, &spheres);

@@ -2,9 +2,10 @@
 //! with the presets [`FitPlan::fast`], [`FitPlan::default`] and [`FitPlan::best`].
 //!
 //! The stages these knobs drive, in order (see `run_once` in the crate root): dense points,
-//! Lloyd (+ teleportation), polish, descent points, exclusive descent, seam rounds, band,
-//! bound, exact E. Every budget counts work, not time, so a plan gives the same spheres on any machine
-//! and for any thread count.
+//! Lloyd (+ teleportation), lattice start, polish, descent points, exclusive descent, seam
+//! rounds, band, bound, exact E, start kept (at a near tie of the two starts, `start_tie`,
+//! the stages from the polish on run from both). Every budget counts work, not time, so a
+//! plan gives the same spheres on any machine and for any thread count.
 
 use crate::FitError;
 
