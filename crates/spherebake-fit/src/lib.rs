@@ -639,6 +639,13 @@ struct Run {
     bound: BoundReport,
 }
 
+impl Run {
+    /// Σ exact V(S_i − T), units³ (E × the object's volume).
+    fn outside_total(&self) -> f64 {
+        self.outside.iter().sum()
+    }
+}
+
 /// One step of a fit, in the order it ran (see [`FitStats::trace`]).
 #[derive(Clone, Debug, PartialEq)]
 pub struct TraceEntry {
@@ -807,7 +814,7 @@ fn variational_run(prep: &Prepared, pts: &points::PointSet, settings: &FitSettin
     });
     match (lloyd_run, lattice_run) {
         (Some(a), Some(b)) => {
-            if b.outside.iter().sum::<f64>() < a.outside.iter().sum::<f64>() {
+            if b.outside_total() < a.outside_total() {
                 b
             } else {
                 a
@@ -903,7 +910,7 @@ fn keep_the_better_start(
     let (spheres, bound) = bound_stage(prep, pts, plan, &live);
     let outside = exact_outside(prep, &spheres);
     let e = outside.iter().sum::<f64>();
-    let kept = e < run.outside.iter().sum::<f64>();
+    let kept = e < run.outside_total();
     tr.record("start_kept", Some(e / prep.object_volume), |x| x.iterations = usize::from(kept));
     if kept {
         Run { spheres, outside, proxy_e, bound, ..run }
@@ -1419,7 +1426,7 @@ pub fn fit_reusing(
         .map(|(p, (prep, r))| PartStats {
             triangle_count: split.get(p).map_or(triangles.len(), |s| s.triangles.len()),
             sphere_count: r.spheres.len(),
-            outside_ratio_e: r.outside.iter().sum::<f64>() / prep.object_volume,
+            outside_ratio_e: r.outside_total() / prep.object_volume,
             object_volume: prep.object_volume,
             solid_source: prep.source,
         })
@@ -1520,7 +1527,7 @@ fn fit_part(
     let pts = points::build(&prep.pos, &prep.tris, &prep.solid, prep.lo, prep.hi, h_pts);
     add_timing(timings, "points", t.elapsed().as_secs_f64());
     progress(0.1);
-    let e_of = |r: &Run| r.outside.iter().sum::<f64>() / prep.object_volume;
+    let e_of = |r: &Run| r.outside_total() / prep.object_volume;
     // One run with k spheres; its stage times and trace are kept (every run's, in target mode).
     // With `plan.restarts` > 1 the whole run repeats from other seeds (the first is `seed`
     // itself) and the lowest exact E is kept (ties: the earliest), so it is never worse than
