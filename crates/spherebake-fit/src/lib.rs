@@ -35,7 +35,9 @@
 //!    trials) run once more, so the gaps the bounding pass closes are a seam spacing wide
 //!    ([`FitPlan::band_sweeps`]);
 //! 7. **bound** ([`bound`]): rounding to f32 and growing until exactly bounding, the sphere
-//!    with the least weighted growth (volume × outside share of a thin shell) first;
+//!    with the least weighted growth (volume × outside share of a thin shell) first; then each
+//!    grown sphere set back to its radius before the pass where the others' growth covers
+//!    for it (the shrink back, kept only when the summed weighted volume drops);
 //! 8. **exact E** of the stored spheres;
 //! 9. **start kept**: after a lattice start, the start itself made bounding by the same pass,
 //!    returned when its exact E is lower (the fit never ends above its own start).
@@ -1475,6 +1477,7 @@ pub fn fit_reusing(
         bound.grown_points += r.bound.grown_points;
         bound.pockets_closed += r.bound.pockets_closed;
         bound.pocket_candidates += r.bound.pocket_candidates;
+        bound.shrunk += r.bound.shrunk;
         iterations += r.iterations;
         tele = (tele.0 + r.teleports.0, tele.1 + r.teleports.1);
         history.extend(r.history);
