@@ -29,7 +29,7 @@
 //!    radius before the pass; the triangle pieces and interior points in the shell between the
 //!    two radii are covered again by rules 1–2 (it may grow back, or others grow); the step is
 //!    kept only when the summed weighted volume Σ wᵢ rᵢ³ drops, else undone. Rule 3 then runs
-//!    again. Measured in whole bakes at 64 spheres over seeds 1–4: E −0.1 to −0.6 % on every
+//!    again. Measured in whole bakes (64 and 128 spheres, seeds 1–4): E −0.1 to −1.2 % on every
 //!    seed (`docs/benchmarks.md`).
 
 use crate::ballgrid::BallGrid;
