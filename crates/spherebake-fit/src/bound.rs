@@ -255,6 +255,8 @@ fn cover_piece(
 pub fn make_bounding(spheres: &[(DVec3, f64)], input: &BoundInput) -> (Vec<Sphere32>, BoundReport) {
     let mut out: Vec<Sphere32> =
         spheres.iter().map(|(c, r)| [c.x as f32, c.y as f32, c.z as f32, (*r as f32).max(0.0)]).collect();
+    // The rounded spheres before any growth: what rule 4 sets back to.
+    let rounded = out.clone();
     let mut rep = BoundReport::default();
     if out.is_empty() {
         return (out, rep);
@@ -311,8 +313,7 @@ pub fn make_bounding(spheres: &[(DVec3, f64)], input: &BoundInput) -> (Vec<Spher
     // Rule 3.
     close_pockets(&mut out, &mut live, input, &mut rep);
     // Rule 4, then rule 3 again on what it changed.
-    let before: Vec<f32> = spheres.iter().map(|(_, r)| (*r as f32).max(0.0)).collect();
-    if shrink_back(&mut out, &before, &mut live, input, &mut rep) > 0 {
+    if shrink_back(&mut out, &rounded, &mut live, input, &mut rep) > 0 {
         close_pockets(&mut out, &mut live, input, &mut rep);
     }
     (out, rep)
@@ -348,8 +349,8 @@ fn close_pockets(out: &mut [Sphere32], live: &mut Live, input: &BoundInput, rep:
 /// at 64–128 spheres has all its grown spheres set back.
 const SHRINK_MAX: usize = 256;
 
-/// Rule 4: each sphere grown beyond `before` (its radius on entry), most weighted growth
-/// w (r³ − r₀³) first, is set back to `before` and the triangles and interior points that may
+/// Rule 4: each sphere grown beyond its radius in `rounded` (the spheres on entry to the pass;
+/// centres never move), most weighted growth w (r³ − r₀³) first, is set back to it and the triangles and interior points that may
 /// lose cover (those meeting the shell between the two radii) are covered again (rules 1–2: it
 /// may grow back, or neighbours grow); the step is kept when Σ w r³ drops, else undone. Rules
 /// 1–2 hold after every step. Cost: one parallel pass pairing triangles and points with the
@@ -357,16 +358,17 @@ const SHRINK_MAX: usize = 256;
 /// sphere its pairs and an O(n) undo copy. Returns the spheres kept smaller.
 fn shrink_back(
     out: &mut [Sphere32],
-    before: &[f32],
+    rounded: &[Sphere32],
     live: &mut Live,
     input: &BoundInput,
     rep: &mut BoundReport,
 ) -> usize {
     let w = |j: usize| input.weights.get(j).copied().unwrap_or(1.0);
     let cube = |r: f32| (r as f64).powi(3);
+    let before = |i: usize| rounded[i][3];
     let mut order: Vec<(f64, usize)> = (0..out.len())
-        .filter(|&i| out[i][3] > before[i])
-        .map(|i| (w(i) * (cube(out[i][3]) - cube(before[i])), i))
+        .filter(|&i| out[i][3] > before(i))
+        .map(|i| (w(i) * (cube(out[i][3]) - cube(before(i))), i))
         .collect();
     if order.is_empty() {
         return 0;
@@ -381,24 +383,21 @@ fn shrink_back(
         [input.positions[t[0] as usize], input.positions[t[1] as usize], input.positions[t[2] as usize]]
     };
     // Centres stay; only radii change below.
-    let centres: Vec<Sphere32> = out.iter().map(|s| [s[0], s[1], s[2], 0.0]).collect();
-    let centre = |i: usize| DVec3::new(centres[i][0] as f64, centres[i][1] as f64, centres[i][2] as f64);
+    let centre = |i: usize| DVec3::new(rounded[i][0] as f64, rounded[i][1] as f64, rounded[i][2] as f64);
     // Whether triangle t, with sphere i at radius `old`, may lose cover when i is set back:
     // it meets the old ball (else no piece of it was in i) and is not inside the set-back ball.
     let tri_at_risk = |i: usize, old: f64, t: &[DVec3; 3]| -> bool {
         let c = centre(i);
-        let kept = [centres[i][0], centres[i][1], centres[i][2], before[i]];
         closest_point_on_triangle(c, t).distance_squared(c) <= old * old * (1.0 + 1e-9)
-            && !t.iter().all(|p| contains(&kept, *p))
+            && !t.iter().all(|p| contains(&rounded[i], *p))
     };
     let point_at_risk = |i: usize, old: f64, p: DVec3| -> bool {
-        let kept = [centres[i][0], centres[i][1], centres[i][2], before[i]];
-        p.distance_squared(centre(i)) <= old * old * (1.0 + 1e-9) && !contains(&kept, p)
+        p.distance_squared(centre(i)) <= old * old * (1.0 + 1e-9) && !contains(&rounded[i], p)
     };
     // Pairs (sphere, triangle) and (sphere, point) at risk at today's radii, found through a grid
     // of the grown spheres (the others listed nowhere).
     let grown: Vec<(DVec3, f64)> =
-        (0..out.len()).map(|j| (centre(j), if out[j][3] > before[j] { out[j][3] as f64 } else { -1.0 })).collect();
+        (0..out.len()).map(|j| (centre(j), if out[j][3] > before(j) { out[j][3] as f64 } else { -1.0 })).collect();
     let sgrid = BallGrid::new(&grown);
     let mut tri_pairs: Vec<(u32, u32)> = input
         .triangles
@@ -457,7 +456,7 @@ fn shrink_back(
         };
         undo.clear();
         undo.extend_from_slice(out);
-        out[i][3] = before[i];
+        out[i][3] = before(i);
         // Pieces apart from the old ball or inside the set-back ball are covered: skipped.
         let at_risk = |t: &[DVec3; 3]| tri_at_risk(i, old, t);
         for ti in tris {
