@@ -95,7 +95,7 @@ fn fixture_case(case: &Case) {
 
 #[test]
 fn capsule_stays_under_its_e_ceiling() {
-    fixture_case(&Case { rel: "capsule.obj", measured: 0.0716, ceiling: 0.0752 });
+    fixture_case(&Case { rel: "capsule.obj", measured: 0.0513, ceiling: 0.0539 });
 }
 
 #[test]
@@ -105,7 +105,7 @@ fn skinned_arm_stays_under_its_e_ceiling() {
 
 #[test]
 fn textured_cube_stays_under_its_e_ceiling() {
-    fixture_case(&Case { rel: "textured-cube/textured-cube.gltf", measured: 0.3727, ceiling: 0.3914 });
+    fixture_case(&Case { rel: "textured-cube/textured-cube.gltf", measured: 0.3055, ceiling: 0.3208 });
 }
 
 fn shared(case: &Case) {
@@ -115,7 +115,9 @@ fn shared(case: &Case) {
 
 #[test]
 fn bunny_stays_under_its_e_ceiling() {
-    shared(&Case { rel: "obj/stanford-bunny.obj", measured: 0.2318, ceiling: 0.2434 });
+    // Seed 1 rose 0.2318 → 0.2354 with the two-thinning start (seeds 1–8 mean 0.2426 →
+    // 0.2315); the ceiling stays the one set from 0.2318.
+    shared(&Case { rel: "obj/stanford-bunny.obj", measured: 0.2354, ceiling: 0.2434 });
 }
 
 #[test]
@@ -125,7 +127,7 @@ fn armadillo_stays_under_its_e_ceiling() {
 
 #[test]
 fn spot_stays_under_its_e_ceiling() {
-    shared(&Case { rel: "obj/spot/spot.obj", measured: 0.1670, ceiling: 0.1754 });
+    shared(&Case { rel: "obj/spot/spot.obj", measured: 0.1539, ceiling: 0.1616 });
 }
 
 #[test]

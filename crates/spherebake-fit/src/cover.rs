@@ -4,7 +4,7 @@
 //! balls. Random choices enter through the seeded tie order, so `seed` still varies the start.
 //!
 //! Cost follows the sphere count: samples and candidates are capped by [`sample_cap`] (125
-//! per sphere, 256..=8000), each doubling of the dilation queries every candidate's ball once
+//! per sphere, 256..=8000; strided or spatially even, [`Thinning`]), each doubling of the dilation queries every candidate's ball once
 //! and keeps it sorted by distance, and the bisection steps take prefixes of those lists.
 
 use glam::DVec3;
@@ -223,24 +223,70 @@ const SAMPLES_PER_SPHERE: usize = 125;
 /// Fewest samples of [`sample_cap`].
 const MIN_SAMPLES: usize = 256;
 
+/// How [`start`] holds a set larger than [`sample_cap`] to about the cap. The two give
+/// different starts, and neither is better everywhere: Lloyd runs from both when a set is
+/// capped ([`is_capped`]) and keeps the lower proxy E (see [`crate::lloyd::run_multi`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Thinning {
+    /// Every s-th point in the set's order, s = ⌈len / cap⌉: between half the cap and the cap.
+    /// On a lattice whose rows are a multiple of s long every row keeps the same columns (the
+    /// axis-aligned unit cube's 40 × 40 × 40 interior at s = 8: the candidates lie on 5 of the
+    /// 40 x-planes, none within 0.2 of the face x = 1).
+    Strided,
+    /// Spatially even: the interior candidates keep the first point of each cube of edge
+    /// h (len / cap)^⅓ ([`crate::points::keep_per_cell`]; cubes aligned half a spacing below
+    /// the set's lowest corner, so lattice points never lie on a cube face), the surface
+    /// samples (in their cell-key order) the points at indices ⌊i len / cap⌋ for i < cap.
+    Even,
+}
+
+/// Whether [`start`] thins a set of `surface` samples or `interior` candidates for `k` spheres
+/// (only then do the two [`Thinning`]s differ).
+pub fn is_capped(surface: usize, interior: usize, k: usize) -> bool {
+    let cap = sample_cap(k);
+    surface > cap || interior > cap
+}
+
+/// `v` held to about `cap` points by `thinning` (`dim`: 2 for surface samples, 3 for the
+/// interior lattice); `v` itself when it is within the cap.
+fn thin(v: &[DVec3], cap: usize, h: f64, dim: i32, thinning: Thinning) -> Vec<DVec3> {
+    let cap = cap.max(1);
+    if v.len() <= cap {
+        return v.to_vec();
+    }
+    match thinning {
+        Thinning::Strided => v.iter().step_by(v.len().div_ceil(cap)).copied().collect(),
+        Thinning::Even if dim == 3 => {
+            let lo = v.iter().fold(DVec3::splat(f64::INFINITY), |a, p| a.min(*p)) - DVec3::splat(0.5 * h);
+            let cell = h * (v.len() as f64 / cap as f64).cbrt();
+            let keep = crate::points::keep_per_cell(v, lo, cell, 1);
+            v.iter().zip(keep).filter(|x| x.1).map(|x| *x.0).collect()
+        }
+        Thinning::Even => (0..cap).map(|i| v[i * v.len() / cap]).collect(),
+    }
+}
+
 /// Returns up to `k` start spheres (centre, radius).
 ///
 /// Cost: the candidates' covers are computed once per doubling of the dilation (sorted by
 /// distance), and each bisection step takes prefixes of the last ones, so the queries cost
 /// O(candidates × covered samples) about twice, not once per step; both sets are capped by
 /// [`sample_cap`], so the start's cost follows the sphere count.
-pub fn start(surface_all: &[DVec3], interior_all: &[DVec3], k: usize, h: f64, seed: u64) -> Vec<(DVec3, f64)> {
+pub fn start(
+    surface_all: &[DVec3],
+    interior_all: &[DVec3],
+    k: usize,
+    h: f64,
+    seed: u64,
+    thinning: Thinning,
+) -> Vec<(DVec3, f64)> {
     if surface_all.is_empty() {
         return Vec::new();
     }
-    // The start only needs to be roughly right: cap both sets (strided, so spatially even).
-    let cap = |v: &[DVec3], n: usize| -> Vec<DVec3> {
-        let stride = v.len().div_ceil(n).max(1);
-        v.iter().step_by(stride).copied().collect()
-    };
+    // The start only needs to be roughly right: cap both sets.
     let n_cap = sample_cap(k);
-    let surface = &cap(surface_all, n_cap)[..];
-    let interior = &cap(interior_all, n_cap)[..];
+    let surface = &thin(surface_all, n_cap, h, 2, thinning)[..];
+    let interior = &thin(interior_all, n_cap, h, 3, thinning)[..];
     let grid = Grid::new(surface, h);
     // Candidates: interior points, then surface samples (ρ = 0) as a fallback.
     let cand: Vec<DVec3> = interior.iter().chain(surface.iter()).copied().collect();
@@ -301,7 +347,7 @@ mod tests {
         }
         // The start itself ends on a point set whose spacing is 0 (one repeated point).
         let same = vec![DVec3::ONE; 4];
-        let s = start(&same, &[], 2, 0.0, 1);
+        let s = start(&same, &[], 2, 0.0, 1, Thinning::Strided);
         assert!(!s.is_empty() && s.len() <= 2, "{s:?}");
         assert!(s.iter().all(|(c, r)| c.distance(DVec3::ONE) <= *r + 1e-12), "{s:?}");
     }
@@ -344,12 +390,65 @@ mod tests {
             }
         }
         for k in [1, 3, 16] {
-            let balls = start(&surface, &interior, k, 0.05, 7);
-            assert!(!balls.is_empty() && balls.len() <= k, "k {k}: {}", balls.len());
-            let stride = surface.len().div_ceil(sample_cap(k)).max(1);
-            for p in surface.iter().step_by(stride) {
-                assert!(balls.iter().any(|(c, r)| c.distance(*p) <= *r * (1.0 + 1e-12)), "k {k}: {p} uncovered");
+            for t in [Thinning::Strided, Thinning::Even] {
+                let balls = start(&surface, &interior, k, 0.05, 7, t);
+                assert!(!balls.is_empty() && balls.len() <= k, "k {k}: {}", balls.len());
+                let capped = thin(&surface, sample_cap(k), 0.05, 2, t);
+                assert!(capped.len() <= sample_cap(k), "k {k} {t:?}: {}", capped.len());
+                for p in &capped {
+                    assert!(balls.iter().any(|(c, r)| c.distance(*p) <= *r * (1.0 + 1e-12)), "k {k}: {p} uncovered");
+                }
             }
+        }
+    }
+
+    #[test]
+    fn the_even_thinning_spans_an_axis_aligned_lattice_and_keeps_about_the_cap() {
+        let h = 0.025;
+        let lattice = |n: usize| -> Vec<DVec3> {
+            let mut v = Vec::new();
+            for k in 0..n {
+                for j in 0..n {
+                    for i in 0..n {
+                        v.push(DVec3::new(i as f64, j as f64, k as f64) * h);
+                    }
+                }
+            }
+            v
+        };
+        let planes = |v: &[DVec3]| -> Vec<i64> {
+            let mut x: Vec<i64> = v.iter().map(|p| (p.x / h).round() as i64).collect();
+            x.sort_unstable();
+            x.dedup();
+            x
+        };
+        // The unit cube's 40³ interior lattice at the cap of 64 spheres (8000): a stride of 8
+        // keeps x-planes 0, 8, ..., 32 only; cubes of 2 spacings keep every other plane,
+        // 20³ = 8000 points.
+        let cube = lattice(40);
+        let strided = thin(&cube, 8000, h, 3, Thinning::Strided);
+        assert_eq!(planes(&strided), vec![0, 8, 16, 24, 32]);
+        let even = thin(&cube, 8000, h, 3, Thinning::Even);
+        assert_eq!(even.len(), 8000);
+        assert_eq!(planes(&even), (0..20).map(|i| 2 * i).collect::<Vec<_>>());
+        // A set just over the cap: the stride halves it (22³ = 10 648 → 5324); cubes of
+        // 1.1 spacings hold 20 of the 22 lattice planes per axis, 20³ = 8000.
+        let over = lattice(22);
+        assert_eq!(thin(&over, 8000, h, 3, Thinning::Strided).len(), 5324);
+        let even = thin(&over, 8000, h, 3, Thinning::Even);
+        assert_eq!(even.len(), 8000);
+        let xs = planes(&even);
+        assert_eq!((xs[0], *xs.last().unwrap(), xs.len()), (0, 21, 20));
+        // Surface samples: exactly the cap, in order, first and spread to the end.
+        let surf = thin(&over, 8000, h, 2, Thinning::Even);
+        assert_eq!(surf.len(), 8000);
+        assert_eq!(surf[0], over[0]);
+        assert!(surf.windows(2).all(|w| w[0] != w[1]));
+        assert_eq!(surf[7999], over[7999 * over.len() / 8000]);
+        // Within the cap both return the set itself.
+        let small = lattice(10);
+        for t in [Thinning::Strided, Thinning::Even] {
+            assert_eq!(thin(&small, 8000, h, 3, t), small);
         }
     }
 

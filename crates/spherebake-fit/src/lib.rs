@@ -10,7 +10,9 @@
 //!    [`FitPlan::point_cell`] voxel cells, so a mesh finer than the grid costs what the grid
 //!    resolves), the interior lattice points;
 //! 2. **Lloyd** on the sparse points: a greedy cover of surface samples by dilated inner balls
-//!    as the start ([`cover`]-module; seeded tie order), power assignment (each point to the
+//!    as the start ([`cover`]-module; seeded tie order; when its sets are capped, Lloyd runs
+//!    from a strided and from a spatially even thinning and keeps the lower proxy E), power
+//!    assignment (each point to the
 //!    containing sphere it lies deepest in: monotone, unlike the paper's flood fill, which is
 //!    kept only as the fallback when the cover start is empty), a per-cluster Powell update of
 //!    the centre minimising the proxy outside volume with the radius bounding the cluster, and
@@ -992,7 +994,8 @@ fn thin_surface(v: &mut Vec<DVec3>, prep: &Prepared, plan: &FitPlan) {
 
 /// Stage 2, Lloyd on the sparse clustering points ([`lloyd::run_multi`]): inner-ball cover
 /// start, power assignment + Powell centre updates, teleportation when progress stalls; the
-/// lowest proxy E of `plan.starts` seeded starts. Cost per iteration O(points × spheres per
+/// lowest proxy E of `plan.starts` seeded starts, each run from both thinnings of the cover
+/// start when its sets are capped ([`cover::Thinning`]; the two runs at once). Cost per iteration O(points × spheres per
 /// cell) for the assignment plus O(spheres × Powell evaluations × r²/h²) for the updates, at
 /// most `plan.max_iterations` iterations per start.
 fn lloyd_stage(ctx: &lloyd::Ctx, k: usize, seed: u64, plan: &FitPlan) -> lloyd::LloydOutcome {
@@ -1308,7 +1311,8 @@ fn add_timing(timings: &mut Vec<(&'static str, f64)>, stage: &'static str, secs:
 /// the longest axis (h = extent / N): the solid costs O(n + N³/64) (bit-packed rows); the
 /// cover start O(k × S_b) per doubling of its dilation, its samples and candidates capped at
 /// 125 per sphere (at most 8000) and S_b the samples one candidate ball covers, so it follows
-/// k (see the `cover` module); each Lloyd iteration and polish round costs
+/// k (see the `cover` module); when a set is capped, the start and Lloyd run twice (two
+/// thinnings, at once on two threads); each Lloyd iteration and polish round costs
 /// O((P or D) × spheres per grid cell) for the assignment plus
 /// O(k × Powell evaluations × (r/h)²) for the centre updates, since one proxy ball volume
 /// reads O((r/h)²) voxel rows; the descent's trials stop at a fixed work budget counted in

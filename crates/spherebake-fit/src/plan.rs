@@ -94,7 +94,8 @@ pub struct FitPlan {
     pub teleport_max_fails: usize,
     /// Powell direction-set sweeps per centre update (Lloyd and polish). Range 1..=20.
     pub powell_sweeps: usize,
-    /// Independent seeded Lloyd starts; the lowest proxy E is kept. Cost ∝ starts.
+    /// Independent seeded Lloyd starts; the lowest proxy E is kept. Cost ∝ starts (each start
+    /// runs from both thinnings of the cover start when its sets are capped).
     /// Range 1..=16.
     pub starts: usize,
     /// Whole-fit runs (every stage, bound and exact E included) from this many seeds, the first
