@@ -4,8 +4,9 @@
 //! balls. Random choices enter through the seeded tie order, so `seed` still varies the start.
 //!
 //! Cost follows the sphere count: samples and candidates are capped by [`sample_cap`] (125
-//! per sphere, 256..=8000; strided or spatially even, [`Thinning`]), each doubling of the dilation queries every candidate's ball once
-//! and keeps it sorted by distance, and the bisection steps take prefixes of those lists.
+//! per sphere, 256..=8000; strided or spatially even, [`Thinning`]), each doubling of the
+//! dilation queries every candidate's ball once and keeps it sorted by distance, and the
+//! bisection steps take prefixes of those lists.
 
 use glam::DVec3;
 use rayon::prelude::*;

@@ -12,12 +12,12 @@
 //! 2. **Lloyd** on the sparse points: a greedy cover of surface samples by dilated inner balls
 //!    as the start ([`cover`]-module; seeded tie order; when its sets are capped, Lloyd runs
 //!    from a strided and from a spatially even thinning and keeps the lower proxy E), power
-//!    assignment (each point to the
-//!    containing sphere it lies deepest in: monotone, unlike the paper's flood fill, which is
-//!    kept only as the fallback when the cover start is empty), a per-cluster Powell update of
-//!    the centre minimising the proxy outside volume with the radius bounding the cluster, and
-//!    teleportation (split the worst cluster at its farthest pair, delete the cluster of
-//!    maximal relative overlap, keep only if E drops) when progress stalls;
+//!    assignment (each point to the containing sphere it lies deepest in: monotone, unlike
+//!    the paper's flood fill, which is kept only as the fallback when the cover start is
+//!    empty), a per-cluster Powell update of the centre minimising the proxy outside volume
+//!    with the radius bounding the cluster, and teleportation (split the worst cluster at its
+//!    farthest pair, delete the cluster of maximal relative overlap, keep only if E drops)
+//!    when progress stalls;
 //!    then the **lattice start**: the circumspheres of an octree's leaf cubes or of a box
 //!    lattice's cells (at most k, the candidate of lowest proxy E) replace Lloyd's spheres,
 //!    and the polish is skipped, when their proxy E is lower (box-like solids); at a near
@@ -995,9 +995,10 @@ fn thin_surface(v: &mut Vec<DVec3>, prep: &Prepared, plan: &FitPlan) {
 /// Stage 2, Lloyd on the sparse clustering points ([`lloyd::run_multi`]): inner-ball cover
 /// start, power assignment + Powell centre updates, teleportation when progress stalls; the
 /// lowest proxy E of `plan.starts` seeded starts, each run from both thinnings of the cover
-/// start when its sets are capped ([`cover::Thinning`]; the two runs at once). Cost per iteration O(points × spheres per
-/// cell) for the assignment plus O(spheres × Powell evaluations × r²/h²) for the updates, at
-/// most `plan.max_iterations` iterations per start.
+/// start when its sets are capped ([`cover::Thinning`]; the two runs at once). Cost per
+/// iteration O(points × spheres per cell) for the assignment plus O(spheres × Powell
+/// evaluations × r²/h²) for the updates, at most `plan.max_iterations` iterations per start
+/// and thinning.
 fn lloyd_stage(ctx: &lloyd::Ctx, k: usize, seed: u64, plan: &FitPlan) -> lloyd::LloydOutcome {
     let limits = lloyd::Limits {
         max_iterations: plan.max_iterations,
