@@ -32,9 +32,12 @@
 //!    it covers (monotone), split/delete trials under a deterministic work budget;
 //! 6. **seam rounds**: the uncovered surface points between vertices join the descent points
 //!    (triangles too large for one grid are split where no single sphere holds them) and the
-//!    descent runs again; then the **band** (stage 6b): the surface grid points at the seam
-//!    spacing near each sphere's surface join the descent points and Gauss–Seidel sweeps (no
-//!    trials) run once more, so the gaps the bounding pass closes are a seam spacing wide
+//!    descent runs again, its sweeps ending with one sweep of boundary moves (each sphere and
+//!    the neighbour it shares most points with hand points across their boundary, both
+//!    centres re-fitted: [`FitPlan::pair_first_cut`]); then the **band** (stage 6b): the
+//!    surface grid points at the seam spacing near each sphere's surface join the descent
+//!    points and Gauss–Seidel sweeps (no trials) and one sweep of boundary moves run once
+//!    more, so the gaps the bounding pass closes are a seam spacing wide
 //!    ([`FitPlan::band_sweeps`]);
 //! 7. **bound** ([`bound`]): rounding to f32 and growing until exactly bounding, the sphere
 //!    with the least weighted growth (volume × outside share of a thin shell) first; then each
@@ -1089,6 +1092,7 @@ fn descent_stage(prep: &Prepared, dpts: &[DVec3], sp: &mut [(DVec3, f64)], plan:
         trials: plan.descent_trials,
         max_fails: plan.descent_max_fails,
         work_budget: plan.descent_work_budget,
+        pair_first_cut: 0.0,
     };
     descent::exclusive_descent(&prep.solid, dpts, sp, &opts)
 }
@@ -1120,6 +1124,7 @@ fn seam_round(
         trials: plan.seam_trials,
         max_fails: plan.seam_max_fails,
         work_budget: plan.seam_work_budget,
+        pair_first_cut: plan.pair_first_cut,
     };
     Some(descent::exclusive_descent(&prep.solid, dpts, sp, &opts))
 }
@@ -1163,7 +1168,13 @@ fn band_stage(
     let n = band.len();
     // The descent points are not read after this stage: the band joins them in place.
     dpts.extend(band);
-    let opts = descent::Options { sweeps: plan.band_sweeps, trials: 0, max_fails: 1, work_budget: 0 };
+    let opts = descent::Options {
+        sweeps: plan.band_sweeps,
+        trials: 0,
+        max_fails: 1,
+        work_budget: 0,
+        pair_first_cut: plan.pair_first_cut,
+    };
     (n, descent::exclusive_descent(&prep.solid, dpts, sp, &opts))
 }
 

@@ -305,9 +305,12 @@ fn duck_at_64_spheres_keeps_its_measured_ground_error_under_the_uniform_sky() {
 }
 
 /// CesiumMan at 64 spheres, at rest and mid-walk (t = 1 s), with and without the soft-deformation rotation
-/// (seed 000 §7.1). Issue 14: ground ≤ 0.20 at 64² receivers and 4096 rays (0.194 there, docs/benchmarks.md), and
-/// the rotation must reduce the error. At these coarser settings: rest ground 0.203; mid-walk ground / model 0.253 /
-/// 0.353 with the rotation, 0.260 / 0.484 without.
+/// (seed 000 §7.1). Issue 14: ground ≤ 0.20 at 64² receivers and 4096 rays, asserted at those settings (0.191;
+/// before the fit's boundary moves 0.183). The posed comparison runs at coarser settings (24² receivers, 2048
+/// rays): mid-walk ground / model 0.234 / 0.357 with the rotation, 0.265 / 0.511 without. The rest error is not
+/// asserted at 24²: there one or two receivers under a foot (dark in the path-traced reference, where the
+/// spheres' contact with the ground differs) dominate it, and it jumps with the grid (the same file: 0.197 at
+/// 24², 0.208 at 32², 0.266 at 40², 0.223 at 48²).
 #[test]
 fn cesium_man_at_64_spheres_and_the_soft_rotation_reduces_the_posed_error() {
     let Some(man) = spherebake_testkit::shared_model("gltf/CesiumMan.glb") else { return };
@@ -322,8 +325,24 @@ fn cesium_man_at_64_spheres_and_the_soft_rotation_reduces_the_posed_error() {
         eprintln!("CesiumMan, 64 spheres {extra:?}: ground {g:.4}, model {m:.4}");
         (g, m)
     };
-    let (rest, _) = errors(&[]);
-    assert!(rest <= 0.23, "CesiumMan ground indirect relative RMSE {rest}");
+    let fine = json_of(&run(
+        &[
+            "light",
+            "man.sphb",
+            "--model",
+            model,
+            "--resolution",
+            "64",
+            "--rays",
+            "4096",
+            "--model-receivers",
+            "16",
+            "--json",
+        ],
+        d,
+    ));
+    let rest = fine["indirect"]["ground"]["rel_rmse"].as_f64().unwrap();
+    assert!(rest <= 0.20, "CesiumMan ground indirect relative RMSE at 64² receivers, 4096 rays: {rest}");
     let (g_rot, m_rot) = errors(&["--time", "1.0"]);
     let (g_no, m_no) = errors(&["--time", "1.0", "--no-soft-rotation"]);
     assert!(g_rot < g_no, "the rotation must reduce the ground error: {g_rot} vs {g_no}");
