@@ -256,17 +256,22 @@ fn results_do_not_depend_on_the_thread_count() {
 /// `spherebake light FILE --model MODEL` at the real-model tests' settings (24² ground receivers, 2048 rays, 256
 /// model receivers) plus `extra`, as JSON.
 fn real_model_light(d: &Path, file: &str, model: &str, extra: &[&str]) -> Value {
+    light_at(d, file, model, ["24", "2048", "256"], extra)
+}
+
+/// `light --json` of `file` against `model` at [ground receivers per edge, rays, model receivers].
+fn light_at(d: &Path, file: &str, model: &str, [resolution, rays, receivers]: [&str; 3], extra: &[&str]) -> Value {
     let mut args = vec![
         "light",
         file,
         "--model",
         model,
         "--resolution",
-        "24",
+        resolution,
         "--rays",
-        "2048",
+        rays,
         "--model-receivers",
-        "256",
+        receivers,
         "--json",
     ];
     args.extend_from_slice(extra);
@@ -325,22 +330,7 @@ fn cesium_man_at_64_spheres_and_the_soft_rotation_reduces_the_posed_error() {
         eprintln!("CesiumMan, 64 spheres {extra:?}: ground {g:.4}, model {m:.4}");
         (g, m)
     };
-    let fine = json_of(&run(
-        &[
-            "light",
-            "man.sphb",
-            "--model",
-            model,
-            "--resolution",
-            "64",
-            "--rays",
-            "4096",
-            "--model-receivers",
-            "16",
-            "--json",
-        ],
-        d,
-    ));
+    let fine = light_at(d, "man.sphb", model, ["64", "4096", "16"], &[]);
     let rest = fine["indirect"]["ground"]["rel_rmse"].as_f64().unwrap();
     assert!(rest <= 0.20, "CesiumMan ground indirect relative RMSE at 64² receivers, 4096 rays: {rest}");
     let (g_rot, m_rot) = errors(&["--time", "1.0"]);
