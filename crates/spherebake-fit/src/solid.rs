@@ -34,6 +34,11 @@ pub fn exact_is_cheaper(triangles: usize, solid_cells: usize, k: usize) -> bool 
     triangles as f64 * TRIANGLE_ROWS <= std::f64::consts::PI * r * r
 }
 
+/// Cap on [`Solid`]'s per-row prefix table, bytes (2 per entry, `dims[0] + 1` entries per
+/// multi-run row): the bunny at 128 voxels needs well under 1 MiB; a solid of a million folded
+/// 1024-cell rows would need 2 GiB and keeps the run walk instead.
+pub const PREFIX_TABLE_BYTES: usize = 64 << 20;
+
 /// A closed outward mesh: positions and triangles.
 type ExactMesh = (Vec<DVec3>, Vec<[u32; 3]>);
 
@@ -52,7 +57,8 @@ pub struct Solid {
     pub dims: [usize; 3],
     /// Runs `[a, b)` of solid cells of the rows listed in `multi`, in that order; row n's runs
     /// are `runs[run_start[n]..run_start[n + 1]]`, with `run_before[r]` the solid cells of the
-    /// row before run r (the prefix counts, exact, without a (dims[0] + 1) array per row).
+    /// row before run r (the prefix counts, exact): the fallback of `prefix` when that table
+    /// would be too large.
     runs: Vec<[u32; 2]>,
     run_before: Vec<u32>,
     run_start: Vec<usize>,
@@ -63,6 +69,12 @@ pub struct Solid {
     /// whose solid cells form more than one run.
     multi: Vec<u32>,
     multi_start: Vec<usize>,
+    /// Per multi-run row n (in `multi` order), its prefix counts P(0..=dims[0]) at
+    /// `prefix[n · (dims[0] + 1)..]` — the solid cells left of each cell boundary — so a chord
+    /// end is one lookup instead of a walk of the row's runs. Empty when the table would pass
+    /// [`PREFIX_TABLE_BYTES`] (a solid of very many folded rows); the runs answer then, with the
+    /// same integers, so the same values.
+    prefix: Vec<u16>,
     /// Number of solid cells.
     pub solid_count: usize,
     /// A closed outward mesh (positions, triangles) whose exact volume answers
@@ -178,11 +190,16 @@ impl Solid {
                 }
                 let half = rem.sqrt();
                 let n = ms + mi;
-                let (r0, r1) = (self.run_start[n], self.run_start[n + 1]);
-                let (runs, before) = (&self.runs[r0..r1], &self.run_before[r0..r1]);
-                let mut cur = 0;
-                let x0 = prefix_from(runs, before, nx, u.x - half, &mut cur);
-                sum += prefix_from(runs, before, nx, u.x + half, &mut cur) - x0;
+                if self.prefix.is_empty() {
+                    let (r0, r1) = (self.run_start[n], self.run_start[n + 1]);
+                    let (runs, before) = (&self.runs[r0..r1], &self.run_before[r0..r1]);
+                    let mut cur = 0;
+                    let x0 = prefix_from(runs, before, nx, u.x - half, &mut cur);
+                    sum += prefix_from(runs, before, nx, u.x + half, &mut cur) - x0;
+                } else {
+                    let table = &self.prefix[n * (nx + 1)..(n + 1) * (nx + 1)];
+                    sum += prefix_at(table, u.x + half) - prefix_at(table, u.x - half);
+                }
             }
         }
         sum * h * h * h
@@ -227,6 +244,22 @@ fn prefix_from(runs: &[[u32; 2]], before: &[u32], n: usize, x: f64, r: &mut usiz
     // are disjoint, so their starts are distinct).
     let c1 = c0 + usize::from(runs.get(c0).is_some_and(|run| run[0] as usize == i));
     let (a, b) = (p(i, c0) as f64, p(i + 1, c1) as f64);
+    a + (x - i as f64) * (b - a)
+}
+
+/// [`prefix_from`] read from a row's full prefix table `p` (`p.len()` = cells + 1): the same
+/// integers and the same interpolation, so bit-identical values.
+#[inline]
+fn prefix_at(p: &[u16], x: f64) -> f64 {
+    let n = p.len() - 1;
+    if x <= 0.0 {
+        return 0.0;
+    }
+    if x >= n as f64 {
+        return p[n] as f64;
+    }
+    let i = x as usize;
+    let (a, b) = (p[i] as f64, p[i + 1] as f64);
     a + (x - i as f64) * (b - a)
 }
 
@@ -289,6 +322,22 @@ impl Solid {
             multi_start[k + 1] += multi_start[k];
         }
         let multi: Vec<u32> = multi_rows.iter().map(|&row| (row % ny) as u32).collect();
+        // Counts fit u16: a row has at most 1024 cells (geom::voxel's cap), checked here.
+        let entries = multi_rows.len() * (nx + 1);
+        let prefix = if entries * 2 <= PREFIX_TABLE_BYTES && nx < u16::MAX as usize {
+            let mut prefix = Vec::with_capacity(entries);
+            for &row in &multi_rows {
+                let mut acc = 0u16;
+                prefix.push(0);
+                for i in 0..nx {
+                    acc += u16::from(solid.get(row * nx + i));
+                    prefix.push(acc);
+                }
+            }
+            prefix
+        } else {
+            Vec::new()
+        };
         Solid {
             grid,
             origin,
@@ -300,6 +349,7 @@ impl Solid {
             span,
             multi,
             multi_start,
+            prefix,
             solid_count: count,
             exact: None,
         }
@@ -394,7 +444,53 @@ mod exact_tests {
 
 #[cfg(test)]
 mod prefix_tests {
-    use super::prefix_from;
+    use super::{prefix_at, prefix_from, Solid};
+    use glam::DVec3;
+
+    #[test]
+    fn the_prefix_table_and_the_run_walk_answer_the_same_bits() {
+        // A folded solid (a shell with holes: most rows hold several runs); the table path
+        // against the run walk it replaces when the table would be too large. Each is checked
+        // against brute force in tests/ball_volume.rs (the table is the path taken there).
+        let dims = [23usize, 17, 19];
+        let n = dims[0] * dims[1] * dims[2];
+        let c = DVec3::new(11.5, 8.5, 9.5);
+        let cells: super::Bits = (0..n)
+            .map(|idx| {
+                let (i, j, k) = (idx % dims[0], (idx / dims[0]) % dims[1], idx / (dims[0] * dims[1]));
+                let d = DVec3::new(i as f64 + 0.5, j as f64 + 0.5, k as f64 + 0.5).distance(c);
+                (4.0..7.0).contains(&d) || (i * 7 + j * 3 + k) % 11 == 0
+            })
+            .collect();
+        let table = Solid::from_cells(DVec3::new(-2.0, 1.0, 0.5), 0.3, dims, cells);
+        assert!(!table.multi.is_empty() && table.prefix.len() == table.multi.len() * (dims[0] + 1));
+        let walk = Solid { prefix: Vec::new(), ..table.clone() };
+        for a in 0..400u32 {
+            let t = |m: u32| ((a * m) % 97) as f64 / 97.0;
+            let c = table.origin + DVec3::new(t(13), t(29), t(53)) * 8.0 - 1.0;
+            let r = 0.2 + 5.0 * t(71);
+            assert_eq!(table.ball_volume(c, r).to_bits(), walk.ball_volume(c, r).to_bits(), "c {c} r {r}");
+        }
+    }
+
+    #[test]
+    fn the_prefix_table_lookup_interpolates_within_a_cell_and_clamps_at_the_ends() {
+        // Row of 5 cells, solid 1, 2, 4: P = [0, 0, 1, 2, 2, 3].
+        let p = [0u16, 0, 1, 2, 2, 3];
+        for (x, want) in [
+            (-1.0, 0.0),
+            (0.0, 0.0),
+            (0.5, 0.0),
+            (1.25, 0.25),
+            (2.5, 1.5),
+            (3.9, 2.0),
+            (4.5, 2.5),
+            (5.0, 3.0),
+            (9.0, 3.0),
+        ] {
+            assert_eq!(prefix_at(&p, x), want, "x {x}");
+        }
+    }
 
     #[test]
     fn the_prefix_counts_solid_cells_and_shares_its_cursor_between_ends() {
