@@ -232,7 +232,7 @@ impl<'a> Cover<'a> {
     fn sweep_set(&mut self, set: &[usize], transfer: bool) -> f64 {
         use rayon::prelude::*;
         let mut order = set.to_vec();
-        order.sort_by(|&a, &b| self.outs[b].total_cmp(&self.outs[a]).then(a.cmp(&b)));
+        order.sort_unstable_by(|&a, &b| self.outs[b].total_cmp(&self.outs[a]).then(a.cmp(&b)));
         let mut gain = 0.0;
         if transfer {
             for &i in &order {
@@ -294,7 +294,7 @@ impl<'a> Cover<'a> {
             return 0.0;
         }
         let mut sorted: Vec<(f64, u32)> = ex.iter().map(|&q| (self.pts[q as usize].distance(ci), q)).collect();
-        sorted.sort_by(|a, b| b.0.total_cmp(&a.0).then(a.1.cmp(&b.1)));
+        sorted.sort_unstable_by(|a, b| b.0.total_cmp(&a.0).then(a.1.cmp(&b.1)));
         let mut r: Vec<f64> = self.spheres.iter().map(|s| s.1).collect();
         let mut o: Vec<f64> = self.outs.clone();
         let step = 0.25 * self.solid.h;
@@ -383,7 +383,7 @@ impl<'a> Cover<'a> {
             (p.distance(si.0) - si.1) - (p.distance(sj.0) - sj.1)
         };
         let mut ranked: Vec<(f64, u32)> = pool.iter().map(|&q| (t(q), q)).collect();
-        ranked.sort_by(|x, y| x.0.total_cmp(&y.0).then(x.1.cmp(&y.1)));
+        ranked.sort_unstable_by(|x, y| x.0.total_cmp(&y.0).then(x.1.cmp(&y.1)));
         let n = ranked.len();
         let now = ranked.partition_point(|x| x.0 <= 0.0);
         let before = self.outs[i] + self.outs[j];
@@ -432,7 +432,7 @@ impl<'a> Cover<'a> {
     fn pair_sweep(&mut self, first: f64) -> f64 {
         let k = self.spheres.len();
         let mut order: Vec<usize> = (0..k).collect();
-        order.sort_by(|&a, &b| self.outs[b].total_cmp(&self.outs[a]).then(a.cmp(&b)));
+        order.sort_unstable_by(|&a, &b| self.outs[b].total_cmp(&self.outs[a]).then(a.cmp(&b)));
         let mut gain = 0.0;
         let mut tried: Vec<u64> = Vec::new();
         for i in order {
@@ -498,7 +498,7 @@ impl<'a> Cover<'a> {
                 (g, q)
             })
             .collect();
-        gaps.sort_by(|a, b| b.0.total_cmp(&a.0).then(a.1.cmp(&b.1)));
+        gaps.sort_unstable_by(|a, b| b.0.total_cmp(&a.0).then(a.1.cmp(&b.1)));
         let mut grown: Vec<usize> = Vec::new();
         for &(_, q) in &gaps {
             let p = self.pts[q as usize];
@@ -699,7 +699,7 @@ pub fn exclusive_descent(solid: &Solid, pts: &[DVec3], spheres: &mut [(DVec3, f6
                 }
             }
         }
-        ranked.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)).then(a.2.cmp(&b.2)));
+        ranked.sort_unstable_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)).then(a.2.cmp(&b.2)));
         let Some(&first) = ranked.first() else { break };
         let second =
             ranked.iter().copied().find(|c| c.1 != first.1 && c.1 != first.2 && c.2 != first.1 && c.2 != first.2);
@@ -983,7 +983,7 @@ pub(crate) fn cheapest_of_three_nearest(
 pub fn cover_points(solid: &Solid, spheres: &mut [(DVec3, f64)], new: &[DVec3]) {
     let gap = |p: DVec3, sp: &[(DVec3, f64)]| sp.iter().map(|s| p.distance(s.0) - s.1).fold(f64::INFINITY, f64::min);
     let mut order: Vec<(f64, usize)> = new.iter().enumerate().map(|(i, p)| (gap(*p, spheres), i)).collect();
-    order.sort_by(|a, b| b.0.total_cmp(&a.0).then(a.1.cmp(&b.1)));
+    order.sort_unstable_by(|a, b| b.0.total_cmp(&a.0).then(a.1.cmp(&b.1)));
     for &(_, i) in &order {
         let p = new[i];
         let gaps = spheres.iter().enumerate().map(|(l, s)| (l, p.distance(s.0) - s.1));

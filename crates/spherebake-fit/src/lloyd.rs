@@ -277,7 +277,7 @@ pub fn assign_grow(solid: &Solid, pts: &[Rep], centres: &[DVec3], radii: &[f64])
         })
         .flatten()
         .collect();
-    out.sort_by(|a, b| b.0.total_cmp(&a.0).then(a.1.cmp(&b.1)));
+    out.sort_unstable_by(|a, b| b.0.total_cmp(&a.0).then(a.1.cmp(&b.1)));
     for &(_, i) in &out {
         let p = &pts[i as usize];
         let gaps = centres.iter().enumerate().map(|(ci, c)| (ci, p.far(*c) - r[ci]));
@@ -315,7 +315,7 @@ pub(crate) struct FarQuery {
 impl FarQuery {
     pub(crate) fn new(pts: &[Rep], mem: &[u32], c0: DVec3) -> Self {
         let mut sorted: Vec<(f64, Rep)> = mem.iter().map(|&i| (pts[i as usize].far(c0), pts[i as usize])).collect();
-        sorted.sort_by(|a, b| b.0.total_cmp(&a.0));
+        sorted.sort_unstable_by(|a, b| b.0.total_cmp(&a.0));
         Self { c0, sorted }
     }
     /// max |p − c| over the members, exact: |p − c| ≤ |p − c0| + |c − c0| prunes the scan.
@@ -396,7 +396,7 @@ pub fn teleport(ctx: &Ctx, st: &State, skip: usize) -> Option<(Vec<DVec3>, Vec<f
     let pts = ctx.all;
     let mem = members(&st.assign, k);
     let mut by_out: Vec<usize> = (0..k).filter(|&i| mem[i].len() >= 2).collect();
-    by_out.sort_by(|&a, &b| st.outside[b].total_cmp(&st.outside[a]).then(a.cmp(&b)));
+    by_out.sort_unstable_by(|&a, &b| st.outside[b].total_cmp(&st.outside[a]).then(a.cmp(&b)));
     let worst = *by_out.get(skip).or(by_out.first())?;
     let overlap = |j: usize| -> f64 {
         let vj = 4.0 / 3.0 * PI * st.radii[j].powi(3);
@@ -689,7 +689,7 @@ pub fn shrink(solid: &Solid, pts: &[Rep], centres: &[DVec3], radii: &mut [f64], 
     }
     let mut outs: Vec<f64> = (0..k).into_par_iter().map(|i| outside(solid, centres[i], radii[i])).collect();
     let mut order: Vec<usize> = (0..k).collect();
-    order.sort_by(|&a, &b| outs[b].total_cmp(&outs[a]).then(a.cmp(&b)));
+    order.sort_unstable_by(|&a, &b| outs[b].total_cmp(&outs[a]).then(a.cmp(&b)));
     let step = 0.25 * solid.h;
     let mut moves = 0;
     let mut grid: Option<BallGrid> = None;
@@ -720,7 +720,7 @@ pub fn shrink(solid: &Solid, pts: &[Rep], centres: &[DVec3], radii: &mut [f64], 
             continue;
         }
         let mut sorted: Vec<(f64, u32)> = mem[i].iter().map(|&q| (pts[q as usize].far(centres[i]), q)).collect();
-        sorted.sort_by(|a, b| b.0.total_cmp(&a.0).then(a.1.cmp(&b.1)));
+        sorted.sort_unstable_by(|a, b| b.0.total_cmp(&a.0).then(a.1.cmp(&b.1)));
         for &j in &nb {
             new_r[j] = radii[j];
             new_o[j] = outs[j];
