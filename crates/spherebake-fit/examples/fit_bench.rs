@@ -4,7 +4,7 @@
 //! Environment overrides: SB_POINTS, SB_VOXEL, SB_ITERS, SB_POLISH, SB_SEED, SB_STARTS,
 //! SB_TRIALS, SB_SEAMS, SB_TELE, SB_SUBDIV,
 //! SB_SEAM_TRIALS, SB_BUDGET, SB_SEAM_BUDGET, SB_DGRID (descent_grid_cells), SB_SEAM_SPACING,
-//! SB_PCELL, SB_PBUDGET, SB_BAND_SWEEPS, SB_BAND_WIDTH, SB_PAIR_CUT; SB_PRESET=fast|default|best starts from that plan.
+//! SB_PCELL, SB_PBUDGET, SB_BAND_SWEEPS, SB_BAND_WIDTH, SB_PAIR_CUT, SB_GAP_ROUNDS; SB_PRESET=fast|default|best starts from that plan.
 
 #[path = "common/obj.rs"]
 mod obj;
@@ -87,6 +87,7 @@ fn main() {
             set!(plan.band_width_cells, "SB_BAND_WIDTH");
             set!(plan.start_tie, "SB_START_TIE");
             set!(plan.pair_first_cut, "SB_PAIR_CUT");
+            set!(plan.gap_rounds, "SB_GAP_ROUNDS");
             set!(seed, "SB_SEED");
             let mut times = Vec::new();
             let mut last = None;
