@@ -128,7 +128,9 @@ pub struct FitPlan {
     /// The first descent's trials stop after this many rejections in a row. Range 1..=1000.
     pub descent_max_fails: usize,
     /// Work after which the first descent starts no new trial, in voxel rows read by the proxy
-    /// (deterministic; the bunny at 64 spheres spends 60 M in ≈ 0.8 s). Range ≤ 10¹².
+    /// (deterministic; the bunny at 64 spheres spends 60 M in ≈ 0.8 s), for up to 64 spheres;
+    /// a fit of k > 64 spheres gets k / 64 times this (its trials grow with k; the trial counts
+    /// still cap them). Range ≤ 10¹².
     pub descent_work_budget: u64,
 
     // --- seam rounds ---
@@ -142,7 +144,8 @@ pub struct FitPlan {
     pub seam_trials: usize,
     /// A seam round's trials stop after this many rejections in a row. Range 1..=1000.
     pub seam_max_fails: usize,
-    /// Work budget of each seam round's trials (as `descent_work_budget`). Range ≤ 10¹².
+    /// Work budget of each seam round's trials (as `descent_work_budget`, scaled the same way
+    /// above 64 spheres). Range ≤ 10¹².
     pub seam_work_budget: u64,
 
     // --- band ---
