@@ -162,7 +162,7 @@ pub struct FitPlan {
     /// join the points, are covered (the cheapest of the three nearest spheres grows), and one
     /// sweep of boundary moves ([`FitPlan::pair_first_cut`]; none when that is 0) re-fits the
     /// pairs around them. Measured at 64 spheres (fit alone, seeds 1–4, every seed lower or
-    /// equal): bunny E 0.2272 → 0.2264 (seeds 1–8 0.2245 → 0.2238), at 128 0.1455 → 0.1447,
+    /// equal): bunny E 0.2272 → 0.2264 (seeds 1–8 0.2245 → 0.2239), at 128 0.1455 → 0.1447,
     /// armadillo 0.3975 → 0.3961, spot 0.1524 → 0.1520, teapot 0.1766 → 0.1759, unit cube
     /// 0.2930 → 0.2913; CPU +3 to +10 %. A second round gained 0.0004 more on the bunny for
     /// as much again. Range 0..=10.
