@@ -105,6 +105,8 @@ fn skinned_arm_stays_under_its_e_ceiling() {
 
 #[test]
 fn textured_cube_stays_under_its_e_ceiling() {
+    // The ceiling was set from 0.2850; with the trial budgets doubled seed 1 gives 0.2904
+    // (seeds 1–4: mean 0.2847 → 0.2837), and the ceiling is not raised.
     fixture_case(&Case { rel: "textured-cube/textured-cube.gltf", measured: 0.2850, ceiling: 0.2993 });
 }
 
@@ -116,9 +118,9 @@ fn shared(case: &Case) {
 #[test]
 fn bunny_stays_under_its_e_ceiling() {
     // Seed 1: 0.2318, then 0.2354 with the two-thinning start (seeds 1–8 mean 0.2426 →
-    // 0.2315), 0.2297 with the boundary moves, 0.2286 with the gap round (the ceiling set from
-    // it).
-    shared(&Case { rel: "obj/stanford-bunny.obj", measured: 0.2286, ceiling: 0.2401 });
+    // 0.2315), 0.2297 with the boundary moves, 0.2286 with the gap round, 0.2227 with the trial
+    // budgets doubled (the ceiling set from it).
+    shared(&Case { rel: "obj/stanford-bunny.obj", measured: 0.2227, ceiling: 0.2339 });
 }
 
 #[test]
@@ -128,10 +130,10 @@ fn armadillo_stays_under_its_e_ceiling() {
 
 #[test]
 fn spot_stays_under_its_e_ceiling() {
-    shared(&Case { rel: "obj/spot/spot.obj", measured: 0.1516, ceiling: 0.1592 });
+    shared(&Case { rel: "obj/spot/spot.obj", measured: 0.1495, ceiling: 0.1570 });
 }
 
 #[test]
 fn duck_stays_under_its_e_ceiling() {
-    shared(&Case { rel: "gltf/Duck.glb", measured: 0.1083, ceiling: 0.1138 });
+    shared(&Case { rel: "gltf/Duck.glb", measured: 0.1058, ceiling: 0.1111 });
 }

@@ -130,7 +130,11 @@ pub struct FitPlan {
     /// Work after which the first descent starts no new trial, in voxel rows read by the proxy
     /// (deterministic; the bunny at 64 spheres spends 60 M in ≈ 0.8 s), for up to 64 spheres;
     /// a fit of k > 64 spheres gets k / 64 times this (its trials grow with k; the trial counts
-    /// still cap them). Range ≤ 10¹².
+    /// still cap them). The default was 60 M (seam rounds 15 M) until the boundary moves and
+    /// the gap round made trials pay more: doubled, the bunny at 64 spheres (whole bake, seeds
+    /// 1–4) went 0.2272 → 0.2235 for about 20 % more CPU (fit alone, seeds 1–8: every seed
+    /// lower); four times gave 0.2221 on the fit alone, with the teapot worse than at two.
+    /// Range ≤ 10¹².
     pub descent_work_budget: u64,
 
     // --- seam rounds ---
@@ -164,8 +168,8 @@ pub struct FitPlan {
     /// pairs around them. Measured at 64 spheres (fit alone, seeds 1–4, every seed lower or
     /// equal): bunny E 0.2272 → 0.2264 (seeds 1–8 0.2245 → 0.2239), at 128 0.1455 → 0.1447,
     /// armadillo 0.3975 → 0.3961, spot 0.1524 → 0.1520, teapot 0.1766 → 0.1759, unit cube
-    /// 0.2930 → 0.2913; CPU +3 to +10 %. A second round gained 0.0004 more on the bunny for
-    /// as much again. Range 0..=10.
+    /// 0.2930 → 0.2913; CPU +3 to +10 % (all with the trial budgets of then, 60 M and 15 M).
+    /// A second round gained 0.0004 more on the bunny for as much again. Range 0..=10.
     pub gap_rounds: usize,
 
     // --- boundary moves ---
@@ -201,8 +205,8 @@ pub struct FitPlan {
 }
 
 impl Default for FitPlan {
-    /// The measured default (bunny at 64 spheres, whole bake: E 0.2286 at seed 1, mean
-    /// 0.2272 over seeds 1–4).
+    /// The measured default (bunny at 64 spheres, whole bake: E 0.2227 at seed 1, mean
+    /// 0.2235 over seeds 1–4).
     fn default() -> Self {
         Self {
             point_resolution: 40,
@@ -222,12 +226,12 @@ impl Default for FitPlan {
             descent_sweeps: 8,
             descent_trials: 64,
             descent_max_fails: 20,
-            descent_work_budget: 60_000_000,
+            descent_work_budget: 120_000_000,
             seam_rounds: 5,
             seam_spacing_cells: 0.25,
             seam_trials: 16,
             seam_max_fails: 3,
-            seam_work_budget: 15_000_000,
+            seam_work_budget: 30_000_000,
             band_sweeps: 8,
             band_width_cells: 1.0,
             gap_rounds: 1,
@@ -244,7 +248,8 @@ impl Default for FitPlan {
 
 impl FitPlan {
     /// Less work in every stage: half the Lloyd iterations, no polish (the descent covers the
-    /// points from the Lloyd result directly), a quarter of the descent's trials and budget,
+    /// points from the Lloyd result directly), a quarter of the descent's trials and an eighth
+    /// of its budget,
     /// three seam rounds with a quarter of their trials, half the band's sweeps, no boundary
     /// moves and no gap round. Chosen on the
     /// bunny at 64 spheres (fit alone, CPU, load ≈ 6): polish 2 and one seam round E 0.266 in

@@ -282,9 +282,10 @@ fn the_band_stage_and_the_gap_round_narrow_what_the_bounding_pass_adds_on_the_bu
     let b = with.stats.trace.iter().find(|e| e.stage == "band").expect("band traced");
     assert!(b.points > 0 && b.iterations >= 1 && b.trials == 0, "{b:?}");
     // The gap round: after the band, points found and no sweep or trial of its own; the
-    // bound adds less after it and E ends lower (measured: the bound added 0.0046 after the
-    // gap round, 0.0055 after the band alone; E 0.2283 against 0.2301 without the round).
-    const GAP_E: f64 = 0.2283;
+    // bound adds less after it and E ends lower (measured: the bound added 0.0044 after the
+    // gap round, 0.0047 after the band alone; E 0.22585 against 0.22606 without the round;
+    // with the trial budgets before they were doubled: 0.0046 / 0.0055, E 0.2283 / 0.2301).
+    const GAP_E: f64 = 0.2259;
     let g = gap.stats.trace.iter().find(|e| e.stage == "gap").expect("gap traced");
     assert!(g.round == 1 && g.points > 0 && g.iterations == 0 && g.trials == 0, "{g:?}");
     let a_gap = added(&gap, "gap");
