@@ -132,7 +132,7 @@ pub struct FitPlan {
     /// a fit of k > 64 spheres gets k / 64 times this (its trials grow with k; the trial counts
     /// still cap them). The default was 60 M (seam rounds 15 M) until the boundary moves and
     /// the gap round made trials pay more: doubled, the bunny at 64 spheres (whole bake, seeds
-    /// 1–4) went 0.2272 → 0.2235 for about 20 % more CPU (fit alone, seeds 1–8: every seed
+    /// 1–4) went 0.2272 → 0.2235 for about a third more CPU (fit alone, seeds 1–8: every seed
     /// lower); four times gave 0.2221 on the fit alone, with the teapot worse than at two.
     /// Range ≤ 10¹².
     pub descent_work_budget: u64,
