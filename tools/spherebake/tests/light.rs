@@ -285,7 +285,7 @@ fn duck_at_64_spheres_keeps_its_measured_ground_error_under_the_uniform_sky() {
     let d = dir.path();
     let model = duck.to_str().unwrap();
     ok(&run(&["bake", model, "-o", "duck.sphb", "--spheres", "64", "-q"], d));
-    let j = real_model_light(d, "duck.sphb", model, &[]);
+    let j = light_at(d, "duck.sphb", model, ["24", "2048", "1024"], &[]);
     let g = &j["indirect"]["ground"];
     let rel = g["rel_rmse"].as_f64().unwrap();
     eprintln!(
@@ -295,13 +295,16 @@ fn duck_at_64_spheres_keeps_its_measured_ground_error_under_the_uniform_sky() {
         j["indirect"]["model"]["bias"].as_f64().unwrap_or(f64::NAN),
         j["direct"]["rel_rmse"].as_f64().unwrap(),
     );
-    // Issue 14's target is 0.20 (at 64² receivers and 4096 rays: 0.194, docs/benchmarks.md); here, at coarser
-    // settings, the proxy measures ground 0.197, model 0.878 (the reference is seeded, so these repeat). The ceilings
-    // leave room for platform rounding and small changes; without the sample areas (format minor 2) the values
-    // were 0.252 / 0.936, before the surface tiles 0.314 / 1.05.
+    // Issue 14's target is 0.20 (at 64² receivers and 4096 rays: 0.196, docs/benchmarks.md); here, at coarser
+    // ground settings, the proxy measures ground 0.186, model 0.842 (the reference is seeded, so these repeat). The
+    // model error is read at 1024 model receivers: at the 256 of the other real-model tests it jumps with the sphere
+    // layout (the fit's doubled trial budgets took it 0.884 → 0.973 while at 1024 it went 0.828 → 0.842, and at 64²
+    // ground receivers and 4096 rays ground 0.194 → 0.196). The model ceiling is the measured 0.842 × 1.05; without
+    // the sample areas (format minor 2) the values were 0.252 / 0.936 (256 receivers), before the surface tiles
+    // 0.314 / 1.05.
     assert!(rel <= 0.23, "Duck ground indirect relative RMSE {rel}");
     let model_rel = j["indirect"]["model"]["rel_rmse"].as_f64().unwrap();
-    assert!(model_rel <= 0.96, "Duck model indirect relative RMSE {model_rel}");
+    assert!(model_rel <= 0.884, "Duck model indirect relative RMSE {model_rel}");
     // Yellow bleeding, on both sides: the ground light is redder and greener than it is blue.
     for side in ["mean_reference_rgb", "mean_proxy_rgb"] {
         let m = rgb(&g[side]);
