@@ -1122,6 +1122,20 @@ fn descent_stage(prep: &Prepared, dpts: &[DVec3], sp: &mut [(DVec3, f64)], plan:
 /// 1024).
 const SEAM_MAX_SHARE: f64 = 0.25;
 
+/// The seam search of stages 6 and 6c: the surface points at the seam spacing that no sphere
+/// covers (at most [`SEAM_MAX_SHARE`] of the points, at least 1024) join `dpts`. Returns how
+/// many, `None` when there are none.
+fn add_seam_points(prep: &Prepared, dpts: &mut Vec<DVec3>, sp: &[(DVec3, f64)], plan: &FitPlan) -> Option<usize> {
+    let max_points = ((SEAM_MAX_SHARE * dpts.len() as f64) as usize).max(1024);
+    let seam = descent::seam_points(sp, &prep.pos, &prep.tris, plan.seam_spacing_cells * prep.solid.h, max_points);
+    if seam.is_empty() {
+        return None;
+    }
+    let n = seam.len();
+    dpts.extend(seam);
+    Some(n)
+}
+
 /// Stage 6, one seam round: the surface points between vertices that no sphere covers
 /// (barycentric grid of spacing `plan.seam_spacing_cells` voxel cells on every triangle no
 /// single sphere contains) join the descent points, so the optimiser rather than the greedy
@@ -1134,12 +1148,7 @@ fn seam_round(
     sp: &mut [(DVec3, f64)],
     plan: &FitPlan,
 ) -> Option<descent::DescentStats> {
-    let max_points = ((SEAM_MAX_SHARE * dpts.len() as f64) as usize).max(1024);
-    let seam = descent::seam_points(sp, &prep.pos, &prep.tris, plan.seam_spacing_cells * prep.solid.h, max_points);
-    if seam.is_empty() {
-        return None;
-    }
-    dpts.extend(seam);
+    add_seam_points(prep, dpts, sp, plan)?;
     let opts = descent::Options {
         sweeps: plan.descent_sweeps,
         trials: plan.seam_trials,
@@ -1215,13 +1224,7 @@ fn gap_round(
     sp: &mut [(DVec3, f64)],
     plan: &FitPlan,
 ) -> Option<(usize, descent::DescentStats)> {
-    let max_points = ((SEAM_MAX_SHARE * dpts.len() as f64) as usize).max(1024);
-    let gap = descent::seam_points(sp, &prep.pos, &prep.tris, plan.seam_spacing_cells * prep.solid.h, max_points);
-    if gap.is_empty() {
-        return None;
-    }
-    let n = gap.len();
-    dpts.extend(gap);
+    let n = add_seam_points(prep, dpts, sp, plan)?;
     let opts =
         descent::Options { sweeps: 0, trials: 0, max_fails: 1, work_budget: 0, pair_first_cut: plan.pair_first_cut };
     Some((n, descent::exclusive_descent(&prep.solid, dpts, sp, &opts)))
