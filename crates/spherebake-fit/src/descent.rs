@@ -143,13 +143,14 @@ fn best_ball(solid: &Solid, pts: &[DVec3], mem: &[u32], c0: DVec3, work: &Atomic
     let idx: Vec<u32> = (0..reps.len() as u32).collect();
     let fq = FarQuery::new(&reps, &idx, c0);
     let mut evals = 0u64;
-    let mut f = |x: [f64; 3]| {
+    // A trial is kept only below the best so far, so its rows stop once they prove it is not.
+    let mut f = |x: [f64; 3], best: f64| {
         evals += 1;
         let c = DVec3::from_array(x);
-        outside(solid, c, fq.max_dist(c))
+        solid.outside_below(c, fq.max_dist(c), best).unwrap_or(f64::INFINITY)
     };
     let rs = fq.max_dist(c0);
-    let f0 = f(c0.to_array());
+    let f0 = f(c0.to_array(), f64::INFINITY);
     let c = pattern_search(&mut f, c0, f0, 0.1 * rs + solid.h, PATTERN_STOP * solid.h);
     work.fetch_add(evals * (1 + (rs / solid.h).powi(2) as u64), Ordering::Relaxed);
     let r = radius(pts, mem, c);
@@ -1000,7 +1001,13 @@ pub fn cover_points(solid: &Solid, spheres: &mut [(DVec3, f64)], new: &[DVec3]) 
 /// polling the last successful direction first, doubling the step after two successes in a
 /// row and halving it when no direction improves; stops below `stop`. Robust on the ridges
 /// of max-distance objectives where coordinate line searches stall.
-fn pattern_search(f: &mut dyn FnMut([f64; 3]) -> f64, mut c: DVec3, mut fc: f64, mut step: f64, stop: f64) -> DVec3 {
+fn pattern_search(
+    f: &mut dyn FnMut([f64; 3], f64) -> f64,
+    mut c: DVec3,
+    mut fc: f64,
+    mut step: f64,
+    stop: f64,
+) -> DVec3 {
     const S: f64 = 0.577_350_269_189_625_8;
     const DIRS: [[f64; 3]; 14] = [
         [1.0, 0.0, 0.0],
@@ -1027,7 +1034,7 @@ fn pattern_search(f: &mut dyn FnMut([f64; 3]) -> f64, mut c: DVec3, mut fc: f64,
         for n in 0..DIRS.len() {
             let d = (first + n) % DIRS.len();
             let x = c + DVec3::from_array(DIRS[d]) * step;
-            let v = f(x.to_array());
+            let v = f(x.to_array(), fc);
             if v < fc {
                 fc = v;
                 c = x;

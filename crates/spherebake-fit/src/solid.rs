@@ -100,8 +100,36 @@ impl Solid {
     /// Proxy of V(ball ∩ solid), units³: rows of cells through the disc, fractional ends; or,
     /// [`Solid::set_exact_mesh`], the exact V(ball ∩ mesh) (clamped to [0, V(ball)]).
     pub fn ball_volume(&self, c: DVec3, r: f64) -> f64 {
+        self.ball_volume_rows::<false>(c, r, 0.0).unwrap_or(0.0)
+    }
+
+    /// Proxy outside volume of ball(c, r), V(ball) − [`Solid::ball_volume`] clamped at 0,
+    /// units³ — or `None` when the rows read so far prove it is at least `limit`: the rest of
+    /// each slab's rows can hold at most its disc, π w² + 4w cells for a disc of radius w
+    /// cells (the row sum of a unimodal chord is at most its integral plus twice its peak).
+    /// Whenever it returns `Some`, the value is the one [`Solid::ball_volume`] gives (the same
+    /// rows summed in the same order), so a search that only keeps values below its best
+    /// decides the same with less work.
+    pub fn outside_below(&self, c: DVec3, r: f64, limit: f64) -> Option<f64> {
+        let vb = volume::ball_volume_f64(r);
+        if limit <= 0.0 {
+            return None;
+        }
+        if self.exact.is_some() || r <= 0.0 {
+            return Some((vb - self.ball_volume(c, r)).max(0.0));
+        }
+        let h3 = self.h * self.h * self.h;
+        // Inside volume (cells) the ball must reach for an outside volume below `limit`.
+        let need = (vb - limit) / h3;
+        self.ball_volume_rows::<true>(c, r, need).map(|inside| (vb - inside).max(0.0))
+    }
+
+    /// The rows' sum of [`Solid::ball_volume`]; with `BOUNDED`, `None` as soon as the slabs
+    /// read and a bound on the rest show the inside volume stays below `need` cells.
+    #[inline(always)]
+    fn ball_volume_rows<const BOUNDED: bool>(&self, c: DVec3, r: f64, need: f64) -> Option<f64> {
         if r <= 0.0 {
-            return 0.0;
+            return Some(0.0);
         }
         if let Some(mesh) = &self.exact {
             let (pos, tris) = (&mesh.0, &mesh.1);
@@ -109,7 +137,7 @@ impl Solid {
                 .iter()
                 .map(|t| volume::triangle_ball_volume(c, r, pos[t[0] as usize], pos[t[1] as usize], pos[t[2] as usize]))
                 .sum();
-            return v.clamp(0.0, volume::ball_volume_f64(r));
+            return Some(v.clamp(0.0, volume::ball_volume_f64(r)));
         }
         let h = self.h;
         let nx = self.dims[0];
@@ -120,21 +148,44 @@ impl Solid {
         let k0 = ((u.z - ru - 0.5).ceil().max(0.0)) as usize;
         let k1 = (u.z + ru - 0.5).floor();
         if k1 < 0.0 {
-            return 0.0;
+            return Some(0.0);
         }
         let k1 = (k1 as usize).min(self.dims[2].saturating_sub(1));
         let j0 = ((u.y - ru - 0.5).ceil().max(0.0)) as usize;
         let j1f = (u.y + ru - 0.5).floor();
         if j1f < 0.0 {
-            return 0.0;
+            return Some(0.0);
         }
         let j1 = (j1f as usize).min(self.dims[1].saturating_sub(1));
         let mut sum = 0.0;
         let _ = nx;
         let ny = self.dims[1];
+        // Bounded: the most the unread slabs can add (cells). A slab's rows sample the chord
+        // f(y) = 2 √(w² − y²) of its disc (radius w) at unit steps y_a..y_b; f is concave, so
+        // the trapezoid rule under-reads its integral: Σ f(y_j) ≤ π w² + (f(y_a) + f(y_b)) / 2.
+        let disc = |k: usize| {
+            let dz = k as f64 + 0.5 - u.z;
+            let w2 = r2 - dz * dz;
+            if w2 <= 0.0 {
+                return 0.0;
+            }
+            let w = w2.sqrt();
+            let ya = (u.y - w - 0.5).floor() + 1.0 + 0.5 - u.y;
+            let yb = (u.y + w - 0.5).ceil() - 1.0 + 0.5 - u.y;
+            if yb < ya {
+                return 0.0;
+            }
+            let f = |y: f64| (w2 - y * y).max(0.0).sqrt();
+            std::f64::consts::PI * w2 + f(ya) + f(yb)
+        };
+        let mut unread = if BOUNDED { (k0..=k1).map(disc).sum::<f64>() } else { 0.0 };
         for k in k0..=k1 {
             let dz = k as f64 + 0.5 - u.z;
             let rem_z = r2 - dz * dz;
+            if BOUNDED {
+                unread -= disc(k);
+                // After this slab at most `unread` more (with a margin for rounding).
+            }
             if rem_z <= 0.0 {
                 continue;
             }
@@ -201,8 +252,11 @@ impl Solid {
                     sum += prefix_at(table, u.x + half) - prefix_at(table, u.x - half);
                 }
             }
+            if BOUNDED && (sum + unread.max(0.0)) * (1.0 + 1e-6) + 1e-6 < need {
+                return None;
+            }
         }
-        sum * h * h * h
+        Some(sum * h * h * h)
     }
 }
 
@@ -471,6 +525,50 @@ mod prefix_tests {
             let r = 0.2 + 5.0 * t(71);
             assert_eq!(table.ball_volume(c, r).to_bits(), walk.ball_volume(c, r).to_bits(), "c {c} r {r}");
         }
+    }
+
+    #[test]
+    fn outside_below_gives_the_outside_volume_or_proves_it_is_not_below_the_limit() {
+        // Two solids: a folded shell (most rows several runs) and a full block (every row
+        // wholly inside each chord, where the bound on the unread slabs is tightest: the rows
+        // hold exactly their chords). The reference is V(ball) − ball_volume.
+        let dims = [23usize, 17, 19];
+        let n = dims[0] * dims[1] * dims[2];
+        let c = DVec3::new(11.5, 8.5, 9.5);
+        let folded: super::Bits = (0..n)
+            .map(|idx| {
+                let (i, j, k) = (idx % dims[0], (idx / dims[0]) % dims[1], idx / (dims[0] * dims[1]));
+                let d = DVec3::new(i as f64 + 0.5, j as f64 + 0.5, k as f64 + 0.5).distance(c);
+                (4.0..7.0).contains(&d) || (i * 7 + j * 3 + k) % 11 == 0
+            })
+            .collect();
+        let full: super::Bits = (0..n).map(|_| true).collect();
+        let (mut some, mut none) = (0, 0);
+        for cells in [folded, full] {
+            let solid = Solid::from_cells(DVec3::new(-2.0, 1.0, 0.5), 0.3, dims, cells);
+            for a in 0..300u32 {
+                let t = |m: u32| ((a * m) % 97) as f64 / 97.0;
+                // Centres inside the block, radii up to 2.1 (7 cells) so balls stay inside.
+                let c = solid.origin + DVec3::new(2.6 + 1.7 * t(13), 2.6 + 0.5 * t(29), 2.6 + 0.5 * t(53));
+                let r = 0.2 + 1.9 * t(71);
+                let truth = (spherebake_geom::volume::ball_volume_f64(r) - solid.ball_volume(c, r)).max(0.0);
+                for f in [0.25, 0.9, 0.999, 1.000_001, 1.01, 2.0] {
+                    let limit = truth * f + if f > 1.0 { 1e-12 } else { 0.0 };
+                    match solid.outside_below(c, r, limit) {
+                        Some(v) => {
+                            assert_eq!(v.to_bits(), truth.to_bits(), "c {c} r {r}");
+                            some += 1;
+                        }
+                        None => {
+                            assert!(truth >= limit, "c {c} r {r}: {truth} < limit {limit} but rejected");
+                            none += 1;
+                        }
+                    }
+                }
+            }
+        }
+        // Both answers occur (the bound does cut evaluations short).
+        assert!(some > 100 && none > 100, "some {some} none {none}");
     }
 
     #[test]
