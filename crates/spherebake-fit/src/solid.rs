@@ -501,21 +501,28 @@ mod prefix_tests {
     use super::{prefix_at, prefix_from, Solid};
     use glam::DVec3;
 
-    #[test]
-    fn the_prefix_table_and_the_run_walk_answer_the_same_bits() {
-        // A folded solid (a shell with holes: most rows hold several runs); the table path
-        // against the run walk it replaces when the table would be too large. Each is checked
-        // against brute force in tests/ball_volume.rs (the table is the path taken there).
+    /// A folded solid of 23 × 17 × 19 cells: a spherical shell with a lattice of holes
+    /// and specks, so most rows hold several runs.
+    fn folded() -> ([usize; 3], super::Bits) {
         let dims = [23usize, 17, 19];
         let n = dims[0] * dims[1] * dims[2];
         let c = DVec3::new(11.5, 8.5, 9.5);
-        let cells: super::Bits = (0..n)
+        let cells = (0..n)
             .map(|idx| {
                 let (i, j, k) = (idx % dims[0], (idx / dims[0]) % dims[1], idx / (dims[0] * dims[1]));
                 let d = DVec3::new(i as f64 + 0.5, j as f64 + 0.5, k as f64 + 0.5).distance(c);
                 (4.0..7.0).contains(&d) || (i * 7 + j * 3 + k) % 11 == 0
             })
             .collect();
+        (dims, cells)
+    }
+
+    #[test]
+    fn the_prefix_table_and_the_run_walk_answer_the_same_bits() {
+        // A folded solid (a shell with holes: most rows hold several runs); the table path
+        // against the run walk it replaces when the table would be too large. Each is checked
+        // against brute force in tests/ball_volume.rs (the table is the path taken there).
+        let (dims, cells) = folded();
         let table = Solid::from_cells(DVec3::new(-2.0, 1.0, 0.5), 0.3, dims, cells);
         assert!(!table.multi.is_empty() && table.prefix.len() == table.multi.len() * (dims[0] + 1));
         let walk = Solid { prefix: Vec::new(), ..table.clone() };
@@ -532,17 +539,8 @@ mod prefix_tests {
         // Two solids: a folded shell (most rows several runs) and a full block (every row
         // wholly inside each chord, where the bound on the unread slabs is tightest: the rows
         // hold exactly their chords). The reference is V(ball) − ball_volume.
-        let dims = [23usize, 17, 19];
-        let n = dims[0] * dims[1] * dims[2];
-        let c = DVec3::new(11.5, 8.5, 9.5);
-        let folded: super::Bits = (0..n)
-            .map(|idx| {
-                let (i, j, k) = (idx % dims[0], (idx / dims[0]) % dims[1], idx / (dims[0] * dims[1]));
-                let d = DVec3::new(i as f64 + 0.5, j as f64 + 0.5, k as f64 + 0.5).distance(c);
-                (4.0..7.0).contains(&d) || (i * 7 + j * 3 + k) % 11 == 0
-            })
-            .collect();
-        let full: super::Bits = (0..n).map(|_| true).collect();
+        let (dims, folded) = folded();
+        let full: super::Bits = (0..dims.iter().product::<usize>()).map(|_| true).collect();
         let (mut some, mut none) = (0, 0);
         for cells in [folded, full] {
             let solid = Solid::from_cells(DVec3::new(-2.0, 1.0, 0.5), 0.3, dims, cells);
