@@ -104,9 +104,9 @@ impl Solid {
     }
 
     /// Proxy outside volume of ball(c, r), V(ball) − [`Solid::ball_volume`] clamped at 0,
-    /// units³ — or `None` when the rows read so far prove it is at least `limit`: the rest of
-    /// each slab's rows can hold at most its disc, π w² + 4w cells for a disc of radius w
-    /// cells (the row sum of a unimodal chord is at most its integral plus twice its peak).
+    /// units³ — or `None` when the rows read so far prove it is at least `limit`: the unread
+    /// slabs' rows can hold at most their chords, and a slab's chords sum to at most its disc
+    /// π w² (radius w cells) plus the trapezoid rule's two end terms (the chord is concave).
     /// Whenever it returns `Some`, the value is the one [`Solid::ball_volume`] gives (the same
     /// rows summed in the same order), so a search that only keeps values below its best
     /// decides the same with less work.
@@ -183,8 +183,9 @@ impl Solid {
             let dz = k as f64 + 0.5 - u.z;
             let rem_z = r2 - dz * dz;
             if BOUNDED {
+                // After this slab, the rest adds at most `unread` (checked with a margin for
+                // rounding below).
                 unread -= disc(k);
-                // After this slab at most `unread` more (with a margin for rounding).
             }
             if rem_z <= 0.0 {
                 continue;
