@@ -31,7 +31,7 @@ pub struct Ctx<'a> {
 
 /// Proxy outside volume of ball(c, r), units³.
 pub fn outside(solid: &Solid, c: DVec3, r: f64) -> f64 {
-    (4.0 / 3.0 * PI * r * r * r - solid.ball_volume(c, r)).max(0.0)
+    solid.outside(c, r)
 }
 
 #[derive(Clone)]

@@ -111,17 +111,20 @@ impl Solid {
     /// rows summed in the same order), so a search that only keeps values below its best
     /// decides the same with less work.
     pub fn outside_below(&self, c: DVec3, r: f64, limit: f64) -> Option<f64> {
-        let vb = volume::ball_volume_f64(r);
         if limit <= 0.0 {
             return None;
         }
         if self.exact.is_some() || r <= 0.0 {
-            return Some((vb - self.ball_volume(c, r)).max(0.0));
+            return Some(self.outside(c, r));
         }
-        let h3 = self.h * self.h * self.h;
         // Inside volume (cells) the ball must reach for an outside volume below `limit`.
-        let need = (vb - limit) / h3;
-        self.ball_volume_rows::<true>(c, r, need).map(|inside| (vb - inside).max(0.0))
+        let need = (volume::ball_volume_f64(r) - limit) / (self.h * self.h * self.h);
+        self.ball_volume_rows::<true>(c, r, need).map(|inside| outside_of(r, inside))
+    }
+
+    /// Proxy outside volume of ball(c, r), units³: V(ball) − [`Solid::ball_volume`], at least 0.
+    pub fn outside(&self, c: DVec3, r: f64) -> f64 {
+        outside_of(r, self.ball_volume(c, r))
     }
 
     /// The rows' sum of [`Solid::ball_volume`]; with `BOUNDED`, `None` as soon as the slabs
@@ -259,6 +262,12 @@ impl Solid {
         }
         Some(sum * h * h * h)
     }
+}
+
+/// V(ball of radius r) − `inside`, at least 0 (units³): the one formula of the proxy outside
+/// volume, so [`Solid::outside`] and [`Solid::outside_below`] give the same bits.
+fn outside_of(r: f64, inside: f64) -> f64 {
+    (volume::ball_volume_f64(r) - inside).max(0.0)
 }
 
 /// The row's prefix count at x (cells), linear inside a cell: P(i) + (x − i)(P(i+1) − P(i)),
