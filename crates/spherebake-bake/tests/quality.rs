@@ -100,14 +100,16 @@ fn capsule_stays_under_its_e_ceiling() {
 
 #[test]
 fn skinned_arm_stays_under_its_e_ceiling() {
-    fixture_case(&Case { rel: "skinned-arm.gltf", measured: 0.1401, ceiling: 0.1472 });
+    // 0.1401 until the pattern search polled its predicted moves (ceiling then 0.1472).
+    fixture_case(&Case { rel: "skinned-arm.gltf", measured: 0.1393, ceiling: 0.1463 });
 }
 
 #[test]
 fn textured_cube_stays_under_its_e_ceiling() {
     // The ceiling was set from 0.2850; with the trial budgets doubled seed 1 gives 0.2904
-    // (seeds 1–4: mean 0.2847 → 0.2837), and the ceiling is not raised.
-    fixture_case(&Case { rel: "textured-cube/textured-cube.gltf", measured: 0.2850, ceiling: 0.2993 });
+    // (seeds 1–4: mean 0.2847 → 0.2837), and the ceiling is not raised; 0.2812 with the
+    // predicted polls of the pattern search (the ceiling lowered to it).
+    fixture_case(&Case { rel: "textured-cube/textured-cube.gltf", measured: 0.2812, ceiling: 0.2953 });
 }
 
 fn shared(case: &Case) {
@@ -119,21 +121,25 @@ fn shared(case: &Case) {
 fn bunny_stays_under_its_e_ceiling() {
     // Seed 1: 0.2318, then 0.2354 with the two-thinning start (seeds 1–8 mean 0.2426 →
     // 0.2315), 0.2297 with the boundary moves, 0.2286 with the gap round, 0.2227 with the trial
-    // budgets doubled (the ceiling set from it).
+    // budgets doubled (the ceiling set from it), 0.2289 with the predicted polls of the pattern
+    // search (seeds 1–8, fit alone: mean 0.2216 → 0.2218; the ceiling is not raised).
     shared(&Case { rel: "obj/stanford-bunny.obj", measured: 0.2227, ceiling: 0.2339 });
 }
 
 #[test]
 fn armadillo_stays_under_its_e_ceiling() {
+    // 0.3932 with the predicted polls of the pattern search (the ceiling is not raised).
     shared(&Case { rel: "obj/armadillo.obj", measured: 0.3895, ceiling: 0.4090 });
 }
 
 #[test]
 fn spot_stays_under_its_e_ceiling() {
+    // 0.1498 with the predicted polls of the pattern search (the ceiling is not raised).
     shared(&Case { rel: "obj/spot/spot.obj", measured: 0.1495, ceiling: 0.1570 });
 }
 
 #[test]
 fn duck_stays_under_its_e_ceiling() {
-    shared(&Case { rel: "gltf/Duck.glb", measured: 0.1058, ceiling: 0.1111 });
+    // 0.1058 until the predicted polls of the pattern search (ceiling then 0.1111).
+    shared(&Case { rel: "gltf/Duck.glb", measured: 0.1036, ceiling: 0.1088 });
 }
