@@ -151,8 +151,14 @@ fn best_ball(solid: &Solid, pts: &[DVec3], mem: &[u32], c0: DVec3, work: &Atomic
     };
     let rs = fq.max_dist(c0);
     let f0 = f(c0.to_array(), f64::INFINITY);
+    // The surface is read again only when the centre moved (a failed step only halves).
+    let mut surface: Option<OutsideSurface> = None;
     let mut predict = |c: DVec3, moves: &[DVec3; 14], out: &mut [f64; 14]| {
-        predicted_changes(solid, c, fq.max_dist(c), |x| fq.max_dist(x), moves, out)
+        let s = match surface {
+            Some(s) if s.c == c => s,
+            _ => *surface.insert(OutsideSurface::read(solid, c, fq.max_dist(c))),
+        };
+        s.changes(|x| fq.max_dist(x), moves, out)
     };
     let c = pattern_search(&mut f, &mut predict, c0, f0, 0.1 * rs + solid.h, PATTERN_STOP * solid.h);
     work.fetch_add(evals * (1 + (rs / solid.h).powi(2) as u64), Ordering::Relaxed);
@@ -1000,37 +1006,51 @@ pub fn cover_points(solid: &Solid, spheres: &mut [(DVec3, f64)], new: &[DVec3]) 
     }
 }
 
-/// The first-order change of the proxy outside volume O(c, R(c)) = V(R) − V(ball ∩ solid) of
-/// a ball whose radius R(c) is a function of its centre, for each move c → c + m: `r` is
-/// R(c), `radius(x)` gives R(x). With S_out the part of the ball's surface outside the solid,
-/// ∂O/∂R = |S_out| and ∂O/∂c = ∫_{S_out} n dA (the ball gains what its front sweeps and loses
-/// what its back leaves; ∫_S n dA = 0), so ΔO ≈ ∫_{S_out} n dA · m + |S_out| (R(c + m) − R(c)).
-/// S_out is read at the 92 geodesic directions against the voxel solid (units³; `out[i]` for
-/// `moves[i]`). The radius change is exact, so the ridges of a max-distance radius (several
-/// points at the same distance), where a linear model of R fails, are followed exactly; only
-/// the solid is linearised.
-fn predicted_changes(
-    solid: &Solid,
+/// The part S_out of a ball's surface outside the solid, for the first-order change of the
+/// proxy outside volume O(c, R(c)) = V(R) − V(ball ∩ solid) of a ball whose radius R(c) is a
+/// function of its centre: ∂O/∂R = |S_out| and ∂O/∂c = ∫_{S_out} n dA (the ball gains what
+/// its front sweeps and loses what its back leaves; ∫_S n dA = 0), so a move c → c + m changes
+/// O by ≈ ∫_{S_out} n dA · m + |S_out| (R(c + m) − R(c)). S_out is read at the 92 geodesic
+/// directions against the voxel solid.
+#[derive(Clone, Copy)]
+struct OutsideSurface {
+    /// The ball read: centre and radius R(c).
     c: DVec3,
     r: f64,
-    radius: impl Fn(DVec3) -> f64,
-    moves: &[DVec3; 14],
-    out: &mut [f64; 14],
-) {
-    static DIRS: std::sync::OnceLock<[[f64; 3]; spherebake_sh::GEODESIC_DIRECTION_COUNT]> = std::sync::OnceLock::new();
-    let dirs = DIRS.get_or_init(spherebake_sh::geodesic_directions_f64);
-    let mut flux = DVec3::ZERO;
-    let mut n_out = 0usize;
-    for d in dirs {
-        let n = DVec3::from_array(*d);
-        if !solid.is_solid_at(c + n * r) {
-            flux += n;
-            n_out += 1;
+    /// Σ n over the directions whose surface point is outside the solid.
+    flux: DVec3,
+    /// How many directions those are.
+    n_out: usize,
+    /// The surface area per direction, 4πR² / 92, units².
+    cell_area: f64,
+}
+
+impl OutsideSurface {
+    fn read(solid: &Solid, c: DVec3, r: f64) -> Self {
+        static DIRS: std::sync::OnceLock<[[f64; 3]; spherebake_sh::GEODESIC_DIRECTION_COUNT]> =
+            std::sync::OnceLock::new();
+        let dirs = DIRS.get_or_init(spherebake_sh::geodesic_directions_f64);
+        let mut flux = DVec3::ZERO;
+        let mut n_out = 0usize;
+        for d in dirs {
+            let n = DVec3::from_array(*d);
+            if !solid.is_solid_at(c + n * r) {
+                flux += n;
+                n_out += 1;
+            }
         }
+        let cell_area = 4.0 * std::f64::consts::PI * r * r / dirs.len() as f64;
+        Self { c, r, flux, n_out, cell_area }
     }
-    let cell_area = 4.0 * std::f64::consts::PI * r * r / dirs.len() as f64;
-    for (o, &m) in out.iter_mut().zip(moves) {
-        *o = cell_area * (flux.dot(m) + n_out as f64 * (radius(c + m) - r));
+
+    /// The predicted change of O for each move (`out[i]` for `moves[i]`, units³); `radius(x)`
+    /// gives R(x). The radius change is exact, so the ridges of a max-distance radius (several
+    /// points at the same distance), where a linear model of R fails, are followed exactly;
+    /// only the solid is linearised.
+    fn changes(&self, radius: impl Fn(DVec3) -> f64, moves: &[DVec3; 14], out: &mut [f64; 14]) {
+        for (o, &m) in out.iter_mut().zip(moves) {
+            *o = self.cell_area * (self.flux.dot(m) + self.n_out as f64 * (radius(self.c + m) - self.r));
+        }
     }
 }
 
@@ -1084,10 +1104,17 @@ fn pattern_search(
         guard += 1;
         let moves: [DVec3; 14] = std::array::from_fn(|d| DVec3::from_array(DIRS[d]) * step);
         predict(c, &moves, &mut change);
-        let mut order: [usize; 14] = std::array::from_fn(|d| d);
-        order.sort_by(|&a, &b| change[a].total_cmp(&change[b]).then(a.cmp(&b)));
+        // The POLLS least changes, in increasing order (ties by direction).
+        let mut order = [0usize; POLLS];
+        for slot in 0..POLLS {
+            let taken = &order[..slot];
+            order[slot] = (0..14)
+                .filter(|d| !taken.contains(d))
+                .min_by(|&a, &b| change[a].total_cmp(&change[b]).then(a.cmp(&b)))
+                .unwrap_or(0);
+        }
         let mut hit = false;
-        for &d in &order[..POLLS] {
+        for &d in &order {
             let x = c + moves[d];
             let v = f(x.to_array(), fc);
             if v < fc {
@@ -1160,13 +1187,14 @@ mod tests {
             _ => DVec3::ZERO,
         });
         let mut out = [0.0; 14];
-        predicted_changes(&solid, c, r, |_| r, &moves, &mut out);
+        let surface = OutsideSurface::read(&solid, c, r);
+        surface.changes(|_| r, &moves, &mut out);
         let disc = std::f64::consts::PI * (r * r - d * d) * s;
         for (got, want) in [(out[0], disc), (out[1], -disc), (out[2], 0.0)] {
             assert!((got - want).abs() <= 0.06 * disc, "{got} vs {want}");
         }
         let delta = 0.02;
-        predicted_changes(&solid, c, r, |_| r + delta, &moves, &mut out);
+        surface.changes(|_| r + delta, &moves, &mut out);
         let cap = 2.0 * std::f64::consts::PI * r * (r - d) * delta;
         assert!((out[3] - cap).abs() <= 0.06 * cap, "{} vs {cap}", out[3]);
         assert!((out[0] - (disc + cap)).abs() <= 0.06 * (disc + cap), "{}", out[0]);
