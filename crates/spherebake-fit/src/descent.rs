@@ -18,7 +18,7 @@
 //! filled) 0.256 at seed 1, mean 0.249 over seeds 1–4; armadillo 0.429, mean 0.426 (the fitter before this
 //! stage: 0.276 and 0.511 at seed 1).
 
-use crate::lloyd::{outside, FarQuery};
+use crate::lloyd::FarQuery;
 use crate::solid::Solid;
 use glam::DVec3;
 use spherebake_geom::triangle::triangle_grid;
@@ -163,7 +163,7 @@ fn best_ball(solid: &Solid, pts: &[DVec3], mem: &[u32], c0: DVec3, work: &Atomic
     let c = pattern_search(&mut f, &mut predict, c0, f0, 0.1 * rs + solid.h, PATTERN_STOP * solid.h);
     work.fetch_add(evals * (1 + (rs / solid.h).powi(2) as u64), Ordering::Relaxed);
     let r = radius(pts, mem, c);
-    (c, r, outside(solid, c, r))
+    (c, r, solid.outside(c, r))
 }
 
 /// A covering sphere set over a point set with per-point coverage counts.
@@ -204,7 +204,7 @@ impl<'a> Cover<'a> {
         for s in spheres {
             grid.for_each_in(pts, s.0, s.1, |q| cnt[q as usize] = cnt[q as usize].saturating_add(1));
         }
-        let outs = spheres.iter().map(|s| outside(solid, s.0, s.1)).collect();
+        let outs = spheres.iter().map(|s| solid.outside(s.0, s.1)).collect();
         let tried = vec![0; spheres.len()];
         Cover { solid, pts, grid, cnt, spheres: spheres.to_vec(), outs, tried, work: Arc::new(AtomicU64::new(0)) }
     }
@@ -232,7 +232,7 @@ impl<'a> Cover<'a> {
         self.grid.for_each_in(self.pts, c0, r0, |q| cnt[q as usize] -= 1);
         self.grid.for_each_in(self.pts, c, r, |q| cnt[q as usize] = cnt[q as usize].saturating_add(1));
         self.spheres[i] = (c, r);
-        self.outs[i] = outside(self.solid, c, r);
+        self.outs[i] = self.solid.outside(c, r);
     }
 
     /// One sweep over `set` (largest outside volume first): radius transfers (sequential),
@@ -332,12 +332,12 @@ impl<'a> Cover<'a> {
             if r_next <= checkpoint || n + 1 == cap {
                 checkpoint = r_next - step;
                 for &l in &dirty {
-                    let v = outside(self.solid, self.spheres[l].0, r[l]);
+                    let v = self.solid.outside(self.spheres[l].0, r[l]);
                     grow_sum += v - o[l];
                     o[l] = v;
                 }
                 dirty.clear();
-                let d = outside(self.solid, ci, r_next) - self.outs[i] + grow_sum;
+                let d = self.solid.outside(ci, r_next) - self.outs[i] + grow_sum;
                 if d < best.0 {
                     let grown: Vec<(usize, f64)> =
                         nb.iter().filter(|&&l| r[l] != self.spheres[l].1).map(|&l| (l, r[l])).collect();
@@ -531,9 +531,8 @@ impl<'a> Cover<'a> {
             }
         }
         grown.sort_unstable();
-        let delta: f64 =
-            grown.iter().map(|&l| outside(self.solid, self.spheres[l].0, r[l]) - self.outs[l]).sum::<f64>()
-                - self.outs[j];
+        let delta: f64 = grown.iter().map(|&l| self.solid.outside(self.spheres[l].0, r[l]) - self.outs[l]).sum::<f64>()
+            - self.outs[j];
         (delta, grown.into_iter().map(|l| (l, r[l])).collect())
     }
 
@@ -998,7 +997,7 @@ pub fn cover_points(solid: &Solid, spheres: &mut [(DVec3, f64)], new: &[DVec3]) 
         let gaps = spheres.iter().enumerate().map(|(l, s)| (l, p.distance(s.0) - s.1));
         let grown = cheapest_of_three_nearest(gaps, |l| {
             let (c, r) = spheres[l];
-            outside(solid, c, p.distance(c) * (1.0 + 1e-12)) - outside(solid, c, r)
+            solid.outside(c, p.distance(c) * (1.0 + 1e-12)) - solid.outside(c, r)
         });
         if let Growth::Grow(l) = grown {
             spheres[l].1 = p.distance(spheres[l].0) * (1.0 + 1e-12);
@@ -1254,7 +1253,7 @@ mod tests {
                 let i = (0..8).min_by(|&a, &b| p.distance(centres[a]).total_cmp(&p.distance(centres[b]))).unwrap();
                 spheres[i].1 = spheres[i].1.max(p.distance(centres[i]) * (1.0 + 1e-12));
             }
-            let before: f64 = spheres.iter().map(|s| outside(&solid, s.0, s.1)).sum();
+            let before: f64 = spheres.iter().map(|s| solid.outside(s.0, s.1)).sum();
             let mut after_sweeps = spheres.clone();
             exclusive_descent(
                 &solid,
@@ -1273,8 +1272,8 @@ mod tests {
                     assert!(sp.iter().any(|s| p.distance_squared(s.0) <= s.1 * s.1), "seed {seed}: {p} uncovered");
                 }
             }
-            let e_sweeps: f64 = after_sweeps.iter().map(|s| outside(&solid, s.0, s.1)).sum();
-            let e_trials: f64 = spheres.iter().map(|s| outside(&solid, s.0, s.1)).sum();
+            let e_sweeps: f64 = after_sweeps.iter().map(|s| solid.outside(s.0, s.1)).sum();
+            let e_trials: f64 = spheres.iter().map(|s| solid.outside(s.0, s.1)).sum();
             assert!(e_sweeps <= before + 1e-12, "seed {seed}: {before} -> {e_sweeps}");
             assert!(e_trials <= before + 1e-12, "seed {seed}: {before} -> {e_trials}");
             // A random start is far from optimal: the descent must find a real improvement.
@@ -1300,7 +1299,7 @@ mod tests {
         let start = vec![ball(&left, DVec3::new(1.2, 0.5, 0.5)), ball(&right, DVec3::new(5.2, 0.5, 0.5))];
         let (l4, r4): (Vec<DVec3>, Vec<DVec3>) = pts.iter().partition(|p| p.x <= 4.0);
         let even = [ball(&l4, DVec3::new(2.0, 0.5, 0.5)), ball(&r4, DVec3::new(6.0, 0.5, 0.5))];
-        let total = |sp: &[(DVec3, f64)]| sp.iter().map(|s| outside(&solid, s.0, s.1)).sum::<f64>();
+        let total = |sp: &[(DVec3, f64)]| sp.iter().map(|s| solid.outside(s.0, s.1)).sum::<f64>();
         let run = |first: f64| {
             let mut sp = start.clone();
             let opts = Options { sweeps: 8, trials: 0, max_fails: 1, work_budget: 0, pair_first_cut: first };

@@ -731,7 +731,7 @@ impl Tracer {
 
 /// Proxy E of a sphere set: Σ proxy V(S_i − T) / proxy V(T). Cost O(Σ r_i² / h²) row reads.
 fn proxy_e_of(solid: &Solid, spheres: &[(DVec3, f64)]) -> f64 {
-    spheres.iter().map(|(c, r)| lloyd::outside(solid, *c, *r)).sum::<f64>() / solid.volume()
+    spheres.iter().map(|(c, r)| solid.outside(*c, *r)).sum::<f64>() / solid.volume()
 }
 
 /// Fits `k` spheres to one prepared part and makes them bounding: the stages below in order,
@@ -1258,7 +1258,7 @@ fn bound_stage(
             if dv <= 0.0 {
                 return 1.0;
             }
-            ((lloyd::outside(solid, *c, r1) - lloyd::outside(solid, *c, r0)) / dv).clamp(plan.bound_weight_min, 1.0)
+            ((solid.outside(*c, r1) - solid.outside(*c, r0)) / dv).clamp(plan.bound_weight_min, 1.0)
         })
         .collect();
     let input = bound::BoundInput {

@@ -29,11 +29,6 @@ pub struct Ctx<'a> {
     pub powell_sweeps: usize,
 }
 
-/// Proxy outside volume of ball(c, r), units³.
-pub fn outside(solid: &Solid, c: DVec3, r: f64) -> f64 {
-    solid.outside(c, r)
-}
-
 #[derive(Clone)]
 pub struct State {
     pub centres: Vec<DVec3>,
@@ -61,7 +56,7 @@ impl Radial {
         let i = m.floor() as usize;
         while self.vals.len() <= i + 1 {
             let rr = self.vals.len() as f64 * self.step;
-            self.vals.push(outside(solid, self.c, rr));
+            self.vals.push(solid.outside(self.c, rr));
         }
         let f = m - i as f64;
         self.vals[i] * (1.0 - f) + self.vals[i + 1] * f
@@ -281,7 +276,7 @@ pub fn assign_grow(solid: &Solid, pts: &[Rep], centres: &[DVec3], radii: &[f64])
     for &(_, i) in &out {
         let p = &pts[i as usize];
         let gaps = centres.iter().enumerate().map(|(ci, c)| (ci, p.far(*c) - r[ci]));
-        let cost = |ci: usize| outside(solid, centres[ci], p.far(centres[ci])) - outside(solid, centres[ci], r[ci]);
+        let cost = |ci: usize| solid.outside(centres[ci], p.far(centres[ci])) - solid.outside(centres[ci], r[ci]);
         match cheapest_of_three_nearest(gaps, cost) {
             Growth::Inside(ci) => assign[i as usize] = ci as u32,
             Growth::Grow(ci) => {
@@ -357,7 +352,7 @@ pub fn update(ctx: &Ctx, centres: &[DVec3], assign: &[u32]) -> State {
             let fq = FarQuery::new(pts, m, centres[ci]);
             let mut f = |x: [f64; 3]| {
                 let c = DVec3::from_array(x);
-                outside(ctx.solid, c, fq.max_dist(c))
+                ctx.solid.outside(c, fq.max_dist(c))
             };
             let r0 = fq.max_dist(centres[ci]);
             let step = 0.25 * r0 + ctx.pts.h;
@@ -659,7 +654,7 @@ pub fn polish(ctx: &Ctx, spheres: &[(DVec3, f64)], rounds: usize) -> Vec<(DVec3,
                 let fq = FarQuery::new(all, m, c0);
                 let mut f = |x: [f64; 3]| {
                     let c = DVec3::from_array(x);
-                    outside(ctx.solid, c, fq.max_dist(c))
+                    ctx.solid.outside(c, fq.max_dist(c))
                 };
                 let r0 = fq.max_dist(c0);
                 let res = powell(&mut f, c0.to_array(), 0.1 * r0 + ctx.solid.h, ctx.powell_sweeps, 1e-4);
@@ -687,7 +682,7 @@ pub fn shrink(solid: &Solid, pts: &[Rep], centres: &[DVec3], radii: &mut [f64], 
     for i in 0..k {
         radii[i] = max_dist(pts, &mem[i], centres[i]);
     }
-    let mut outs: Vec<f64> = (0..k).into_par_iter().map(|i| outside(solid, centres[i], radii[i])).collect();
+    let mut outs: Vec<f64> = (0..k).into_par_iter().map(|i| solid.outside(centres[i], radii[i])).collect();
     let mut order: Vec<usize> = (0..k).collect();
     order.sort_unstable_by(|&a, &b| outs[b].total_cmp(&outs[a]).then(a.cmp(&b)));
     let step = 0.25 * solid.h;
@@ -754,12 +749,12 @@ pub fn shrink(solid: &Solid, pts: &[Rep], centres: &[DVec3], radii: &mut [f64], 
             if r_next <= checkpoint || n + 1 == cap {
                 checkpoint = r_next - step;
                 for &j in &dirty {
-                    let o = outside(solid, centres[j], new_r[j]);
+                    let o = solid.outside(centres[j], new_r[j]);
                     grow_sum += o - new_o[j];
                     new_o[j] = o;
                 }
                 dirty.clear();
-                let d = outside(solid, centres[i], r_next) - o_i + grow_sum;
+                let d = solid.outside(centres[i], r_next) - o_i + grow_sum;
                 if d < best.0 {
                     best = (d, n + 1);
                 }
@@ -782,12 +777,12 @@ pub fn shrink(solid: &Solid, pts: &[Rep], centres: &[DVec3], radii: &mut [f64], 
         keep.sort_unstable();
         mem[i] = keep;
         radii[i] = sorted[drop].0;
-        outs[i] = outside(solid, centres[i], radii[i]);
+        outs[i] = solid.outside(centres[i], radii[i]);
         for &j in &nb {
             if target[..drop].contains(&(j as u32)) {
                 mem[j].sort_unstable();
                 radii[j] = max_dist(pts, &mem[j], centres[j]);
-                outs[j] = outside(solid, centres[j], radii[j]);
+                outs[j] = solid.outside(centres[j], radii[j]);
             }
         }
         moves += 1;

@@ -282,8 +282,9 @@ fn the_band_stage_and_the_gap_round_narrow_what_the_bounding_pass_adds_on_the_bu
     let b = with.stats.trace.iter().find(|e| e.stage == "band").expect("band traced");
     assert!(b.points > 0 && b.iterations >= 1 && b.trials == 0, "{b:?}");
     // The gap round: after the band, points found and no sweep or trial of its own; the
-    // bound adds no more after it (within 0.0002 of E) and E ends lower (measured: the bound added 0.0044 after the
-    // gap round, 0.0047 after the band alone; E 0.22585 against 0.22606 without the round;
+    // bound adds no more after it (within 0.0002 of E) and E ends lower (measured: the
+    // bound added 0.0044 after the gap round, 0.0047 after the band alone; E 0.22585
+    // against 0.22606 without the round;
     // with the trial budgets before they were doubled: 0.0046 / 0.0055, E 0.2283 / 0.2301).
     // Since the pattern search polls only its predicted moves, seed 1 gives 0.0046 / 0.0045,
     // E 0.2277 / 0.2279: the bound's share is level, and E still falls on every seed 1–4
