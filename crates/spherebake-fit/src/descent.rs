@@ -18,7 +18,6 @@
 //! filled) 0.256 at seed 1, mean 0.249 over seeds 1–4; armadillo 0.429, mean 0.426 (the fitter before this
 //! stage: 0.276 and 0.511 at seed 1).
 
-use crate::lloyd::FarQuery;
 use crate::solid::Solid;
 use glam::DVec3;
 use spherebake_geom::triangle::triangle_grid;
@@ -125,6 +124,75 @@ fn radius(pts: &[DVec3], mem: &[u32], c: DVec3) -> f64 {
     mem.iter().map(|&q| pts[q as usize].distance_squared(c)).fold(0.0, f64::max).sqrt() * (1.0 + 1e-12)
 }
 
+/// Farthest-member distance of a point set from any centre, exact: the members sorted by
+/// their distance d₀ from `c0`, decreasing, and a scan that stops once d₀ + |c − c0| (the
+/// triangle inequality) cannot beat the best so far. Squared distances, so no root per member.
+/// [`crate::lloyd::FarQuery`] answers the same for conservative representatives (discs and
+/// slabs, whose bound needs roots); the descent's members are points.
+struct FarPoints {
+    c0: DVec3,
+    /// (|p − c0|, p), decreasing.
+    sorted: Vec<(f64, DVec3)>,
+}
+
+impl FarPoints {
+    fn new(pts: &[DVec3], mem: &[u32], c0: DVec3) -> Self {
+        let mut sorted: Vec<(f64, DVec3)> = mem
+            .iter()
+            .map(|&q| {
+                let p = pts[q as usize];
+                (p.distance(c0), p)
+            })
+            .collect();
+        sorted.sort_unstable_by(|a, b| b.0.total_cmp(&a.0));
+        Self { c0, sorted }
+    }
+
+    /// max |p − c| over the members (0 for none).
+    fn max_dist(&self, c: DVec3) -> f64 {
+        let shift = c.distance(self.c0);
+        let mut best2 = 0.0f64;
+        for &(d0, p) in &self.sorted {
+            let ub = d0 + shift;
+            if ub * ub <= best2 {
+                break;
+            }
+            best2 = best2.max(p.distance_squared(c));
+        }
+        best2.sqrt()
+    }
+
+    /// `out[i]` = max |p − xs[i]| over the members for the centres `xs[i]` = c + `moves[i]`,
+    /// in one scan, the same bits as [`FarPoints::max_dist`] at each: the scan stops once
+    /// d₀ + max |xs[i] − c0| cannot beat the least of the 14 maxima.
+    fn max_dists(&self, xs: &[DVec3; 14], out: &mut [f64; 14]) {
+        let shift = xs.iter().map(|x| x.distance(self.c0)).fold(0.0, f64::max);
+        let mut best = [0.0f64; 14];
+        let mut floor = 0.0f64;
+        for &(d0, p) in &self.sorted {
+            let ub = d0 + shift;
+            if ub * ub <= floor {
+                break;
+            }
+            // Plain comparisons: the values are finite, and they compile to max/min.
+            let mut low = f64::INFINITY;
+            for i in 0..14 {
+                let v = p.distance_squared(xs[i]);
+                if v > best[i] {
+                    best[i] = v;
+                }
+                if best[i] < low {
+                    low = best[i];
+                }
+            }
+            floor = low;
+        }
+        for i in 0..14 {
+            out[i] = best[i].sqrt();
+        }
+    }
+}
+
 /// Ball of least proxy outside volume bounding `mem`, searched from `c0` by a pattern search.
 /// Powell's coordinate line searches stall on the ridges of the max-distance radius (several
 /// members at the same distance): measured on the bunny and armadillo at 64 spheres, Powell
@@ -139,15 +207,23 @@ fn best_ball(solid: &Solid, pts: &[DVec3], mem: &[u32], c0: DVec3, work: &Atomic
     if mem.is_empty() {
         return (c0, 0.0, 0.0);
     }
-    let reps: Vec<crate::points::Rep> = mem.iter().map(|&q| crate::points::Rep::point(pts[q as usize])).collect();
-    let idx: Vec<u32> = (0..reps.len() as u32).collect();
-    let fq = FarQuery::new(&reps, &idx, c0);
+    let fq = FarPoints::new(pts, mem, c0);
+    // The radii of the last prediction's 14 moves: the polls and the next step's surface read
+    // are at those centres, so they are not scanned again (the same bits as a scan).
+    let last = std::cell::RefCell::new(([DVec3::NAN; 14], [0.0f64; 14]));
+    let radius_at = |c: DVec3| -> f64 {
+        let l = last.borrow();
+        match l.0.iter().position(|&x| x == c) {
+            Some(i) => l.1[i],
+            None => fq.max_dist(c),
+        }
+    };
     let mut evals = 0u64;
     // A trial is kept only below the best so far, so its rows stop once they prove it is not.
     let mut f = |x: [f64; 3], best: f64| {
         evals += 1;
         let c = DVec3::from_array(x);
-        solid.outside_below(c, fq.max_dist(c), best).unwrap_or(f64::INFINITY)
+        solid.outside_below(c, radius_at(c), best).unwrap_or(f64::INFINITY)
     };
     let rs = fq.max_dist(c0);
     let f0 = f(c0.to_array(), f64::INFINITY);
@@ -156,9 +232,13 @@ fn best_ball(solid: &Solid, pts: &[DVec3], mem: &[u32], c0: DVec3, work: &Atomic
     let mut predict = |c: DVec3, moves: &[DVec3; 14], out: &mut [f64; 14]| {
         let s = match surface {
             Some(s) if s.c == c => s,
-            _ => *surface.insert(OutsideSurface::read(solid, c, fq.max_dist(c))),
+            _ => *surface.insert(OutsideSurface::read(solid, c, radius_at(c))),
         };
-        s.changes(|x| fq.max_dist(x), moves, out)
+        let mut l = last.borrow_mut();
+        let (xs, radii) = &mut *l;
+        *xs = std::array::from_fn(|i| c + moves[i]);
+        fq.max_dists(xs, radii);
+        s.changes(radii, moves, out)
     };
     let c = pattern_search(&mut f, &mut predict, c0, f0, 0.1 * rs + solid.h, PATTERN_STOP * solid.h);
     work.fetch_add(evals * (1 + (rs / solid.h).powi(2) as u64), Ordering::Relaxed);
@@ -213,7 +293,8 @@ impl<'a> Cover<'a> {
         self.outs.iter().sum()
     }
 
-    /// Points inside sphere `i` and no other.
+    /// Points inside sphere `i` and no other, in the grid's order (by cell, then by index:
+    /// one order for a set, whatever the sphere that finds it).
     fn exclusive(&self, i: usize) -> Vec<u32> {
         let (c, r) = self.spheres[i];
         let mut v = Vec::new();
@@ -222,7 +303,6 @@ impl<'a> Cover<'a> {
                 v.push(q)
             }
         });
-        v.sort_unstable();
         v
     }
 
@@ -545,11 +625,13 @@ impl<'a> Cover<'a> {
             return (kk, None);
         }
         let c0 = self.spheres[i].0;
+        // The farthest point, the highest index among equals (the set's order is the grid's).
         let far = |from: DVec3| -> DVec3 {
+            let d = |q: u32| self.pts[q as usize].distance_squared(from);
             ex.iter()
-                .map(|&q| self.pts[q as usize])
-                .max_by(|a, b| a.distance_squared(from).total_cmp(&b.distance_squared(from)))
-                .unwrap_or(from)
+                .copied()
+                .max_by(|&a, &b| d(a).total_cmp(&d(b)).then(a.cmp(&b)))
+                .map_or(from, |q| self.pts[q as usize])
         };
         let a = far(c0);
         let b = far(a);
@@ -1042,13 +1124,13 @@ impl OutsideSurface {
         Self { c, r, flux, n_out, cell_area }
     }
 
-    /// The predicted change of O for each move (`out[i]` for `moves[i]`, units³); `radius(x)`
-    /// gives R(x). The radius change is exact, so the ridges of a max-distance radius (several
+    /// The predicted change of O for each move (`out[i]` for `moves[i]`, units³); `radii[i]`
+    /// is R(c + moves[i]). The radius change is exact, so the ridges of a max-distance radius (several
     /// points at the same distance), where a linear model of R fails, are followed exactly;
     /// only the solid is linearised.
-    fn changes(&self, radius: impl Fn(DVec3) -> f64, moves: &[DVec3; 14], out: &mut [f64; 14]) {
-        for (o, &m) in out.iter_mut().zip(moves) {
-            *o = self.cell_area * (self.flux.dot(m) + self.n_out as f64 * (radius(self.c + m) - self.r));
+    fn changes(&self, radii: &[f64; 14], moves: &[DVec3; 14], out: &mut [f64; 14]) {
+        for ((o, &m), &r) in out.iter_mut().zip(moves).zip(radii) {
+            *o = self.cell_area * (self.flux.dot(m) + self.n_out as f64 * (r - self.r));
         }
     }
 }
@@ -1187,13 +1269,13 @@ mod tests {
         });
         let mut out = [0.0; 14];
         let surface = OutsideSurface::read(&solid, c, r);
-        surface.changes(|_| r, &moves, &mut out);
+        surface.changes(&[r; 14], &moves, &mut out);
         let disc = std::f64::consts::PI * (r * r - d * d) * s;
         for (got, want) in [(out[0], disc), (out[1], -disc), (out[2], 0.0)] {
             assert!((got - want).abs() <= 0.06 * disc, "{got} vs {want}");
         }
         let delta = 0.02;
-        surface.changes(|_| r + delta, &moves, &mut out);
+        surface.changes(&[r + delta; 14], &moves, &mut out);
         let cap = 2.0 * std::f64::consts::PI * r * (r - d) * delta;
         assert!((out[3] - cap).abs() <= 0.06 * cap, "{} vs {cap}", out[3]);
         assert!((out[0] - (disc + cap)).abs() <= 0.06 * (disc + cap), "{}", out[0]);
@@ -1217,6 +1299,41 @@ mod tests {
         let c = pattern_search(&mut f, &mut predict, c0, g(c0), 0.5, 1e-6);
         let mid = (p + q) * 0.5;
         assert!(c.distance(mid) < 1e-4, "{c} vs {mid}");
+    }
+
+    #[test]
+    fn the_farthest_member_scans_answer_the_brute_force_maximum() {
+        // Points on a shell (distances from c0 nearly equal, the scan's hard case) and inside.
+        let mut rng = SplitMix64::new(11);
+        let mut pts = Vec::new();
+        for i in 0..2000 {
+            let d = DVec3::new(rng.next_f64() - 0.5, rng.next_f64() - 0.5, rng.next_f64() - 0.5).normalize_or_zero();
+            let r = if i % 3 == 0 { 3.0 * rng.next_f64() } else { 3.0 - 1e-3 * rng.next_f64() };
+            pts.push(DVec3::splat(1.0) + d * r);
+        }
+        let mem: Vec<u32> = (0..pts.len() as u32).filter(|q| q % 5 != 0).collect();
+        let far = FarPoints::new(&pts, &mem, DVec3::splat(1.0));
+        let brute = |x: DVec3| mem.iter().map(|&q| pts[q as usize].distance(x)).fold(0.0, f64::max);
+        for t in 0..60 {
+            let c = DVec3::splat(1.0)
+                + DVec3::new(rng.next_f64() - 0.5, rng.next_f64() - 0.5, rng.next_f64() - 0.5) * (0.2 * t as f64);
+            assert!((far.max_dist(c) - brute(c)).abs() <= 1e-12 * brute(c), "centre {c}");
+            let step = 0.01 + rng.next_f64();
+            let moves: [DVec3; 14] = std::array::from_fn(|i| {
+                DVec3::new(rng.next_f64() - 0.5, rng.next_f64() - 0.5, rng.next_f64() - 0.5).normalize()
+                    * step
+                    * (i as f64 + 1.0)
+                    / 14.0
+            });
+            let xs: [DVec3; 14] = std::array::from_fn(|i| c + moves[i]);
+            let mut out = [0.0; 14];
+            far.max_dists(&xs, &mut out);
+            for i in 0..14 {
+                // The same bits as one scan per centre.
+                assert_eq!(out[i], far.max_dist(xs[i]), "move {i}");
+                assert!((out[i] - brute(xs[i])).abs() <= 1e-12 * brute(xs[i]), "move {i}");
+            }
+        }
     }
 
     fn setup(seed: u64, n: usize) -> (Solid, Vec<DVec3>) {
