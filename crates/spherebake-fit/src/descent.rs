@@ -258,6 +258,13 @@ struct Cover<'a> {
     /// Per sphere, the key (sphere bits, exclusive-set hash) of its last descent step: the
     /// step is deterministic, so the same key gives the same answer and is skipped.
     tried: Vec<u64>,
+    /// Per sphere: neither it nor a sphere meeting it has moved since its last descent step,
+    /// so its key is still `tried`'s and the step is skipped without reading its exclusive set.
+    step_clean: Vec<bool>,
+    /// Per sphere: its last radius transfer changed nothing, and neither it nor a sphere
+    /// within the transfer's reach (`transfer`'s neighbours) has moved since, so the transfer
+    /// would change nothing again.
+    transfer_clean: Vec<bool>,
     /// Work done by every copy (see [`best_ball`]).
     work: Arc<AtomicU64>,
 }
@@ -285,8 +292,19 @@ impl<'a> Cover<'a> {
             grid.for_each_in(pts, s.0, s.1, |q| cnt[q as usize] = cnt[q as usize].saturating_add(1));
         }
         let outs = spheres.iter().map(|s| solid.outside(s.0, s.1)).collect();
-        let tried = vec![0; spheres.len()];
-        Cover { solid, pts, grid, cnt, spheres: spheres.to_vec(), outs, tried, work: Arc::new(AtomicU64::new(0)) }
+        let k = spheres.len();
+        Cover {
+            solid,
+            pts,
+            grid,
+            cnt,
+            spheres: spheres.to_vec(),
+            outs,
+            tried: vec![0; k],
+            step_clean: vec![false; k],
+            transfer_clean: vec![false; k],
+            work: Arc::new(AtomicU64::new(0)),
+        }
     }
 
     fn total(&self) -> f64 {
@@ -313,6 +331,20 @@ impl<'a> Cover<'a> {
         self.grid.for_each_in(self.pts, c, r, |q| cnt[q as usize] = cnt[q as usize].saturating_add(1));
         self.spheres[i] = (c, r);
         self.outs[i] = self.solid.outside(c, r);
+        // What the move can change: the exclusive sets of the spheres meeting the old or the
+        // new ball, and the transfers of the spheres that have either within their reach
+        // (sphere `i` itself among them: its new ball is at distance 0).
+        let slack = |x: f64| x * (1.0 + 1e-9) + 1e-300;
+        let h = self.solid.h;
+        for (l, s) in self.spheres.iter().enumerate() {
+            let (d0, d1) = (s.0.distance(c0), s.0.distance(c));
+            if d0 <= slack(s.1 + r0) || d1 <= slack(s.1 + r) {
+                self.step_clean[l] = false;
+            }
+            if (d0 - r0).min(d1 - r) <= slack(2.0 * s.1 + h) {
+                self.transfer_clean[l] = false;
+            }
+        }
     }
 
     /// One sweep over `set` (largest outside volume first): radius transfers (sequential),
@@ -326,7 +358,11 @@ impl<'a> Cover<'a> {
         let mut gain = 0.0;
         if transfer {
             for &i in &order {
-                gain += self.transfer(i);
+                if !self.transfer_clean[i] {
+                    // Clean unless the transfer moves a sphere (`set` marks it again).
+                    self.transfer_clean[i] = true;
+                    gain += self.transfer(i);
+                }
             }
         }
         let meets = |a: (DVec3, f64), b: (DVec3, f64)| a.0.distance(b.0) <= (a.1 + b.1) * (1.0 + 1e-9) + 1e-300;
@@ -341,20 +377,32 @@ impl<'a> Cover<'a> {
         for class in classes {
             let this = &*self;
             // Exclusive sets read the cover only: in parallel, collected in class order.
-            let jobs: Vec<(usize, u64, Vec<u32>)> = class
+            let read: Vec<(usize, u64, Vec<u32>)> = class
                 .par_iter()
-                .filter_map(|&i| {
+                .filter(|&&i| !this.step_clean[i])
+                .map(|&i| {
                     let ex = this.exclusive(i);
-                    let kk = key(this.spheres[i], &ex);
-                    (this.tried[i] != kk).then_some((i, kk, ex))
+                    (i, key(this.spheres[i], &ex), ex)
                 })
                 .collect();
+            let mut keys: Vec<(usize, u64)> = Vec::with_capacity(read.len());
+            let mut jobs: Vec<(usize, Vec<u32>)> = Vec::new();
+            for (i, kk, ex) in read {
+                if this.tried[i] != kk {
+                    jobs.push((i, ex));
+                }
+                keys.push((i, kk));
+            }
             let res: Vec<(DVec3, f64, f64)> = jobs
                 .par_iter()
-                .map(|(i, _, ex)| best_ball(this.solid, this.pts, ex, this.spheres[*i].0, &this.work))
+                .map(|(i, ex)| best_ball(this.solid, this.pts, ex, this.spheres[*i].0, &this.work))
                 .collect();
-            for ((i, kk, _), (c, r, o)) in jobs.into_iter().zip(res) {
+            // Every step of the class read the cover as it was before any of them moves.
+            for (i, kk) in keys {
                 self.tried[i] = kk;
+                self.step_clean[i] = true;
+            }
+            for ((i, _), (c, r, o)) in jobs.into_iter().zip(res) {
                 if o < self.outs[i] {
                     gain += self.outs[i] - o;
                     self.set(i, c, r);
@@ -1396,6 +1444,66 @@ mod tests {
             // A random start is far from optimal: the descent must find a real improvement.
             assert!(e_sweeps < 0.9 * before, "seed {seed}: {before} -> {e_sweeps}");
         }
+    }
+
+    #[test]
+    fn a_sphere_marked_clean_would_step_and_transfer_exactly_as_last_time() {
+        // The flags let a sweep skip a sphere; they must never be set when its exclusive set,
+        // its ball or its transfer's neighbours changed. After every sweep and every random
+        // move, a clean sphere's key is the one recorded, and its transfer changes nothing.
+        let mut checked = (0, 0);
+        for seed in 1..7 {
+            let (solid, pts) = setup(seed, 2500);
+            let mut rng = SplitMix64::new(seed * 13);
+            let k = 12;
+            let centres: Vec<DVec3> = (0..k).map(|_| pts[rng.below(pts.len() as u64) as usize]).collect();
+            let mut spheres: Vec<(DVec3, f64)> = centres.iter().map(|&c| (c, 0.0)).collect();
+            for p in &pts {
+                let i = (0..k).min_by(|&a, &b| p.distance(centres[a]).total_cmp(&p.distance(centres[b]))).unwrap();
+                spheres[i].1 = spheres[i].1.max(p.distance(centres[i]) * (1.0 + 1e-12));
+            }
+            let grid = Grid::new(&pts, 2.0 * solid.h);
+            let mut cov = Cover::new(&solid, &pts, &grid, &spheres);
+            let all: Vec<usize> = (0..k).collect();
+            for round in 0..24 {
+                if round % 3 == 0 {
+                    cov.sweep_set(&all, true);
+                } else {
+                    // Move a random sphere: shift it and scale its radius by 0.7–1.2 (points
+                    // may be left uncovered; the flags must follow any move).
+                    let i = rng.below(k as u64) as usize;
+                    let (c, r) = cov.spheres[i];
+                    let d = DVec3::new(rng.next_f64() - 0.5, rng.next_f64() - 0.5, rng.next_f64() - 0.5);
+                    let (cn, rn) = (c + d * 0.6 * r, r * (0.7 + 0.5 * rng.next_f64()));
+                    cov.set(i, cn, rn);
+                    // Every sphere that meets the old or new ball, or has either within its
+                    // transfer's reach (`transfer`'s neighbour test), is no longer clean.
+                    for (l, &(cl, rl)) in cov.spheres.iter().enumerate() {
+                        let (a, b) = (cl.distance(c), cl.distance(cn));
+                        if a <= rl + r || b <= rl + rn {
+                            assert!(!cov.step_clean[l], "seed {seed}: sphere {l} met sphere {i}");
+                        }
+                        if a - r <= 2.0 * rl + solid.h || b - rn <= 2.0 * rl + solid.h {
+                            assert!(!cov.transfer_clean[l], "seed {seed}: sphere {i} in {l}'s reach");
+                        }
+                    }
+                }
+                for i in 0..k {
+                    if cov.step_clean[i] {
+                        checked.0 += 1;
+                        assert_eq!(cov.tried[i], key(cov.spheres[i], &cov.exclusive(i)), "seed {seed} sphere {i}");
+                    }
+                    if cov.transfer_clean[i] {
+                        checked.1 += 1;
+                        let mut copy = cov.clone();
+                        assert_eq!(copy.transfer(i), 0.0, "seed {seed} sphere {i}");
+                        assert_eq!(copy.spheres, cov.spheres, "seed {seed} sphere {i}");
+                    }
+                }
+            }
+        }
+        // The flags are used: some spheres are clean after the sweeps.
+        assert!(checked.0 > 0 && checked.1 > 0, "{checked:?}");
     }
 
     #[test]
