@@ -18,6 +18,7 @@
 //! filled) 0.256 at seed 1, mean 0.249 over seeds 1–4; armadillo 0.429, mean 0.426 (the fitter before this
 //! stage: 0.276 and 0.511 at seed 1).
 
+use crate::lloyd::FarQuery;
 use crate::solid::Solid;
 use glam::DVec3;
 use spherebake_geom::triangle::triangle_grid;
@@ -124,75 +125,6 @@ fn radius(pts: &[DVec3], mem: &[u32], c: DVec3) -> f64 {
     mem.iter().map(|&q| pts[q as usize].distance_squared(c)).fold(0.0, f64::max).sqrt() * (1.0 + 1e-12)
 }
 
-/// Farthest-member distance of a point set from any centre, exact: the members sorted by
-/// their distance d₀ from `c0`, decreasing, and a scan that stops once d₀ + |c − c0| (the
-/// triangle inequality) cannot beat the best so far. Squared distances, so no root per member.
-/// [`crate::lloyd::FarQuery`] answers the same for conservative representatives (discs and
-/// slabs, whose bound needs roots); the descent's members are points.
-struct FarPoints {
-    c0: DVec3,
-    /// (|p − c0|, p), decreasing.
-    sorted: Vec<(f64, DVec3)>,
-}
-
-impl FarPoints {
-    fn new(pts: &[DVec3], mem: &[u32], c0: DVec3) -> Self {
-        let mut sorted: Vec<(f64, DVec3)> = mem
-            .iter()
-            .map(|&q| {
-                let p = pts[q as usize];
-                (p.distance(c0), p)
-            })
-            .collect();
-        sorted.sort_unstable_by(|a, b| b.0.total_cmp(&a.0));
-        Self { c0, sorted }
-    }
-
-    /// max |p − c| over the members (0 for none).
-    fn max_dist(&self, c: DVec3) -> f64 {
-        let shift = c.distance(self.c0);
-        let mut best2 = 0.0f64;
-        for &(d0, p) in &self.sorted {
-            let ub = d0 + shift;
-            if ub * ub <= best2 {
-                break;
-            }
-            best2 = best2.max(p.distance_squared(c));
-        }
-        best2.sqrt()
-    }
-
-    /// `out[i]` = max |p − xs[i]| over the members for the centres `xs[i]` = c + `moves[i]`,
-    /// in one scan, the same bits as [`FarPoints::max_dist`] at each: the scan stops once
-    /// d₀ + max |xs[i] − c0| cannot beat the least of the 14 maxima.
-    fn max_dists(&self, xs: &[DVec3; 14], out: &mut [f64; 14]) {
-        let shift = xs.iter().map(|x| x.distance(self.c0)).fold(0.0, f64::max);
-        let mut best = [0.0f64; 14];
-        let mut floor = 0.0f64;
-        for &(d0, p) in &self.sorted {
-            let ub = d0 + shift;
-            if ub * ub <= floor {
-                break;
-            }
-            // Plain comparisons: the values are finite, and they compile to max/min.
-            let mut low = f64::INFINITY;
-            for i in 0..14 {
-                let v = p.distance_squared(xs[i]);
-                if v > best[i] {
-                    best[i] = v;
-                }
-                if best[i] < low {
-                    low = best[i];
-                }
-            }
-            floor = low;
-        }
-        for i in 0..14 {
-            out[i] = best[i].sqrt();
-        }
-    }
-}
-
 /// Ball of least proxy outside volume bounding `mem`, searched from `c0` by a pattern search.
 /// Powell's coordinate line searches stall on the ridges of the max-distance radius (several
 /// members at the same distance): measured on the bunny and armadillo at 64 spheres, Powell
@@ -207,7 +139,8 @@ fn best_ball(solid: &Solid, pts: &[DVec3], mem: &[u32], c0: DVec3, work: &Atomic
     if mem.is_empty() {
         return (c0, 0.0, 0.0);
     }
-    let fq = FarPoints::new(pts, mem, c0);
+    // Points: squared distances, no root per member read.
+    let fq = FarQuery::new(pts, mem, c0);
     // The radii of the last prediction's 14 moves: the polls and the next step's surface read
     // are at those centres, so they are not scanned again (the same bits as a scan).
     let last = std::cell::RefCell::new(([DVec3::NAN; 14], [0.0f64; 14]));
@@ -1360,7 +1293,7 @@ mod tests {
             pts.push(DVec3::splat(1.0) + d * r);
         }
         let mem: Vec<u32> = (0..pts.len() as u32).filter(|q| q % 5 != 0).collect();
-        let far = FarPoints::new(&pts, &mem, DVec3::splat(1.0));
+        let far = FarQuery::new(&pts, &mem, DVec3::splat(1.0));
         let brute = |x: DVec3| mem.iter().map(|&q| pts[q as usize].distance(x)).fold(0.0, f64::max);
         for t in 0..60 {
             let c = DVec3::splat(1.0)

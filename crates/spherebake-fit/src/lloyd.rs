@@ -300,20 +300,50 @@ pub fn members(assign: &[u32], k: usize) -> Vec<Vec<u32>> {
     m
 }
 
-/// Members sorted by decreasing distance from a reference centre c0, for [`FarQuery`].
-pub(crate) struct FarQuery {
-    c0: DVec3,
-    /// (far distance from c0, rep), decreasing.
-    sorted: Vec<(f64, Rep)>,
+/// A member of a [`FarQuery`]: a conservative representative (Lloyd and the polish) or a
+/// point (the descent, whose squared distances need no root).
+pub(crate) trait FarMember: Copy {
+    /// Distance from `c` (an upper bound for a representative; 1-Lipschitz in `c`).
+    fn far_from(&self, c: DVec3) -> f64;
+    /// Its square.
+    fn far2(&self, c: DVec3) -> f64;
 }
 
-impl FarQuery {
-    pub(crate) fn new(pts: &[Rep], mem: &[u32], c0: DVec3) -> Self {
-        let mut sorted: Vec<(f64, Rep)> = mem.iter().map(|&i| (pts[i as usize].far(c0), pts[i as usize])).collect();
+impl FarMember for Rep {
+    fn far_from(&self, c: DVec3) -> f64 {
+        self.far(c)
+    }
+    fn far2(&self, c: DVec3) -> f64 {
+        self.far(c).powi(2)
+    }
+}
+
+impl FarMember for DVec3 {
+    fn far_from(&self, c: DVec3) -> f64 {
+        self.distance(c)
+    }
+    fn far2(&self, c: DVec3) -> f64 {
+        self.distance_squared(c)
+    }
+}
+
+/// Members sorted by decreasing distance from a reference centre c0: the farthest-member
+/// distance from any centre, exact, by a scan that stops once d₀ + |c − c0| (the triangle
+/// inequality) cannot beat the best so far.
+pub(crate) struct FarQuery<M> {
+    c0: DVec3,
+    /// (far distance from c0, member), decreasing.
+    sorted: Vec<(f64, M)>,
+}
+
+impl<M: FarMember> FarQuery<M> {
+    pub(crate) fn new(pts: &[M], mem: &[u32], c0: DVec3) -> Self {
+        let mut sorted: Vec<(f64, M)> = mem.iter().map(|&i| (pts[i as usize].far_from(c0), pts[i as usize])).collect();
         sorted.sort_unstable_by(|a, b| b.0.total_cmp(&a.0));
         Self { c0, sorted }
     }
-    /// max |p − c| over the members, exact: |p − c| ≤ |p − c0| + |c − c0| prunes the scan.
+
+    /// max |p − c| over the members (0 for none).
     pub(crate) fn max_dist(&self, c: DVec3) -> f64 {
         let shift = c.distance(self.c0);
         let mut best2 = 0.0f64;
@@ -322,9 +352,41 @@ impl FarQuery {
             if ub * ub <= best2 {
                 break;
             }
-            best2 = best2.max(p.far(c).powi(2));
+            best2 = best2.max(p.far2(c));
         }
         best2.sqrt()
+    }
+}
+
+impl FarQuery<DVec3> {
+    /// `out[i]` = max |p − xs[i]| over point members for the 14 centres `xs` of a pattern
+    /// step, in one scan, the same bits as [`FarQuery::max_dist`] at each: the scan stops once
+    /// d₀ + max |xs[i] − c0| cannot beat the least of the 14 maxima.
+    pub(crate) fn max_dists(&self, xs: &[DVec3; 14], out: &mut [f64; 14]) {
+        let shift = xs.iter().map(|x| x.distance(self.c0)).fold(0.0, f64::max);
+        let mut best = [0.0f64; 14];
+        let mut floor = 0.0f64;
+        for &(d0, p) in &self.sorted {
+            let ub = d0 + shift;
+            if ub * ub <= floor {
+                break;
+            }
+            // Plain comparisons: the values are finite, and they compile to max/min.
+            let mut low = f64::INFINITY;
+            for i in 0..14 {
+                let v = p.distance_squared(xs[i]);
+                if v > best[i] {
+                    best[i] = v;
+                }
+                if best[i] < low {
+                    low = best[i];
+                }
+            }
+            floor = low;
+        }
+        for i in 0..14 {
+            out[i] = best[i].sqrt();
+        }
     }
 }
 
