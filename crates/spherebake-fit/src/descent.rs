@@ -1106,9 +1106,9 @@ impl OutsideSurface {
     }
 
     /// The predicted change of O for each move (`out[i]` for `moves[i]`, units³); `radii[i]`
-    /// is R(c + moves[i]). The radius change is exact, so the ridges of a max-distance radius (several
-    /// points at the same distance), where a linear model of R fails, are followed exactly;
-    /// only the solid is linearised.
+    /// is R(c + moves[i]). The radius change is exact, so the ridges of a max-distance radius
+    /// (several points at the same distance), where a linear model of R fails, are followed
+    /// exactly; only the solid is linearised.
     fn changes(&self, radii: &[f64; 14], moves: &[DVec3; 14], out: &mut [f64; 14]) {
         for ((o, &m), &r) in out.iter_mut().zip(moves).zip(radii) {
             *o = self.cell_area * (self.flux.dot(m) + self.n_out as f64 * (r - self.r));
