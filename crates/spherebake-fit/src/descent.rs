@@ -202,6 +202,12 @@ struct Cover<'a> {
     work: Arc<AtomicU64>,
 }
 
+/// Whether two balls meet (touching counts), with a relative slack of 1e-9 for the rounding of
+/// the membership tests |p − c|² ≤ r², so a point inside both always makes its balls meet.
+fn meets(a: (DVec3, f64), b: (DVec3, f64)) -> bool {
+    a.0.distance(b.0) <= (a.1 + b.1) * (1.0 + 1e-9) + 1e-300
+}
+
 fn key(s: (DVec3, f64), ex: &[u32]) -> u64 {
     let mut h: u64 = 0xcbf2_9ce4_8422_2325;
     let mut mix = |x: u64| {
@@ -267,14 +273,13 @@ impl<'a> Cover<'a> {
         // What the move can change: the exclusive sets of the spheres meeting the old or the
         // new ball, and the transfers of the spheres that have either within their reach
         // (sphere `i` itself among them: its new ball is at distance 0).
-        let slack = |x: f64| x * (1.0 + 1e-9) + 1e-300;
         let h = self.solid.h;
-        for (l, s) in self.spheres.iter().enumerate() {
-            let (d0, d1) = (s.0.distance(c0), s.0.distance(c));
-            if d0 <= slack(s.1 + r0) || d1 <= slack(s.1 + r) {
+        for (l, &s) in self.spheres.iter().enumerate() {
+            if meets(s, (c0, r0)) || meets(s, (c, r)) {
                 self.step_clean[l] = false;
             }
-            if (d0 - r0).min(d1 - r) <= slack(2.0 * s.1 + h) {
+            let (d0, d1) = (s.0.distance(c0), s.0.distance(c));
+            if (d0 - r0).min(d1 - r) <= (2.0 * s.1 + h) * (1.0 + 1e-9) + 1e-300 {
                 self.transfer_clean[l] = false;
             }
         }
@@ -298,7 +303,6 @@ impl<'a> Cover<'a> {
                 }
             }
         }
-        let meets = |a: (DVec3, f64), b: (DVec3, f64)| a.0.distance(b.0) <= (a.1 + b.1) * (1.0 + 1e-9) + 1e-300;
         let mut classes: Vec<Vec<usize>> = Vec::new();
         for &i in &order {
             let s = self.spheres[i];
