@@ -288,10 +288,14 @@ pub fn start(
     let n_cap = sample_cap(k);
     let surface = &thin(surface_all, n_cap, h, 2, thinning)[..];
     let interior = &thin(interior_all, n_cap, h, 3, thinning)[..];
-    let grid = Grid::new(surface, h);
+    // The grid's cell: the thinned samples' spacing (about h √(thinning), the samples lying
+    // on a surface), not h: a ball then walks (thinning)× fewer columns, most of them empty
+    // at h. Queries are exact at any cell, so the start is the same.
+    let cell = h * (surface_all.len() as f64 / surface.len().max(1) as f64).sqrt().max(1.0);
+    let grid = Grid::new(surface, cell);
     // Candidates: interior points, then surface samples (ρ = 0) as a fallback.
     let cand: Vec<DVec3> = interior.iter().chain(surface.iter()).copied().collect();
-    let rho: Vec<f64> = cand.par_iter().map(|p| nearest_distance(&grid, surface, *p, h)).collect();
+    let rho: Vec<f64> = cand.par_iter().map(|p| nearest_distance(&grid, surface, *p, cell)).collect();
     let mut rng = crate::rng::SplitMix64::new(seed ^ 0x5EED_C0DE);
     let order: Vec<u32> = (0..cand.len()).map(|_| rng.next_u64() as u32).collect();
     let sorted_at = |t: f64| -> Vec<Sorted> {

@@ -29,6 +29,8 @@ use std::sync::Arc;
 type Ball = (DVec3, f64);
 /// A split: (Δ outside volume, the two balls).
 type SplitMove = Option<(f64, Ball, Ball)>;
+/// A pair's boundary move: (summed outside volume, each ball with its outside volume).
+type PairMove = (f64, (Ball, f64), (Ball, f64));
 /// A deletion: (Δ outside volume, grown spheres and their new radii).
 type DeleteMove = (f64, Vec<(usize, f64)>);
 
@@ -97,7 +99,8 @@ impl Grid {
         i + self.dims[0] * (j + self.dims[1] * k)
     }
 
-    /// Calls `f` for every point within distance `r` of `c` (|p − c| ≤ r).
+    /// Calls `f` for every point within distance `r` of `c` (|p − c| ≤ r), in the grid's
+    /// order (by cell, then by index).
     fn for_each_in(&self, pts: &[DVec3], c: DVec3, r: f64, mut f: impl FnMut(u32)) {
         if r < 0.0 {
             return;
@@ -264,12 +267,18 @@ impl<'a> Cover<'a> {
     }
 
     fn set(&mut self, i: usize, c: DVec3, r: f64) {
+        self.set_known(i, c, r, self.solid.outside(c, r));
+    }
+
+    /// [`Cover::set`] with the new ball's outside volume already known (`out` =
+    /// `solid.outside(c, r)`, as [`best_ball`] returns it), so it is not read again.
+    fn set_known(&mut self, i: usize, c: DVec3, r: f64, out: f64) {
         let (c0, r0) = self.spheres[i];
         let cnt = &mut self.cnt;
         self.grid.for_each_in(self.pts, c0, r0, |q| cnt[q as usize] -= 1);
         self.grid.for_each_in(self.pts, c, r, |q| cnt[q as usize] = cnt[q as usize].saturating_add(1));
         self.spheres[i] = (c, r);
-        self.outs[i] = self.solid.outside(c, r);
+        self.outs[i] = out;
         // What the move can change: the exclusive sets of the spheres meeting the old or the
         // new ball, and the transfers of the spheres that have either within their reach
         // (sphere `i` itself among them: its new ball is at distance 0).
@@ -342,7 +351,7 @@ impl<'a> Cover<'a> {
             for ((i, _), (c, r, o)) in jobs.into_iter().zip(res) {
                 if o < self.outs[i] {
                     gain += self.outs[i] - o;
-                    self.set(i, c, r);
+                    self.set_known(i, c, r, o);
                 }
             }
         }
@@ -462,7 +471,7 @@ impl<'a> Cover<'a> {
         let n = ranked.len();
         let now = ranked.partition_point(|x| x.0 <= 0.0);
         let before = self.outs[i] + self.outs[j];
-        let mut best: Option<(f64, Ball, Ball)> = None;
+        let mut best: Option<PairMove> = None;
         for dir in [-1i64, 1] {
             let mut step = ((first * n as f64).ceil() as usize).max(1);
             let mut prev = before;
@@ -482,15 +491,15 @@ impl<'a> Cover<'a> {
                 }
                 prev = oa + ob;
                 if best.as_ref().is_none_or(|x| prev < x.0) {
-                    best = Some((prev, (ca, ra), (cb, rb)));
+                    best = Some((prev, ((ca, ra), oa), ((cb, rb), ob)));
                 }
                 step *= 2;
             }
         }
         match best {
-            Some((o, a, b)) if o < before * (1.0 - 1e-9) => {
-                self.set(i, a.0, a.1);
-                self.set(j, b.0, b.1);
+            Some((o, (a, oa), (b, ob))) if o < before * (1.0 - 1e-9) => {
+                self.set_known(i, a.0, a.1, oa);
+                self.set_known(j, b.0, b.1, ob);
                 before - o
             }
             _ => 0.0,
@@ -1207,6 +1216,50 @@ fn pattern_search(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The grid's ball query against a brute-force filter: the same points, in the grid's
+    /// order (cell key, then index), for balls inside, across and beyond the points, on a
+    /// grid far from the origin (rounding of the cell keys) and on one with too many cells,
+    /// whose cells are enlarged.
+    #[test]
+    fn a_ball_query_returns_exactly_the_points_in_the_ball_in_grid_order() {
+        let mut rng = SplitMix64::new(23);
+        // (offset, cell, points, box of the points): a plain grid; one far from the origin;
+        // one with too many cells (enlarged); one 5000 cells long in y, whose last y cells (the
+        // axis holds 1024 at most) hold every point beyond them.
+        let cases = [
+            (0.0, 0.05, 3000, DVec3::splat(2.0)),
+            (1.0e6, 2e-3, 2000, DVec3::splat(0.2)),
+            (-3.0, 4e-4, 4000, DVec3::splat(0.2)),
+            (0.0, 0.01, 4000, DVec3::new(0.05, 50.0, 0.05)),
+        ];
+        for (offset, cell, n, span) in cases {
+            let o = DVec3::splat(offset);
+            let pts: Vec<DVec3> =
+                (0..n).map(|_| o + DVec3::new(rng.next_f64(), rng.next_f64(), rng.next_f64()) * span).collect();
+            let grid = Grid::new(&pts, cell);
+            let mut centres: Vec<DVec3> = (0..200)
+                .map(|_| o + DVec3::new(rng.next_f64(), rng.next_f64(), rng.next_f64()) * 1.4 * span - 0.2 * span)
+                .collect();
+            centres.extend(pts.iter().step_by(n / 50).copied());
+            for c in centres {
+                let r = rng.next_f64() * 0.3 * span.min_element().max(0.02 * span.max_element());
+                let mut got = Vec::new();
+                grid.for_each_in(&pts, c, r, |q| got.push(q));
+                let mut want: Vec<u32> =
+                    (0..n as u32).filter(|&q| pts[q as usize].distance_squared(c) <= r * r).collect();
+                want.sort_by_key(|&q| (grid.key(pts[q as usize]), q));
+                assert_eq!(got, want, "offset {offset}, cell {cell}, c {c}, r {r}");
+            }
+            // A ball exactly through a point holds it.
+            let (c, r) = (pts[0], pts[1].distance(pts[0]));
+            let mut got = Vec::new();
+            grid.for_each_in(&pts, c, r, |q| got.push(q));
+            assert!(got.contains(&0) && got.contains(&1));
+            assert_eq!(grid.cell > cell, cell == 4e-4, "cell {cell}: {:?}", grid.dims);
+            assert_eq!(grid.dims[1] == 1024, span.y > 10.0, "cell {cell}: {:?}", grid.dims);
+        }
+    }
 
     #[test]
     fn cheapest_of_three_nearest_prices_only_the_three_nearest() {
