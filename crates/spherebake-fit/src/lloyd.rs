@@ -364,7 +364,13 @@ impl FarQuery<DVec3> {
     /// d₀ + max |xs[i] − c0| cannot beat the least of the 14 maxima.
     pub(crate) fn max_dists(&self, xs: &[DVec3; 14], out: &mut [f64; 14]) {
         let shift = xs.iter().map(|x| x.distance(self.c0)).fold(0.0, f64::max);
-        let mut best = [0.0f64; 14];
+        // The centres by coordinate, padded to 16 with copies of the last (a copy has the same
+        // maximum, so the least of the maxima is unchanged): the per-member loop is then plain
+        // lanes the compiler vectorizes. Each squared distance is glam's
+        // `distance_squared`, (dx² + dy²) + dz², so the bits are those of `max_dist`.
+        let lane = |f: fn(&DVec3) -> f64| -> [f64; 16] { std::array::from_fn(|i| f(&xs[i.min(13)])) };
+        let (ax, ay, az) = (lane(|v| v.x), lane(|v| v.y), lane(|v| v.z));
+        let mut best = [0.0f64; 16];
         let mut floor = 0.0f64;
         for &(d0, p) in &self.sorted {
             let ub = d0 + shift;
@@ -372,15 +378,14 @@ impl FarQuery<DVec3> {
                 break;
             }
             // Plain comparisons: the values are finite, and they compile to max/min.
+            for i in 0..16 {
+                let (dx, dy, dz) = (p.x - ax[i], p.y - ay[i], p.z - az[i]);
+                let v = dx * dx + dy * dy + dz * dz;
+                best[i] = if v > best[i] { v } else { best[i] };
+            }
             let mut low = f64::INFINITY;
-            for i in 0..14 {
-                let v = p.distance_squared(xs[i]);
-                if v > best[i] {
-                    best[i] = v;
-                }
-                if best[i] < low {
-                    low = best[i];
-                }
+            for b in best {
+                low = if b < low { b } else { low };
             }
             floor = low;
         }
