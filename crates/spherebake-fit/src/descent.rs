@@ -1219,8 +1219,8 @@ mod tests {
 
     /// The grid's ball query against a brute-force filter: the same points, in the grid's
     /// order (cell key, then index), for balls inside, across and beyond the points, on a
-    /// grid far from the origin (rounding of the cell keys) and on one with too many cells,
-    /// whose cells are enlarged.
+    /// grid far from the origin (rounding of the cell keys), on one with too many cells, whose
+    /// cells are enlarged, and on one whose last cells hold the points clamped into them.
     #[test]
     fn a_ball_query_returns_exactly_the_points_in_the_ball_in_grid_order() {
         let mut rng = SplitMix64::new(23);
