@@ -1341,37 +1341,52 @@ mod tests {
 
     #[test]
     fn the_farthest_member_scans_answer_the_brute_force_maximum() {
-        // Points on a shell (distances from c0 nearly equal, the scan's hard case) and inside.
-        let mut rng = SplitMix64::new(11);
-        let mut pts = Vec::new();
-        for i in 0..2000 {
-            let d = DVec3::new(rng.next_f64() - 0.5, rng.next_f64() - 0.5, rng.next_f64() - 0.5).normalize_or_zero();
-            let r = if i % 3 == 0 { 3.0 * rng.next_f64() } else { 3.0 - 1e-3 * rng.next_f64() };
-            pts.push(DVec3::splat(1.0) + d * r);
-        }
-        let mem: Vec<u32> = (0..pts.len() as u32).filter(|q| q % 5 != 0).collect();
-        let far = FarQuery::new(&pts, &mem, DVec3::splat(1.0));
-        let brute = |x: DVec3| mem.iter().map(|&q| pts[q as usize].distance(x)).fold(0.0, f64::max);
-        for t in 0..60 {
-            let c = DVec3::splat(1.0)
-                + DVec3::new(rng.next_f64() - 0.5, rng.next_f64() - 0.5, rng.next_f64() - 0.5) * (0.2 * t as f64);
-            assert!((far.max_dist(c) - brute(c)).abs() <= 1e-12 * brute(c), "centre {c}");
-            let step = 0.01 + rng.next_f64();
-            let moves: [DVec3; 14] = std::array::from_fn(|i| {
-                DVec3::new(rng.next_f64() - 0.5, rng.next_f64() - 0.5, rng.next_f64() - 0.5).normalize()
-                    * step
-                    * (i as f64 + 1.0)
-                    / 14.0
-            });
-            let xs: [DVec3; 14] = std::array::from_fn(|i| c + moves[i]);
-            let mut out = [0.0; 14];
-            far.max_dists(&xs, &mut out);
-            for i in 0..14 {
-                // The same bits as one scan per centre.
-                assert_eq!(out[i], far.max_dist(xs[i]), "move {i}");
-                assert!((out[i] - brute(xs[i])).abs() <= 1e-12 * brute(xs[i]), "move {i}");
+        // Two clouds about c0: points on a shell (distances from c0 nearly equal, all in one
+        // bucket, read in no order) and some inside; and points throughout a ball (distances
+        // spread over every bucket, so the farthest from a moved centre is often not in the
+        // first). Centres moved a little (pattern steps) and far.
+        let c0 = DVec3::splat(1.0);
+        for cloud in 0..2 {
+            let mut rng = SplitMix64::new(11 + cloud);
+            let mut pts = Vec::new();
+            for i in 0..2000 {
+                let d =
+                    DVec3::new(rng.next_f64() - 0.5, rng.next_f64() - 0.5, rng.next_f64() - 0.5).normalize_or_zero();
+                let r = match cloud {
+                    0 if i % 3 != 0 => 3.0 - 1e-3 * rng.next_f64(),
+                    0 => 3.0 * rng.next_f64(),
+                    _ => 3.0 * rng.next_f64().cbrt(),
+                };
+                pts.push(c0 + d * r);
+            }
+            let mem: Vec<u32> = (0..pts.len() as u32).filter(|q| q % 5 != 0).collect();
+            let far = FarQuery::new(&pts, &mem, c0);
+            let brute = |x: DVec3| mem.iter().map(|&q| pts[q as usize].distance(x)).fold(0.0, f64::max);
+            for t in 0..120 {
+                let reach = if t % 2 == 0 { 0.01 * t as f64 } else { 0.2 * t as f64 };
+                let c = c0 + DVec3::new(rng.next_f64() - 0.5, rng.next_f64() - 0.5, rng.next_f64() - 0.5) * reach;
+                // The maximum of the same distances, whatever order the scan reads them in.
+                assert_eq!(far.max_dist(c), brute(c), "cloud {cloud}, centre {c}");
+                let step = 0.01 + rng.next_f64();
+                let moves: [DVec3; 14] = std::array::from_fn(|i| {
+                    DVec3::new(rng.next_f64() - 0.5, rng.next_f64() - 0.5, rng.next_f64() - 0.5).normalize()
+                        * step
+                        * (i as f64 + 1.0)
+                        / 14.0
+                });
+                let xs: [DVec3; 14] = std::array::from_fn(|i| c + moves[i]);
+                let mut out = [0.0; 14];
+                far.max_dists(&xs, &mut out);
+                for i in 0..14 {
+                    // The same bits as one scan per centre.
+                    assert_eq!(out[i], far.max_dist(xs[i]), "cloud {cloud}, move {i}");
+                    assert_eq!(out[i], brute(xs[i]), "cloud {cloud}, move {i}");
+                }
             }
         }
+        // No members: 0.
+        let none = FarQuery::<DVec3>::new(&[], &[], c0);
+        assert_eq!(none.max_dist(DVec3::ZERO), 0.0);
     }
 
     fn setup(seed: u64, n: usize) -> (Solid, Vec<DVec3>) {
