@@ -115,7 +115,9 @@ impl BallGrid {
 
     fn coords(&self, p: DVec3) -> [usize; 3] {
         let u = (p - self.origin) / self.cell;
-        let c = |x: f64, n: usize| (x.floor().max(0.0) as usize).min(n - 1);
+        // ⌊x⌋ clamped to the grid: a cast floors a non-negative value and sends a negative one
+        // or NaN to 0 (no library call for the floor).
+        let c = |x: f64, n: usize| (x as usize).min(n - 1);
         [c(u.x, self.dims[0]), c(u.y, self.dims[1]), c(u.z, self.dims[2])]
     }
 
