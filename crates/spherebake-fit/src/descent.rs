@@ -1386,9 +1386,30 @@ mod tests {
                 }
             }
         }
-        // No members: 0.
+        // No members: 0. One member, and members all at one point (one bucket of width 0).
         let none = FarQuery::<DVec3>::new(&[], &[], c0);
         assert_eq!(none.max_dist(DVec3::ZERO), 0.0);
+        let p = DVec3::new(0.3, -2.0, 5.0);
+        for n in [1u32, 50] {
+            let pts = vec![p; n as usize];
+            let far = FarQuery::new(&pts, &(0..n).collect::<Vec<u32>>(), c0);
+            assert_eq!(far.max_dist(DVec3::ZERO), p.length(), "{n} members");
+        }
+        // Two members where c0 lies almost on the line from them to c: there the triangle
+        // bound d₀ + |c − c0|, rounded, falls an ulp short of the distance, and a scan that
+        // skips on the bare bound misses the maximum in its last bit (found by a reviewer's
+        // search; the first member is read first and sets a best the second only beats by
+        // an ulp).
+        let c0 = DVec3::new(0.07099102459420825, 0.6056575958671631, 0.3517788471779384);
+        let c = DVec3::new(-1.7230846367839616, 0.8040989468165008, -0.13293947463494143);
+        let (y, z) = (0.43742162639477744, 0.7627166703740558);
+        let pts = vec![DVec3::new(1.5919847930544155, y, z), DVec3::new(1.591984793054416, y, z)];
+        let far = FarQuery::new(&pts, &[0, 1], c0);
+        let brute = pts.iter().map(|q| q.distance(c)).fold(0.0, f64::max);
+        assert_eq!(far.max_dist(c), brute);
+        let mut out = [0.0; 14];
+        far.max_dists(&[c; 14], &mut out);
+        assert_eq!(out, [brute; 14]);
     }
 
     fn setup(seed: u64, n: usize) -> (Solid, Vec<DVec3>) {

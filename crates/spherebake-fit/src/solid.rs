@@ -265,7 +265,8 @@ impl Solid {
 }
 
 /// ⌊x⌋ without a library call (the baseline x86-64 target has no rounding instruction, and
-/// the proxy's rows call it per slab): through an integer for |x| < 2⁵², else `f64::floor`
+/// the proxy's rows call it per slab): through an integer for |x| < 4.5 · 10¹⁵ (below 2⁵²,
+/// so the cast and the ±1 are exact), else `f64::floor`
 /// (NaN too). The same value as `f64::floor` (a zero may lose its sign, which the proxy's
 /// sums cannot see).
 #[inline(always)]
@@ -671,6 +672,10 @@ mod rounding_tests {
         let mut rng = spherebake_geom::rng::SplitMix64::new(3);
         let mut xs = vec![0.0, -0.0, 0.5, -0.5, 1.0, -1.0, 2.5, -2.5, 1e-300, -1e-300, 4.4e15, -4.4e15, 4.6e15];
         xs.extend([1e300, -1e300, f64::INFINITY, f64::NEG_INFINITY, f64::MAX, f64::MIN, 2f64.powi(52) - 0.5]);
+        for e in 15..=20 {
+            let x = 1.5 * 10f64.powi(e);
+            xs.extend([x, -x, x + 0.5, 9.3e18]);
+        }
         for i in 0..2000 {
             let x = (rng.next_f64() - 0.5) * 10f64.powi(i % 8);
             xs.extend([x, x.floor(), x.ceil(), x.floor() + 0.5]);
