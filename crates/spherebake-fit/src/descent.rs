@@ -207,10 +207,16 @@ struct Cover<'a> {
     work: Arc<AtomicU64>,
 }
 
-/// Whether two balls meet (touching counts), with a relative slack of 1e-9 for the rounding of
-/// the membership tests |p − c|² ≤ r², so a point inside both always makes its balls meet.
+/// A reach `x` with a relative slack of 1e-9 for the rounding of the membership tests
+/// |p − c|² ≤ r² (and 1e-300 so a reach of 0 still holds its own centre).
+fn with_slack(x: f64) -> f64 {
+    x * (1.0 + 1e-9) + 1e-300
+}
+
+/// Whether two balls meet (touching counts), with [`with_slack`], so a point inside both always
+/// makes its balls meet.
 fn meets(a: (DVec3, f64), b: (DVec3, f64)) -> bool {
-    a.0.distance(b.0) <= (a.1 + b.1) * (1.0 + 1e-9) + 1e-300
+    a.0.distance(b.0) <= with_slack(a.1 + b.1)
 }
 
 fn key(s: (DVec3, f64), ex: &[u32]) -> u64 {
@@ -290,7 +296,7 @@ impl<'a> Cover<'a> {
                 self.step_clean[l] = false;
             }
             let (d0, d1) = (s.0.distance(c0), s.0.distance(c));
-            if (d0 - r0).min(d1 - r) <= (2.0 * s.1 + h) * (1.0 + 1e-9) + 1e-300 {
+            if (d0 - r0).min(d1 - r) <= with_slack(2.0 * s.1 + h) {
                 self.transfer_clean[l] = false;
             }
         }

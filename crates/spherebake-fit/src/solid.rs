@@ -13,6 +13,7 @@
 //! outward mesh has w ∈ {0, 1}), without the grid's error.
 
 use glam::DVec3;
+use spherebake_format::quant::{ceil_f64, floor_f64};
 use spherebake_geom::volume;
 pub use spherebake_geom::voxel::Bits;
 use spherebake_geom::voxel::VoxelGrid;
@@ -148,14 +149,14 @@ impl Solid {
         let ru = r / h;
         let r2 = ru * ru;
         // Row centres at j + 0.5.
-        let k0 = (ceil(u.z - ru - 0.5).max(0.0)) as usize;
-        let k1 = floor(u.z + ru - 0.5);
+        let k0 = (ceil_f64(u.z - ru - 0.5).max(0.0)) as usize;
+        let k1 = floor_f64(u.z + ru - 0.5);
         if k1 < 0.0 {
             return Some(0.0);
         }
         let k1 = (k1 as usize).min(self.dims[2].saturating_sub(1));
-        let j0 = (ceil(u.y - ru - 0.5).max(0.0)) as usize;
-        let j1f = floor(u.y + ru - 0.5);
+        let j0 = (ceil_f64(u.y - ru - 0.5).max(0.0)) as usize;
+        let j1f = floor_f64(u.y + ru - 0.5);
         if j1f < 0.0 {
             return Some(0.0);
         }
@@ -173,8 +174,8 @@ impl Solid {
                 return 0.0;
             }
             let w = w2.sqrt();
-            let ya = floor(u.y - w - 0.5) + 1.0 + 0.5 - u.y;
-            let yb = ceil(u.y + w - 0.5) - 1.0 + 0.5 - u.y;
+            let ya = floor_f64(u.y - w - 0.5) + 1.0 + 0.5 - u.y;
+            let yb = ceil_f64(u.y + w - 0.5) - 1.0 + 0.5 - u.y;
             if yb < ya {
                 return 0.0;
             }
@@ -195,8 +196,8 @@ impl Solid {
             }
             // Rows j with (j + 0.5 − u.y)² < rem_z only.
             let w = rem_z.sqrt();
-            let ja = (floor(u.y - w - 0.5) + 1.0).max(j0 as f64) as usize;
-            let jb = (ceil(u.y + w - 0.5) - 1.0).min(j1 as f64);
+            let ja = (floor_f64(u.y - w - 0.5) + 1.0).max(j0 as f64) as usize;
+            let jb = (ceil_f64(u.y + w - 0.5) - 1.0).min(j1 as f64);
             if jb < ja as f64 {
                 continue;
             }
@@ -261,40 +262,6 @@ impl Solid {
             }
         }
         Some(sum * h * h * h)
-    }
-}
-
-/// ⌊x⌋ without a library call (the baseline x86-64 target has no rounding instruction, and
-/// the proxy's rows call it per slab): through an integer for |x| < 4.5 · 10¹⁵ (below 2⁵²,
-/// so the cast and the ±1 are exact), else `f64::floor`
-/// (NaN too). The same value as `f64::floor` (a zero may lose its sign, which the proxy's
-/// sums cannot see).
-#[inline(always)]
-fn floor(x: f64) -> f64 {
-    if x.abs() < 4.5e15 {
-        let t = x as i64 as f64;
-        if t > x {
-            t - 1.0
-        } else {
-            t
-        }
-    } else {
-        x.floor()
-    }
-}
-
-/// ⌈x⌉ as [`floor`].
-#[inline(always)]
-fn ceil(x: f64) -> f64 {
-    if x.abs() < 4.5e15 {
-        let t = x as i64 as f64;
-        if t < x {
-            t + 1.0
-        } else {
-            t
-        }
-    } else {
-        x.ceil()
     }
 }
 
@@ -660,31 +627,5 @@ mod prefix_tests {
                 assert!((p1 - brute(x1)).abs() < 1e-12, "x1 {x1} after {x0}: {p1} vs {}", brute(x1));
             }
         }
-    }
-}
-
-#[cfg(test)]
-mod rounding_tests {
-    use super::{ceil, floor};
-
-    #[test]
-    fn floor_and_ceil_without_a_library_call_agree_with_the_library() {
-        let mut rng = spherebake_geom::rng::SplitMix64::new(3);
-        let mut xs = vec![0.0, -0.0, 0.5, -0.5, 1.0, -1.0, 2.5, -2.5, 1e-300, -1e-300, 4.4e15, -4.4e15, 4.6e15];
-        xs.extend([1e300, -1e300, f64::INFINITY, f64::NEG_INFINITY, f64::MAX, f64::MIN, 2f64.powi(52) - 0.5]);
-        for e in 15..=20 {
-            let x = 1.5 * 10f64.powi(e);
-            xs.extend([x, -x, x + 0.5, 9.3e18]);
-        }
-        for i in 0..2000 {
-            let x = (rng.next_f64() - 0.5) * 10f64.powi(i % 8);
-            xs.extend([x, x.floor(), x.ceil(), x.floor() + 0.5]);
-        }
-        for x in xs {
-            // Equal as values (a zero may lose its sign).
-            assert!(floor(x) == x.floor(), "floor({x}) = {}", floor(x));
-            assert!(ceil(x) == x.ceil(), "ceil({x}) = {}", ceil(x));
-        }
-        assert!(floor(f64::NAN).is_nan() && ceil(f64::NAN).is_nan());
     }
 }

@@ -40,6 +40,42 @@ pub fn round_ties_away(x: f64) -> f64 {
     }
 }
 
+/// ⌊x⌋ without `std` or a library call (the baseline x86-64 target has no rounding
+/// instruction; the fit's volume proxy calls it per slab of every ball): through an integer for
+/// |x| < 2⁵², where the cast and the −1 are exact. NaN, ±∞ and |x| ≥ 2⁵² (already integers) are
+/// returned as they are. The value of `libm::floor` (a zero may lose its sign).
+#[must_use]
+#[inline(always)]
+pub fn floor_f64(x: f64) -> f64 {
+    if x.is_nan() || x.abs() >= TWO_POW_52 {
+        return x;
+    }
+    let t = x as i64 as f64;
+    if t > x {
+        t - 1.0
+    } else {
+        t
+    }
+}
+
+/// ⌈x⌉ as [`floor_f64`]: the value of `libm::ceil` (a zero may lose its sign).
+#[must_use]
+#[inline(always)]
+pub fn ceil_f64(x: f64) -> f64 {
+    if x.is_nan() || x.abs() >= TWO_POW_52 {
+        return x;
+    }
+    let t = x as i64 as f64;
+    if t < x {
+        t + 1.0
+    } else {
+        t
+    }
+}
+
+/// 2⁵²: from here on every f64 is an integer.
+const TWO_POW_52: f64 = 4_503_599_627_370_496.0;
+
 /// The next f32 towards +∞ (`f32::next_up`, which needs Rust 1.86): the smallest f32 greater
 /// than `f`. ±0 → the smallest positive subnormal, the largest negative subnormal → −0, −∞ → −`f32::MAX`;
 /// NaN and +∞ are returned as they are.
@@ -261,6 +297,29 @@ mod tests {
     /// 2^e as f64, built from its bits (independent of the functions under test).
     fn pow2(e: i32) -> f64 {
         f64::from_bits(((1023 + e) as u64) << 52)
+    }
+
+    #[test]
+    fn floor_and_ceil_without_a_library_call_agree_with_libm() {
+        let edge = [0.0, -0.0, 0.5, -0.5, 1.0, -1.0, 2.5, -2.5, 1e-300, -1e-300, 4.4e15, -4.4e15, 4.6e15];
+        let far = [1e300, -1e300, f64::INFINITY, f64::NEG_INFINITY, f64::MAX, f64::MIN, 9.3e18, -9.3e18];
+        let near = [pow2(52) - 0.5, -(pow2(52) - 0.5), pow2(52) - 1.0, pow2(51) + 0.5, 1.5e16, 1.5e17, 1.5e20];
+        for x in edge.into_iter().chain(far).chain(near) {
+            // Equal as values (a zero may lose its sign).
+            assert!(floor_f64(x) == libm::floor(x), "floor({x}) = {}", floor_f64(x));
+            assert!(ceil_f64(x) == libm::ceil(x), "ceil({x}) = {}", ceil_f64(x));
+        }
+        assert!(floor_f64(f64::NAN).is_nan() && ceil_f64(f64::NAN).is_nan());
+    }
+
+    proptest::proptest! {
+        #[test]
+        fn floor_and_ceil_agree_with_libm_anywhere(m in -1.0f64..1.0, e in 0i32..60, k in -1000i64..1000) {
+            for x in [m * pow2(e), k as f64, k as f64 + 0.5, m * pow2(e) + 0.5] {
+                proptest::prop_assert!(floor_f64(x) == libm::floor(x), "floor({})", x);
+                proptest::prop_assert!(ceil_f64(x) == libm::ceil(x), "ceil({})", x);
+            }
+        }
     }
 
     #[test]
