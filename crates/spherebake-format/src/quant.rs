@@ -58,19 +58,11 @@ pub fn floor_f64(x: f64) -> f64 {
     }
 }
 
-/// ⌈x⌉ as [`floor_f64`]: the value of `libm::ceil` (a zero may lose its sign).
+/// ⌈x⌉ = −⌊−x⌋ through [`floor_f64`] (negation is exact): the value of `libm::ceil`.
 #[must_use]
 #[inline(always)]
 pub fn ceil_f64(x: f64) -> f64 {
-    if x.is_nan() || x.abs() >= TWO_POW_52 {
-        return x;
-    }
-    let t = x as i64 as f64;
-    if t < x {
-        t + 1.0
-    } else {
-        t
-    }
+    -floor_f64(-x)
 }
 
 /// 2⁵²: from here on every f64 is an integer.
