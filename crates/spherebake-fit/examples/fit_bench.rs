@@ -88,6 +88,9 @@ fn main() {
             set!(plan.start_tie, "SB_START_TIE");
             set!(plan.pair_first_cut, "SB_PAIR_CUT");
             set!(plan.gap_rounds, "SB_GAP_ROUNDS");
+            set!(plan.descent_sweeps, "SB_SWEEPS");
+            set!(plan.teleport_attempts, "SB_TELE");
+            set!(plan.powell_sweeps, "SB_POWELL");
             set!(seed, "SB_SEED");
             let mut times = Vec::new();
             let mut last = None;

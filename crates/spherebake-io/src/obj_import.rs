@@ -15,8 +15,10 @@ use crate::{Ctx, ImportedPart, IoError, ReadLimit, MAX_IMAGE_BYTES, MAX_MTL_BYTE
 type MtlRead = (PathBuf, Result<Vec<u8>, IoError>);
 
 /// Checks what tobj reports without a line number (or not at all): faces with fewer than three
-/// vertices, vertex / texture / normal indices out of range, unparsable `v` lines. Errors name
-/// the line (1-based; a `\`-continued line by its first line).
+/// vertices and line elements (`l`) with none, vertex / texture / normal indices out of range
+/// in either, `v` lines that are not x y z, x y z w (w ≠ 0) or x y z r g b, `vt` lines without
+/// two numbers and `vn` lines without three. Errors name the line (1-based; a `\`-continued
+/// line by its first line). tobj is then given the text as checked ([`tobj_text`]).
 ///
 /// A large file is checked in pieces in parallel (rayon; a quarter of a 43 MB OBJ's import
 /// was this check, serial): the text is cut at line ends that do not continue a line, and each
@@ -34,7 +36,7 @@ const CHECK_PIECE_BYTES: usize = 1 << 20;
 /// [`check_lines`] with pieces of at least `piece` bytes.
 fn check_lines_in(path: &Path, bytes: &[u8], piece: usize) -> Result<(), IoError> {
     use rayon::prelude::*;
-    let text = String::from_utf8_lossy(bytes);
+    let text = utf8_lossy(bytes);
     let checks: Vec<PieceCheck> = split_pieces(&text, piece).par_iter().map(|p| check_piece(p)).collect();
     // In file order, with the counts before each piece: the first index that needs more
     // definitions than there were, else the piece's own error.
@@ -42,6 +44,9 @@ fn check_lines_in(path: &Path, bytes: &[u8], piece: usize) -> Result<(), IoError
     let err = |line: usize, message: String| {
         Err(IoError::Obj { path: path.to_path_buf(), message: format!("line {line}: {message}") })
     };
+    // The first `v` line (absolute line, coloured) and the first whose colour-ness differs.
+    let mut first_v: Option<(usize, bool)> = None;
+    let mut mixed: Option<(usize, bool)> = None;
     for c in checks {
         let defined = [before.v, before.vt, before.vn];
         if let Some(n) = c.needs.iter().find(|n| defined[n.kind] < n.need) {
@@ -55,12 +60,25 @@ fn check_lines_in(path: &Path, bytes: &[u8], piece: usize) -> Result<(), IoError
         if let Some((line, message)) = c.error {
             return err(before.lines + line, message);
         }
+        if let Some((line, coloured)) = c.first_v {
+            let (_, first) = *first_v.get_or_insert((before.lines + line, coloured));
+            if mixed.is_none() {
+                mixed = if coloured != first { Some((before.lines + line, coloured)) } else { None };
+                mixed = mixed.or(c.colour_change.map(|l| (before.lines + l, !coloured)));
+            }
+        }
         before = Counts {
             lines: before.lines + c.counts.lines,
             v: before.v + c.counts.v,
             vt: before.vt + c.counts.vt,
             vn: before.vn + c.counts.vn,
         };
+    }
+    // tobj gives vertex i the i-th colour read: with colours on some vertices only it fails
+    // on a later vertex or, silently, gives vertices the wrong colours.
+    if let (Some((line, coloured)), Some((first, _))) = (mixed, first_v) {
+        let (this, that) = if coloured { ("with a colour", "has none") } else { ("without a colour", "has one") };
+        return err(line, format!("vertex {this}, but the first vertex (line {first}) {that}"));
     }
     Ok(())
 }
@@ -102,6 +120,10 @@ struct PieceCheck {
     /// The first error that no definitions before the piece can undo: (1-based line in the
     /// piece, message). Nothing after it is read.
     error: Option<(usize, String)>,
+    /// The piece's first `v` line: (1-based line in the piece, whether it has a colour).
+    first_v: Option<(usize, bool)>,
+    /// The piece's first `v` line whose colour-ness differs from its first's.
+    colour_change: Option<usize>,
 }
 
 /// `text` cut into pieces of at least `piece` bytes, each ending at a line end that does not
@@ -185,18 +207,35 @@ fn check_piece(text: &str) -> PieceCheck {
         let (key, tok) = keyword(line);
         match key {
             Some("v") => {
-                let ok = tok.take(3).filter(|t| t.parse::<f32>().is_ok()).count() == 3;
-                if !ok {
-                    return Err((at, "vertex needs three numbers".into()));
+                let coloured = vertex_values(tok).map_err(|m| (at, m))?;
+                match out.first_v {
+                    None => out.first_v = Some((at, coloured)),
+                    Some((_, first)) if first != coloured && out.colour_change.is_none() => {
+                        out.colour_change = Some(at)
+                    }
+                    Some(_) => {}
                 }
                 counts.v += 1;
             }
-            Some("vt") => counts.vt += 1,
-            Some("vn") => counts.vn += 1,
-            Some("f") => {
+            Some("vt") => {
+                if tok.take(2).filter(|t| t.parse::<f32>().is_ok()).count() != 2 {
+                    return Err((at, "texture coordinate needs two numbers".into()));
+                }
+                counts.vt += 1;
+            }
+            Some("vn") => {
+                if tok.take(3).filter(|t| t.parse::<f32>().is_ok()).count() != 3 {
+                    return Err((at, "normal needs three numbers".into()));
+                }
+                counts.vn += 1;
+            }
+            Some(kw @ ("f" | "l")) => {
                 let corners = tok.clone().count();
-                if corners < 3 {
+                if kw == "f" && corners < 3 {
                     return Err((at, format!("face with {corners} vertices (a face needs at least 3)")));
+                }
+                if corners == 0 {
+                    return Err((at, "line element with no vertex".into()));
                 }
                 for c in tok {
                     for (kind, slot) in c.split('/').take(3).enumerate() {
@@ -230,6 +269,88 @@ fn check_piece(text: &str) -> PieceCheck {
     out
 }
 
+/// Checks a `v` line's values (after the keyword) as tobj reads them: x y z, then nothing, a
+/// weight w (a number, not 0: tobj divides by it) or a colour r g b (three numbers: tobj keeps
+/// the numbers before the first that is not one, and the next vertices' colours would shift).
+/// Returns whether it has a colour.
+fn vertex_values(tok: std::str::SplitWhitespace<'_>) -> Result<bool, String> {
+    // No allocation per line (a large OBJ has millions of `v` lines).
+    let mut values = [""; 8];
+    let mut len = 0;
+    for (slot, t) in values.iter_mut().zip(tok) {
+        *slot = t;
+        len += 1;
+    }
+    if values[..len.min(3)].iter().filter(|t| t.parse::<f32>().is_ok()).count() != 3 {
+        return Err("vertex needs three numbers".into());
+    }
+    match len {
+        3 => Ok(false),
+        6 if values[3..6].iter().all(|t| t.parse::<f32>().is_ok()) => Ok(true),
+        6 => Err("vertex colour needs three numbers".into()),
+        4 => match values[3].parse::<f32>() {
+            Ok(w) if w != 0.0 => Ok(false),
+            Ok(_) => Err("vertex weight w is 0".into()),
+            Err(_) => Err(format!("vertex weight {:?} is not a number", values[3])),
+        },
+        n => Err(format!(
+            "vertex with {} values (expected x y z, x y z w or x y z r g b)",
+            if n > 7 { "more than 7".to_string() } else { n.to_string() }
+        )),
+    }
+}
+
+/// The text tobj reads: the file as checked by [`check_lines`], so each of tobj's line errors
+/// (which name no line) is found by the check first. tobj 4 reads each physical line on its
+/// own, takes no comment after data and fails on bytes that are not UTF-8 ("read error");
+/// the check joins a `\`-continued line, ends every line at `#` and reads the text as UTF-8
+/// with invalid bytes replaced. So, when the file has any of these, tobj is given: the text
+/// with invalid bytes replaced (U+FFFD), each continued line joined (then as many empty lines
+/// as it had physical lines after its first, so the line count stays), and the `v`, `vt`,
+/// `vn`, `f` and `l` lines ended at `#`. Other lines keep their `#` (names may hold it). A
+/// file without `#`, `\` or invalid bytes is given as it is.
+fn tobj_text(bytes: &[u8]) -> std::borrow::Cow<'_, [u8]> {
+    use std::borrow::Cow;
+    let text = utf8_lossy(bytes);
+    // In blocks without an early exit, so the scan vectorises (a 43 MB file: a few ms).
+    let marked = |c: &[u8]| c.iter().fold(false, |a, &b| a | (b == b'#') | (b == b'\\'));
+    if matches!(text, Cow::Borrowed(_)) && !bytes.chunks(1 << 12).any(marked) {
+        return Cow::Borrowed(bytes);
+    }
+    let mut out = String::with_capacity(text.len());
+    let mut joined = String::new();
+    let mut extra = 0usize;
+    let mut lines = text.lines().peekable();
+    while let Some(raw) = lines.next() {
+        // A last line continued into the end of the file is left as it is (tobj reports it).
+        if let (Some(head), true) = (raw.strip_suffix('\\'), lines.peek().is_some()) {
+            joined.push_str(head);
+            joined.push(' ');
+            extra += 1;
+            continue;
+        }
+        joined.push_str(raw);
+        let data = matches!(keyword(&joined).0, Some("v" | "vt" | "vn" | "f" | "l"));
+        let line = if data { joined.split('#').next().unwrap_or("") } else { &joined };
+        out.push_str(line);
+        out.push('\n');
+        for _ in 0..std::mem::take(&mut extra) {
+            out.push('\n');
+        }
+        joined.clear();
+    }
+    Cow::Owned(out.into_bytes())
+}
+
+/// `String::from_utf8_lossy`, with the common case (valid UTF-8) checked by the faster
+/// `str::from_utf8` first (the lossy decoder's walk cost a 43 MB OBJ 60 ms).
+fn utf8_lossy(bytes: &[u8]) -> std::borrow::Cow<'_, str> {
+    match std::str::from_utf8(bytes) {
+        Ok(s) => std::borrow::Cow::Borrowed(s),
+        Err(_) => String::from_utf8_lossy(bytes),
+    }
+}
+
 /// Whether every `Ka` / `Kd` / `Ks` / `Ke` line of an MTL file has three numbers (tobj takes
 /// the first three and panics when there are fewer).
 fn mtl_colours_ok(bytes: &[u8]) -> bool {
@@ -251,7 +372,8 @@ pub(crate) fn import(ctx: &mut Ctx, bytes: &[u8]) -> Result<(Mesh, Vec<ImportedP
     let dir = ctx.dir.clone();
     let (model, opts_in, resolver) = (ctx.path.clone(), ctx.opts, ctx.resolver.clone());
     let budget = RefCell::new(opts_in.max_input_bytes.saturating_sub(ctx.read_total));
-    let (models, materials) = tobj::load_obj_buf(&mut std::io::Cursor::new(bytes), &opts, |p: &Path| {
+    let text = tobj_text(bytes);
+    let (models, materials) = tobj::load_obj_buf(&mut std::io::Cursor::new(&text[..]), &opts, |p: &Path| {
         let full = dir.join(p);
         let uri = p.to_string_lossy();
         let limit = ReadLimit::AtMost(MAX_MTL_BYTES);
@@ -461,19 +583,36 @@ mod tests {
             x ^= x << 17;
             x % n
         };
-        // 30 vertices and normals first, so most faces are valid.
-        let mut s = "v 0 0 0\nvn 0 0 1\n".repeat(30);
+        // 30 vertices and normals first, so most faces are valid; every third file's
+        // vertices have colours (and now and then one has none, or the other way round).
+        let coloured = seed % 3 == 0;
+        let plain = if coloured { "v 0.5 1 -2 0.2 0.4 1" } else { "v 0.5 1 -2" };
+        let first = if coloured { "v 0 0 0 0.2 0.4 1\nvn 0 0 1\n" } else { "v 0 0 0\nvn 0 0 1\n" };
+        let mut s = first.repeat(30);
         for _ in 0..lines {
             let line = match next(12) {
-                0..=3 => {
-                    if next(300) == 0 {
-                        "v 1 2 x".to_string()
-                    } else {
-                        "v 0.5 1 -2".to_string()
-                    }
-                }
-                4 => "vt 0 1".to_string(),
-                5 => "vn 0 0 1".to_string(),
+                0..=3 => match next(1200) {
+                    0..=3 => "v 1 2 x".to_string(),
+                    4 => "v 1 2 3 0".to_string(),
+                    5 => "v 1 2 3 y".to_string(),
+                    6 => "v 1 2 3 1 1".to_string(),
+                    7 => "v 1 2 3 1 1 1 1".to_string(),
+                    8..=20 if coloured => "v 1 2 3 2".to_string(),
+                    8..=20 => "v 1 2 3 0.5 1 1 # colour".to_string(),
+                    21 => "v 1 2 3 0.5 x 1".to_string(),
+                    _ => plain.to_string(),
+                },
+                4 => match next(200) {
+                    0 => "vt 0".to_string(),
+                    1 => "vt 0 1 # uv".to_string(),
+                    _ => "vt 0 1".to_string(),
+                },
+                5 => match next(200) {
+                    0 => "vn 0 1".to_string(),
+                    1 => "l".to_string(),
+                    2..=5 => format!("l {} {}", 1 + next(40), 1 + next(40)),
+                    _ => "vn 0 0 1".to_string(),
+                },
                 6..=8 => {
                     let corners = if next(300) == 0 { 2 } else { 3 + next(2) };
                     let idx = |n: u64| match n % 400 {
@@ -524,24 +663,53 @@ mod tests {
             }
         }
         let mut defined = [0i64; 3];
+        // Every `v` line: (line, whether it has a colour).
+        let mut colours: Vec<(usize, bool)> = Vec::new();
         for (line, text) in logical {
             let body = text.split('#').next().unwrap_or("");
             let tokens: Vec<&str> = body.split_whitespace().collect();
             match tokens.first().copied() {
                 Some("v") => {
-                    if tokens[1..].iter().take(3).filter(|t| t.parse::<f32>().is_ok()).count() != 3 {
+                    let numbers: Vec<Option<f32>> = tokens[1..].iter().map(|t| t.parse::<f32>().ok()).collect();
+                    if numbers.len() < 3 || numbers[..3].iter().any(Option::is_none) {
                         return Some(format!("line {line}: vertex needs three numbers"));
+                    }
+                    match (numbers.len(), numbers.get(3)) {
+                        (3, _) => colours.push((line, false)),
+                        (6, _) if numbers[3..].iter().all(Option::is_some) => colours.push((line, true)),
+                        (6, _) => return Some(format!("line {line}: vertex colour needs three numbers")),
+                        (4, Some(Some(w))) if *w != 0.0 => colours.push((line, false)),
+                        (4, Some(Some(_))) => return Some(format!("line {line}: vertex weight w is 0")),
+                        (4, _) => return Some(format!("line {line}: vertex weight {:?} is not a number", tokens[4])),
+                        (n, _) => {
+                            return Some(format!(
+                                "line {line}: vertex with {n} values (expected x y z, x y z w or x y z r g b)"
+                            ))
+                        }
                     }
                     defined[0] += 1;
                 }
-                Some("vt") => defined[1] += 1,
-                Some("vn") => defined[2] += 1,
-                Some("f") => {
-                    if tokens.len() < 4 {
+                Some("vt") => {
+                    if tokens.len() < 3 || tokens[1..3].iter().any(|t| t.parse::<f32>().is_err()) {
+                        return Some(format!("line {line}: texture coordinate needs two numbers"));
+                    }
+                    defined[1] += 1;
+                }
+                Some("vn") => {
+                    if tokens.len() < 4 || tokens[1..4].iter().any(|t| t.parse::<f32>().is_err()) {
+                        return Some(format!("line {line}: normal needs three numbers"));
+                    }
+                    defined[2] += 1;
+                }
+                Some(kw @ ("f" | "l")) => {
+                    if kw == "f" && tokens.len() < 4 {
                         return Some(format!(
                             "line {line}: face with {} vertices (a face needs at least 3)",
                             tokens.len() - 1
                         ));
+                    }
+                    if tokens.len() == 1 {
+                        return Some(format!("line {line}: line element with no vertex"));
                     }
                     for corner in &tokens[1..] {
                         for (kind, slot) in corner.split('/').take(3).enumerate() {
@@ -567,7 +735,11 @@ mod tests {
                 _ => {}
             }
         }
-        None
+        // No other error: vertices with and without colours.
+        let (first, coloured) = *colours.first()?;
+        let (line, c) = *colours.iter().find(|x| x.1 != coloured)?;
+        let (this, that) = if c { ("with a colour", "has none") } else { ("without a colour", "has one") };
+        Some(format!("line {line}: vertex {this}, but the first vertex (line {first}) {that}"))
     }
 
     #[test]
