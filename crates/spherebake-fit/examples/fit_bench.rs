@@ -4,7 +4,8 @@
 //! Environment overrides: SB_POINTS, SB_VOXEL, SB_ITERS, SB_POLISH, SB_SEED, SB_STARTS,
 //! SB_TRIALS, SB_SEAMS, SB_TELE, SB_SUBDIV,
 //! SB_SEAM_TRIALS, SB_BUDGET, SB_SEAM_BUDGET, SB_DGRID (descent_grid_cells), SB_SEAM_SPACING,
-//! SB_PCELL, SB_PBUDGET, SB_BAND_SWEEPS, SB_BAND_WIDTH, SB_PAIR_CUT, SB_GAP_ROUNDS; SB_PRESET=fast|default|best starts from that plan.
+//! SB_PCELL, SB_PBUDGET, SB_BAND_SWEEPS, SB_BAND_WIDTH, SB_PAIR_CUT, SB_GAP_ROUNDS, SB_SWEEPS
+//! (descent_sweeps), SB_POWELL (powell_sweeps); SB_PRESET=fast|default|best starts from that plan.
 
 #[path = "common/obj.rs"]
 mod obj;
@@ -89,7 +90,6 @@ fn main() {
             set!(plan.pair_first_cut, "SB_PAIR_CUT");
             set!(plan.gap_rounds, "SB_GAP_ROUNDS");
             set!(plan.descent_sweeps, "SB_SWEEPS");
-            set!(plan.teleport_attempts, "SB_TELE");
             set!(plan.powell_sweeps, "SB_POWELL");
             set!(seed, "SB_SEED");
             let mut times = Vec::new();
