@@ -26,7 +26,9 @@ type MtlRead = (PathBuf, Result<Vec<u8>, IoError>);
 /// `vt` / `vn` counts and the face indices that need definitions before it. Then, in file
 /// order with the counts of the pieces before, the first error is found: the one-piece check's
 /// answer for any thread count and any cut.
-fn check_lines(path: &Path, bytes: &[u8]) -> Result<(), IoError> {
+///
+/// Returns whether the file has line elements (`l`), which [`tobj_text`] removes.
+fn check_lines(path: &Path, bytes: &[u8]) -> Result<bool, IoError> {
     check_lines_in(path, bytes, CHECK_PIECE_BYTES)
 }
 
@@ -34,7 +36,7 @@ fn check_lines(path: &Path, bytes: &[u8]) -> Result<(), IoError> {
 const CHECK_PIECE_BYTES: usize = 1 << 20;
 
 /// [`check_lines`] with pieces of at least `piece` bytes.
-fn check_lines_in(path: &Path, bytes: &[u8], piece: usize) -> Result<(), IoError> {
+fn check_lines_in(path: &Path, bytes: &[u8], piece: usize) -> Result<bool, IoError> {
     use rayon::prelude::*;
     let text = utf8_lossy(bytes);
     let checks: Vec<PieceCheck> = split_pieces(&text, piece).par_iter().map(|p| check_piece(p)).collect();
@@ -47,6 +49,7 @@ fn check_lines_in(path: &Path, bytes: &[u8], piece: usize) -> Result<(), IoError
     // The first `v` line (absolute line, coloured) and the first whose colour-ness differs.
     let mut first_v: Option<(usize, bool)> = None;
     let mut mixed: Option<(usize, bool)> = None;
+    let line_elements = checks.iter().any(|c| c.line_elements);
     for c in checks {
         let defined = [before.v, before.vt, before.vn];
         if let Some(n) = c.needs.iter().find(|n| defined[n.kind] < n.need) {
@@ -80,7 +83,7 @@ fn check_lines_in(path: &Path, bytes: &[u8], piece: usize) -> Result<(), IoError
         let (this, that) = if coloured { ("with a colour", "has none") } else { ("without a colour", "has one") };
         return err(line, format!("vertex {this}, but the first vertex (line {first}) {that}"));
     }
-    Ok(())
+    Ok(line_elements)
 }
 
 /// Lines and `v`, `vt`, `vn` lines (a continued line counts once as a logical line, its
@@ -124,6 +127,8 @@ struct PieceCheck {
     first_v: Option<(usize, bool)>,
     /// The piece's first `v` line whose colour-ness differs from its first's.
     colour_change: Option<usize>,
+    /// Whether the piece has a line element (`l`).
+    line_elements: bool,
 }
 
 /// `text` cut into pieces of at least `piece` bytes, each ending at a line end that does not
@@ -237,6 +242,7 @@ fn check_piece(text: &str) -> PieceCheck {
                 if corners == 0 {
                     return Err((at, "line element with no vertex".into()));
                 }
+                out.line_elements |= kw == "l";
                 for c in tok {
                     for (kind, slot) in c.split('/').take(3).enumerate() {
                         let what = ["vertex", "texture", "normal"][kind];
@@ -304,17 +310,19 @@ fn vertex_values(tok: std::str::SplitWhitespace<'_>) -> Result<bool, String> {
 /// (which name no line) is found by the check first. tobj 4 reads each physical line on its
 /// own, takes no comment after data and fails on bytes that are not UTF-8 ("read error");
 /// the check joins a `\`-continued line, ends every line at `#` and reads the text as UTF-8
-/// with invalid bytes replaced. So, when the file has any of these, tobj is given: the text
-/// with invalid bytes replaced (U+FFFD), each continued line joined (then as many empty lines
-/// as it had physical lines after its first, so the line count stays), and the `v`, `vt`,
-/// `vn`, `f` and `l` lines ended at `#`. Other lines keep their `#` (names may hold it). A
-/// file without `#`, `\` or invalid bytes is given as it is.
-fn tobj_text(bytes: &[u8]) -> std::borrow::Cow<'_, [u8]> {
+/// with invalid bytes replaced. tobj also reads a line element (`l`) of three or more
+/// vertices as a face (and, triangulating, one of two as a zero-area triangle). So, when the
+/// file has any of these, tobj is given: the text with invalid bytes replaced (U+FFFD), each
+/// continued line joined (then as many empty lines as it had physical lines after its first,
+/// so the line count stays), the `v`, `vt`, `vn` and `f` lines ended at `#`, and the `l` lines
+/// empty (`line_elements`: the check found one). Other lines keep their `#` (names may hold
+/// it). A file without `#`, `\`, invalid bytes or `l` lines is given as it is.
+fn tobj_text(bytes: &[u8], line_elements: bool) -> std::borrow::Cow<'_, [u8]> {
     use std::borrow::Cow;
     let text = utf8_lossy(bytes);
     // In blocks without an early exit, so the scan vectorises (a 43 MB file: a few ms).
     let marked = |c: &[u8]| c.iter().fold(false, |a, &b| a | (b == b'#') | (b == b'\\'));
-    if matches!(text, Cow::Borrowed(_)) && !bytes.chunks(1 << 12).any(marked) {
+    if !line_elements && matches!(text, Cow::Borrowed(_)) && !bytes.chunks(1 << 12).any(marked) {
         return Cow::Borrowed(bytes);
     }
     let mut out = String::with_capacity(text.len());
@@ -330,8 +338,11 @@ fn tobj_text(bytes: &[u8]) -> std::borrow::Cow<'_, [u8]> {
             continue;
         }
         joined.push_str(raw);
-        let data = matches!(keyword(&joined).0, Some("v" | "vt" | "vn" | "f" | "l"));
-        let line = if data { joined.split('#').next().unwrap_or("") } else { &joined };
+        let line = match keyword(&joined).0 {
+            Some("l") => "",
+            Some("v" | "vt" | "vn" | "f") => joined.split('#').next().unwrap_or(""),
+            _ => &joined,
+        };
         out.push_str(line);
         out.push('\n');
         for _ in 0..std::mem::take(&mut extra) {
@@ -365,14 +376,16 @@ fn mtl_colours_ok(bytes: &[u8]) -> bool {
 
 pub(crate) fn import(ctx: &mut Ctx, bytes: &[u8]) -> Result<(Mesh, Vec<ImportedPart>), IoError> {
     let path = ctx.path.clone();
-    check_lines(&path, bytes)?;
-    let opts = tobj::LoadOptions { triangulate: true, single_index: true, ..Default::default() };
+    let line_elements = check_lines(&path, bytes)?;
+    // Line and point elements are not surfaces (`tobj_text` has removed the `l` lines: tobj
+    // reads one of three or more vertices as a face).
+    let opts = tobj::LoadOptions { triangulate: true, single_index: true, ignore_lines: true, ignore_points: true };
     // MTL files read by tobj's callback: (resolved path, bytes or the read error).
     let mtl_reads: RefCell<Vec<MtlRead>> = RefCell::new(Vec::new());
     let dir = ctx.dir.clone();
     let (model, opts_in, resolver) = (ctx.path.clone(), ctx.opts, ctx.resolver.clone());
     let budget = RefCell::new(opts_in.max_input_bytes.saturating_sub(ctx.read_total));
-    let text = tobj_text(bytes);
+    let text = tobj_text(bytes, line_elements);
     let (models, materials) = tobj::load_obj_buf(&mut std::io::Cursor::new(&text[..]), &opts, |p: &Path| {
         let full = dir.join(p);
         let uri = p.to_string_lossy();
@@ -645,7 +658,7 @@ mod tests {
 
     /// The check written apart, line by line over the whole text, as tobj's users read OBJ:
     /// the first error's message, or `None`.
-    fn oracle(text: &str) -> Option<String> {
+    fn oracle(text: &str) -> Result<bool, String> {
         let mut logical: Vec<(usize, String)> = Vec::new();
         let mut pending: Option<(usize, String)> = None;
         for (i, raw) in text.lines().enumerate() {
@@ -663,6 +676,7 @@ mod tests {
             }
         }
         let mut defined = [0i64; 3];
+        let mut line_elements = false;
         // Every `v` line: (line, whether it has a colour).
         let mut colours: Vec<(usize, bool)> = Vec::new();
         for (line, text) in logical {
@@ -672,17 +686,17 @@ mod tests {
                 Some("v") => {
                     let numbers: Vec<Option<f32>> = tokens[1..].iter().map(|t| t.parse::<f32>().ok()).collect();
                     if numbers.len() < 3 || numbers[..3].iter().any(Option::is_none) {
-                        return Some(format!("line {line}: vertex needs three numbers"));
+                        return Err(format!("line {line}: vertex needs three numbers"));
                     }
                     match (numbers.len(), numbers.get(3)) {
                         (3, _) => colours.push((line, false)),
                         (6, _) if numbers[3..].iter().all(Option::is_some) => colours.push((line, true)),
-                        (6, _) => return Some(format!("line {line}: vertex colour needs three numbers")),
+                        (6, _) => return Err(format!("line {line}: vertex colour needs three numbers")),
                         (4, Some(Some(w))) if *w != 0.0 => colours.push((line, false)),
-                        (4, Some(Some(_))) => return Some(format!("line {line}: vertex weight w is 0")),
-                        (4, _) => return Some(format!("line {line}: vertex weight {:?} is not a number", tokens[4])),
+                        (4, Some(Some(_))) => return Err(format!("line {line}: vertex weight w is 0")),
+                        (4, _) => return Err(format!("line {line}: vertex weight {:?} is not a number", tokens[4])),
                         (n, _) => {
-                            return Some(format!(
+                            return Err(format!(
                                 "line {line}: vertex with {n} values (expected x y z, x y z w or x y z r g b)"
                             ))
                         }
@@ -691,26 +705,27 @@ mod tests {
                 }
                 Some("vt") => {
                     if tokens.len() < 3 || tokens[1..3].iter().any(|t| t.parse::<f32>().is_err()) {
-                        return Some(format!("line {line}: texture coordinate needs two numbers"));
+                        return Err(format!("line {line}: texture coordinate needs two numbers"));
                     }
                     defined[1] += 1;
                 }
                 Some("vn") => {
                     if tokens.len() < 4 || tokens[1..4].iter().any(|t| t.parse::<f32>().is_err()) {
-                        return Some(format!("line {line}: normal needs three numbers"));
+                        return Err(format!("line {line}: normal needs three numbers"));
                     }
                     defined[2] += 1;
                 }
                 Some(kw @ ("f" | "l")) => {
                     if kw == "f" && tokens.len() < 4 {
-                        return Some(format!(
+                        return Err(format!(
                             "line {line}: face with {} vertices (a face needs at least 3)",
                             tokens.len() - 1
                         ));
                     }
                     if tokens.len() == 1 {
-                        return Some(format!("line {line}: line element with no vertex"));
+                        return Err(format!("line {line}: line element with no vertex"));
                     }
+                    line_elements |= kw == "l";
                     for corner in &tokens[1..] {
                         for (kind, slot) in corner.split('/').take(3).enumerate() {
                             let what = ["vertex", "texture", "normal"][kind];
@@ -718,16 +733,14 @@ mod tests {
                                 continue;
                             }
                             let Ok(x) = slot.parse::<i64>() else {
-                                return Some(format!(
+                                return Err(format!(
                                     "line {line}: bad {what} index {slot:?} in face corner {corner:?}"
                                 ));
                             };
                             let n = defined[kind];
                             let ok = if x > 0 { x <= n } else { x < 0 && -x <= n };
                             if !ok {
-                                return Some(format!(
-                                    "line {line}: {what} index {x} out of range ({n} defined so far)"
-                                ));
+                                return Err(format!("line {line}: {what} index {x} out of range ({n} defined so far)"));
                             }
                         }
                     }
@@ -736,32 +749,39 @@ mod tests {
             }
         }
         // No other error: vertices with and without colours.
-        let (first, coloured) = *colours.first()?;
-        let (line, c) = *colours.iter().find(|x| x.1 != coloured)?;
-        let (this, that) = if c { ("with a colour", "has none") } else { ("without a colour", "has one") };
-        Some(format!("line {line}: vertex {this}, but the first vertex (line {first}) {that}"))
+        if let Some(&(first, coloured)) = colours.first() {
+            if let Some(&(line, c)) = colours.iter().find(|x| x.1 != coloured) {
+                let (this, that) = if c { ("with a colour", "has none") } else { ("without a colour", "has one") };
+                return Err(format!("line {line}: vertex {this}, but the first vertex (line {first}) {that}"));
+            }
+        }
+        Ok(line_elements)
     }
 
     #[test]
     fn the_check_in_pieces_answers_as_in_one() {
         let path = Path::new("x.obj");
-        let message = |r: Result<(), IoError>| match r {
-            Ok(()) => None,
-            Err(IoError::Obj { message, .. }) => Some(message),
+        let message = |r: Result<bool, IoError>| match r {
+            Ok(line_elements) => Ok(line_elements),
+            Err(IoError::Obj { message, .. }) => Err(message),
             Err(e) => panic!("{e:?}"),
         };
-        let (mut errors, mut oks, mut late) = (0, 0, 0);
+        let (mut errors, mut oks, mut late, mut with_lines) = (0, 0, 0, 0);
         for seed in 0..300u64 {
             let text = random_obj(seed, 20 + (seed as usize % 7) * 30);
             let whole = message(check_lines_in(path, text.as_bytes(), usize::MAX));
             assert_eq!(whole, oracle(&text), "seed {seed}");
-            if let Some(m) = &whole {
-                errors += 1;
-                // An error past the first piece of the smallest size: the counts before a piece matter.
-                let line: usize = m.trim_start_matches("line ").split(':').next().unwrap().parse().unwrap();
-                late += usize::from(line > 70);
-            } else {
-                oks += 1;
+            match &whole {
+                Err(m) => {
+                    errors += 1;
+                    // An error past the first piece of the smallest size: the counts before a piece matter.
+                    let line: usize = m.trim_start_matches("line ").split(':').next().unwrap().parse().unwrap();
+                    late += usize::from(line > 70);
+                }
+                Ok(l) => {
+                    oks += 1;
+                    with_lines += usize::from(*l);
+                }
             }
             for piece in [1, 7, 40, 200] {
                 assert_eq!(
@@ -777,6 +797,9 @@ mod tests {
                 assert!(p.ends_with('\n') && !p.trim_end_matches('\n').trim_end_matches('\r').ends_with('\\'));
             }
         }
-        assert!(errors > 50 && oks > 20 && late > 30, "{errors} errors ({late} late), {oks} clean");
+        assert!(
+            errors > 50 && oks > 20 && late > 30 && with_lines > 5 && with_lines < oks,
+            "{errors} errors ({late} late), {oks} clean ({with_lines} with line elements)"
+        );
     }
 }

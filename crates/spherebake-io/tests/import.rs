@@ -343,13 +343,16 @@ fn obj_files_read_as_checked_and_tobjs_errors_name_the_line() {
     assert_eq!(want.mesh.triangles.len(), 4);
     let mut latin1 = b"# caf\xe9\no W\xfcrfel\n".to_vec();
     latin1.extend_from_slice(plain);
-    let variants: [&[u8]; 6] = [
+    let variants: [&[u8]; 7] = [
         b"v 0 0 0 # origin\nv 1 0 0#x\nv 0 1 0\nv 0 0 1 # 1 2\nf 1 3 2 # base\nf 1 2 4\nf 1 4 3\nf 2 3 4#\n",
         b"v 0 0 \\\n0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 1 \\\n 3 \\\n 2\nf 1 2 4\nf 1 4 3\nf 2 3 4\n",
         b"v 0 0 0\r\nv 1 0 0 \\\r\n\r\nv 0 1 0\r\nv 0 0 1\r\nf 1 3 2\r\nf 1 2 4\r\nf 1 4 3\r\nf 2 3 4\r\n",
         &latin1,
         b"v 0 0 0 1\nv 2 0 0 2\nv 0 1 0\nvt 0 1 # uv\nvn 0 0 1 #n\nv 0 0 1\nf 1 3 2\nf 1 2 4\nf 1 4 3\nf 2 3 4\n",
         b"v 0 0 0 1 0 0\nv 1 0 0 0 1 0 # green\nv 0 1 0 0 0 1\nv 0 0 1 1 1 1\nf 1 3 2\nf 1 2 4\nf 1 4 3\nf 2 3 4\n",
+        // A line element is no surface (tobj made it a zero-area triangle, and the closed
+        // tetrahedron non-manifold).
+        b"v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 1 3 2\nl 1 2 3\nf 1 2 4\nf 1 4 3\nf 2 3 4\nl 4 1\n",
     ];
     for (i, v) in variants.iter().enumerate() {
         let got = load_mesh_from_bytes(p, v).unwrap_or_else(|e| panic!("variant {i}: {e}"));
