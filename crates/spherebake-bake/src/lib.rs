@@ -431,7 +431,8 @@ fn fit_spheres(
     let fit_progress = |f: f32| progress(0.8 * f);
     let r = spherebake_fit::fit_reusing(positions, triangles, Some(tree), &fit_settings, &fit_progress)
         .map_err(|e| BakeError::Stage { path: path.to_path_buf(), stage: "fit", message: e.to_string() })?;
-    // Target mode's result is among the fit's warnings once ("target mode: k spheres give E = ...").
+    // Target mode's result is among the fit's warnings once ("target mode: k spheres give E =
+    // ..." when the target is reached, else "target E ≤ ... not reached: the best is E = ...").
     let warnings = r.warnings;
     // A sphere of radius 0 bounds a single point; store the smallest positive radius instead so
     // the file stays valid (rule 3004) and the point stays inside.

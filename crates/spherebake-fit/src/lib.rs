@@ -1696,7 +1696,10 @@ fn fit_part(
                     (0..tried.len()).min_by(|&a, &b| e_of(&tried[a].1).total_cmp(&e_of(&tried[b].1))).unwrap_or(0)
                 });
             let (k, r) = tried.swap_remove(best);
-            warnings.push(format!("target mode: {k} spheres give E = {:.4} (target {target})", e_of(&r)));
+            // When the target was not reached, the warning above already names the result.
+            if hi_k.is_some() {
+                warnings.push(format!("target mode: {k} spheres give E = {:.4} (target {target})", e_of(&r)));
+            }
             r
         }
         Some(_) => {

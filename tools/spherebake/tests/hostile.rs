@@ -963,5 +963,7 @@ fn an_unreachable_target_stops_early_and_says_what_was_reached() {
     assert!((8..=32).contains(&n), "{n} spheres: only the first doublings were tried");
     let e = v["outside_ratio_e"].as_f64().unwrap();
     assert!(w.contains(&format!("E = {e:.4} with {n} spheres")), "the message names the result kept: {w}");
+    // Once: no second line repeating the result.
+    assert_eq!(warnings.iter().filter(|w| w.contains(&format!("E = {e:.4}"))).count(), 1, "{warnings:?}");
     assert_eq!(inspect_json(d.path(), "out.sphb")["spheres"].as_array().map(|a| a.len() as u64), Some(n));
 }
