@@ -16,9 +16,11 @@ type MtlRead = (PathBuf, Result<Vec<u8>, IoError>);
 
 /// Checks what tobj reports without a line number (or not at all): faces with fewer than three
 /// vertices and line elements (`l`) with none, vertex / texture / normal indices out of range
-/// in either, `v` lines that are not x y z, x y z w (w ≠ 0) or x y z r g b, `vt` lines without
-/// two numbers and `vn` lines without three. Errors name the line (1-based; a `\`-continued
-/// line by its first line). tobj is then given the text as checked ([`tobj_text`]).
+/// in either, face corners with more than three indices, `v` lines that are not x y z,
+/// x y z w (w finite, not 0) or x y z + three values, `vt` lines without two numbers, `vn`
+/// lines without three, `usemtl` without a name. Errors name the line (1-based; a continued
+/// line by its first line, see [`logical_lines`]). tobj is then given the text as checked
+/// ([`tobj_text`]), rewritten where the returned [`Rewrite`] says so.
 ///
 /// A large file is checked in pieces in parallel (rayon; a quarter of a 43 MB OBJ's import
 /// was this check, serial): the text is cut at line ends that do not continue a line, and each
@@ -27,29 +29,38 @@ type MtlRead = (PathBuf, Result<Vec<u8>, IoError>);
 /// order with the counts of the pieces before, the first error is found: the one-piece check's
 /// answer for any thread count and any cut.
 ///
-/// Returns whether the file has line elements (`l`), which [`tobj_text`] removes.
-fn check_lines(path: &Path, bytes: &[u8]) -> Result<bool, IoError> {
-    check_lines_in(path, bytes, CHECK_PIECE_BYTES)
+/// `text` is the file read as UTF-8, invalid bytes replaced ([`utf8_lossy`]).
+fn check_lines(path: &Path, text: &str) -> Result<Rewrite, IoError> {
+    check_lines_in(path, text, CHECK_PIECE_BYTES)
+}
+
+/// What of the checked text tobj must not read as it is ([`tobj_text`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+struct Rewrite {
+    /// A data line (`v`, `vt`, `vn`, `f`, `l`) with a `#` comment, a continued line, an `l`
+    /// line, or a `usemtl` line whose name tobj would read otherwise.
+    lines: bool,
+    /// Vertex colours on some `v` lines only, or three values after x y z that are not all
+    /// numbers: tobj gives vertex i the i-th colour read, so it would fail on a later vertex
+    /// or shift them. This importer does not use OBJ vertex colours; they are dropped.
+    colours: bool,
 }
 
 /// Bytes per piece of [`check_lines`] (at least).
 const CHECK_PIECE_BYTES: usize = 1 << 20;
 
 /// [`check_lines`] with pieces of at least `piece` bytes.
-fn check_lines_in(path: &Path, bytes: &[u8], piece: usize) -> Result<bool, IoError> {
+fn check_lines_in(path: &Path, text: &str, piece: usize) -> Result<Rewrite, IoError> {
     use rayon::prelude::*;
-    let text = utf8_lossy(bytes);
-    let checks: Vec<PieceCheck> = split_pieces(&text, piece).par_iter().map(|p| check_piece(p)).collect();
+    let checks: Vec<PieceCheck> = split_pieces(text, piece).par_iter().map(|p| check_piece(p)).collect();
     // In file order, with the counts before each piece: the first index that needs more
     // definitions than there were, else the piece's own error.
     let mut before = Counts::default();
     let err = |line: usize, message: String| {
         Err(IoError::Obj { path: path.to_path_buf(), message: format!("line {line}: {message}") })
     };
-    // The first `v` line (absolute line, coloured) and the first whose colour-ness differs.
-    let mut first_v: Option<(usize, bool)> = None;
-    let mut mixed: Option<(usize, bool)> = None;
-    let line_elements = checks.iter().any(|c| c.line_elements);
+    let (mut coloured, mut plain) = (0usize, 0usize);
+    let mut rewrite = Rewrite::default();
     for c in checks {
         let defined = [before.v, before.vt, before.vn];
         if let Some(n) = c.needs.iter().find(|n| defined[n.kind] < n.need) {
@@ -63,13 +74,10 @@ fn check_lines_in(path: &Path, bytes: &[u8], piece: usize) -> Result<bool, IoErr
         if let Some((line, message)) = c.error {
             return err(before.lines + line, message);
         }
-        if let Some((line, coloured)) = c.first_v {
-            let (_, first) = *first_v.get_or_insert((before.lines + line, coloured));
-            if mixed.is_none() {
-                mixed = if coloured != first { Some((before.lines + line, coloured)) } else { None };
-                mixed = mixed.or(c.colour_change.map(|l| (before.lines + l, !coloured)));
-            }
-        }
+        coloured += c.coloured;
+        plain += c.plain;
+        rewrite.lines |= c.rewrite_lines;
+        rewrite.colours |= c.bad_colour;
         before = Counts {
             lines: before.lines + c.counts.lines,
             v: before.v + c.counts.v,
@@ -77,13 +85,8 @@ fn check_lines_in(path: &Path, bytes: &[u8], piece: usize) -> Result<bool, IoErr
             vn: before.vn + c.counts.vn,
         };
     }
-    // tobj gives vertex i the i-th colour read: with colours on some vertices only it fails
-    // on a later vertex or, silently, gives vertices the wrong colours.
-    if let (Some((line, coloured)), Some((first, _))) = (mixed, first_v) {
-        let (this, that) = if coloured { ("with a colour", "has none") } else { ("without a colour", "has one") };
-        return err(line, format!("vertex {this}, but the first vertex (line {first}) {that}"));
-    }
-    Ok(line_elements)
+    rewrite.colours |= coloured > 0 && plain > 0;
+    Ok(rewrite)
 }
 
 /// Lines and `v`, `vt`, `vn` lines (a continued line counts once as a logical line, its
@@ -123,12 +126,13 @@ struct PieceCheck {
     /// The first error that no definitions before the piece can undo: (1-based line in the
     /// piece, message). Nothing after it is read.
     error: Option<(usize, String)>,
-    /// The piece's first `v` line: (1-based line in the piece, whether it has a colour).
-    first_v: Option<(usize, bool)>,
-    /// The piece's first `v` line whose colour-ness differs from its first's.
-    colour_change: Option<usize>,
-    /// Whether the piece has a line element (`l`).
-    line_elements: bool,
+    /// `v` lines with three values after x y z, and with none or a weight.
+    coloured: usize,
+    plain: usize,
+    /// A `v` line's three values after x y z are not all numbers.
+    bad_colour: bool,
+    /// [`Rewrite::lines`] for the piece.
+    rewrite_lines: bool,
 }
 
 /// `text` cut into pieces of at least `piece` bytes, each ending at a line end that does not
@@ -164,11 +168,16 @@ fn split_pieces(text: &str, piece: usize) -> Vec<&str> {
 }
 
 /// Calls `f` on each logical line of a piece: (index of its first physical line, 0-based, the
-/// line with its `\`-continued lines joined by spaces), comments not yet removed; stops at
-/// `f`'s first error. Returns the piece's physical line count.
+/// line with its continued lines joined by spaces, whether it was joined), comments not yet
+/// removed; stops at `f`'s first error. Returns the piece's physical line count.
+///
+/// A line ending in `\` continues on the next only when it is a data line (`v`, `vt`, `vn`,
+/// `f`, `l`) and has no `#` so far: a comment's `\` (`# exported from C:\work\`) and the end
+/// of a name (`o name \`) are text, as tobj reads them, not a join that would swallow the
+/// next line. A data line continued into the end of the file ends there.
 fn logical_lines(
     text: &str,
-    mut f: impl FnMut(usize, &str) -> Result<(), (usize, String)>,
+    mut f: impl FnMut(usize, &str, bool) -> Result<(), (usize, String)>,
 ) -> Result<usize, (usize, String)> {
     let mut joined = String::new();
     let mut start = 0usize;
@@ -179,22 +188,41 @@ fn logical_lines(
             start = i;
         }
         if let Some(head) = raw.strip_suffix('\\') {
-            joined.push_str(head);
-            joined.push(' ');
-            continue;
+            // `joined`, when not empty, is a data line without `#` already.
+            let data = !joined.is_empty() || is_data(keyword(head).0);
+            if data && !head.contains('#') {
+                joined.push_str(head);
+                joined.push(' ');
+                continue;
+            }
         }
         // A continued line is joined into `whole`; every other line is read in place (no
         // allocation per line: this check was a quarter of a 43 MB OBJ's import).
         if joined.is_empty() {
-            f(start, raw)?;
+            f(start, raw, false)?;
         } else {
             joined.push_str(raw);
             let whole = std::mem::take(&mut joined);
-            f(start, &whole)?;
+            f(start, &whole, true)?;
         }
     }
-    // A last line continued into the end of the file is left to tobj (it reports it).
+    if !joined.is_empty() {
+        f(start, &joined, true)?;
+    }
     Ok(n)
+}
+
+/// Whether a keyword starts a data line (one that may be continued and whose `#` starts a
+/// comment for tobj too, once [`tobj_text`] has cut it).
+fn is_data(key: Option<&str>) -> bool {
+    matches!(key, Some("v" | "vt" | "vn" | "f" | "l"))
+}
+
+/// The material name of a `usemtl` line as this importer means it (the text after the
+/// keyword, trimmed), and as tobj 4.0.5 reads it (after the line's first space, trimmed).
+fn usemtl_names(line: &str) -> (&str, &str) {
+    let ours = line.trim_start().get("usemtl".len()..).unwrap_or("").trim();
+    (ours, line.split_once(' ').map_or("", |x| x.1.trim()))
 }
 
 /// The keyword of a logical line (comment removed) and its other tokens.
@@ -207,21 +235,29 @@ fn keyword(line: &str) -> (Option<&str>, std::str::SplitWhitespace<'_>) {
 fn check_piece(text: &str) -> PieceCheck {
     let mut out = PieceCheck::default();
     let (mut counts, mut most) = (Counts::default(), [0i64; 3]);
-    let lines = logical_lines(text, |i, line| {
+    let lines = logical_lines(text, |i, line, joined| {
         let at = i + 1;
-        let (key, tok) = keyword(line);
+        // One search for `#` per line (a second cost a 43 MB OBJ 90 ms).
+        let (body, commented) = line.split_once('#').map_or((line, false), |(b, _)| (b, true));
+        let mut tok = body.split_whitespace();
+        let key = tok.next();
+        out.rewrite_lines |= joined || (commented && is_data(key));
         match key {
             Some("v") => {
-                let coloured = vertex_values(tok).map_err(|m| (at, m))?;
-                match out.first_v {
-                    None => out.first_v = Some((at, coloured)),
-                    Some((_, first)) if first != coloured && out.colour_change.is_none() => {
-                        out.colour_change = Some(at)
+                match vertex_values(tok).map_err(|m| (at, m))? {
+                    Vertex::Plain => out.plain += 1,
+                    Vertex::Coloured => out.coloured += 1,
+                    Vertex::BadColour => {
+                        out.coloured += 1;
+                        out.bad_colour = true;
                     }
-                    Some(_) => {}
                 }
                 counts.v += 1;
             }
+            Some("usemtl") => match usemtl_names(line) {
+                ("", _) => return Err((at, "usemtl without a material name".into())),
+                (ours, theirs) => out.rewrite_lines |= ours != theirs,
+            },
             Some("vt") => {
                 if tok.take(2).filter(|t| t.parse::<f32>().is_ok()).count() != 2 {
                     return Err((at, "texture coordinate needs two numbers".into()));
@@ -242,13 +278,16 @@ fn check_piece(text: &str) -> PieceCheck {
                 if corners == 0 {
                     return Err((at, "line element with no vertex".into()));
                 }
-                out.line_elements |= kw == "l";
+                out.rewrite_lines |= kw == "l";
                 for c in tok {
-                    for (kind, slot) in c.split('/').take(3).enumerate() {
-                        let what = ["vertex", "texture", "normal"][kind];
-                        if slot.is_empty() && kind > 0 {
+                    for (kind, slot) in c.split('/').enumerate() {
+                        if kind >= 3 && !slot.is_empty() {
+                            return Err((at, format!("face corner {c:?} has more than three indices")));
+                        }
+                        if kind >= 3 || (slot.is_empty() && kind > 0) {
                             continue;
                         }
+                        let what = ["vertex", "texture", "normal"][kind];
                         let Ok(x) = slot.parse::<i64>() else {
                             return Err((at, format!("bad {what} index {slot:?} in face corner {c:?}")));
                         };
@@ -275,11 +314,20 @@ fn check_piece(text: &str) -> PieceCheck {
     out
 }
 
+/// A `v` line's kind ([`vertex_values`]).
+enum Vertex {
+    /// x y z, or x y z w.
+    Plain,
+    /// x y z r g b.
+    Coloured,
+    /// x y z and three values that are not all numbers (tobj keeps the numbers before the
+    /// first that is not one, shifting the next vertices' colours).
+    BadColour,
+}
+
 /// Checks a `v` line's values (after the keyword) as tobj reads them: x y z, then nothing, a
-/// weight w (a number, not 0: tobj divides by it) or a colour r g b (three numbers: tobj keeps
-/// the numbers before the first that is not one, and the next vertices' colours would shift).
-/// Returns whether it has a colour.
-fn vertex_values(tok: std::str::SplitWhitespace<'_>) -> Result<bool, String> {
+/// weight w (a finite number, not 0: tobj divides by it) or three colour values.
+fn vertex_values(tok: std::str::SplitWhitespace<'_>) -> Result<Vertex, String> {
     // No allocation per line (a large OBJ has millions of `v` lines).
     let mut values = [""; 8];
     let mut len = 0;
@@ -291,12 +339,12 @@ fn vertex_values(tok: std::str::SplitWhitespace<'_>) -> Result<bool, String> {
         return Err("vertex needs three numbers".into());
     }
     match len {
-        3 => Ok(false),
-        6 if values[3..6].iter().all(|t| t.parse::<f32>().is_ok()) => Ok(true),
-        6 => Err("vertex colour needs three numbers".into()),
+        3 => Ok(Vertex::Plain),
+        6 if values[3..6].iter().all(|t| t.parse::<f32>().is_ok()) => Ok(Vertex::Coloured),
+        6 => Ok(Vertex::BadColour),
         4 => match values[3].parse::<f32>() {
-            Ok(w) if w != 0.0 => Ok(false),
-            Ok(_) => Err("vertex weight w is 0".into()),
+            Ok(w) if w != 0.0 && w.is_finite() => Ok(Vertex::Plain),
+            Ok(w) => Err(format!("vertex weight w is {w} (a weight must be finite and not 0)")),
             Err(_) => Err(format!("vertex weight {:?} is not a number", values[3])),
         },
         n => Err(format!(
@@ -307,50 +355,66 @@ fn vertex_values(tok: std::str::SplitWhitespace<'_>) -> Result<bool, String> {
 }
 
 /// The text tobj reads: the file as checked by [`check_lines`], so each of tobj's line errors
-/// (which name no line) is found by the check first. tobj 4 reads each physical line on its
-/// own, takes no comment after data and fails on bytes that are not UTF-8 ("read error");
-/// the check joins a `\`-continued line, ends every line at `#` and reads the text as UTF-8
-/// with invalid bytes replaced. tobj also reads a line element (`l`) of three or more
-/// vertices as a face (and, triangulating, one of two as a zero-area triangle). So, when the
-/// file has any of these, tobj is given: the text with invalid bytes replaced (U+FFFD), each
-/// continued line joined (then as many empty lines as it had physical lines after its first,
-/// so the line count stays), the `v`, `vt`, `vn` and `f` lines ended at `#`, and the `l` lines
-/// empty (`line_elements`: the check found one). Other lines keep their `#` (names may hold
-/// it). A file without `#`, `\`, invalid bytes or `l` lines is given as it is.
-fn tobj_text(bytes: &[u8], line_elements: bool) -> std::borrow::Cow<'_, [u8]> {
-    use std::borrow::Cow;
-    let text = utf8_lossy(bytes);
-    // In blocks without an early exit, so the scan vectorises (a 43 MB file: a few ms).
-    let marked = |c: &[u8]| c.iter().fold(false, |a, &b| a | (b == b'#') | (b == b'\\'));
-    if !line_elements && matches!(text, Cow::Borrowed(_)) && !bytes.chunks(1 << 12).any(marked) {
-        return Cow::Borrowed(bytes);
+/// (which name no line) is found by the check first. tobj 4.0.5 reads each physical line on
+/// its own, takes no comment after data, reads an `l` line of three or more vertices as a face
+/// (and, triangulating, one of two as a zero-area triangle that makes a closed mesh
+/// non-manifold), takes a `usemtl` name after the line's first space, and misplaces vertex
+/// colours given on some vertices only. `text` is already valid UTF-8 ([`utf8_lossy`]). When
+/// `rewrite` says so, tobj is given the text with: each continued line joined
+/// ([`logical_lines`]; then as many empty lines as it had physical lines after its first, so
+/// the line count stays), the `v`, `vt`, `vn` and `f` lines ended at `#`, the `l` lines empty,
+/// `usemtl` lines as `usemtl NAME`, and, for [`Rewrite::colours`], every `v` line without its
+/// colour. Other lines are kept as they are (a name may hold `#`). Else it is `text` itself:
+/// the check found nothing to rewrite (a file's `#` header lines alone are read by tobj
+/// as comments).
+fn tobj_text(text: &str, rewrite: Rewrite) -> std::borrow::Cow<'_, str> {
+    if rewrite == Rewrite::default() {
+        return std::borrow::Cow::Borrowed(text);
     }
     let mut out = String::with_capacity(text.len());
-    let mut joined = String::new();
-    let mut extra = 0usize;
-    let mut lines = text.lines().peekable();
-    while let Some(raw) = lines.next() {
-        // A last line continued into the end of the file is left as it is (tobj reports it).
-        if let (Some(head), true) = (raw.strip_suffix('\\'), lines.peek().is_some()) {
-            joined.push_str(head);
-            joined.push(' ');
-            extra += 1;
-            continue;
-        }
-        joined.push_str(raw);
-        let line = match keyword(&joined).0 {
-            Some("l") => "",
-            Some("v" | "vt" | "vn" | "f") => joined.split('#').next().unwrap_or(""),
-            _ => &joined,
-        };
-        out.push_str(line);
-        out.push('\n');
-        for _ in 0..std::mem::take(&mut extra) {
+    let mut written = 0usize;
+    let pad = |out: &mut String, written: &mut usize, to: usize| {
+        while *written < to {
             out.push('\n');
+            *written += 1;
         }
-        joined.clear();
-    }
-    Cow::Owned(out.into_bytes())
+    };
+    let n = logical_lines(text, |start, line, _| {
+        pad(&mut out, &mut written, start);
+        let (key, tok) = keyword(line);
+        match key {
+            Some("l") => {}
+            Some("v") if rewrite.colours => {
+                // x y z, or x y z w: the check has made sure of x y z, x y z w or x y z c c c.
+                let values: Vec<&str> = tok.take(7).collect();
+                out.push('v');
+                for v in &values[..if values.len() == 4 { 4 } else { values.len().min(3) }] {
+                    out.push(' ');
+                    out.push_str(v);
+                }
+            }
+            Some("usemtl") => {
+                out.push_str("usemtl ");
+                out.push_str(usemtl_names(line).0);
+            }
+            k if is_data(k) => out.push_str(line.split('#').next().unwrap_or("")),
+            _ => out.push_str(line),
+        }
+        out.push('\n');
+        written = start + 1;
+        Ok(())
+    });
+    // The callback never fails.
+    let n = n.unwrap_or(0);
+    pad(&mut out, &mut written, n);
+    std::borrow::Cow::Owned(out)
+}
+
+/// How tobj loads: faces triangulated, one vertex per distinct position / UV / normal corner;
+/// line and point elements are not surfaces ([`tobj_text`] has removed the `l` lines too:
+/// tobj reads one of three or more vertices as a face).
+fn tobj_options() -> tobj::LoadOptions {
+    tobj::LoadOptions { triangulate: true, single_index: true, ignore_lines: true, ignore_points: true }
 }
 
 /// `String::from_utf8_lossy`, with the common case (valid UTF-8) checked by the faster
@@ -376,17 +440,16 @@ fn mtl_colours_ok(bytes: &[u8]) -> bool {
 
 pub(crate) fn import(ctx: &mut Ctx, bytes: &[u8]) -> Result<(Mesh, Vec<ImportedPart>), IoError> {
     let path = ctx.path.clone();
-    let line_elements = check_lines(&path, bytes)?;
-    // Line and point elements are not surfaces (`tobj_text` has removed the `l` lines: tobj
-    // reads one of three or more vertices as a face).
-    let opts = tobj::LoadOptions { triangulate: true, single_index: true, ignore_lines: true, ignore_points: true };
+    let text = utf8_lossy(bytes);
+    let rewrite = check_lines(&path, &text)?;
+    let opts = tobj_options();
     // MTL files read by tobj's callback: (resolved path, bytes or the read error).
     let mtl_reads: RefCell<Vec<MtlRead>> = RefCell::new(Vec::new());
     let dir = ctx.dir.clone();
     let (model, opts_in, resolver) = (ctx.path.clone(), ctx.opts, ctx.resolver.clone());
     let budget = RefCell::new(opts_in.max_input_bytes.saturating_sub(ctx.read_total));
-    let text = tobj_text(bytes, line_elements);
-    let (models, materials) = tobj::load_obj_buf(&mut std::io::Cursor::new(&text[..]), &opts, |p: &Path| {
+    let text = tobj_text(&text, rewrite);
+    let (models, materials) = tobj::load_obj_buf(&mut std::io::Cursor::new(text.as_bytes()), &opts, |p: &Path| {
         let full = dir.join(p);
         let uri = p.to_string_lossy();
         let limit = ReadLimit::AtMost(MAX_MTL_BYTES);
@@ -400,7 +463,8 @@ pub(crate) fn import(ctx: &mut Ctx, bytes: &[u8]) -> Result<(Mesh, Vec<ImportedP
             // tobj 4.0.5 panics on `Kd` (Ka, Ks, Ke) with fewer than three numbers (found by the
             // obj fuzz target): such a library is a parse error here instead.
             Ok(b) if !mtl_colours_ok(b) => Err(tobj::LoadError::MaterialParseError),
-            Ok(b) => tobj::load_mtl_buf(&mut std::io::Cursor::new(b.as_slice())),
+            // Bytes that are not UTF-8 (a Latin-1 material name) are read as U+FFFD, as in the OBJ.
+            Ok(b) => tobj::load_mtl_buf(&mut std::io::Cursor::new(utf8_lossy(b).as_bytes())),
             Err(_) => Err(tobj::LoadError::OpenFileFailed),
         };
         mtl_reads.borrow_mut().push((full, read));
@@ -624,6 +688,9 @@ mod tests {
                     0 => "vn 0 1".to_string(),
                     1 => "l".to_string(),
                     2..=5 => format!("l {} {}", 1 + next(40), 1 + next(40)),
+                    6..=8 => format!("l {} {} {}", 1 + next(30), 1 + next(30), 1 + next(30)),
+                    9 => "f 1 2 3 # a face".to_string(),
+                    10 => "v 1 2 3 #c".to_string(),
                     _ => "vn 0 0 1".to_string(),
                 },
                 6..=8 => {
@@ -646,88 +713,129 @@ mod tests {
                     }
                     f
                 }
-                9 => "# f 0 0".to_string(),
+                9 => match next(40) {
+                    // A comment's or a name's `\` continues nothing.
+                    0 => "# exported from C:\\work\\".to_string(),
+                    1 => "o part \\".to_string(),
+                    2 => "v 1 2 3 # x \\".to_string(),
+                    3 => "v 1 2 \\\n 3".to_string(),
+                    4 => "vt 0 \\\r\n1".to_string(),
+                    5 => "usemtl".to_string(),
+                    6 => "usemtl\tred".to_string(),
+                    7 => " usemtl red # the red one".to_string(),
+                    8 => "f 1//1/ 2 3".to_string(),
+                    9 if next(4) == 0 => "f 1//1/1 2 3".to_string(),
+                    _ => "# f 0 0".to_string(),
+                },
                 10 => String::new(),
                 _ => "f 1 \\\n 2 \\\n3".to_string(),
             };
             s.push_str(&line);
             s.push_str(if next(5) == 0 { "\r\n" } else { "\n" });
         }
+        // Now and then a data line continued into the end of the file.
+        if next(8) == 0 {
+            s.push_str("f 1 2 3 \\");
+        }
         s
     }
 
-    /// The check written apart, line by line over the whole text, as tobj's users read OBJ:
-    /// the first error's message, or `None`.
-    fn oracle(text: &str) -> Result<bool, String> {
+    /// The check written apart, line by line over the whole text, from the rules as the docs
+    /// state them: the first error's message, else the number of triangles the faces make
+    /// (a face of n corners, n − 2).
+    fn oracle(text: &str) -> Result<usize, String> {
+        let data = |s: &str| {
+            let k = s.split('#').next().unwrap_or("").split_whitespace().next();
+            matches!(k, Some("v" | "vt" | "vn" | "f" | "l"))
+        };
+        // Logical lines: a data line ending in `\` with no `#` so far continues on the next.
         let mut logical: Vec<(usize, String)> = Vec::new();
         let mut pending: Option<(usize, String)> = None;
         for (i, raw) in text.lines().enumerate() {
             let (first, mut acc) = pending.take().unwrap_or((i + 1, String::new()));
-            match raw.strip_suffix('\\') {
-                Some(head) => {
-                    acc += head;
-                    acc += " ";
-                    pending = Some((first, acc));
-                }
-                None => {
-                    acc += raw;
-                    logical.push((first, acc));
-                }
+            let head = raw.strip_suffix('\\').unwrap_or(raw);
+            let candidate = format!("{acc}{head}");
+            if raw.ends_with('\\') && data(&candidate) && !candidate.contains('#') {
+                acc = candidate + " ";
+                pending = Some((first, acc));
+            } else {
+                acc += raw;
+                logical.push((first, acc));
             }
         }
+        logical.extend(pending);
         let mut defined = [0i64; 3];
-        let mut line_elements = false;
-        // Every `v` line: (line, whether it has a colour).
-        let mut colours: Vec<(usize, bool)> = Vec::new();
+        let mut triangles = 0usize;
         for (line, text) in logical {
             let body = text.split('#').next().unwrap_or("");
             let tokens: Vec<&str> = body.split_whitespace().collect();
+            let numbers = |from: usize, n: usize| {
+                tokens.len() >= from + n && tokens[from..from + n].iter().all(|t| t.parse::<f32>().is_ok())
+            };
             match tokens.first().copied() {
                 Some("v") => {
-                    let numbers: Vec<Option<f32>> = tokens[1..].iter().map(|t| t.parse::<f32>().ok()).collect();
-                    if numbers.len() < 3 || numbers[..3].iter().any(Option::is_none) {
+                    if !numbers(1, 3) {
                         return Err(format!("line {line}: vertex needs three numbers"));
                     }
-                    match (numbers.len(), numbers.get(3)) {
-                        (3, _) => colours.push((line, false)),
-                        (6, _) if numbers[3..].iter().all(Option::is_some) => colours.push((line, true)),
-                        (6, _) => return Err(format!("line {line}: vertex colour needs three numbers")),
-                        (4, Some(Some(w))) if *w != 0.0 => colours.push((line, false)),
-                        (4, Some(Some(_))) => return Err(format!("line {line}: vertex weight w is 0")),
-                        (4, _) => return Err(format!("line {line}: vertex weight {:?} is not a number", tokens[4])),
-                        (n, _) => {
+                    match tokens.len() - 1 {
+                        3 | 6 => {}
+                        4 => {
+                            let w = tokens[4].parse::<f32>();
+                            match w {
+                                Ok(w) if w.is_finite() && w != 0.0 => {}
+                                Ok(w) => {
+                                    return Err(format!(
+                                        "line {line}: vertex weight w is {w} (a weight must be finite and not 0)"
+                                    ))
+                                }
+                                Err(_) => {
+                                    return Err(format!("line {line}: vertex weight {:?} is not a number", tokens[4]))
+                                }
+                            }
+                        }
+                        n => {
+                            let n = if n > 7 { "more than 7".to_string() } else { n.to_string() };
                             return Err(format!(
                                 "line {line}: vertex with {n} values (expected x y z, x y z w or x y z r g b)"
-                            ))
+                            ));
                         }
                     }
                     defined[0] += 1;
                 }
                 Some("vt") => {
-                    if tokens.len() < 3 || tokens[1..3].iter().any(|t| t.parse::<f32>().is_err()) {
+                    if !numbers(1, 2) {
                         return Err(format!("line {line}: texture coordinate needs two numbers"));
                     }
                     defined[1] += 1;
                 }
                 Some("vn") => {
-                    if tokens.len() < 4 || tokens[1..4].iter().any(|t| t.parse::<f32>().is_err()) {
+                    if !numbers(1, 3) {
                         return Err(format!("line {line}: normal needs three numbers"));
                     }
                     defined[2] += 1;
                 }
+                Some("usemtl") if text.trim_start()[6..].trim().is_empty() => {
+                    return Err(format!("line {line}: usemtl without a material name"));
+                }
                 Some(kw @ ("f" | "l")) => {
-                    if kw == "f" && tokens.len() < 4 {
-                        return Err(format!(
-                            "line {line}: face with {} vertices (a face needs at least 3)",
-                            tokens.len() - 1
-                        ));
+                    let corners = tokens.len() - 1;
+                    if kw == "f" && corners < 3 {
+                        return Err(format!("line {line}: face with {corners} vertices (a face needs at least 3)"));
                     }
-                    if tokens.len() == 1 {
+                    if corners == 0 {
                         return Err(format!("line {line}: line element with no vertex"));
                     }
-                    line_elements |= kw == "l";
                     for corner in &tokens[1..] {
-                        for (kind, slot) in corner.split('/').take(3).enumerate() {
+                        let slots: Vec<&str> = corner.split('/').collect();
+                        for (kind, slot) in slots.iter().enumerate() {
+                            if kind >= 3 {
+                                if !slot.is_empty() {
+                                    return Err(format!(
+                                        "line {line}: face corner {corner:?} has more than three indices"
+                                    ));
+                                }
+                                continue;
+                            }
                             let what = ["vertex", "texture", "normal"][kind];
                             if kind > 0 && slot.is_empty() {
                                 continue;
@@ -744,62 +852,74 @@ mod tests {
                             }
                         }
                     }
+                    if kw == "f" {
+                        triangles += corners - 2;
+                    }
                 }
                 _ => {}
             }
         }
-        // No other error: vertices with and without colours.
-        if let Some(&(first, coloured)) = colours.first() {
-            if let Some(&(line, c)) = colours.iter().find(|x| x.1 != coloured) {
-                let (this, that) = if c { ("with a colour", "has none") } else { ("without a colour", "has one") };
-                return Err(format!("line {line}: vertex {this}, but the first vertex (line {first}) {that}"));
-            }
-        }
-        Ok(line_elements)
+        Ok(triangles)
     }
 
     #[test]
     fn the_check_in_pieces_answers_as_in_one() {
         let path = Path::new("x.obj");
-        let message = |r: Result<bool, IoError>| match r {
-            Ok(line_elements) => Ok(line_elements),
+        let message = |r: Result<Rewrite, IoError>| match r {
+            Ok(_) => Ok(()),
             Err(IoError::Obj { message, .. }) => Err(message),
             Err(e) => panic!("{e:?}"),
         };
-        let (mut errors, mut oks, mut late, mut with_lines) = (0, 0, 0, 0);
-        for seed in 0..300u64 {
+        let (mut errors, mut oks, mut late, mut rewritten) = (0, 0, 0, 0);
+        for seed in 0..400u64 {
             let text = random_obj(seed, 20 + (seed as usize % 7) * 30);
-            let whole = message(check_lines_in(path, text.as_bytes(), usize::MAX));
-            assert_eq!(whole, oracle(&text), "seed {seed}");
-            match &whole {
-                Err(m) => {
+            let whole = check_lines_in(path, &text, usize::MAX);
+            let rewrite = whole.as_ref().ok().copied();
+            let whole = message(whole);
+            let want = oracle(&text);
+            assert_eq!(whole, want.clone().map(|_| ()), "seed {seed}");
+            match (&whole, rewrite, want) {
+                (Err(m), _, _) => {
                     errors += 1;
                     // An error past the first piece of the smallest size: the counts before a piece matter.
                     let line: usize = m.trim_start_matches("line ").split(':').next().unwrap().parse().unwrap();
                     late += usize::from(line > 70);
                 }
-                Ok(l) => {
+                (Ok(()), Some(rewrite), Ok(triangles)) => {
                     oks += 1;
-                    with_lines += usize::from(*l);
+                    rewritten += usize::from(rewrite != Rewrite::default());
+                    // What the check accepts, tobj reads from the text it is given, with every
+                    // face and no more: no error without a line number after the check.
+                    let fed = tobj_text(&text, rewrite);
+                    let (models, _) =
+                        tobj::load_obj_buf(&mut std::io::Cursor::new(fed.as_bytes()), &tobj_options(), |_| {
+                            Err(tobj::LoadError::OpenFileFailed)
+                        })
+                        .unwrap_or_else(|e| panic!("seed {seed}: tobj: {e}"));
+                    let got: usize = models.iter().map(|m| m.mesh.indices.len() / 3).sum();
+                    assert_eq!(got, triangles, "seed {seed}: triangles");
+                    assert_eq!(fed.lines().count(), text.lines().count(), "seed {seed}: line count");
                 }
+                other => panic!("seed {seed}: {other:?}"),
             }
             for piece in [1, 7, 40, 200] {
-                assert_eq!(
-                    message(check_lines_in(path, text.as_bytes(), piece)),
-                    whole,
-                    "seed {seed}, pieces of {piece}"
-                );
+                let r = check_lines_in(path, &text, piece);
+                if let Ok(rw) = &r {
+                    assert_eq!(Some(*rw), rewrite, "seed {seed}, pieces of {piece}");
+                }
+                assert_eq!(message(r), whole, "seed {seed}, pieces of {piece}");
             }
             // Every piece ends at a line end that does not continue a line, and they join to the text.
             let pieces = split_pieces(&text, 7);
             assert_eq!(pieces.concat(), text);
             for p in &pieces[..pieces.len() - 1] {
-                assert!(p.ends_with('\n') && !p.trim_end_matches('\n').trim_end_matches('\r').ends_with('\\'));
+                let last = p.strip_suffix('\n').map(|q| q.rsplit('\n').next().unwrap_or(q));
+                assert!(last.is_some_and(|l| !l.trim_end_matches('\r').ends_with('\\')), "{p:?}");
             }
         }
         assert!(
-            errors > 50 && oks > 20 && late > 30 && with_lines > 5 && with_lines < oks,
-            "{errors} errors ({late} late), {oks} clean ({with_lines} with line elements)"
+            errors > 50 && oks > 20 && late > 30 && rewritten > 5 && rewritten < oks,
+            "{errors} errors ({late} late), {oks} clean ({rewritten} rewritten for tobj)"
         );
     }
 }

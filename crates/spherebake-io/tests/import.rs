@@ -6,7 +6,7 @@ use std::path::{Path, PathBuf};
 use spherebake_geom::glam::Vec3;
 use spherebake_geom::topology::TopologyReport;
 use spherebake_geom::{FilterMode, WrapMode};
-use spherebake_io::{load_mesh, load_mesh_from_bytes, IoError};
+use spherebake_io::{load_mesh, load_mesh_from_bytes, load_mesh_from_memory, ImportOptions, IoError};
 use spherebake_testkit::shared_models_dir;
 
 fn fixture(p: &str) -> PathBuf {
@@ -343,7 +343,7 @@ fn obj_files_read_as_checked_and_tobjs_errors_name_the_line() {
     assert_eq!(want.mesh.triangles.len(), 4);
     let mut latin1 = b"# caf\xe9\no W\xfcrfel\n".to_vec();
     latin1.extend_from_slice(plain);
-    let variants: [&[u8]; 7] = [
+    let variants: [&[u8]; 10] = [
         b"v 0 0 0 # origin\nv 1 0 0#x\nv 0 1 0\nv 0 0 1 # 1 2\nf 1 3 2 # base\nf 1 2 4\nf 1 4 3\nf 2 3 4#\n",
         b"v 0 0 \\\n0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 1 \\\n 3 \\\n 2\nf 1 2 4\nf 1 4 3\nf 2 3 4\n",
         b"v 0 0 0\r\nv 1 0 0 \\\r\n\r\nv 0 1 0\r\nv 0 0 1\r\nf 1 3 2\r\nf 1 2 4\r\nf 1 4 3\r\nf 2 3 4\r\n",
@@ -353,6 +353,13 @@ fn obj_files_read_as_checked_and_tobjs_errors_name_the_line() {
         // A line element is no surface (tobj made it a zero-area triangle, and the closed
         // tetrahedron non-manifold).
         b"v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 1 3 2\nl 1 2 3\nf 1 2 4\nf 1 4 3\nf 2 3 4\nl 4 1\n",
+        // Colours on some vertices only (tobj would misplace them; this importer does not use
+        // OBJ vertex colours), and one that is not three numbers.
+        b"v 0 0 0 1 0 0\nv 1 0 0\nv 0 1 0 0.5 x 1\nv 0 0 1\nf 1 3 2\nf 1 2 4\nf 1 4 3\nf 2 3 4\n",
+        // A comment's or a name's `\\` continues nothing; a data line continued into the end.
+        b"# exported from C:\\work\\\nv 0 0 0\no part \\\nv 1 0 0\nv 0 1 0\nv 0 0 1 # a \\\nf 1 3 2\nf 1 2 4\nf 1 4 3\nf 2 3 \\\n4 \\",
+        // An empty vertex slot after the normal's.
+        b"v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nvn 0 0 1\nf 1//1/ 3//1 2//1\nf 1//1 2//1 4//1/\nf 1//1 4//1 3//1\nf 2//1 3//1 4//1\n",
     ];
     for (i, v) in variants.iter().enumerate() {
         let got = load_mesh_from_bytes(p, v).unwrap_or_else(|e| panic!("variant {i}: {e}"));
@@ -364,7 +371,8 @@ fn obj_files_read_as_checked_and_tobjs_errors_name_the_line() {
         other => panic!("expected an OBJ line error for {src:?}, got {other:?}"),
     };
     let t = "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n";
-    assert_eq!(msg(&format!("{t}v 1 1 1 0\n")), "line 5: vertex weight w is 0");
+    assert_eq!(msg(&format!("{t}v 1 1 1 0\n")), "line 5: vertex weight w is 0 (a weight must be finite and not 0)");
+    assert_eq!(msg(&format!("{t}v 1 1 1 inf\n")), "line 5: vertex weight w is inf (a weight must be finite and not 0)");
     assert_eq!(msg(&format!("{t}v 1 1 1 w\n")), "line 5: vertex weight \"w\" is not a number");
     for (line, n) in [("v 1 1 1 1 1", 5), ("v 1 1 1 1 1 1 1", 7)] {
         assert_eq!(
@@ -372,21 +380,46 @@ fn obj_files_read_as_checked_and_tobjs_errors_name_the_line() {
             format!("line 5: vertex with {n} values (expected x y z, x y z w or x y z r g b)")
         );
     }
-    assert_eq!(msg(&format!("{t}v 1 1 1 0.5 x 1\n")), "line 5: vertex colour needs three numbers");
-    // tobj gives vertex i the i-th colour read: colours on some vertices only fail on a later
-    // vertex or shift the colours silently.
-    assert_eq!(
-        msg(&format!("{t}v 1 1 1 0.5 0.5 1\n")),
-        "line 5: vertex with a colour, but the first vertex (line 1) has none"
-    );
-    assert_eq!(
-        msg("v 0 0 0 1 0 0\nv 1 0 0 1 0 0\nv 0 1 0\nf 1 2 3\n"),
-        "line 3: vertex without a colour, but the first vertex (line 1) has one"
-    );
+    assert_eq!(msg(&format!("{t}f 1///1 2 3\n")), "line 5: face corner \"1///1\" has more than three indices");
+    assert_eq!(msg(&format!("{t}usemtl  \n")), "line 5: usemtl without a material name");
     assert_eq!(msg(&format!("{t}vt 0\n")), "line 5: texture coordinate needs two numbers");
     assert_eq!(msg(&format!("{t}vn 0 0 z\n")), "line 5: normal needs three numbers");
     assert_eq!(msg(&format!("{t}l\n")), "line 5: line element with no vertex");
     assert_eq!(msg(&format!("{t}l 1 7\n")), "line 5: vertex index 7 out of range (3 defined so far)");
+}
+
+/// Materials as the OBJ names them: after a comment line ending in `\\` (which continues
+/// nothing), with `#` in the name, after a tab, in an MTL that is not UTF-8, and from a
+/// library whose name holds `#` in a file tobj is given rewritten (a comment after data).
+#[test]
+fn obj_materials_are_found_by_their_names() {
+    let red = |name: &[u8]| {
+        let mut mtl = b"newmtl ".to_vec();
+        mtl.extend_from_slice(name);
+        mtl.extend_from_slice(b"\nKd 1 0 0\n");
+        mtl
+    };
+    let cases: [(&[u8], &str, Vec<u8>); 5] = [
+        (b"# exported from C:\\work\\\nmtllib m.mtl\nusemtl red\n", "m", red(b"red")),
+        (b"mtllib m.mtl\n# C:\\work\\\nusemtl red\n", "m", red(b"red")),
+        (b"mtllib m.mtl\nusemtl red#1\n", "m", red(b"red#1")),
+        (b"mtllib m.mtl\nusemtl\tW\xfcrfel\n", "m", red(b"W\xfcrfel")),
+        (b"mtllib m#1.mtl\nusemtl red#1\nv 9 9 9 # unused\n", "m#1", red(b"red#1")),
+    ];
+    for (i, (head, lib, mtl)) in cases.into_iter().enumerate() {
+        let mut obj = head.to_vec();
+        obj.extend_from_slice(b"v 0 0 0\nv 1 0 0\nv 0 1 0\nf -3 -2 -1\n");
+        let files = std::collections::BTreeMap::from([(PathBuf::from(format!("mem/{lib}.mtl")), mtl)]);
+        let imp = load_mesh_from_memory(Path::new("mem/x.obj"), &obj, files, &ImportOptions::default())
+            .unwrap_or_else(|e| panic!("case {i}: {e}"));
+        assert_eq!(imp.mesh.materials.len(), 1, "case {i}");
+        assert_eq!(
+            imp.mesh.materials[0].base_color_factor_linear,
+            [1.0, 0.0, 0.0, 1.0],
+            "case {i}: {:?}",
+            imp.warnings
+        );
+    }
 }
 
 #[test]
