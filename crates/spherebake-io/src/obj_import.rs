@@ -17,8 +17,9 @@ type MtlRead = (PathBuf, Result<Vec<u8>, IoError>);
 /// Checks what tobj reports without a line number (or not at all): faces with fewer than three
 /// vertices and line elements (`l`) with none, vertex / texture / normal indices out of range
 /// in either, face corners with more than three indices, `v` lines that are not x y z,
-/// x y z w (w finite, not 0) or x y z + three values, `vt` lines without two numbers, `vn`
-/// lines without three, `usemtl` without a name. Errors name the line (1-based; a continued
+/// x y z w (w finite, not 0) or x y z + three values, or whose position is not finite in f32
+/// (`1e39`, or divided by a tiny w), `vt` lines without two numbers, `vn` lines without three,
+/// `usemtl` or `mtllib` without a name. Errors name the line (1-based; a continued
 /// line by its first line, see [`logical_lines`]). tobj is then given the text as checked
 /// ([`tobj_text`]), rewritten where the returned [`Rewrite`] says so.
 ///
@@ -38,7 +39,8 @@ fn check_lines(path: &Path, text: &str) -> Result<Rewrite, IoError> {
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 struct Rewrite {
     /// A data line (`v`, `vt`, `vn`, `f`, `l`) with a `#` comment, a continued line, an `l`
-    /// line, or a `usemtl` line whose name tobj would read otherwise.
+    /// line, or a `usemtl` or `mtllib` line whose name tobj would read otherwise (it takes the
+    /// text after the line's first space: a tab or a leading space gave another name).
     lines: bool,
     /// Vertex colours on some `v` lines only, or three values after x y z that are not all
     /// numbers: tobj gives vertex i the i-th colour read, so it would fail on a later vertex
@@ -218,10 +220,10 @@ fn is_data(key: Option<&str>) -> bool {
     matches!(key, Some("v" | "vt" | "vn" | "f" | "l"))
 }
 
-/// The material name of a `usemtl` line as this importer means it (the text after the
-/// keyword, trimmed), and as tobj 4.0.5 reads it (after the line's first space, trimmed).
-fn usemtl_names(line: &str) -> (&str, &str) {
-    let ours = line.trim_start().get("usemtl".len()..).unwrap_or("").trim();
+/// The name of a `usemtl` or `mtllib` line (`key`) as this importer means it (the text after
+/// the keyword, trimmed), and as tobj 4.0.5 reads it (after the line's first space, trimmed).
+fn names<'a>(line: &'a str, key: &str) -> (&'a str, &'a str) {
+    let ours = line.trim_start().get(key.len()..).unwrap_or("").trim();
     (ours, line.split_once(' ').map_or("", |x| x.1.trim()))
 }
 
@@ -254,8 +256,9 @@ fn check_piece(text: &str) -> PieceCheck {
                 }
                 counts.v += 1;
             }
-            Some("usemtl") => match usemtl_names(line) {
-                ("", _) => return Err((at, "usemtl without a material name".into())),
+            Some(kw @ ("usemtl" | "mtllib")) => match names(line, kw) {
+                ("", _) if kw == "usemtl" => return Err((at, "usemtl without a material name".into())),
+                ("", _) => return Err((at, "mtllib without a file name".into())),
                 (ours, theirs) => out.rewrite_lines |= ours != theirs,
             },
             Some("vt") => {
@@ -338,6 +341,13 @@ fn vertex_values(tok: std::str::SplitWhitespace<'_>) -> Result<Vertex, String> {
     if values[..len.min(3)].iter().filter(|t| t.parse::<f32>().is_ok()).count() != 3 {
         return Err("vertex needs three numbers".into());
     }
+    // The position tobj stores: x y z, divided by w when there is one.
+    let xyz = values[..3].iter().map(|t| t.parse::<f32>().unwrap_or(f32::NAN));
+    let w = if len == 4 { values[3].parse::<f32>().unwrap_or(1.0) } else { 1.0 };
+    if w != 0.0 && w.is_finite() && xyz.map(|x| x / w).any(|x| !x.is_finite()) {
+        let w = if len == 4 { format!(" / {}", values[3]) } else { String::new() };
+        return Err(format!("vertex position ({} {} {}){w} is not finite in f32", values[0], values[1], values[2]));
+    }
     match len {
         3 => Ok(Vertex::Plain),
         6 if values[3..6].iter().all(|t| t.parse::<f32>().is_ok()) => Ok(Vertex::Coloured),
@@ -363,7 +373,7 @@ fn vertex_values(tok: std::str::SplitWhitespace<'_>) -> Result<Vertex, String> {
 /// `rewrite` says so, tobj is given the text with: each continued line joined
 /// ([`logical_lines`]; then as many empty lines as it had physical lines after its first, so
 /// the line count stays), the `v`, `vt`, `vn` and `f` lines ended at `#`, the `l` lines empty,
-/// `usemtl` lines as `usemtl NAME`, and, for [`Rewrite::colours`], every `v` line without its
+/// `usemtl` and `mtllib` lines as `KEYWORD NAME`, and, for [`Rewrite::colours`], every `v` line without its
 /// colour. Other lines are kept as they are (a name may hold `#`). Else it is `text` itself:
 /// the check found nothing to rewrite (a file's `#` header lines alone are read by tobj
 /// as comments).
@@ -393,9 +403,10 @@ fn tobj_text(text: &str, rewrite: Rewrite) -> std::borrow::Cow<'_, str> {
                     out.push_str(v);
                 }
             }
-            Some("usemtl") => {
-                out.push_str("usemtl ");
-                out.push_str(usemtl_names(line).0);
+            Some(kw @ ("usemtl" | "mtllib")) => {
+                out.push_str(kw);
+                out.push(' ');
+                out.push_str(names(line, kw).0);
             }
             k if is_data(k) => out.push_str(line.split('#').next().unwrap_or("")),
             _ => out.push_str(line),
@@ -426,6 +437,13 @@ fn utf8_lossy(bytes: &[u8]) -> std::borrow::Cow<'_, str> {
     }
 }
 
+/// An OBJ or MTL file as text ([`utf8_lossy`]) without a leading byte-order mark, which would
+/// otherwise be read as part of the first keyword (a first `v` or `mtllib` line lost).
+fn text_of(bytes: &[u8]) -> std::borrow::Cow<'_, str> {
+    const BOM: &[u8] = b"\xEF\xBB\xBF";
+    utf8_lossy(bytes.strip_prefix(BOM).unwrap_or(bytes))
+}
+
 /// Whether every `Ka` / `Kd` / `Ks` / `Ke` line of an MTL file has three numbers (tobj takes
 /// the first three and panics when there are fewer).
 fn mtl_colours_ok(bytes: &[u8]) -> bool {
@@ -440,7 +458,7 @@ fn mtl_colours_ok(bytes: &[u8]) -> bool {
 
 pub(crate) fn import(ctx: &mut Ctx, bytes: &[u8]) -> Result<(Mesh, Vec<ImportedPart>), IoError> {
     let path = ctx.path.clone();
-    let text = utf8_lossy(bytes);
+    let text = text_of(bytes);
     let rewrite = check_lines(&path, &text)?;
     let opts = tobj_options();
     // MTL files read by tobj's callback: (resolved path, bytes or the read error).
@@ -464,7 +482,7 @@ pub(crate) fn import(ctx: &mut Ctx, bytes: &[u8]) -> Result<(Mesh, Vec<ImportedP
             // obj fuzz target): such a library is a parse error here instead.
             Ok(b) if !mtl_colours_ok(b) => Err(tobj::LoadError::MaterialParseError),
             // Bytes that are not UTF-8 (a Latin-1 material name) are read as U+FFFD, as in the OBJ.
-            Ok(b) => tobj::load_mtl_buf(&mut std::io::Cursor::new(utf8_lossy(b).as_bytes())),
+            Ok(b) => tobj::load_mtl_buf(&mut std::io::Cursor::new(text_of(b).as_bytes())),
             Err(_) => Err(tobj::LoadError::OpenFileFailed),
         };
         mtl_reads.borrow_mut().push((full, read));
@@ -725,6 +743,10 @@ mod tests {
                     7 => " usemtl red # the red one".to_string(),
                     8 => "f 1//1/ 2 3".to_string(),
                     9 if next(4) == 0 => "f 1//1/1 2 3".to_string(),
+                    10 => "mtllib".to_string(),
+                    11 => "mtllib\tm.mtl".to_string(),
+                    12 if next(4) == 0 => "v 1e39 0 0".to_string(),
+                    13 if next(4) == 0 => "v 1 0 0 1e-40".to_string(),
                     _ => "# f 0 0".to_string(),
                 },
                 10 => String::new(),
@@ -777,6 +799,15 @@ mod tests {
                     if !numbers(1, 3) {
                         return Err(format!("line {line}: vertex needs three numbers"));
                     }
+                    let w: f32 = if tokens.len() == 5 { tokens[4].parse().unwrap_or(1.0) } else { 1.0 };
+                    let p: Vec<f32> = tokens[1..4].iter().map(|t| t.parse::<f32>().unwrap() / w).collect();
+                    if w != 0.0 && w.is_finite() && p.iter().any(|x| !x.is_finite()) {
+                        let w = if tokens.len() == 5 { format!(" / {}", tokens[4]) } else { String::new() };
+                        return Err(format!(
+                            "line {line}: vertex position ({} {} {}){w} is not finite in f32",
+                            tokens[1], tokens[2], tokens[3]
+                        ));
+                    }
                     match tokens.len() - 1 {
                         3 | 6 => {}
                         4 => {
@@ -816,6 +847,9 @@ mod tests {
                 }
                 Some("usemtl") if text.trim_start()[6..].trim().is_empty() => {
                     return Err(format!("line {line}: usemtl without a material name"));
+                }
+                Some("mtllib") if text.trim_start()[6..].trim().is_empty() => {
+                    return Err(format!("line {line}: mtllib without a file name"));
                 }
                 Some(kw @ ("f" | "l")) => {
                     let corners = tokens.len() - 1;

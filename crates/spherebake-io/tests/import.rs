@@ -382,6 +382,14 @@ fn obj_files_read_as_checked_and_tobjs_errors_name_the_line() {
     }
     assert_eq!(msg(&format!("{t}f 1///1 2 3\n")), "line 5: face corner \"1///1\" has more than three indices");
     assert_eq!(msg(&format!("{t}usemtl  \n")), "line 5: usemtl without a material name");
+    assert_eq!(msg(&format!("{t}mtllib\n")), "line 5: mtllib without a file name");
+    assert_eq!(msg(&format!("{t}v 1e39 0 0\n")), "line 5: vertex position (1e39 0 0) is not finite in f32");
+    assert_eq!(msg(&format!("{t}v 1 0 0 1e-40\n")), "line 5: vertex position (1 0 0) / 1e-40 is not finite in f32");
+    // A byte-order mark is not part of the first keyword (the first vertex was lost).
+    let mut bom = b"\xEF\xBB\xBF".to_vec();
+    bom.extend_from_slice(t.as_bytes());
+    let plain = load_mesh_from_bytes(p, t.as_bytes()).unwrap();
+    assert_eq!(load_mesh_from_bytes(p, &bom).unwrap().mesh.positions, plain.mesh.positions);
     assert_eq!(msg(&format!("{t}vt 0\n")), "line 5: texture coordinate needs two numbers");
     assert_eq!(msg(&format!("{t}vn 0 0 z\n")), "line 5: normal needs three numbers");
     assert_eq!(msg(&format!("{t}l\n")), "line 5: line element with no vertex");
@@ -399,12 +407,14 @@ fn obj_materials_are_found_by_their_names() {
         mtl.extend_from_slice(b"\nKd 1 0 0\n");
         mtl
     };
-    let cases: [(&[u8], &str, Vec<u8>); 5] = [
+    let cases: [(&[u8], &str, Vec<u8>); 7] = [
         (b"# exported from C:\\work\\\nmtllib m.mtl\nusemtl red\n", "m", red(b"red")),
         (b"mtllib m.mtl\n# C:\\work\\\nusemtl red\n", "m", red(b"red")),
         (b"mtllib m.mtl\nusemtl red#1\n", "m", red(b"red#1")),
         (b"mtllib m.mtl\nusemtl\tW\xfcrfel\n", "m", red(b"W\xfcrfel")),
         (b"mtllib m#1.mtl\nusemtl red#1\nv 9 9 9 # unused\n", "m#1", red(b"red#1")),
+        (b"mtllib\tm.mtl\n usemtl  red\n", "m", red(b"red")),
+        (b"\xEF\xBB\xBFmtllib m.mtl\nusemtl red\n", "m", red(b"red")),
     ];
     for (i, (head, lib, mtl)) in cases.into_iter().enumerate() {
         let mut obj = head.to_vec();
