@@ -338,26 +338,27 @@ fn vertex_values(tok: std::str::SplitWhitespace<'_>) -> Result<Vertex, String> {
         *slot = t;
         len += 1;
     }
-    if values[..len.min(3)].iter().filter(|t| t.parse::<f32>().is_ok()).count() != 3 {
+    let mut xyz = [0.0f32; 3];
+    if len < 3 || xyz.iter_mut().zip(&values).any(|(x, t)| t.parse().map(|v| *x = v).is_err()) {
         return Err("vertex needs three numbers".into());
     }
     // The position tobj stores: x y z, divided by w when there is one.
-    let xyz = values[..3].iter().map(|t| t.parse::<f32>().unwrap_or(f32::NAN));
-    let w = if len == 4 { values[3].parse::<f32>().unwrap_or(1.0) } else { 1.0 };
-    if w != 0.0 && w.is_finite() && xyz.map(|x| x / w).any(|x| !x.is_finite()) {
+    let weight = (len == 4).then(|| values[3].parse::<f32>());
+    let w = weight.clone().and_then(Result::ok).unwrap_or(1.0);
+    if w != 0.0 && w.is_finite() && xyz.iter().any(|x| !(x / w).is_finite()) {
         let w = if len == 4 { format!(" / {}", values[3]) } else { String::new() };
         return Err(format!("vertex position ({} {} {}){w} is not finite in f32", values[0], values[1], values[2]));
     }
-    match len {
-        3 => Ok(Vertex::Plain),
-        6 if values[3..6].iter().all(|t| t.parse::<f32>().is_ok()) => Ok(Vertex::Coloured),
-        6 => Ok(Vertex::BadColour),
-        4 => match values[3].parse::<f32>() {
+    match (len, weight) {
+        (3, _) => Ok(Vertex::Plain),
+        (6, _) if values[3..6].iter().all(|t| t.parse::<f32>().is_ok()) => Ok(Vertex::Coloured),
+        (6, _) => Ok(Vertex::BadColour),
+        (_, Some(weight)) => match weight {
             Ok(w) if w != 0.0 && w.is_finite() => Ok(Vertex::Plain),
             Ok(w) => Err(format!("vertex weight w is {w} (a weight must be finite and not 0)")),
             Err(_) => Err(format!("vertex weight {:?} is not a number", values[3])),
         },
-        n => Err(format!(
+        (n, None) => Err(format!(
             "vertex with {} values (expected x y z, x y z w or x y z r g b)",
             if n > 7 { "more than 7".to_string() } else { n.to_string() }
         )),
