@@ -35,8 +35,9 @@ fn check_lines(path: &Path, text: &str) -> Result<Rewrite, IoError> {
     check_lines_in(path, text, CHECK_PIECE_BYTES)
 }
 
-/// What of the checked text tobj must not read as it is ([`tobj_text`]).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+/// What of the checked text tobj must not read as it is ([`tobj_text`]), and the material
+/// names it uses.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
 struct Rewrite {
     /// A data line (`v`, `vt`, `vn`, `f`, `l`) with a `#` comment, a continued line, an `l`
     /// line, or a `usemtl` or `mtllib` line whose name tobj would read otherwise (it takes the
@@ -46,6 +47,9 @@ struct Rewrite {
     /// numbers: tobj gives vertex i the i-th colour read, so it would fail on a later vertex
     /// or shift them. This importer does not use OBJ vertex colours; they are dropped.
     colours: bool,
+    /// The distinct `usemtl` names, as tobj is given them (a material that no library defines
+    /// gets the default material, with a warning).
+    usemtl: std::collections::BTreeSet<String>,
 }
 
 /// Bytes per piece of [`check_lines`] (at least).
@@ -80,6 +84,7 @@ fn check_lines_in(path: &Path, text: &str, piece: usize) -> Result<Rewrite, IoEr
         plain += c.plain;
         rewrite.lines |= c.rewrite_lines;
         rewrite.colours |= c.bad_colour;
+        rewrite.usemtl.extend(c.usemtl);
         before = Counts {
             lines: before.lines + c.counts.lines,
             v: before.v + c.counts.v,
@@ -135,6 +140,8 @@ struct PieceCheck {
     bad_colour: bool,
     /// [`Rewrite::lines`] for the piece.
     rewrite_lines: bool,
+    /// [`Rewrite::usemtl`] for the piece.
+    usemtl: std::collections::BTreeSet<String>,
 }
 
 /// `text` cut into pieces of at least `piece` bytes, each ending at a line end that does not
@@ -259,7 +266,12 @@ fn check_piece(text: &str) -> PieceCheck {
             Some(kw @ ("usemtl" | "mtllib")) => match names(line, kw) {
                 ("", _) if kw == "usemtl" => return Err((at, "usemtl without a material name".into())),
                 ("", _) => return Err((at, "mtllib without a file name".into())),
-                (ours, theirs) => out.rewrite_lines |= ours != theirs,
+                (ours, theirs) => {
+                    out.rewrite_lines |= ours != theirs;
+                    if kw == "usemtl" && !out.usemtl.contains(ours) {
+                        out.usemtl.insert(ours.to_string());
+                    }
+                }
             },
             Some("vt") => {
                 if tok.take(2).filter(|t| t.parse::<f32>().is_ok()).count() != 2 {
@@ -378,8 +390,8 @@ fn vertex_values(tok: std::str::SplitWhitespace<'_>) -> Result<Vertex, String> {
 /// colour. Other lines are kept as they are (a name may hold `#`). Else it is `text` itself:
 /// the check found nothing to rewrite (a file's `#` header lines alone are read by tobj
 /// as comments).
-fn tobj_text(text: &str, rewrite: Rewrite) -> std::borrow::Cow<'_, str> {
-    if rewrite == Rewrite::default() {
+fn tobj_text<'a>(text: &'a str, rewrite: &Rewrite) -> std::borrow::Cow<'a, str> {
+    if !rewrite.lines && !rewrite.colours {
         return std::borrow::Cow::Borrowed(text);
     }
     let mut out = String::with_capacity(text.len());
@@ -439,16 +451,29 @@ fn utf8_lossy(bytes: &[u8]) -> std::borrow::Cow<'_, str> {
 }
 
 /// An OBJ or MTL file as text ([`utf8_lossy`]) without a leading byte-order mark, which would
-/// otherwise be read as part of the first keyword (a first `v` or `mtllib` line lost).
+/// otherwise be read as part of the first keyword (a first `v` or `mtllib` line lost), and
+/// with classic Mac OS line ends (a `\r` not followed by `\n`) read as line ends, as Python's
+/// universal newlines read them: tobj and the line check split lines at `\n` only, so such a
+/// file was one line, refused with a misleading error ("vertex with more than 7 values"), and
+/// such an MTL one material with a name no `usemtl` matched. Files without a lone `\r` are
+/// returned as they are.
 fn text_of(bytes: &[u8]) -> std::borrow::Cow<'_, str> {
     const BOM: &[u8] = b"\xEF\xBB\xBF";
-    utf8_lossy(bytes.strip_prefix(BOM).unwrap_or(bytes))
+    let text = utf8_lossy(bytes.strip_prefix(BOM).unwrap_or(bytes));
+    // A search for `\r` first (memchr: a LF file costs one fast scan).
+    let b = text.as_bytes();
+    let lone_cr = |i: usize| b[i] == b'\r' && b.get(i + 1) != Some(&b'\n');
+    if !text.contains('\r') || !(0..b.len()).any(lone_cr) {
+        return text;
+    }
+    // `\r\n` stays one line end; the line count is what an editor shows.
+    std::borrow::Cow::Owned(text.replace("\r\n", "\n").replace('\r', "\n"))
 }
 
 /// Whether every `Ka` / `Kd` / `Ks` / `Ke` line of an MTL file has three numbers (tobj takes
 /// the first three and panics when there are fewer).
 fn mtl_colours_ok(bytes: &[u8]) -> bool {
-    String::from_utf8_lossy(bytes).lines().all(|line| {
+    text_of(bytes).lines().all(|line| {
         let mut tok = line.split_whitespace();
         match tok.next() {
             Some("Ka" | "Kd" | "Ks" | "Ke") => tok.take(3).filter(|t| t.parse::<f32>().is_ok()).count() == 3,
@@ -467,7 +492,7 @@ pub(crate) fn import(ctx: &mut Ctx, bytes: &[u8]) -> Result<(Mesh, Vec<ImportedP
     let dir = ctx.dir.clone();
     let (model, opts_in, resolver) = (ctx.path.clone(), ctx.opts, ctx.resolver.clone());
     let budget = RefCell::new(opts_in.max_input_bytes.saturating_sub(ctx.read_total));
-    let text = tobj_text(&text, rewrite);
+    let text = tobj_text(&text, &rewrite);
     let (models, materials) = tobj::load_obj_buf(&mut std::io::Cursor::new(text.as_bytes()), &opts, |p: &Path| {
         let full = dir.join(p);
         let uri = p.to_string_lossy();
@@ -491,6 +516,7 @@ pub(crate) fn import(ctx: &mut Ctx, bytes: &[u8]) -> Result<(Mesh, Vec<ImportedP
     })
     .map_err(|e| IoError::Obj { path: path.clone(), message: e.to_string() })?;
     let mut mtl_dir = dir.clone();
+    let mut library_failed = materials.is_err();
     for (p, read) in mtl_reads.into_inner() {
         match read {
             Ok(b) => {
@@ -498,7 +524,10 @@ pub(crate) fn import(ctx: &mut Ctx, bytes: &[u8]) -> Result<(Mesh, Vec<ImportedP
                 mtl_dir = p.parent().map(Path::to_path_buf).unwrap_or_default();
             }
             Err(e) if e.is_refusal() => return Err(e),
-            Err(e) => ctx.warn(format!("material library: {e}; using default materials")),
+            Err(e) => {
+                library_failed = true;
+                ctx.warn(format!("material library: {e}; using default materials"))
+            }
         }
     }
     let materials = match materials {
@@ -510,6 +539,20 @@ pub(crate) fn import(ctx: &mut Ctx, bytes: &[u8]) -> Result<(Mesh, Vec<ImportedP
             Vec::new()
         }
     };
+    // A `usemtl` name that no library defines (a typo, another case, a library not shipped)
+    // gets the default material: said once, unless a library could not be read at all (that
+    // is warned about above).
+    if !library_failed {
+        let unknown: Vec<&String> =
+            rewrite.usemtl.iter().filter(|n| !materials.iter().any(|m| &m.name == *n)).collect();
+        if let Some(first) = unknown.first() {
+            let more = match unknown.len() {
+                1 => String::new(),
+                n => format!(" (and {} more)", n - 1),
+            };
+            ctx.warn(format!("usemtl {first:?}{more}: no material library defines it; using the default material"));
+        }
+    }
 
     let mut mesh = Mesh::default();
     let mut material_map: HashMap<Option<usize>, u32> = HashMap::new();
@@ -909,11 +952,11 @@ mod tests {
         for seed in 0..400u64 {
             let text = random_obj(seed, 20 + (seed as usize % 7) * 30);
             let whole = check_lines_in(path, &text, usize::MAX);
-            let rewrite = whole.as_ref().ok().copied();
+            let rewrite = whole.as_ref().ok().cloned();
             let whole = message(whole);
             let want = oracle(&text);
             assert_eq!(whole, want.clone().map(|_| ()), "seed {seed}");
-            match (&whole, rewrite, want) {
+            match (&whole, &rewrite, want) {
                 (Err(m), _, _) => {
                     errors += 1;
                     // An error past the first piece of the smallest size: the counts before a piece matter.
@@ -922,7 +965,7 @@ mod tests {
                 }
                 (Ok(()), Some(rewrite), Ok(triangles)) => {
                     oks += 1;
-                    rewritten += usize::from(rewrite != Rewrite::default());
+                    rewritten += usize::from(rewrite.lines || rewrite.colours);
                     // What the check accepts, tobj reads from the text it is given, with every
                     // face and no more: no error without a line number after the check.
                     let fed = tobj_text(&text, rewrite);
@@ -940,7 +983,7 @@ mod tests {
             for piece in [1, 7, 40, 200] {
                 let r = check_lines_in(path, &text, piece);
                 if let Ok(rw) = &r {
-                    assert_eq!(Some(*rw), rewrite, "seed {seed}, pieces of {piece}");
+                    assert_eq!(Some(rw), rewrite.as_ref(), "seed {seed}, pieces of {piece}");
                 }
                 assert_eq!(message(r), whole, "seed {seed}, pieces of {piece}");
             }

@@ -163,6 +163,34 @@ fn obj_uv_flip_and_missing_mtl_and_texture_warn() {
     let mat = &imp.mesh.materials[imp.mesh.triangle_materials[0] as usize];
     assert_eq!(mat.base_color_factor_linear, [0.5, 0.25, 1.0, 1.0]);
     assert!(mat.base_color_texture.is_none());
+    // Only the library's warning when it is missing (not one per name it would define).
+    let imp = load_mesh_from_bytes(Path::new("mem/a.obj"), format!("usemtl m\n{obj}").as_bytes()).unwrap();
+    assert_eq!(imp.warnings.len(), 1, "{:?}", imp.warnings);
+}
+
+/// A `usemtl` name no library defines gets the default material and one warning naming it,
+/// with or without a library; names that are defined give none.
+#[test]
+fn obj_usemtl_names_no_library_defines_are_warned_about() {
+    let tri = "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n";
+    let mtl = b"newmtl red\nKd 1 0 0\nnewmtl blue\nKd 0 0 1\n".to_vec();
+    let load = |obj: String| {
+        let files = std::collections::BTreeMap::from([(PathBuf::from("mem/m.mtl"), mtl.clone())]);
+        load_mesh_from_memory(Path::new("mem/x.obj"), obj.as_bytes(), files, &ImportOptions::default()).unwrap()
+    };
+    let imp = load(format!("mtllib m.mtl\nusemtl red\n{tri}usemtl blue\n{tri}"));
+    assert!(imp.warnings.is_empty(), "{:?}", imp.warnings);
+    let cases = [
+        (format!("mtllib m.mtl\nusemtl Red\n{tri}"), "usemtl \"Red\": no material library defines it"),
+        (format!("usemtl red\n{tri}"), "usemtl \"red\": no material library defines it"),
+        (format!("mtllib m.mtl\nusemtl x\n{tri}usemtl red\n{tri}usemtl w\n{tri}"), "usemtl \"w\" (and 1 more)"),
+    ];
+    for (obj, want) in cases {
+        let imp = load(obj.clone());
+        assert_eq!(imp.warnings.len(), 1, "{obj:?}: {:?}", imp.warnings);
+        assert!(imp.warnings[0].0.contains(want), "{obj:?}: {:?}", imp.warnings);
+        assert!(imp.mesh.materials.iter().any(|m| m.name == "default"), "{obj:?}");
+    }
 }
 
 #[test]
@@ -343,7 +371,11 @@ fn obj_files_read_as_checked_and_tobjs_errors_name_the_line() {
     assert_eq!(want.mesh.triangles.len(), 4);
     let mut latin1 = b"# caf\xe9\no W\xfcrfel\n".to_vec();
     latin1.extend_from_slice(plain);
-    let variants: [&[u8]; 10] = [
+    // Classic Mac OS line ends (`\r` alone), and a mix of all three kinds.
+    let cr: Vec<u8> = plain.iter().map(|&c| if c == b'\n' { b'\r' } else { c }).collect();
+    let variants: [&[u8]; 12] = [
+        &cr,
+        b"v 0 0 0\r\nv 1 0 0\rv 0 1 0\nv 0 0 1\r\rf 1 3 2\r\nf 1 2 4\rf 1 4 3\nf 2 3 4",
         b"v 0 0 0 # origin\nv 1 0 0#x\nv 0 1 0\nv 0 0 1 # 1 2\nf 1 3 2 # base\nf 1 2 4\nf 1 4 3\nf 2 3 4#\n",
         b"v 0 0 \\\n0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 1 \\\n 3 \\\n 2\nf 1 2 4\nf 1 4 3\nf 2 3 4\n",
         b"v 0 0 0\r\nv 1 0 0 \\\r\n\r\nv 0 1 0\r\nv 0 0 1\r\nf 1 3 2\r\nf 1 2 4\r\nf 1 4 3\r\nf 2 3 4\r\n",
@@ -391,6 +423,8 @@ fn obj_files_read_as_checked_and_tobjs_errors_name_the_line() {
     let plain = load_mesh_from_bytes(p, t.as_bytes()).unwrap();
     assert_eq!(load_mesh_from_bytes(p, &bom).unwrap().mesh.positions, plain.mesh.positions);
     assert_eq!(msg(&format!("{t}vt 0\n")), "line 5: texture coordinate needs two numbers");
+    // Lines ended by `\r` alone are counted as an editor shows them (the file was one line).
+    assert_eq!(msg(&format!("{}\r\nvt 0\r", t.replace('\n', "\r"))), "line 6: texture coordinate needs two numbers");
     assert_eq!(msg(&format!("{t}vn 0 0 z\n")), "line 5: normal needs three numbers");
     assert_eq!(msg(&format!("{t}l\n")), "line 5: line element with no vertex");
     assert_eq!(msg(&format!("{t}l 1 7\n")), "line 5: vertex index 7 out of range (3 defined so far)");
@@ -407,7 +441,12 @@ fn obj_materials_are_found_by_their_names() {
         mtl.extend_from_slice(b"\nKd 1 0 0\n");
         mtl
     };
-    let cases: [(&[u8], &str, Vec<u8>); 7] = [
+    let mut red_cr = red(b"red");
+    red_cr.iter_mut().for_each(|c| *c = if *c == b'\n' { b'\r' } else { *c });
+    let cases: [(&[u8], &str, Vec<u8>); 9] = [
+        // Classic Mac OS line ends, in the library and in the OBJ.
+        (b"mtllib m.mtl\nusemtl red\n", "m", red_cr),
+        (b"mtllib m.mtl\rusemtl red\r", "m", red(b"red")),
         (b"# exported from C:\\work\\\nmtllib m.mtl\nusemtl red\n", "m", red(b"red")),
         (b"mtllib m.mtl\n# C:\\work\\\nusemtl red\n", "m", red(b"red")),
         (b"mtllib m.mtl\nusemtl red#1\n", "m", red(b"red#1")),
