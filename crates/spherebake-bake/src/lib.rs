@@ -209,9 +209,17 @@ pub fn bake_imported(
     settings: &BakeSettings,
     progress: &(dyn Fn(f32) + Sync),
 ) -> Result<BakeOutput, BakeError> {
+    let mut imported = imported;
+    let mut warnings: Vec<String> = imported.warnings.iter().map(|w| w.0.clone()).collect();
+    // Stacked copies of a face are one surface (see `Mesh::remove_duplicate_triangles`).
+    let duplicates = imported.mesh.remove_duplicate_triangles();
+    if duplicates > 0 {
+        warnings.push(format!(
+            "{duplicates} duplicate triangles (the same three vertices as an earlier one, in either orientation) removed"
+        ));
+    }
     let mesh = &imported.mesh;
     let mut timings = Vec::new();
-    let mut warnings: Vec<String> = imported.warnings.iter().map(|w| w.0.clone()).collect();
 
     if mesh.triangles.is_empty() {
         return Err(BakeError::EmptyMesh { path: path.to_path_buf() });

@@ -543,8 +543,8 @@ pub(crate) fn import(ctx: &mut Ctx, bytes: &[u8]) -> Result<(Mesh, Vec<ImportedP
     // gets the default material: said once, unless a library could not be read at all (that
     // is warned about above).
     if !library_failed {
-        let unknown: Vec<&String> =
-            rewrite.usemtl.iter().filter(|n| !materials.iter().any(|m| &m.name == *n)).collect();
+        let defined: std::collections::HashSet<&str> = materials.iter().map(|m| m.name.as_str()).collect();
+        let unknown: Vec<&String> = rewrite.usemtl.iter().filter(|n| !defined.contains(n.as_str())).collect();
         if let Some(first) = unknown.first() {
             let more = match unknown.len() {
                 1 => String::new(),
