@@ -261,16 +261,21 @@ impl Mesh {
     /// bake. A closed mesh exported double-sided (each face once per winding) has winding
     /// number 0 everywhere, and encloses its solid again once each face is left once.
     ///
+    /// On a skinned mesh two corners are the same only when their influences and bind
+    /// positions are too: layers that coincide at rest but move apart when animated are kept.
+    ///
     /// Cost: O(T log T) (a sort of the corner triples, parallel), and O(T) to rebuild only
     /// when some triangle is removed.
     pub fn remove_duplicate_triangles(&mut self) -> usize {
         use rayon::prelude::*;
+        let ids = self.corner_ids();
+        let id = |v: u32| ids.get(v as usize).copied().unwrap_or(u32::MAX);
         let mut keys: Vec<([u32; 3], u32)> = self
             .triangles
             .par_iter()
             .enumerate()
             .map(|(i, t)| {
-                let mut k = [self.weld[t[0] as usize], self.weld[t[1] as usize], self.weld[t[2] as usize]];
+                let mut k = [id(t[0]), id(t[1]), id(t[2])];
                 k.sort_unstable();
                 (k, i as u32)
             })
@@ -292,6 +297,25 @@ impl Mesh {
                 (0..self.triangle_materials.len()).filter(keep).map(|i| self.triangle_materials[i]).collect();
         }
         count
+    }
+
+    /// Per vertex: an id shared by the vertices that are one corner for
+    /// [`Mesh::remove_duplicate_triangles`]: the weld id, and on a skinned mesh also the same
+    /// influences and bind position (bits; ids in order of first appearance).
+    fn corner_ids(&self) -> Vec<u32> {
+        let Some(skin) = &self.skin else { return self.weld.clone() };
+        // (weld id, joints, weight bits, bind position bits).
+        type Corner = (u32, [u32; 8], [u32; 8], [u32; 3]);
+        let mut map: std::collections::HashMap<Corner, u32> = std::collections::HashMap::with_capacity(self.weld.len());
+        (0..self.weld.len())
+            .map(|v| {
+                let inf = skin.influences.get(v).copied().unwrap_or_default();
+                let bind = skin.bind_positions.get(v).copied().unwrap_or(Vec3::NAN);
+                let key = (self.weld[v], inf.joints, inf.weights.map(f32::to_bits), bind.to_array().map(f32::to_bits));
+                let next = map.len() as u32;
+                *map.entry(key).or_insert(next)
+            })
+            .collect()
     }
 
     /// Computes area-weighted vertex normals over welded positions, for vertices whose normal is
@@ -412,6 +436,30 @@ mod tests {
         m.triangles = vec![[0, 1, 2], [0, 2, 3], [2, 1, 0]];
         assert_eq!(m.remove_duplicate_triangles(), 1);
         assert_eq!(m.triangles, vec![[0, 1, 2], [0, 2, 3]]);
+        // Skinned: vertices 3..6 repeat 0..3's positions; a copy on 3..6 is removed only while
+        // those vertices follow the same joints with the same weights from the same bind position.
+        let skinned = |influence_3: u32, bind_3: Vec3| {
+            let pos = vec![Vec3::ZERO, Vec3::X, Vec3::Y, Vec3::ZERO, Vec3::X, Vec3::Y];
+            let inf = |j: u32| SkinInfluences {
+                joints: [j, 0, 0, 0, 0, 0, 0, 0],
+                weights: [1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0],
+            };
+            let mut m = Mesh {
+                positions: pos.clone(),
+                skin: Some(Skin {
+                    influences: vec![inf(0), inf(0), inf(0), inf(influence_3), inf(0), inf(0)],
+                    bind_positions: [&pos[..3], &[bind_3], &pos[4..]].concat(),
+                    ..Default::default()
+                }),
+                triangles: vec![[0, 1, 2], [4, 3, 5]],
+                ..Default::default()
+            };
+            m.rebuild_weld();
+            m.remove_duplicate_triangles()
+        };
+        assert_eq!(skinned(0, Vec3::ZERO), 1);
+        assert_eq!(skinned(1, Vec3::ZERO), 0, "another joint");
+        assert_eq!(skinned(0, Vec3::Z), 0, "another bind position");
     }
 
     #[test]
