@@ -209,17 +209,9 @@ pub fn bake_imported(
     settings: &BakeSettings,
     progress: &(dyn Fn(f32) + Sync),
 ) -> Result<BakeOutput, BakeError> {
-    let mut imported = imported;
-    let mut warnings: Vec<String> = imported.warnings.iter().map(|w| w.0.clone()).collect();
-    // Stacked copies of a face are one surface (see `Mesh::remove_duplicate_triangles`).
-    let (duplicates, dedup_s) = timed(|| imported.mesh.remove_duplicate_triangles());
-    if duplicates > 0 {
-        warnings.push(format!(
-            "{duplicates} duplicate triangles (the same three vertices as an earlier one, in either orientation) removed"
-        ));
-    }
     let mesh = &imported.mesh;
     let mut timings = Vec::new();
+    let mut warnings: Vec<String> = imported.warnings.iter().map(|w| w.0.clone()).collect();
 
     if mesh.triangles.is_empty() {
         return Err(BakeError::EmptyMesh { path: path.to_path_buf() });
@@ -233,8 +225,7 @@ pub fn bake_imported(
     // computed while the winding number's tree (serial) is built: neither reads the other.
     let ((topology, topology_s), (winding, winding_s)) =
         rayon::join(|| timed(|| TopologyReport::compute(mesh)), || timed(|| WindingNumber::new(positions, &triangles)));
-    // The duplicate check is part of the topology stage's time.
-    timings.push(StageTime { stage: "topology", seconds: dedup_s + topology_s });
+    timings.push(StageTime { stage: "topology", seconds: topology_s });
     let t = Instant::now();
     let orientation = outward_orientation(positions, &triangles, &winding);
     // Its tree is the sample points' BVH too: the welded triangles are `mesh.triangles` in the

@@ -267,6 +267,24 @@ impl Mesh {
     /// Cost: O(T log T) (a sort of the corner triples, parallel), and O(T) to rebuild only
     /// when some triangle is removed.
     pub fn remove_duplicate_triangles(&mut self) -> usize {
+        let removed = self.duplicate_triangles();
+        self.remove_triangles(&removed)
+    }
+
+    /// Removes triangle i (and its material entry) where `removed[i]`; returns how many.
+    pub fn remove_triangles(&mut self, removed: &[bool]) -> usize {
+        let count = removed.iter().filter(|&&r| r).count();
+        if count > 0 {
+            let keep = |i: &usize| !removed.get(*i).copied().unwrap_or(false);
+            self.triangles = (0..self.triangles.len()).filter(keep).map(|i| self.triangles[i]).collect();
+            self.triangle_materials =
+                (0..self.triangle_materials.len()).filter(keep).map(|i| self.triangle_materials[i]).collect();
+        }
+        count
+    }
+
+    /// Per triangle: whether [`Mesh::remove_duplicate_triangles`] removes it.
+    pub fn duplicate_triangles(&self) -> Vec<bool> {
         use rayon::prelude::*;
         let ids = self.corner_ids();
         let id = |v: u32| ids.get(v as usize).copied().unwrap_or(u32::MAX);
@@ -282,21 +300,13 @@ impl Mesh {
             .collect();
         keys.par_sort_unstable();
         let mut removed = vec![false; self.triangles.len()];
-        let mut count = 0usize;
         for w in keys.windows(2) {
             // Sorted by (corners, index): the first of a run of equal corners is kept.
             if w[0].0 == w[1].0 {
                 removed[w[1].1 as usize] = true;
-                count += 1;
             }
         }
-        if count > 0 {
-            let keep = |i: &usize| !removed.get(*i).copied().unwrap_or(false);
-            self.triangles = (0..self.triangles.len()).filter(keep).map(|i| self.triangles[i]).collect();
-            self.triangle_materials =
-                (0..self.triangle_materials.len()).filter(keep).map(|i| self.triangle_materials[i]).collect();
-        }
-        count
+        removed
     }
 
     /// Per vertex: an id shared by the vertices that are one corner for

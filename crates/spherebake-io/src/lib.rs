@@ -209,13 +209,33 @@ fn import_bytes(
     let mut ctx = Ctx::new(path, *opts);
     ctx.resolver = resolver;
     ctx.record(path, bytes);
-    let (mesh, parts) = match kind {
+    let (mut mesh, mut parts) = match kind {
         Kind::Gltf => gltf_import::import(&mut ctx, bytes, false)?,
         Kind::Glb => gltf_import::import(&mut ctx, bytes, true)?,
         Kind::Obj => obj_import::import(&mut ctx, bytes)?,
     };
     if mesh.triangles.is_empty() {
         return Err(IoError::EmptyMesh { path: path.to_path_buf() });
+    }
+    // Stacked copies of a face are one surface (`Mesh::remove_duplicate_triangles`): removed
+    // here, so every command (bake, eval, inspect, the light checks) reads the same mesh.
+    let removed = mesh.duplicate_triangles();
+    let count = removed.iter().filter(|&&r| r).count();
+    if count > 0 {
+        // Each part's triangle range, in the triangles kept.
+        let mut kept_before = Vec::with_capacity(removed.len() + 1);
+        kept_before.push(0u32);
+        for &r in &removed {
+            kept_before.push(kept_before[kept_before.len() - 1] + u32::from(!r));
+        }
+        let at = |i: u32| kept_before.get(i as usize).copied().unwrap_or(kept_before[removed.len()]);
+        for p in &mut parts {
+            p.triangles = at(p.triangles.start)..at(p.triangles.end);
+        }
+        mesh.remove_triangles(&removed);
+        ctx.warn(format!(
+            "{count} duplicate triangles (the same three vertices as an earlier one, in either orientation) removed"
+        ));
     }
     if let Some(v) = mesh.positions.iter().flat_map(|p| p.to_array()).find(|c| c.abs() > MAX_COORDINATE) {
         return Err(IoError::CoordinateRange { path: path.to_path_buf(), value: v, limit: MAX_COORDINATE });

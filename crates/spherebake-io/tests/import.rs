@@ -168,6 +168,28 @@ fn obj_uv_flip_and_missing_mtl_and_texture_warn() {
     assert_eq!(imp.warnings.len(), 1, "{:?}", imp.warnings);
 }
 
+/// Duplicate triangles (either winding) are removed at import, for every command that reads
+/// the model, and each part's triangle range is the part's kept triangles.
+#[test]
+fn duplicate_triangles_are_removed_at_import_and_parts_keep_their_triangles() {
+    let obj = "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\no a\nf 1 2 3\nf 3 2 1\nf 2 3 1\nf 1 2 4\no b\nf 1 4 2\nf 1 3 4\nf 2 3 4\nf 4 3 2\n";
+    let imp = load_mesh_from_bytes(Path::new("mem/x.obj"), obj.as_bytes()).unwrap();
+    assert_eq!(imp.mesh.triangles.len(), 4, "{:?}", imp.mesh.triangles);
+    assert!(imp.warnings.iter().any(|w| w.0.starts_with("4 duplicate triangles")), "{:?}", imp.warnings);
+    let ranges: Vec<_> = imp.parts.iter().map(|p| p.triangles.clone()).collect();
+    assert_eq!(ranges, vec![0..2, 2..4]);
+    // A CR-only library with a short `Kd` is a parse warning, not a panic in tobj.
+    let files = std::collections::BTreeMap::from([(PathBuf::from("mem/m.mtl"), b"newmtl red\rKd 1 0\r".to_vec())]);
+    let imp = load_mesh_from_memory(
+        Path::new("mem/x.obj"),
+        b"mtllib m.mtl\nusemtl red\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n",
+        files,
+        &ImportOptions::default(),
+    )
+    .unwrap();
+    assert!(imp.warnings.iter().any(|w| w.0.contains("cannot parse material library")), "{:?}", imp.warnings);
+}
+
 /// A `usemtl` name no library defines gets the default material and one warning naming it,
 /// with or without a library; names that are defined give none.
 #[test]
@@ -178,8 +200,12 @@ fn obj_usemtl_names_no_library_defines_are_warned_about() {
         let files = std::collections::BTreeMap::from([(PathBuf::from("mem/m.mtl"), mtl.clone())]);
         load_mesh_from_memory(Path::new("mem/x.obj"), obj.as_bytes(), files, &ImportOptions::default()).unwrap()
     };
+    // The copies of `tri` are duplicate triangles, warned about apart.
+    let named = |imp: &spherebake_io::Imported| -> Vec<String> {
+        imp.warnings.iter().map(|w| w.0.clone()).filter(|w| !w.contains("duplicate triangles")).collect()
+    };
     let imp = load(format!("mtllib m.mtl\nusemtl red\n{tri}usemtl blue\n{tri}"));
-    assert!(imp.warnings.is_empty(), "{:?}", imp.warnings);
+    assert!(named(&imp).is_empty(), "{:?}", imp.warnings);
     let cases = [
         (format!("mtllib m.mtl\nusemtl Red\n{tri}"), "usemtl \"Red\": no material library defines it"),
         (format!("usemtl red\n{tri}"), "usemtl \"red\": no material library defines it"),
@@ -187,8 +213,9 @@ fn obj_usemtl_names_no_library_defines_are_warned_about() {
     ];
     for (obj, want) in cases {
         let imp = load(obj.clone());
-        assert_eq!(imp.warnings.len(), 1, "{obj:?}: {:?}", imp.warnings);
-        assert!(imp.warnings[0].0.contains(want), "{obj:?}: {:?}", imp.warnings);
+        let w = named(&imp);
+        assert_eq!(w.len(), 1, "{obj:?}: {:?}", imp.warnings);
+        assert!(w[0].contains(want), "{obj:?}: {:?}", imp.warnings);
         assert!(imp.mesh.materials.iter().any(|m| m.name == "default"), "{obj:?}");
     }
 }
