@@ -460,14 +460,25 @@ fn utf8_lossy(bytes: &[u8]) -> std::borrow::Cow<'_, str> {
 fn text_of(bytes: &[u8]) -> std::borrow::Cow<'_, str> {
     const BOM: &[u8] = b"\xEF\xBB\xBF";
     let text = utf8_lossy(bytes.strip_prefix(BOM).unwrap_or(bytes));
-    // A search for `\r` first (memchr: a LF file costs one fast scan).
+    // Only the `\r` are visited (a memchr search): a LF or CRLF file costs one fast scan.
     let b = text.as_bytes();
-    let lone_cr = |i: usize| b[i] == b'\r' && b.get(i + 1) != Some(&b'\n');
-    if !text.contains('\r') || !(0..b.len()).any(lone_cr) {
+    let lone = |i: usize| b.get(i + 1) != Some(&b'\n');
+    if !text.match_indices('\r').any(|(i, _)| lone(i)) {
         return text;
     }
-    // `\r\n` stays one line end; the line count is what an editor shows.
-    std::borrow::Cow::Owned(text.replace("\r\n", "\n").replace('\r', "\n"))
+    // One copy: a lone `\r` becomes `\n`, the `\r` of `\r\n` is dropped (one line end, so the
+    // line count is what an editor shows).
+    let mut out = String::with_capacity(text.len());
+    let mut last = 0;
+    for (i, _) in text.match_indices('\r') {
+        out.push_str(&text[last..i]);
+        if lone(i) {
+            out.push('\n');
+        }
+        last = i + 1;
+    }
+    out.push_str(&text[last..]);
+    std::borrow::Cow::Owned(out)
 }
 
 /// Whether every `Ka` / `Kd` / `Ks` / `Ke` line of an MTL file has three numbers (tobj takes
