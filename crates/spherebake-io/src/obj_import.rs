@@ -47,9 +47,11 @@ struct Rewrite {
     /// numbers: tobj gives vertex i the i-th colour read, so it would fail on a later vertex
     /// or shift them. This importer does not use OBJ vertex colours; they are dropped.
     colours: bool,
-    /// The distinct `usemtl` names, as tobj is given them (a material that no library defines
-    /// gets the default material, with a warning).
-    usemtl: std::collections::BTreeSet<String>,
+    /// The distinct `usemtl` names as tobj is given them, each with whether an `mtllib` line
+    /// came before it (tobj looks a name up in the libraries read so far), in the order of
+    /// their first use: a name no library defines when it is used gets the default material,
+    /// with a warning.
+    usemtl: Vec<(String, bool)>,
 }
 
 /// Bytes per piece of [`check_lines`] (at least).
@@ -67,6 +69,7 @@ fn check_lines_in(path: &Path, text: &str, piece: usize) -> Result<Rewrite, IoEr
     };
     let (mut coloured, mut plain) = (0usize, 0usize);
     let mut rewrite = Rewrite::default();
+    let (mut seen, mut mtllib_before) = (std::collections::HashSet::new(), false);
     for c in checks {
         let defined = [before.v, before.vt, before.vn];
         if let Some(n) = c.needs.iter().find(|n| defined[n.kind] < n.need) {
@@ -84,7 +87,13 @@ fn check_lines_in(path: &Path, text: &str, piece: usize) -> Result<Rewrite, IoEr
         plain += c.plain;
         rewrite.lines |= c.rewrite_lines;
         rewrite.colours |= c.bad_colour;
-        rewrite.usemtl.extend(c.usemtl);
+        for (name, after_library) in c.usemtl.names {
+            let key = (name, after_library || mtllib_before);
+            if seen.insert(key.clone()) {
+                rewrite.usemtl.push(key);
+            }
+        }
+        mtllib_before |= c.usemtl.mtllib;
         before = Counts {
             lines: before.lines + c.counts.lines,
             v: before.v + c.counts.v,
@@ -140,8 +149,17 @@ struct PieceCheck {
     bad_colour: bool,
     /// [`Rewrite::lines`] for the piece.
     rewrite_lines: bool,
-    /// [`Rewrite::usemtl`] for the piece.
-    usemtl: std::collections::BTreeSet<String>,
+    /// [`Rewrite::usemtl`] for the piece, counting from its start.
+    usemtl: UsemtlNames,
+}
+
+/// The `usemtl` names of a piece in the order of first use, each with whether an `mtllib`
+/// line came before it in the piece, and whether the piece has an `mtllib` line.
+#[derive(Debug, Default)]
+struct UsemtlNames {
+    names: Vec<(String, bool)>,
+    seen: std::collections::HashSet<(String, bool)>,
+    mtllib: bool,
 }
 
 /// `text` cut into pieces of at least `piece` bytes, each ending at a line end that does not
@@ -268,8 +286,13 @@ fn check_piece(text: &str) -> PieceCheck {
                 ("", _) => return Err((at, "mtllib without a file name".into())),
                 (ours, theirs) => {
                     out.rewrite_lines |= ours != theirs;
-                    if kw == "usemtl" && !out.usemtl.contains(ours) {
-                        out.usemtl.insert(ours.to_string());
+                    let u = &mut out.usemtl;
+                    if kw == "mtllib" {
+                        u.mtllib = true;
+                    } else if !u.seen.contains(&(ours.to_string(), u.mtllib)) {
+                        let key = (ours.to_string(), u.mtllib);
+                        u.seen.insert(key.clone());
+                        u.names.push(key);
                     }
                 }
             },
@@ -550,12 +573,17 @@ pub(crate) fn import(ctx: &mut Ctx, bytes: &[u8]) -> Result<(Mesh, Vec<ImportedP
             Vec::new()
         }
     };
-    // A `usemtl` name that no library defines (a typo, another case, a library not shipped)
-    // gets the default material: said once, unless a library could not be read at all (that
-    // is warned about above).
+    // A `usemtl` name that no library defines (a typo, another case, a library not shipped,
+    // or named before its `mtllib` line) gets the default material: said once, naming the
+    // first in the file, unless a library could not be read at all (warned about above).
     if !library_failed {
         let defined: std::collections::HashSet<&str> = materials.iter().map(|m| m.name.as_str()).collect();
-        let unknown: Vec<&String> = rewrite.usemtl.iter().filter(|n| !defined.contains(n.as_str())).collect();
+        let (mut unknown, mut listed) = (Vec::new(), std::collections::HashSet::new());
+        for (name, after_library) in &rewrite.usemtl {
+            if (!after_library || !defined.contains(name.as_str())) && listed.insert(name.as_str()) {
+                unknown.push(name.as_str());
+            }
+        }
         if let Some(first) = unknown.first() {
             let more = match unknown.len() {
                 1 => String::new(),

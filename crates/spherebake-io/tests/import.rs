@@ -206,10 +206,17 @@ fn obj_usemtl_names_no_library_defines_are_warned_about() {
     };
     let imp = load(format!("mtllib m.mtl\nusemtl red\n{tri}usemtl blue\n{tri}"));
     assert!(named(&imp).is_empty(), "{:?}", imp.warnings);
+    // A name used before and after its library: the use before is the one warned about.
+    let imp = load(format!("usemtl red\n{tri}mtllib m.mtl\nusemtl red\n{tri}"));
+    assert_eq!(named(&imp).len(), 1, "{:?}", imp.warnings);
+    assert_eq!(imp.mesh.materials.len(), 2, "default, then red");
     let cases = [
         (format!("mtllib m.mtl\nusemtl Red\n{tri}"), "usemtl \"Red\": no material library defines it"),
         (format!("usemtl red\n{tri}"), "usemtl \"red\": no material library defines it"),
-        (format!("mtllib m.mtl\nusemtl x\n{tri}usemtl red\n{tri}usemtl w\n{tri}"), "usemtl \"w\" (and 1 more)"),
+        // The first in the file is named.
+        (format!("mtllib m.mtl\nusemtl x\n{tri}usemtl red\n{tri}usemtl w\n{tri}"), "usemtl \"x\" (and 1 more)"),
+        // tobj looks a name up in the libraries read so far: before its `mtllib`, unknown.
+        (format!("usemtl red\n{tri}mtllib m.mtl\nusemtl blue\n{tri}"), "usemtl \"red\": no material library"),
     ];
     for (obj, want) in cases {
         let imp = load(obj.clone());
