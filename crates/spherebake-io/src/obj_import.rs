@@ -12,7 +12,8 @@ use crate::texture::decode_srgb_texture;
 use crate::{Ctx, ImportedPart, IoError, ReadLimit, MAX_IMAGE_BYTES, MAX_MTL_BYTES};
 
 /// An MTL file tobj asked for: resolved path and its bytes (or why it could not be read).
-type MtlRead = (PathBuf, Result<Vec<u8>, IoError>);
+/// An MTL file tobj asked for: (resolved path, bytes or the read error, the parse error).
+type MtlRead = (PathBuf, Result<Vec<u8>, IoError>, Option<String>);
 
 /// Checks what tobj reports without a line number (or not at all): faces with fewer than three
 /// vertices and line elements (`l`) with none, vertex / texture / normal indices out of range
@@ -545,17 +546,30 @@ pub(crate) fn import(ctx: &mut Ctx, bytes: &[u8]) -> Result<(Mesh, Vec<ImportedP
             Ok(b) => tobj::load_mtl_buf(&mut std::io::Cursor::new(text_of(b).as_bytes())),
             Err(_) => Err(tobj::LoadError::OpenFileFailed),
         };
-        mtl_reads.borrow_mut().push((full, read));
+        let parse_error = match (&read, &result) {
+            (Ok(_), Err(e)) => Some(e.to_string()),
+            _ => None,
+        };
+        mtl_reads.borrow_mut().push((full, read, parse_error));
         result
     })
     .map_err(|e| IoError::Obj { path: path.clone(), message: e.to_string() })?;
     let mut mtl_dir = dir.clone();
     let mut library_failed = materials.is_err();
-    for (p, read) in mtl_reads.into_inner() {
+    for (p, read, parse_error) in mtl_reads.into_inner() {
         match read {
             Ok(b) => {
                 ctx.record(&p, &b);
                 mtl_dir = p.parent().map(Path::to_path_buf).unwrap_or_default();
+                // When another library was read, tobj drops this one's error: said here (when
+                // none was, tobj's error is, below).
+                if let (Some(e), Ok(_)) = (parse_error, &materials) {
+                    library_failed = true;
+                    ctx.warn(format!(
+                        "{}: cannot parse material library: {e}; its materials are the default",
+                        p.display()
+                    ));
+                }
             }
             Err(e) if e.is_refusal() => return Err(e),
             Err(e) => {

@@ -206,6 +206,17 @@ fn obj_usemtl_names_no_library_defines_are_warned_about() {
     };
     let imp = load(format!("mtllib m.mtl\nusemtl red\n{tri}usemtl blue\n{tri}"));
     assert!(named(&imp).is_empty(), "{:?}", imp.warnings);
+    // Of two libraries, one that does not parse is named (tobj drops its error when another
+    // library reads), and its materials are not called undefined.
+    let files = std::collections::BTreeMap::from([
+        (PathBuf::from("mem/a.mtl"), b"newmtl red\nKd 1 0 0\n".to_vec()),
+        (PathBuf::from("mem/b.mtl"), b"newmtl blue\nKd 0 0\n".to_vec()),
+    ]);
+    let obj = format!("mtllib a.mtl\nmtllib b.mtl\nusemtl red\n{tri}usemtl blue\n{tri}");
+    let imp = load_mesh_from_memory(Path::new("mem/x.obj"), obj.as_bytes(), files, &ImportOptions::default()).unwrap();
+    let w = named(&imp);
+    assert_eq!(w.len(), 1, "{w:?}");
+    assert!(w[0].contains("b.mtl: cannot parse material library"), "{w:?}");
     // A name used before and after its library: the use before is the one warned about.
     let imp = load(format!("usemtl red\n{tri}mtllib m.mtl\nusemtl red\n{tri}"));
     assert_eq!(named(&imp).len(), 1, "{:?}", imp.warnings);
