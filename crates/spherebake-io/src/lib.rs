@@ -220,8 +220,7 @@ fn import_bytes(
     // Stacked copies of a face are one surface (`Mesh::remove_duplicate_triangles`): removed
     // here, so every command (bake, eval, inspect, the light checks) reads the same mesh.
     let removed = mesh.duplicate_triangles();
-    let count = removed.iter().filter(|&&r| r).count();
-    if count > 0 {
+    if removed.contains(&true) {
         // Each part's triangle range, in the triangles kept.
         let mut kept_before = Vec::with_capacity(removed.len() + 1);
         kept_before.push(0u32);
@@ -232,7 +231,7 @@ fn import_bytes(
         for p in &mut parts {
             p.triangles = at(p.triangles.start)..at(p.triangles.end);
         }
-        mesh.remove_triangles(&removed);
+        let count = mesh.remove_triangles(&removed);
         ctx.warn(format!(
             "{count} duplicate triangles (the same three vertices as an earlier one, in either orientation) removed"
         ));

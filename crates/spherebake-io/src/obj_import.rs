@@ -70,7 +70,8 @@ fn check_lines_in(path: &Path, text: &str, piece: usize) -> Result<Rewrite, IoEr
     };
     let (mut coloured, mut plain) = (0usize, 0usize);
     let mut rewrite = Rewrite::default();
-    let (mut seen, mut mtllib_before) = (std::collections::HashSet::new(), false);
+    // Every piece's names, in file order, an `mtllib` in an earlier piece counting as before.
+    let mut usemtl = UsemtlNames::default();
     for c in checks {
         let defined = [before.v, before.vt, before.vn];
         if let Some(n) = c.needs.iter().find(|n| defined[n.kind] < n.need) {
@@ -89,12 +90,9 @@ fn check_lines_in(path: &Path, text: &str, piece: usize) -> Result<Rewrite, IoEr
         rewrite.lines |= c.rewrite_lines;
         rewrite.colours |= c.bad_colour;
         for (name, after_library) in c.usemtl.names {
-            let key = (name, after_library || mtllib_before);
-            if seen.insert(key.clone()) {
-                rewrite.usemtl.push(key);
-            }
+            usemtl.add(name, after_library || usemtl.mtllib);
         }
-        mtllib_before |= c.usemtl.mtllib;
+        usemtl.mtllib |= c.usemtl.mtllib;
         before = Counts {
             lines: before.lines + c.counts.lines,
             v: before.v + c.counts.v,
@@ -103,6 +101,7 @@ fn check_lines_in(path: &Path, text: &str, piece: usize) -> Result<Rewrite, IoEr
         };
     }
     rewrite.colours |= coloured > 0 && plain > 0;
+    rewrite.usemtl = usemtl.names;
     Ok(rewrite)
 }
 
@@ -161,6 +160,16 @@ struct UsemtlNames {
     names: Vec<(String, bool)>,
     seen: std::collections::HashSet<(String, bool)>,
     mtllib: bool,
+}
+
+impl UsemtlNames {
+    /// Adds (name, whether an `mtllib` came before) unless already listed.
+    fn add(&mut self, name: String, after_library: bool) {
+        let key = (name, after_library);
+        if self.seen.insert(key.clone()) {
+            self.names.push(key);
+        }
+    }
 }
 
 /// `text` cut into pieces of at least `piece` bytes, each ending at a line end that does not
@@ -290,10 +299,8 @@ fn check_piece(text: &str) -> PieceCheck {
                     let u = &mut out.usemtl;
                     if kw == "mtllib" {
                         u.mtllib = true;
-                    } else if !u.seen.contains(&(ours.to_string(), u.mtllib)) {
-                        let key = (ours.to_string(), u.mtllib);
-                        u.seen.insert(key.clone());
-                        u.names.push(key);
+                    } else {
+                        u.add(ours.to_string(), u.mtllib);
                     }
                 }
             },
