@@ -24,7 +24,8 @@
 //! - **open sheets** (a single plane) enclose nothing: the solid is empty.
 //!
 //! **Cells the surface passes through are not solid for that reason**: a cell is solid exactly
-//! when its centre is inside. The centre rule samples the definition without bias: where the
+//! when its centre is inside (for an open soup, and its part reaches the surface: see "Which
+//! undecided cells are evaluated" below). The centre rule samples the definition without bias: where the
 //! surface cuts a cell, the part of the cell inside and the part outside trade places, and the
 //! solid volume converges to V(T) with errors of both signs that largely cancel (the closed
 //! armadillo at 128 cells: +0.02 % of its exact volume, while the cells the surface cuts hold
@@ -55,13 +56,30 @@
 //! - **open** soup: the conclusive rows must number at least 2 and agree, since a row can pass
 //!   through two holes without a net crossing;
 //! - otherwise (near holes, open sheets, grazing rows, disagreement) the hierarchical
-//!   generalized winding number at the centre decides ([`crate::winding`], built on first use,
-//!   so a closed mesh without grazing rows never builds it).
+//!   generalized winding number at the centre decides ([`crate::winding`], built only when a
+//!   cell is left undecided, so a closed mesh without grazing rows never builds it).
+//!
+//! **Which undecided cells are evaluated.** A closed soup's undecided cells are the few on
+//! grazing rows: every one is. An open soup's can be nearly all of them (every row through a
+//! sheet abstains), so only the undecided cells a flood reaches are evaluated and the rest are
+//! outside: it starts at the undecided cells the surface passes through ([`surface_cells`]) or
+//! that touch (26 neighbours) a cell the rows made solid, and spreads from each cell found
+//! inside to its undecided neighbours. Exact in the continuum: away from the triangles w is
+//! harmonic, so by the maximum principle every connected part of {|w| ≥ ½} has a triangle in
+//! its closure (a part without one would have |w| = ½ on its boundary and more inside). On
+//! the grid a part is dropped only when its cells reach the surface through a neck thinner
+//! than a cell: 50 large random triangles at 128 cells lost 17 of 717 000 solid cells (w from
+//! −0.500 to −0.511); none of the shared models lost any (same files). So for an open soup
+//! the solid is the 26-connected parts of the cells whose centre is inside that hold a cell
+//! the surface passes through or one the rows decided (`flood_tests` checks this against a
+//! brute-force labelling). Cost: a bush of 1 000 random cards (2 000 triangles) evaluates
+//! 593 000 of its 1.65 M undecided cells, 16.5 → 7.2 s on one thread; where the surface and
+//! the solid fill the grid (10 000 denser cards, large random triangles) it saves little.
 //!
 //! Cost model (T triangles, n cells per axis, N = n³ cells): O(T + crossings) per axis of rows;
 //! N votes (one incremental walk per x row, two binary searches per cell for open soups); the
-//! winding expansions O(T log T) plus O(log T)-ish per undecided cell (bunny, open, res 128:
-//! 0.3 % of the cells). Memory: 1 bit per cell (128 MB at 1024³) plus, while the rows are
+//! winding expansions O(T log T) plus O(log T)-ish per evaluated undecided cell (bunny, open,
+//! res 128: 0.3 % of the cells), and for an open soup with undecided cells its surface cells. Memory: 1 bit per cell (128 MB at 1024³) plus, while the rows are
 //! built, ~45 bytes per crossing and 9 per row. Parallel (rayon) over triangles and over blocks of cells; every cell's
 //! result depends only on shared read-only data and the crossings are sorted by value, so the
 //! output is identical for any thread count.
@@ -72,7 +90,6 @@ use crate::winding::Expansions;
 use glam::{DVec3, Vec3};
 use rayon::prelude::*;
 use std::collections::HashMap;
-use std::sync::OnceLock;
 
 /// A point is inside when |w| is at least this (see the module docs).
 pub const INSIDE_WINDING: f64 = 0.5;
@@ -559,6 +576,22 @@ impl Rows {
 /// volumes). `closed`: the caller knows the triangles form a closed surface ([`is_closed`]);
 /// then one conclusive row decides a cell. Passing `false` is always correct, only slower.
 pub fn voxelize_bvh(bvh: &TriangleBvh, closed: bool, settings: &VoxelSettings) -> VoxelGrid {
+    voxelize_cells(bvh, closed, settings, Undecided::FromSurface)
+}
+
+/// Which of the cells the rows leave undecided get a winding number (see the module docs).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Undecided {
+    /// Every one (closed meshes always: their undecided cells are the few on grazing rows).
+    Every,
+    /// Open soups: those a flood from the surface cells through solid cells reaches.
+    FromSurface,
+    /// None (tests: the cells the rows decide alone).
+    #[cfg(test)]
+    Skip,
+}
+
+fn voxelize_cells(bvh: &TriangleBvh, closed: bool, settings: &VoxelSettings, undecided: Undecided) -> VoxelGrid {
     let Some((origin, h, dims)) = layout(bvh, settings.resolution) else {
         return VoxelGrid::default();
     };
@@ -571,23 +604,14 @@ pub fn voxelize_bvh(bvh: &TriangleBvh, closed: bool, settings: &VoxelSettings) -
     } else {
         (None, None)
     };
-    // Built on first use only: closed meshes without grazing rows never need it.
-    let winding: OnceLock<Expansions> = OnceLock::new();
-    let winding_at = |i: usize, j: usize, k: usize| {
-        let c = DVec3::new(centre(0, i), centre(1, j), centre(2, k));
-        winding.get_or_init(|| Expansions::build(bvh)).eval(bvh, c)
-    };
     // The y and z votes of cell (i, j, k), `None` where not cast or abstaining.
     let vote_y = |i: usize, j: usize, k: usize| rows_y.as_ref().and_then(|r| r.vote(k + nz * i, centre(1, j)));
     let vote_z = |i: usize, j: usize, k: usize| rows_z.as_ref().and_then(|r| r.vote(i + nx * j, centre(2, k)));
 
-    // Cell (i, j, k) given its x row's vote.
-    let decide = |vote_x: Option<i32>, i: usize, j: usize, k: usize| -> bool {
-        let w = if closed {
-            match vote_x.or_else(|| vote_y(i, j, k)).or_else(|| vote_z(i, j, k)) {
-                Some(w) => w as f64,
-                None => winding_at(i, j, k),
-            }
+    // Cell (i, j, k)'s integer w given its x row's vote, `None` when the rows leave it undecided.
+    let decide = |vote_x: Option<i32>, i: usize, j: usize, k: usize| -> Option<i32> {
+        if closed {
+            vote_x.or_else(|| vote_y(i, j, k)).or_else(|| vote_z(i, j, k))
         } else {
             let votes = [vote_x, vote_y(i, j, k), vote_z(i, j, k)];
             let mut cast = votes.iter().flatten();
@@ -597,54 +621,142 @@ pub fn voxelize_bvh(bvh: &TriangleBvh, closed: bool, settings: &VoxelSettings) -
                 voters += 1;
                 agree &= Some(w) == first;
             }
-            match first {
-                Some(w) if agree && voters >= 2 => w as f64,
-                _ => winding_at(i, j, k),
-            }
-        };
-        inside(w)
+            first.filter(|_| agree && voters >= 2)
+        }
     };
 
+    // Pass 1, the rows: solid bits where they decide inside, undecided bits where they abstain.
     const BLOCK_WORDS: usize = 256;
     let mut words = vec![0u64; n.div_ceil(64)];
-    words.par_chunks_mut(BLOCK_WORDS).enumerate().for_each(|(b, block)| {
-        let c0 = b * BLOCK_WORDS * 64;
-        let c1 = (c0 + block.len() * 64).min(n);
-        // The x rows meeting the block, each walked once.
-        for r in c0 / nx..c1.div_ceil(nx) {
-            let (j, k) = (r % ny, r / ny);
-            let base = r * nx;
-            let (i0, i1) = (c0.max(base) - base, c1.min(base + nx) - base);
-            let mut set = |i: usize| {
-                let idx = base + i;
-                block[(idx - c0) >> 6] |= 1 << (idx & 63);
-            };
-            if rows_x.abstains[r] {
+    let mut open_words = vec![0u64; n.div_ceil(64)];
+    words.par_chunks_mut(BLOCK_WORDS).zip(open_words.par_chunks_mut(BLOCK_WORDS)).enumerate().for_each(
+        |(b, (block, open_block))| {
+            let c0 = b * BLOCK_WORDS * 64;
+            let c1 = (c0 + block.len() * 64).min(n);
+            // The x rows meeting the block, each walked once.
+            for r in c0 / nx..c1.div_ceil(nx) {
+                let (j, k) = (r % ny, r / ny);
+                let base = r * nx;
+                let (i0, i1) = (c0.max(base) - base, c1.min(base + nx) - base);
+                let mut set = |i: usize, w: Option<i32>| {
+                    let idx = base + i - c0;
+                    match w {
+                        Some(w) if inside(w as f64) => block[idx >> 6] |= 1 << (idx & 63),
+                        Some(_) => {}
+                        None => open_block[idx >> 6] |= 1 << (idx & 63),
+                    }
+                };
+                if rows_x.abstains[r] {
+                    for i in i0..i1 {
+                        set(i, decide(None, i, j, k));
+                    }
+                    continue;
+                }
+                let (s, e) = (rows_x.start[r], rows_x.start[r + 1]);
+                let coords = &rows_x.coords[s..e];
+                // The first crossing ahead of the cell centre.
+                let mut m = coords.partition_point(|&c| c <= centre(0, i0));
                 for i in i0..i1 {
-                    if decide(None, i, j, k) {
-                        set(i);
+                    let x = centre(0, i);
+                    while m < coords.len() && coords[m] <= x {
+                        m += 1;
+                    }
+                    let w = if m == coords.len() { 0 } else { rows_x.ahead[s + m] };
+                    // Closed: the conclusive x row decides alone.
+                    set(i, if closed { Some(w) } else { decide(Some(w), i, j, k) });
+                }
+            }
+        },
+    );
+    let mut grid = VoxelGrid { origin, cell_size: h, dims, solid: Bits { words, len: n } };
+    let open = Bits { words: open_words, len: n };
+    if open.words.iter().all(|&w| w == 0) {
+        return grid;
+    }
+    #[cfg(test)]
+    if undecided == Undecided::Skip {
+        return grid;
+    }
+
+    // Pass 2, the winding number at the undecided cells' centres.
+    let winding = Expansions::build(bvh);
+    let solid_at = |c: usize| {
+        let (i, j, k) = (c % nx, c / nx % ny, c / (nx * ny));
+        inside(winding.eval(bvh, DVec3::new(centre(0, i), centre(1, j), centre(2, k))))
+    };
+    let evaluate = |cells: &[u32]| -> Vec<u32> {
+        let keep: Vec<bool> = cells.par_iter().map(|&c| solid_at(c as usize)).collect();
+        cells.iter().zip(keep).filter(|(_, s)| *s).map(|(&c, _)| c).collect()
+    };
+    if closed || undecided == Undecided::Every {
+        let open_words = &open.words;
+        grid.solid.words.par_chunks_mut(BLOCK_WORDS).zip(open_words.par_chunks(BLOCK_WORDS)).enumerate().for_each(
+            |(b, (solid_block, open_block))| {
+                for (w, &word) in open_block.iter().enumerate() {
+                    let mut x = word;
+                    while x != 0 {
+                        let bit = x.trailing_zeros() as usize;
+                        x &= x - 1;
+                        if solid_at((b * BLOCK_WORDS + w) * 64 + bit) {
+                            solid_block[w] |= 1 << bit;
+                        }
                     }
                 }
-                continue;
-            }
-            let (s, e) = (rows_x.start[r], rows_x.start[r + 1]);
-            let coords = &rows_x.coords[s..e];
-            // The first crossing ahead of the cell centre.
-            let mut m = coords.partition_point(|&c| c <= centre(0, i0));
-            for i in i0..i1 {
-                let x = centre(0, i);
-                while m < coords.len() && coords[m] <= x {
-                    m += 1;
+            },
+        );
+        return grid;
+    }
+    // Open soups: the flood (module docs) from the undecided cells the surface passes through
+    // or that touch a solid cell (26 neighbours), in index order.
+    let surface = surface_cells(bvh, &grid);
+    let mut frontier: Vec<u32> = {
+        let solid = &grid.solid;
+        let seed = |c: usize| surface.get(c) || neighbours_26(c, dims).any(|q| solid.get(q));
+        open.words
+            .par_chunks(BLOCK_WORDS)
+            .enumerate()
+            .flat_map_iter(|(b, open_block)| {
+                let mut cells = Vec::new();
+                for (w, &word) in open_block.iter().enumerate() {
+                    let mut x = word;
+                    while x != 0 {
+                        let c = (b * BLOCK_WORDS + w) * 64 + x.trailing_zeros() as usize;
+                        x &= x - 1;
+                        if seed(c) {
+                            cells.push(c as u32);
+                        }
+                    }
                 }
-                let w = if m == coords.len() { 0 } else { rows_x.ahead[s + m] };
-                // Closed: the conclusive x row decides alone.
-                if if closed { w != 0 } else { decide(Some(w), i, j, k) } {
-                    set(i);
-                }
-            }
+                cells
+            })
+            .collect()
+    };
+    let mut seen = Bits::new(n);
+    while !frontier.is_empty() {
+        for &c in &frontier {
+            seen.set(c as usize);
         }
-    });
-    VoxelGrid { origin, cell_size: h, dims, solid: Bits { words, len: n } }
+        let found = evaluate(&frontier);
+        let mut next: Vec<u32> = Vec::new();
+        for &c in &found {
+            grid.solid.set(c as usize);
+            next.extend(neighbours_26(c as usize, dims).filter(|&q| open.get(q) && !seen.get(q)).map(|q| q as u32));
+        }
+        next.sort_unstable();
+        next.dedup();
+        frontier = next;
+    }
+    grid
+}
+
+/// The linear indices of the (up to 26) cells sharing a face, edge or corner with cell `c`.
+fn neighbours_26(c: usize, dims: [u32; 3]) -> impl Iterator<Item = usize> {
+    let [nx, ny, nz] = dims.map(|d| d as usize);
+    let (i, j, k) = (c % nx, c / nx % ny, c / (nx * ny));
+    let near = |v: usize, n: usize| v.saturating_sub(1)..(v + 2).min(n);
+    near(k, nz)
+        .flat_map(move |z| near(j, ny).flat_map(move |y| near(i, nx).map(move |x| x + nx * (y + ny * z))))
+        .filter(move |&q| q != c)
 }
 
 /// The cells whose closed box meets a triangle of `bvh` (exact separating-axis test, boxes
@@ -846,5 +958,136 @@ mod tests {
         check([DVec3::new(0.9, 0.0, -3.0), DVec3::new(0.0, 0.9, -3.0), DVec3::new(0.45, 0.45, 3.0)], true);
         // Triangle entirely inside.
         check([DVec3::new(0.1, 0.1, 0.1), DVec3::new(0.2, 0.1, 0.1), DVec3::new(0.1, 0.2, 0.1)], true);
+    }
+}
+
+#[cfg(test)]
+mod flood_tests {
+    use super::*;
+    use crate::rng::SplitMix64;
+
+    /// Case 0: 20 random triangles across the unit cube; 1: 150 small random cards (two
+    /// triangles each); 2: a closed outward octahedron with 10 random triangles around it;
+    /// 3: the octahedron with two small triangles beside it, in the planes x = 0.05 and
+    /// y = 0.05, each in the way of one or two rows: the interior cells on both an x and a y
+    /// row through them are undecided, alone among cells the rows made solid.
+    fn soup(case: usize, rng: &mut SplitMix64) -> (Vec<Vec3>, Vec<[u32; 3]>) {
+        let mut pt = || Vec3::new(rng.next_f64() as f32, rng.next_f64() as f32, rng.next_f64() as f32);
+        let (mut pos, mut tris) = (Vec::new(), Vec::new());
+        let add = |pos: &mut Vec<Vec3>, tris: &mut Vec<[u32; 3]>, c: [Vec3; 3]| {
+            let b = pos.len() as u32;
+            pos.extend(c);
+            tris.push([b, b + 1, b + 2]);
+        };
+        match case % 4 {
+            0 => {
+                for _ in 0..20 {
+                    let c = [pt(), pt(), pt()];
+                    add(&mut pos, &mut tris, c);
+                }
+            }
+            1 => {
+                for _ in 0..150 {
+                    let (c, a, b) = (pt(), (pt() - 0.5).normalize() * 0.05, (pt() - 0.5).normalize() * 0.05);
+                    add(&mut pos, &mut tris, [c - a - b, c + a - b, c + a + b]);
+                    add(&mut pos, &mut tris, [c - a - b, c + a + b, c - a + b]);
+                }
+            }
+            _ => {
+                let o = Vec3::splat(0.5);
+                let ax = [Vec3::X * 0.3, Vec3::Y * 0.3, Vec3::Z * 0.3];
+                for sx in [-1.0f32, 1.0] {
+                    for sy in [-1.0f32, 1.0] {
+                        for sz in [-1.0f32, 1.0] {
+                            let (a, b, c) = (o + ax[0] * sx, o + ax[1] * sy, o + ax[2] * sz);
+                            // Outward: counter-clockwise seen from the octant's side.
+                            let flip = sx * sy * sz < 0.0;
+                            add(&mut pos, &mut tris, if flip { [a, c, b] } else { [a, b, c] });
+                        }
+                    }
+                }
+                if case % 4 == 2 {
+                    for _ in 0..10 {
+                        let c = [pt(), pt(), pt()];
+                        add(&mut pos, &mut tris, c);
+                    }
+                } else {
+                    let (a, b) = (0.49 + 0.001 * case as f32, 0.53);
+                    add(&mut pos, &mut tris, [Vec3::new(0.05, a, a), Vec3::new(0.05, b, a), Vec3::new(0.05, a, b)]);
+                    add(&mut pos, &mut tris, [Vec3::new(a, 0.05, a), Vec3::new(a, 0.05, b), Vec3::new(b, 0.05, a)]);
+                }
+            }
+        }
+        (pos, tris)
+    }
+
+    /// The flood keeps exactly the 26-connected parts of the every-cell solid that hold a cell
+    /// the rows decided or a cell the surface passes through (a brute-force labelling here).
+    #[test]
+    fn open_soup_solid_is_the_parts_that_reach_the_surface() {
+        let mut rng = SplitMix64::new(11);
+        let (mut added, mut dropped) = (0, 0);
+        // Twelve soups at 40 cells, then five of 50 large random triangles at 48 cells.
+        for case in 0..17 {
+            let (res, (pos, tris)) = if case < 12 {
+                (40, soup(case, &mut rng))
+            } else {
+                let mut rng = SplitMix64::new(case as u64 - 11);
+                let mut pt = || Vec3::new(rng.next_f64() as f32, rng.next_f64() as f32, rng.next_f64() as f32);
+                (48, ((0..150).map(|_| pt()).collect(), (0..50).map(|t| [3 * t, 3 * t + 1, 3 * t + 2]).collect()))
+            };
+            let bvh = TriangleBvh::new(&pos, &tris);
+            let s = VoxelSettings { resolution: res };
+            let every = voxelize_cells(&bvh, false, &s, Undecided::Every);
+            let rows = voxelize_cells(&bvh, false, &s, Undecided::Skip);
+            let flood = voxelize_cells(&bvh, false, &s, Undecided::FromSurface);
+            assert_eq!(flood, voxelize_bvh(&bvh, false, &s));
+            let surf = surface_cells(&bvh, &every);
+            let [nx, ny, nz] = every.dims.map(|d| d as i64);
+            let n = every.cell_count();
+            let mut seen = vec![false; n];
+            let mut want = Bits::new(n);
+            for start in every.solid.ones() {
+                if seen[start] {
+                    continue;
+                }
+                seen[start] = true;
+                let (mut part, mut q, mut reaches) = (vec![start], 0, false);
+                while q < part.len() {
+                    let c = part[q] as i64;
+                    q += 1;
+                    reaches |= rows.solid.get(c as usize) || surf.get(c as usize);
+                    let (i, j, k) = (c % nx, c / nx % ny, c / (nx * ny));
+                    for (di, dj, dk) in (0..27).map(|t| (t % 3 - 1, t / 3 % 3 - 1, t / 9 - 1)) {
+                        let (a, b, d) = (i + di, j + dj, k + dk);
+                        if a < 0 || b < 0 || d < 0 || a >= nx || b >= ny || d >= nz {
+                            continue;
+                        }
+                        let m = (a + nx * (b + ny * d)) as usize;
+                        if every.solid.get(m) && !seen[m] {
+                            seen[m] = true;
+                            part.push(m);
+                        }
+                    }
+                }
+                if reaches {
+                    part.iter().for_each(|&c| want.set(c));
+                }
+            }
+            assert!(flood.solid == want, "case {case}: {} cells against {}", flood.solid_count(), want.count_ones());
+            if case < 12 && case % 4 == 3 {
+                // Interior cells the rows left undecided, all solid (away from the surface).
+                assert!(rows.solid != every.solid && flood.solid == every.solid, "case {case}");
+            }
+            added += flood.solid.count_and_not(&rows.solid);
+            dropped += every.solid.count_and_not(&flood.solid);
+        }
+        // The winding pass decided cells in these soups (the test is not about the rows alone),
+        // and the large random triangles leave cells inside that do not reach the surface
+        // through cells inside (2 at seed 4 when written).
+        assert!(added > 100 && dropped > 0, "{added} cells found by the flood, {dropped} dropped");
+        println!(
+            "flood added {added} cells to the rows' solid; {dropped} solid cells not reaching the surface dropped"
+        );
     }
 }
