@@ -75,9 +75,9 @@
 //! brute-force labelling). The seeds' surface test is [`surface_cells`] when there are at
 //! least as many undecided cells as triangles, else a tree query per undecided cell (a large
 //! mesh with a few big holes: the bunny subdivided to 1.1 M triangles with its top fifth cut
-//! off voxelizes in 0.6 s instead of 0.8–1.0 s, where all its surface cells cost 1.4 s). Cost:
+//! off voxelizes in 0.9 s as before, where listing all its surface cells cost 1.4 s). Cost:
 //! a bush of 1 000 random cards (2 000 triangles) evaluates 593 000 of its 1.65 M undecided
-//! cells, 16.5 → 7.2 s on one thread; where the surface and the solid fill the grid (10 000
+//! cells, 16–17 → 7–7.6 s on one thread; where the surface and the solid fill the grid (10 000
 //! denser cards, large random triangles) it saves little.
 //!
 //! Cost model (T triangles, n cells per axis, N = n³ cells): O(T + crossings) per axis of rows;
