@@ -24,8 +24,9 @@
 //! - **open sheets** (a single plane) enclose nothing: the solid is empty.
 //!
 //! **Cells the surface passes through are not solid for that reason**: a cell is solid exactly
-//! when its centre is inside (for an open soup, and its part reaches the surface: see "Which
-//! undecided cells are evaluated" below). The centre rule samples the definition without bias: where the
+//! when its centre is inside (for an open soup, a cell the rows leave undecided also needs
+//! its part of the solid to reach the surface: see "Which undecided cells are evaluated"
+//! below; a cell the rows decide is solid by its centre alone). The centre rule samples the definition without bias: where the
 //! surface cuts a cell, the part of the cell inside and the part outside trade places, and the
 //! solid volume converges to V(T) with errors of both signs that largely cancel (the closed
 //! armadillo at 128 cells: +0.02 % of its exact volume, while the cells the surface cuts hold
@@ -65,8 +66,10 @@
 //! outside: it starts at the undecided cells the surface passes through ([`surface_cells`]) or
 //! that touch (26 neighbours) a cell the rows made solid, and spreads from each cell found
 //! inside to its undecided neighbours. Exact in the continuum: away from the triangles w is
-//! harmonic, so by the maximum principle every connected part of {|w| ≥ ½} has a triangle in
-//! its closure (a part without one would have |w| = ½ on its boundary and more inside). On
+//! harmonic, and on a connected part of {|w| ≥ ½} w has one sign, so |w| = ±w is harmonic
+//! there too; by the maximum principle every such part has a triangle in its closure (a part
+//! without one would have |w| = ½ on its boundary and more inside, or reach infinity, where
+//! w → 0). On
 //! the grid a part is dropped only when its cells reach the surface through a neck thinner
 //! than a cell: 50 large random triangles at 128 cells lost 17 of 717 000 solid cells (w from
 //! −0.500 to −0.511); none of the shared models lost any (same files). So for an open soup
@@ -83,10 +86,16 @@
 //! Cost model (T triangles, n cells per axis, N = n³ cells): O(T + crossings) per axis of rows;
 //! N votes (one incremental walk per x row, two binary searches per cell for open soups); the
 //! winding expansions O(T log T) plus O(log T)-ish per evaluated undecided cell (bunny, open,
-//! res 128: 0.3 % of the cells), and for an open soup with undecided cells its surface cells. Memory: 1 bit per cell (128 MB at 1024³) plus, while the rows are
-//! built, ~45 bytes per crossing and 9 per row. Parallel (rayon) over triangles and over blocks of cells; every cell's
-//! result depends only on shared read-only data and the crossings are sorted by value, so the
-//! output is identical for any thread count.
+//! res 128: 0.3 % of the cells), and for an open soup's flood its surface cells (listed, at
+//! O(cells each triangle meets), or one tree query per undecided cell, whichever is fewer).
+//! Memory: 2 bits per cell (solid, undecided; 256 MB at 1024³) plus, while the rows are built,
+//! ~45 bytes per crossing and 9 per row, and during an open soup's flood 1–2 bits per cell
+//! (cells queued, surface cells when listed, which also take 4 bytes per cell a triangle meets
+//! while they are found) and 4 bytes per cell of the current frontier (each cell joins one
+//! frontier at most). Parallel (rayon) over triangles, over blocks of cells and over each
+//! frontier; every cell's result depends only on shared read-only data, the crossings are
+//! sorted by value and the frontiers are built in one order, so the output is identical for
+//! any thread count.
 
 use crate::bvh::{RayPre, TriangleBvh};
 use crate::triangle::cover_samples;
@@ -593,6 +602,9 @@ enum Undecided {
     /// None (tests: the cells the rows decide alone).
     #[cfg(test)]
     Skip,
+    /// [`Undecided::FromSurface`] with the surface test by tree queries whatever the counts.
+    #[cfg(test)]
+    FromSurfaceByTree,
 }
 
 fn voxelize_cells(bvh: &TriangleBvh, closed: bool, settings: &VoxelSettings, undecided: Undecided) -> VoxelGrid {
@@ -715,7 +727,10 @@ fn voxelize_cells(bvh: &TriangleBvh, closed: bool, settings: &VoxelSettings, und
     // The surface cells: all of them when there are at least as many undecided cells as
     // triangles (a soup of sheets), else a tree query per undecided cell (a large mesh with a
     // few holes); the same cells either way.
-    let surface = (open.count_ones() >= bvh.triangle_count()).then(|| surface_cells(bvh, &grid));
+    let by_tree = open.count_ones() < bvh.triangle_count();
+    #[cfg(test)]
+    let by_tree = by_tree || undecided == Undecided::FromSurfaceByTree;
+    let surface = (!by_tree).then(|| surface_cells(bvh, &grid));
     let mut frontier: Vec<u32> = {
         let (solid, g) = (&grid.solid, &grid);
         let on_surface = |c: usize| match &surface {
@@ -742,19 +757,24 @@ fn voxelize_cells(bvh: &TriangleBvh, closed: bool, settings: &VoxelSettings, und
             })
             .collect()
     };
+    // A cell is marked when it joins a frontier, so each is evaluated once and a frontier holds
+    // no cell twice.
     let mut seen = Bits::new(n);
+    for &c in &frontier {
+        seen.set(c as usize);
+    }
     while !frontier.is_empty() {
-        for &c in &frontier {
-            seen.set(c as usize);
-        }
         let found = evaluate(&frontier);
         let mut next: Vec<u32> = Vec::new();
         for &c in &found {
             grid.solid.set(c as usize);
-            next.extend(neighbours_26(c as usize, dims).filter(|&q| open.get(q) && !seen.get(q)).map(|q| q as u32));
+            for q in neighbours_26(c as usize, dims) {
+                if open.get(q) && !seen.get(q) {
+                    seen.set(q);
+                    next.push(q as u32);
+                }
+            }
         }
-        next.sort_unstable();
-        next.dedup();
         frontier = next;
     }
     grid
@@ -766,14 +786,15 @@ fn cell_meets_surface(bvh: &TriangleBvh, grid: &VoxelGrid, c: usize) -> bool {
     let [nx, ny, _] = grid.dims.map(|d| d as usize);
     let centre = grid.cell_center((c % nx) as u32, (c / nx % ny) as u32, (c / (nx * ny)) as u32);
     let half = DVec3::splat(grid.cell_size * 0.5 * (1.0 + 1e-9));
-    let (lo, hi) = (centre - half, centre + half);
     let mut stack: Vec<u32> = Vec::with_capacity(64);
     if !bvh.nodes.is_empty() {
         stack.push(0);
     }
     while let Some(i) = stack.pop() {
         let n = bvh.nodes[i as usize];
-        if !(n.min.cmple(hi).all() && n.max.cmpge(lo).all()) {
+        // Relative to the centre, as `tri_box_overlap` tests (rounding is monotone, so a node
+        // holding a triangle that meets the box is never pruned).
+        if !((n.min - centre).cmple(half).all() && (n.max - centre).cmpge(-half).all()) {
             continue;
         }
         if n.is_leaf() {
@@ -1084,6 +1105,7 @@ mod flood_tests {
             let rows = voxelize_cells(&bvh, false, &s, Undecided::Skip);
             let flood = voxelize_cells(&bvh, false, &s, Undecided::FromSurface);
             assert_eq!(flood, voxelize_bvh(&bvh, false, &s));
+            assert_eq!(flood, voxelize_cells(&bvh, false, &s, Undecided::FromSurfaceByTree), "case {case}");
             let surf = surface_cells(&bvh, &every);
             // The per-cell tree query finds the same surface cells.
             assert!((0..every.cell_count()).all(|c| cell_meets_surface(&bvh, &every, c) == surf.get(c)), "case {case}");
