@@ -152,17 +152,7 @@ impl Bits {
     }
     /// Indices of the set bits, ascending.
     pub fn ones(&self) -> impl Iterator<Item = usize> + '_ {
-        self.words.iter().enumerate().flat_map(|(w, &word)| {
-            let mut x = word;
-            std::iter::from_fn(move || {
-                if x == 0 {
-                    return None;
-                }
-                let b = x.trailing_zeros() as usize;
-                x &= x - 1;
-                Some(w * 64 + b)
-            })
-        })
+        block_ones(&self.words, 0)
     }
 }
 
@@ -697,7 +687,7 @@ fn voxelize_cells(bvh: &TriangleBvh, closed: bool, settings: &VoxelSettings, und
     // Pass 2, the winding number at the undecided cells' centres.
     let winding = Expansions::build(bvh);
     let solid_at = |c: usize| {
-        let (i, j, k) = (c % nx, c / nx % ny, c / (nx * ny));
+        let [i, j, k] = cell_coords(c, dims);
         inside(winding.eval(bvh, DVec3::new(centre(0, i), centre(1, j), centre(2, k))))
     };
     let evaluate = |cells: &[u32]| -> Vec<u32> {
@@ -708,14 +698,9 @@ fn voxelize_cells(bvh: &TriangleBvh, closed: bool, settings: &VoxelSettings, und
         let open_words = &open.words;
         grid.solid.words.par_chunks_mut(BLOCK_WORDS).zip(open_words.par_chunks(BLOCK_WORDS)).enumerate().for_each(
             |(b, (solid_block, open_block))| {
-                for (w, &word) in open_block.iter().enumerate() {
-                    let mut x = word;
-                    while x != 0 {
-                        let bit = x.trailing_zeros() as usize;
-                        x &= x - 1;
-                        if solid_at((b * BLOCK_WORDS + w) * 64 + bit) {
-                            solid_block[w] |= 1 << bit;
-                        }
+                for c in block_ones(open_block, b * BLOCK_WORDS) {
+                    if solid_at(c) {
+                        solid_block[c / 64 - b * BLOCK_WORDS] |= 1 << (c % 64);
                     }
                 }
             },
@@ -742,18 +727,7 @@ fn voxelize_cells(bvh: &TriangleBvh, closed: bool, settings: &VoxelSettings, und
             .par_chunks(BLOCK_WORDS)
             .enumerate()
             .flat_map_iter(|(b, open_block)| {
-                let mut cells = Vec::new();
-                for (w, &word) in open_block.iter().enumerate() {
-                    let mut x = word;
-                    while x != 0 {
-                        let c = (b * BLOCK_WORDS + w) * 64 + x.trailing_zeros() as usize;
-                        x &= x - 1;
-                        if seed(c) {
-                            cells.push(c as u32);
-                        }
-                    }
-                }
-                cells
+                block_ones(open_block, b * BLOCK_WORDS).filter(|&c| seed(c)).map(|c| c as u32).collect::<Vec<_>>()
             })
             .collect()
     };
@@ -783,39 +757,57 @@ fn voxelize_cells(bvh: &TriangleBvh, closed: bool, settings: &VoxelSettings, und
 /// Whether the closed box of cell `c` (linear index) meets a triangle of `bvh`: the cell is in
 /// [`surface_cells`] (the same widened box and test), found by a tree query.
 fn cell_meets_surface(bvh: &TriangleBvh, grid: &VoxelGrid, c: usize) -> bool {
-    let [nx, ny, _] = grid.dims.map(|d| d as usize);
-    let centre = grid.cell_center((c % nx) as u32, (c / nx % ny) as u32, (c / (nx * ny)) as u32);
-    let half = DVec3::splat(grid.cell_size * 0.5 * (1.0 + 1e-9));
-    let mut stack: Vec<u32> = Vec::with_capacity(64);
-    if !bvh.nodes.is_empty() {
-        stack.push(0);
-    }
-    while let Some(i) = stack.pop() {
-        let n = bvh.nodes[i as usize];
-        // Relative to the centre, as `tri_box_overlap` tests (rounding is monotone, so a node
-        // holding a triangle that meets the box is never pruned).
-        if !((n.min - centre).cmple(half).all() && (n.max - centre).cmpge(-half).all()) {
-            continue;
+    let (centre, half) = (centre_of(grid, c), surface_box_half(grid.cell_size));
+    let meets = std::cell::Cell::new(false);
+    // Nodes relative to the centre, as `tri_box_overlap` tests (rounding is monotone, so a node
+    // holding a triangle that meets the box is never pruned); none once one triangle meets it.
+    let node =
+        |lo: DVec3, hi: DVec3| !meets.get() && (lo - centre).cmple(half).all() && (hi - centre).cmpge(-half).all();
+    bvh.traverse_boxes(&node, |_, tri| {
+        if !meets.get() && tri_box_overlap(tri, centre, half) {
+            meets.set(true);
         }
-        if n.is_leaf() {
-            if bvh.prims[n.first as usize..(n.first + n.count) as usize]
-                .iter()
-                .any(|&t| tri_box_overlap(&bvh.tris[t as usize], centre, half))
-            {
-                return true;
-            }
-        } else {
-            stack.push(n.first);
-            stack.push(n.first + 1);
-        }
-    }
-    false
+    });
+    meets.get()
+}
+
+/// Cell (i, j, k) of linear index `c` (x fastest) on a grid of `dims` cells.
+fn cell_coords(c: usize, dims: [u32; 3]) -> [usize; 3] {
+    let [nx, ny, _] = dims.map(|d| d as usize);
+    [c % nx, c / nx % ny, c / (nx * ny)]
+}
+
+/// The centre of cell `c` (linear index) of `grid`.
+fn centre_of(grid: &VoxelGrid, c: usize) -> DVec3 {
+    let [i, j, k] = cell_coords(c, grid.dims);
+    grid.cell_center(i as u32, j as u32, k as u32)
+}
+
+/// Half the edge of the box a surface cell's triangle must meet: the cell, widened by 1e-9
+/// relative so that touching counts.
+fn surface_box_half(cell_size: f64) -> DVec3 {
+    DVec3::splat(cell_size * 0.5 * (1.0 + 1e-9))
+}
+
+/// The linear indices of the set bits of `block`, a run of words whose first is word
+/// `first_word` of its bit vector, ascending.
+fn block_ones(block: &[u64], first_word: usize) -> impl Iterator<Item = usize> + '_ {
+    block.iter().enumerate().flat_map(move |(w, &word)| {
+        let mut x = word;
+        std::iter::from_fn(move || {
+            (x != 0).then(|| {
+                let bit = x.trailing_zeros() as usize;
+                x &= x - 1;
+                (first_word + w) * 64 + bit
+            })
+        })
+    })
 }
 
 /// The linear indices of the (up to 26) cells sharing a face, edge or corner with cell `c`.
 fn neighbours_26(c: usize, dims: [u32; 3]) -> impl Iterator<Item = usize> {
     let [nx, ny, nz] = dims.map(|d| d as usize);
-    let (i, j, k) = (c % nx, c / nx % ny, c / (nx * ny));
+    let [i, j, k] = cell_coords(c, dims);
     let near = |v: usize, n: usize| v.saturating_sub(1)..(v + 2).min(n);
     near(k, nz)
         .flat_map(move |z| near(j, ny).flat_map(move |y| near(i, nx).map(move |x| x + nx * (y + ny * z))))
@@ -834,9 +826,8 @@ pub fn surface_cells(bvh: &TriangleBvh, grid: &VoxelGrid) -> Bits {
         return bits;
     }
     let h = grid.cell_size;
-    let half = DVec3::splat(h * 0.5 * (1.0 + 1e-9));
+    let half = surface_box_half(h);
     let dims = grid.dims.map(|d| d as i64);
-    let (nx, ny) = (grid.dims[0] as usize, grid.dims[1] as usize);
     let cells: Vec<Vec<u32>> = bvh
         .prims
         .par_iter()
@@ -868,11 +859,7 @@ pub fn surface_cells(bvh: &TriangleBvh, grid: &VoxelGrid) -> Bits {
             }
             cand.sort_unstable();
             cand.dedup();
-            cand.retain(|&idx| {
-                let idx = idx as usize;
-                let c = grid.cell_center((idx % nx) as u32, (idx / nx % ny) as u32, (idx / (nx * ny)) as u32);
-                tri_box_overlap(tri, c, half)
-            });
+            cand.retain(|&idx| tri_box_overlap(tri, centre_of(grid, idx as usize), half));
             cand.shrink_to_fit();
             cand
         })
