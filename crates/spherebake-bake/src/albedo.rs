@@ -44,7 +44,8 @@
 //! 3. **Colour** = base colour factor × base-colour texture × COLOR_0, linear RGB (alpha is
 //!    ignored). The texture is sampled at the true (perspective-correct) barycentric point,
 //!    with the material's UV set, KHR_texture_transform and wrap modes, trilinearly from a box-
-//!    filtered mip chain; the level is log2 of the texel footprint's side in texture texels:
+//!    filtered mip chain (`spherebake_geom::texels`; its base at most 4096 texels a side, as the
+//!    importers reduce larger textures); the level is log2 of the texel footprint's side in texture texels:
 //!    footprint = Ω_nominal · t² / |n·ω| (world area) × UV area per world area of the triangle
 //!    × texture size, Ω_nominal = (2/N)²/(1+u²+v²)^{3/2} (see [`TextureLod`]).
 //! 4. **Projection** onto real orthonormal SH with the Condon–Shortley phase, index
@@ -83,7 +84,7 @@ use crate::raster::{CubeGrid, Fragment};
 use glam::DVec3;
 use rayon::prelude::*;
 use spherebake_format::{AlbedoSh, ColourSpace, ShBasis};
-use spherebake_geom::{Mesh, WrapMode};
+use spherebake_geom::{texels, Mesh, WrapMode};
 use spherebake_sh::{coeff_count, cube_texel_solid_angle, eval_sh_f64, CubeFace, CubeProjector, ShError};
 use std::path::{Path, PathBuf};
 
@@ -462,7 +463,7 @@ fn assign(pos: &[DVec3], triangles: &[[u32; 3]], spheres: &[SphereF64]) -> Vec<V
 // ---------------------------------------------------------------------------------------------
 // Textures
 
-/// A texture as a mip chain of linear RGB levels (box filter, 2×2 → 1).
+/// A texture as a mip chain of linear RGB levels (box filter, 2×2 → 1: [`texels::halve`]).
 #[derive(Clone)]
 struct MipChain {
     levels: Vec<(usize, usize, Vec<[f32; 3]>)>,
@@ -476,23 +477,8 @@ impl MipChain {
             if w == 1 && h == 1 {
                 break;
             }
-            let (nw, nh) = ((w / 2).max(1), (h / 2).max(1));
-            let mut dst = Vec::with_capacity(nw * nh);
-            for y in 0..nh {
-                let (y0, y1) = ((2 * y).min(h - 1), (2 * y + 1).min(h - 1));
-                for x in 0..nw {
-                    let (x0, x1) = ((2 * x).min(w - 1), (2 * x + 1).min(w - 1));
-                    let mut acc = [0.0f32; 3];
-                    for &(xx, yy) in &[(x0, y0), (x1, y0), (x0, y1), (x1, y1)] {
-                        let t = src[yy * w + xx];
-                        for c in 0..3 {
-                            acc[c] += 0.25 * t[c];
-                        }
-                    }
-                    dst.push(acc);
-                }
-            }
-            levels.push((nw, nh, dst));
+            let next = texels::halve(w, h, src);
+            levels.push(next);
         }
         Self { levels }
     }

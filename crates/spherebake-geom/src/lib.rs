@@ -15,6 +15,7 @@ pub mod mvc;
 pub mod orient;
 pub mod rng;
 pub mod sphere;
+pub mod texels;
 pub mod topology;
 pub mod triangle;
 pub mod volume;

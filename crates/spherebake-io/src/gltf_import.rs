@@ -1215,7 +1215,12 @@ impl Source<'_> {
             },
         };
         match decode_srgb_texture(name.clone(), &bytes) {
-            Ok(t) => Some(t),
+            Ok(d) => {
+                if let Some(w) = d.reduction_warning(&format!("material {material:?}")) {
+                    self.ctx.warn(w);
+                }
+                Some(d.texture)
+            }
             Err(e) => {
                 self.ctx
                     .warn(format!("material {material:?}: cannot decode {name}: {e}; using the base colour factor"));

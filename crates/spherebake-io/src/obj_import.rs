@@ -732,8 +732,11 @@ fn obj_material(
             None => {
                 let s = match ctx.read_referenced(file, &p, ReadLimit::AtMost(MAX_IMAGE_BYTES)) {
                     Ok(bytes) => match decode_srgb_texture(file.to_owned(), &bytes) {
-                        Ok(t) => {
-                            mesh.textures.push(t);
+                        Ok(d) => {
+                            if let Some(w) = d.reduction_warning(&format!("material {:?}", m.name)) {
+                                ctx.warn(w);
+                            }
+                            mesh.textures.push(d.texture);
                             Some(mesh.textures.len() - 1)
                         }
                         Err(e) => {

@@ -534,3 +534,138 @@ fn obj_line_errors_name_the_line_and_a_continued_line_by_its_first() {
         "line 5: vertex index 4 out of range (3 defined so far)"
     );
 }
+
+/// A texture wider than the largest side the bake reads is box-filtered down at decode, in
+/// linear values, with a warning naming it; an image whose decoded size passes the decoder's
+/// memory cap is refused (a warning, the base colour used) before it is inflated.
+#[test]
+fn large_textures_are_reduced_at_decode_and_oversized_ones_refused() {
+    use spherebake_geom::texels::MAX_TEXTURE_SIDE;
+    let dir = tempfile::tempdir().unwrap();
+    let obj = "mtllib a.mtl\nusemtl m\nv 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nvt 1 0\nvt 0 1\nf 1/1 2/2 3/3\n";
+    std::fs::write(dir.path().join("a.obj"), obj).unwrap();
+    std::fs::write(dir.path().join("a.mtl"), "newmtl m\nKd 0.5 0.5 0.5\nmap_Kd wide.png\n").unwrap();
+    // (2 · side + 6) × 3 RGB8 texels with a pattern in x and y: two halvings to
+    // (side / 2 + 1) × 1 (the third row is dropped, as the mip chain drops an odd last row).
+    let (w, h) = (2 * MAX_TEXTURE_SIDE as u32 + 6, 3u32);
+    let texel = |x: u32, y: u32| [(x * 7 % 256) as u8, (y * 90 + 20) as u8, ((x / 3 + y) * 11 % 256) as u8];
+    let img = image::RgbImage::from_fn(w, h, |x, y| image::Rgb(texel(x, y)));
+    img.save(dir.path().join("wide.png")).unwrap();
+    let imp = load_mesh(&dir.path().join("a.obj")).unwrap();
+    let t = &imp.mesh.textures[0];
+    assert_eq!((t.width, t.height), (w / 4, 1));
+    assert!(
+        imp.warnings.iter().any(|w| w.0.contains("wide.png") && w.0.contains(&format!("{}×1", t.width))),
+        "{:?}",
+        imp.warnings
+    );
+    // Independent: the f64 mean of each 4 × 2 block of the sRGB EOTF of its texels.
+    let eotf = |c: u8| {
+        let c = f64::from(c) / 255.0;
+        if c <= 0.04045 {
+            c / 12.92
+        } else {
+            ((c + 0.055) / 1.055).powf(2.4)
+        }
+    };
+    for x in 0..t.width {
+        for ch in 0..3 {
+            let mut s = 0.0;
+            for yy in 0..2 {
+                for xx in 4 * x..4 * x + 4 {
+                    s += eotf(texel(xx, yy)[ch]);
+                }
+            }
+            let got = f64::from(t.texels_linear[x as usize][ch]);
+            assert!((got - s / 8.0).abs() < 1e-5, "texel {x} channel {ch}: {got} vs {}", s / 8.0);
+        }
+        assert_eq!(t.texels_linear[x as usize][3], 1.0);
+    }
+    // PNG headers of RGBA8 images with an empty image stream: a 40 000² one (6.4 GB
+    // decoded) is refused by the cap before anything is inflated; a 16 384² one (1 GiB) passes
+    // the cap (the image crate's default, 512 MiB, would refuse it) and fails on its data.
+    let header_only = |side: u32| {
+        let mut png = b"\x89PNG\r\n\x1a\n".to_vec();
+        let mut chunk = |kind: &[u8; 4], data: &[u8]| {
+            png.extend_from_slice(&(data.len() as u32).to_be_bytes());
+            let body = [&kind[..], data].concat();
+            png.extend_from_slice(&body);
+            png.extend_from_slice(&crc32fast::hash(&body).to_be_bytes());
+        };
+        chunk(b"IHDR", &[&side.to_be_bytes()[..], &side.to_be_bytes(), &[8, 6, 0, 0, 0]].concat());
+        chunk(b"IDAT", &[0x78, 0x9c, 0x03, 0x00, 0x00, 0x00, 0x00, 0x01]);
+        chunk(b"IEND", &[]);
+        std::fs::write(dir.path().join("wide.png"), &png).unwrap();
+        let imp = load_mesh(&dir.path().join("a.obj")).unwrap();
+        assert!(imp.mesh.textures.is_empty() && imp.mesh.materials[0].base_color_texture.is_none());
+        let w = imp.warnings.iter().find(|w| w.0.contains("wide.png") && w.0.contains("cannot decode"));
+        w.unwrap_or_else(|| panic!("{:?}", imp.warnings)).0.clone()
+    };
+    let refused = header_only(40_000);
+    assert!(refused.contains("limit"), "{refused}");
+    let admitted = header_only(16_384);
+    assert!(!admitted.contains("limit"), "{admitted}");
+}
+
+/// Each 8-bit layout (grey, grey + alpha, RGB, RGBA) and a 16-bit one decode to the sRGB
+/// EOTF of their values per channel (grey to all three), alpha as stored.
+#[test]
+fn every_pixel_layout_decodes_to_linear_rgba() {
+    let eotf = |c: f64| if c <= 0.04045 { c / 12.92 } else { ((c + 0.055) / 1.055).powf(2.4) };
+    let dir = tempfile::tempdir().unwrap();
+    let obj = "mtllib a.mtl\nusemtl m\nv 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nvt 1 0\nvt 0 1\nf 1/1 2/2 3/3\n";
+    std::fs::write(dir.path().join("a.obj"), obj).unwrap();
+    std::fs::write(dir.path().join("a.mtl"), "newmtl m\nmap_Kd t.png\n").unwrap();
+    let (w, h) = (3u32, 2u32);
+    let v = |x: u32, y: u32, c: u32| ((x * 70 + y * 40 + c * 25) % 256) as u8;
+    // (image, expected linear RGBA of texel (x, y))
+    type Expect = Box<dyn Fn(u32, u32) -> [f64; 4]>;
+    let s = move |b: u8| eotf(f64::from(b) / 255.0);
+    let cases: Vec<(image::DynamicImage, Expect)> = vec![
+        (
+            image::GrayImage::from_fn(w, h, |x, y| image::Luma([v(x, y, 0)])).into(),
+            Box::new(move |x, y| [s(v(x, y, 0)), s(v(x, y, 0)), s(v(x, y, 0)), 1.0]),
+        ),
+        (
+            image::GrayAlphaImage::from_fn(w, h, |x, y| image::LumaA([v(x, y, 0), v(x, y, 3)])).into(),
+            Box::new(move |x, y| [s(v(x, y, 0)), s(v(x, y, 0)), s(v(x, y, 0)), f64::from(v(x, y, 3)) / 255.0]),
+        ),
+        (
+            image::RgbImage::from_fn(w, h, |x, y| image::Rgb([v(x, y, 0), v(x, y, 1), v(x, y, 2)])).into(),
+            Box::new(move |x, y| [s(v(x, y, 0)), s(v(x, y, 1)), s(v(x, y, 2)), 1.0]),
+        ),
+        (
+            image::RgbaImage::from_fn(w, h, |x, y| image::Rgba([v(x, y, 0), v(x, y, 1), v(x, y, 2), v(x, y, 3)]))
+                .into(),
+            Box::new(move |x, y| [s(v(x, y, 0)), s(v(x, y, 1)), s(v(x, y, 2)), f64::from(v(x, y, 3)) / 255.0]),
+        ),
+        (
+            image::ImageBuffer::<image::Rgb<u16>, _>::from_fn(w, h, |x, y| {
+                image::Rgb([u16::from(v(x, y, 0)) * 257 + 3, u16::from(v(x, y, 1)) * 257, u16::from(v(x, y, 2)) * 257])
+            })
+            .into(),
+            Box::new(move |x, y| {
+                let c = |k: u32, add: f64| eotf((f64::from(v(x, y, k)) * 257.0 + add) / 65535.0);
+                [c(0, 3.0), c(1, 0.0), c(2, 0.0), 1.0]
+            }),
+        ),
+    ];
+    for (i, (img, expect)) in cases.into_iter().enumerate() {
+        img.save(dir.path().join("t.png")).unwrap();
+        let imp = load_mesh(&dir.path().join("a.obj")).unwrap();
+        let t = &imp.mesh.textures[0];
+        assert_eq!((t.width, t.height), (w, h), "case {i}");
+        for y in 0..h {
+            for x in 0..w {
+                let got = t.texels_linear[(y * w + x) as usize];
+                let want = expect(x, y);
+                for c in 0..4 {
+                    assert!(
+                        (f64::from(got[c]) - want[c]).abs() < 1e-6,
+                        "case {i} ({x}, {y}) channel {c}: {got:?} vs {want:?}"
+                    );
+                }
+            }
+        }
+    }
+}
