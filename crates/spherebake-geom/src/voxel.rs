@@ -632,7 +632,6 @@ fn voxelize_cells(bvh: &TriangleBvh, closed: bool, settings: &VoxelSettings, und
     };
 
     // Pass 1, the rows: solid bits where they decide inside, undecided bits where they abstain.
-    const BLOCK_WORDS: usize = 256;
     let mut words = vec![0u64; n.div_ceil(64)];
     let mut open_words = vec![0u64; n.div_ceil(64)];
     words.par_chunks_mut(BLOCK_WORDS).zip(open_words.par_chunks_mut(BLOCK_WORDS)).enumerate().for_each(
@@ -716,32 +715,54 @@ fn voxelize_cells(bvh: &TriangleBvh, closed: bool, settings: &VoxelSettings, und
     #[cfg(test)]
     let by_tree = by_tree || undecided == Undecided::FromSurfaceByTree;
     let surface = (!by_tree).then(|| surface_cells(bvh, &grid));
-    let mut frontier: Vec<u32> = {
-        let (solid, g) = (&grid.solid, &grid);
-        let on_surface = |c: usize| match &surface {
-            Some(s) => s.get(c),
-            None => cell_meets_surface(bvh, g, c),
-        };
-        let seed = |c: usize| on_surface(c) || neighbours_26(c, dims).any(|q| solid.get(q));
-        open.words
-            .par_chunks(BLOCK_WORDS)
-            .enumerate()
-            .flat_map_iter(|(b, open_block)| {
-                block_ones(open_block, b * BLOCK_WORDS).filter(|&c| seed(c)).map(|c| c as u32).collect::<Vec<_>>()
-            })
-            .collect()
+    let g = &grid;
+    let on_surface = |c: usize| match &surface {
+        Some(s) => s.get(c),
+        None => cell_meets_surface(bvh, g, c),
     };
+    let found = flood(&open, &grid.solid, dims, on_surface, evaluate);
+    for c in found {
+        grid.solid.set(c as usize);
+    }
+    grid
+}
+
+/// Words of [`Bits`] per parallel block of the voxelizer's passes (16 384 cells).
+const BLOCK_WORDS: usize = 256;
+
+/// The open soup's flood (module docs): the undecided cells (`open`) found inside, given the
+/// cells the rows made solid (`solid`, disjoint from `open`). Seeds are the undecided cells
+/// `on_surface` or touching (26 neighbours) a solid cell; `evaluate` returns the cells of a
+/// frontier that are inside (its order), and the flood spreads from each to its undecided
+/// neighbours (26). Each undecided cell is evaluated at most once, in frontier order, so the
+/// result does not depend on the thread count. Returns the cells found, in flood order.
+fn flood(
+    open: &Bits,
+    solid: &Bits,
+    dims: [u32; 3],
+    on_surface: impl Fn(usize) -> bool + Sync,
+    evaluate: impl Fn(&[u32]) -> Vec<u32>,
+) -> Vec<u32> {
+    let seed = |c: usize| on_surface(c) || neighbours_26(c, dims).any(|q| solid.get(q));
+    let mut frontier: Vec<u32> = open
+        .words
+        .par_chunks(BLOCK_WORDS)
+        .enumerate()
+        .flat_map_iter(|(b, open_block)| {
+            block_ones(open_block, b * BLOCK_WORDS).filter(|&c| seed(c)).map(|c| c as u32).collect::<Vec<_>>()
+        })
+        .collect();
     // A cell is marked when it joins a frontier, so each is evaluated once and a frontier holds
     // no cell twice.
-    let mut seen = Bits::new(n);
+    let mut seen = Bits::new(open.len);
     for &c in &frontier {
         seen.set(c as usize);
     }
+    let mut all = Vec::new();
     while !frontier.is_empty() {
         let found = evaluate(&frontier);
         let mut next: Vec<u32> = Vec::new();
         for &c in &found {
-            grid.solid.set(c as usize);
             for q in neighbours_26(c as usize, dims) {
                 if open.get(q) && !seen.get(q) {
                     seen.set(q);
@@ -749,9 +770,10 @@ fn voxelize_cells(bvh: &TriangleBvh, closed: bool, settings: &VoxelSettings, und
                 }
             }
         }
+        all.extend(found);
         frontier = next;
     }
-    grid
+    all
 }
 
 /// Whether the closed box of cell `c` (linear index) meets a triangle of `bvh`: the cell is in
@@ -1015,6 +1037,119 @@ mod tests {
 mod flood_tests {
     use super::*;
     use crate::rng::SplitMix64;
+
+    /// The flood alone on random small grids, against a brute-force labelling written apart:
+    /// the inside undecided cells it returns are those of the 26-connected parts of
+    /// (rows-solid ∪ inside undecided) that hold a rows-solid cell or an inside undecided cell
+    /// on the surface; no cell is evaluated twice. The cases include parts that touch the
+    /// rows-solid cells only at an edge or a corner (checked: a labelling that joins undecided
+    /// to rows-solid cells by faces only differs on some), and one such part built by hand.
+    #[test]
+    fn the_flood_keeps_exactly_the_parts_that_reach_a_solid_or_surface_cell() {
+        let coords = |c: usize, d: [u32; 3]| {
+            let (nx, ny) = (d[0] as usize, d[1] as usize);
+            [(c % nx) as i64, (c / nx % ny) as i64, (c / (nx * ny)) as i64]
+        };
+        // Brute force: `rows` rows-solid, `inside` inside undecided cells, `surf` on the surface.
+        // `faces_only`: a rows-solid and an undecided cell are joined only across a face.
+        let reference = |d: [u32; 3], rows: &[bool], inside: &[bool], surf: &[bool], faces_only: bool| {
+            let n = rows.len();
+            let member = |c: usize| rows[c] || inside[c];
+            let mut label = vec![usize::MAX; n];
+            let mut keep = Vec::new();
+            for s in 0..n {
+                if !member(s) || label[s] != usize::MAX {
+                    continue;
+                }
+                let id = keep.len();
+                let (mut stack, mut holds) = (vec![s], false);
+                label[s] = id;
+                while let Some(c) = stack.pop() {
+                    holds |= rows[c] || (inside[c] && surf[c]);
+                    let a = coords(c, d);
+                    for q in 0..n {
+                        let b = coords(q, d);
+                        let diff: Vec<i64> = (0..3).map(|t| (a[t] - b[t]).abs()).collect();
+                        let near = diff.iter().all(|&x| x <= 1) && q != c;
+                        let mixed = rows[c] != rows[q];
+                        let joined = near && (!faces_only || !mixed || diff.iter().sum::<i64>() == 1);
+                        if joined && member(q) && label[q] == usize::MAX {
+                            label[q] = id;
+                            stack.push(q);
+                        }
+                    }
+                }
+                keep.push(holds);
+            }
+            (0..n).filter(|&c| inside[c] && keep[label[c]]).map(|c| c as u32).collect::<Vec<u32>>()
+        };
+        let run = |d: [u32; 3], rows: &[bool], open: &[bool], inside: &[bool], surf: &[bool]| {
+            let n = rows.len();
+            let (mut ob, mut sb) = (Bits::new(n), Bits::new(n));
+            for c in 0..n {
+                if open[c] {
+                    ob.set(c);
+                }
+                if rows[c] {
+                    sb.set(c);
+                }
+            }
+            let evaluated = std::cell::RefCell::new(vec![0u32; n]);
+            let mut got = flood(
+                &ob,
+                &sb,
+                d,
+                |c| surf[c],
+                |cells: &[u32]| {
+                    let mut e = evaluated.borrow_mut();
+                    for &c in cells {
+                        assert!(open[c as usize], "evaluated a decided cell {c}");
+                        e[c as usize] += 1;
+                    }
+                    cells.iter().copied().filter(|&c| inside[c as usize]).collect()
+                },
+            );
+            assert!(evaluated.borrow().iter().all(|&k| k <= 1), "a cell evaluated twice");
+            got.sort_unstable();
+            got
+        };
+        // By hand, on 4 × 3 × 3 cells: a rows-solid cell at (0, 0, 0); inside undecided cells
+        // off the surface at (1, 1, 1), touching it at a corner only (kept), and at (3, 2, 2),
+        // touching no solid cell (dropped).
+        let d = [4, 3, 3];
+        let at = |i: usize, j: usize, k: usize| i + 4 * (j + 3 * k);
+        let (mut rows, mut open, mut inside) = (vec![false; 36], vec![true; 36], vec![false; 36]);
+        rows[at(0, 0, 0)] = true;
+        open[at(0, 0, 0)] = false;
+        inside[at(1, 1, 1)] = true;
+        inside[at(3, 2, 2)] = true;
+        assert_eq!(run(d, &rows, &open, &inside, &[false; 36]), vec![at(1, 1, 1) as u32]);
+        let mut rng = SplitMix64::new(23);
+        let mut diagonal_cases = 0;
+        for case in 0..200 {
+            let d = [3 + rng.below(4) as u32, 3 + rng.below(4) as u32, 2 + rng.below(4) as u32];
+            let n = d.iter().map(|&x| x as usize).product();
+            let (mut rows, mut open, mut inside, mut surf) =
+                (vec![false; n], vec![false; n], vec![false; n], vec![false; n]);
+            for c in 0..n {
+                let u = rng.next_f64();
+                if u < 0.06 {
+                    rows[c] = true;
+                } else if u < 0.5 {
+                    open[c] = true;
+                    inside[c] = rng.next_f64() < 0.45;
+                    surf[c] = rng.next_f64() < 0.05;
+                }
+            }
+            let got = run(d, &rows, &open, &inside, &surf);
+            let want = reference(d, &rows, &inside, &surf, false);
+            assert_eq!(got, want, "case {case}");
+            if reference(d, &rows, &inside, &surf, true) != want {
+                diagonal_cases += 1;
+            }
+        }
+        assert!(diagonal_cases >= 5, "only {diagonal_cases} cases need edge or corner contacts");
+    }
 
     /// Case 0: 20 random triangles across the unit cube; 1: 150 small random cards (two
     /// triangles each); 2: a closed outward octahedron with 10 random triangles around it;
