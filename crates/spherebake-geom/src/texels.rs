@@ -28,7 +28,8 @@ pub fn half_size(w: usize, h: usize) -> (usize, usize) {
 
 /// Texel (`x`, `y`) of the step below a `w`×`h` image read through `get(x, y)`: the mean of
 /// texels (2x, 2y), (2x+1, 2y), (2x, 2y+1), (2x+1, 2y+1), each index clamped to the image
-/// (which matters only for a side of 1), summed in that order as ¼ t per channel.
+/// (which matters only for a side of 1), summed in that order as ¼ t per channel; `get` is
+/// called once per distinct texel.
 #[inline]
 pub fn box_texel<const N: usize>(
     w: usize,
@@ -39,9 +40,21 @@ pub fn box_texel<const N: usize>(
 ) -> [f32; N] {
     let (y0, y1) = ((2 * y).min(h - 1), (2 * y + 1).min(h - 1));
     let (x0, x1) = ((2 * x).min(w - 1), (2 * x + 1).min(w - 1));
+    // Each distinct texel read once: at a side of 1 the clamped reads repeat, and through the
+    // nested reads of `reduce_to_side` repeats would multiply per level (a 1 × 2²⁸ image would
+    // read each source texel 2¹⁶ times).
+    let t00 = get(x0, y0);
+    let t10 = if x1 == x0 { t00 } else { get(x1, y0) };
+    let t01 = if y1 == y0 { t00 } else { get(x0, y1) };
+    let t11 = if x1 == x0 {
+        t01
+    } else if y1 == y0 {
+        t10
+    } else {
+        get(x1, y1)
+    };
     let mut acc = [0.0f32; N];
-    for (xx, yy) in [(x0, y0), (x1, y0), (x0, y1), (x1, y1)] {
-        let t = get(xx, yy);
+    for t in [t00, t10, t01, t11] {
         for (a, v) in acc.iter_mut().zip(t) {
             *a += 0.25 * v;
         }
@@ -70,8 +83,9 @@ pub fn halve<const N: usize>(w: usize, h: usize, src: &[[f32; N]]) -> (usize, us
 /// needed, the texels are `get`'s own.
 ///
 /// Bit-identical to the steps done one by one, without their intermediate images: each output
-/// texel averages its 2ᵈ × 2ᵈ source block through the same nested sums. Time O(w h) (each
-/// source texel is read once, or a few times at a clamped side of 1), memory the output only.
+/// texel averages its 2ᵈ × 2ᵈ source block through the same nested sums. Time O(w h): each
+/// source texel is read at most once (a side of 1 is read once per output texel, not once per
+/// clamped repeat, see [`box_texel`]). Memory: the output only.
 pub fn reduce_to_side<const N: usize>(
     w: usize,
     h: usize,
@@ -165,6 +179,25 @@ mod tests {
             // Bit for bit, and not trivially: at least one step was taken where one was due.
             assert_eq!(got, cur, "{w}×{h} to {side}");
             assert_eq!(steps == 0, w <= side && h <= side);
+        }
+    }
+
+    #[test]
+    fn a_thin_image_is_read_once_per_texel() {
+        // 1 × 65 536 to side 16: twelve steps; each step's side of 1 is clamped, and nested
+        // repeats would read each source texel 2¹² times.
+        use std::sync::atomic::{AtomicUsize, Ordering};
+        let (w, h) = (1usize, 1usize << 16);
+        let reads = AtomicUsize::new(0);
+        let (rw, rh, got) = reduce_to_side(w, h, 16, |_, y| {
+            reads.fetch_add(1, Ordering::Relaxed);
+            [y as f32]
+        });
+        assert_eq!((rw, rh), (1, 16));
+        assert_eq!(reads.load(Ordering::Relaxed), h);
+        // The mean of 4096 consecutive indices: 4096 y + 2047.5 (exact in f32 sums of ¼ steps).
+        for (y, t) in got.iter().enumerate() {
+            assert_eq!(t[0], (4096 * y) as f32 + 2047.5);
         }
     }
 
