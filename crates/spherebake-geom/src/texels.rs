@@ -12,9 +12,9 @@
 use rayon::prelude::*;
 
 /// Largest side, texels, of a texture as the importers hand it to the bake. Larger images are
-/// box-filtered down at decode, so their memory is that of a 4096² texture (256 MiB of linear
-/// RGBA f32, plus its mip chain) whatever the source, and the chain costs what it does for
-/// one. The albedo bake reads a texture through the footprint of a cube-map texel and projects
+/// box-filtered down at decode, so once decoded their memory is that of a 4096² texture
+/// (256 MiB of linear RGBA f32, plus its mip chain) whatever the source, and the chain costs
+/// what it does for one. The albedo bake reads a texture through the footprint of a cube-map texel and projects
 /// the colours onto low-order SH, so it barely sees the difference: spot's texture upscaled to
 /// 8192² bakes to the same bits at 64 spheres (every read is a level of 4096 or coarser) and
 /// within 6·10⁻⁴ of coefficients up to 3.5 at 1024 spheres (`docs/benchmarks.md`).
@@ -179,6 +179,50 @@ mod tests {
             // Bit for bit, and not trivially: at least one step was taken where one was due.
             assert_eq!(got, cur, "{w}×{h} to {side}");
             assert_eq!(steps == 0, w <= side && h <= side);
+        }
+    }
+
+    /// The albedo bake's mip step as it was written before this module (`MipChain::new`),
+    /// kept here verbatim as the reference the files' bits depend on: another order of the four
+    /// terms (say the two of a column first) would change baked files. (Scaling the sum by ¼
+    /// instead of each term would not: a power of two rounds the same either way.)
+    fn legacy_step(w: usize, h: usize, src: &[[f32; 3]]) -> Vec<[f32; 3]> {
+        let (nw, nh) = ((w / 2).max(1), (h / 2).max(1));
+        let mut dst = Vec::with_capacity(nw * nh);
+        for y in 0..nh {
+            let (y0, y1) = ((2 * y).min(h - 1), (2 * y + 1).min(h - 1));
+            for x in 0..nw {
+                let (x0, x1) = ((2 * x).min(w - 1), (2 * x + 1).min(w - 1));
+                let mut acc = [0.0f32; 3];
+                for &(xx, yy) in &[(x0, y0), (x1, y0), (x0, y1), (x1, y1)] {
+                    let t = src[yy * w + xx];
+                    for c in 0..3 {
+                        acc[c] += 0.25 * t[c];
+                    }
+                }
+                dst.push(acc);
+            }
+        }
+        dst
+    }
+
+    #[test]
+    fn the_steps_give_the_bits_of_the_earlier_mip_chain() {
+        let mut rng = SplitMix64::new(9);
+        for (w, h) in [(37, 20), (64, 64), (1, 9), (9, 1), (1, 1), (6, 3)] {
+            let src: Vec<[f32; 3]> =
+                (0..w * h).map(|_| [rng.next_f64() as f32, rng.next_f64() as f32 * 3.0, 1e-3]).collect();
+            let (mut cw, mut ch, mut want) = (w, h, src.clone());
+            while cw > 1 || ch > 1 {
+                want = legacy_step(cw, ch, &want);
+                (cw, ch) = ((cw / 2).max(1), (ch / 2).max(1));
+                let (rw, rh, got) = reduce_to_side(w, h, cw.max(ch), |x, y| src[y * w + x]);
+                assert_eq!((rw, rh), (cw, ch));
+                assert!(
+                    got.iter().zip(&want).all(|(a, b)| a.map(f32::to_bits) == b.map(f32::to_bits)),
+                    "{w}×{h} at {cw}×{ch}"
+                );
+            }
         }
     }
 

@@ -721,8 +721,8 @@ fn voxelize_cells(bvh: &TriangleBvh, closed: bool, settings: &VoxelSettings, und
         None => cell_meets_surface(bvh, g, c),
     };
     let found = flood(&open, &grid.solid, dims, on_surface, evaluate);
-    for c in found {
-        grid.solid.set(c as usize);
+    for (s, f) in grid.solid.words.iter_mut().zip(&found.words) {
+        *s |= f;
     }
     grid
 }
@@ -735,14 +735,14 @@ const BLOCK_WORDS: usize = 256;
 /// `on_surface` or touching (26 neighbours) a solid cell; `evaluate` returns the cells of a
 /// frontier that are inside (its order), and the flood spreads from each to its undecided
 /// neighbours (26). Each undecided cell is evaluated at most once, in frontier order, so the
-/// result does not depend on the thread count. Returns the cells found, in flood order.
+/// result does not depend on the thread count. Returns the cells found (one bit per cell).
 fn flood(
     open: &Bits,
     solid: &Bits,
     dims: [u32; 3],
     on_surface: impl Fn(usize) -> bool + Sync,
     evaluate: impl Fn(&[u32]) -> Vec<u32>,
-) -> Vec<u32> {
+) -> Bits {
     let seed = |c: usize| on_surface(c) || neighbours_26(c, dims).any(|q| solid.get(q));
     let mut frontier: Vec<u32> = open
         .words
@@ -758,7 +758,7 @@ fn flood(
     for &c in &frontier {
         seen.set(c as usize);
     }
-    let mut all = Vec::new();
+    let mut all = Bits::new(open.len);
     while !frontier.is_empty() {
         let found = evaluate(&frontier);
         let mut next: Vec<u32> = Vec::new();
@@ -770,7 +770,9 @@ fn flood(
                 }
             }
         }
-        all.extend(found);
+        for &c in &found {
+            all.set(c as usize);
+        }
         frontier = next;
     }
     all
@@ -1095,7 +1097,7 @@ mod flood_tests {
                 }
             }
             let evaluated = std::cell::RefCell::new(vec![0u32; n]);
-            let mut got = flood(
+            let found = flood(
                 &ob,
                 &sb,
                 d,
@@ -1110,7 +1112,7 @@ mod flood_tests {
                 },
             );
             assert!(evaluated.borrow().iter().all(|&k| k <= 1), "a cell evaluated twice");
-            got.sort_unstable();
+            let got: Vec<u32> = (0..n).filter(|&c| found.get(c)).map(|c| c as u32).collect();
             got
         };
         // By hand, on 4 × 3 × 3 cells: a rows-solid cell at (0, 0, 0); inside undecided cells

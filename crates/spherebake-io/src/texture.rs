@@ -10,10 +10,13 @@ pub fn srgb_to_linear(c: f32) -> f32 {
     l as f32
 }
 
-/// Most bytes the image decoder may allocate for one texture: a 16 384² RGBA8 image (1 GiB)
-/// and room for its decoder's own buffers. A larger image is refused by the decoder (the
-/// importers then warn and use the base colour factor), so a small file that inflates to a
-/// huge image cannot exhaust memory. The image crate's own default is 512 MiB (8 192² RGBA8).
+/// Most bytes the decoded image of one texture may take (the image crate's `max_alloc`): a
+/// 16 384² RGBA8 image (1 GiB) and room for the PNG decoder's own buffers. A larger image is
+/// refused before it is inflated (the importers then warn and use the base colour factor), so
+/// a small file that would inflate to a huge image cannot exhaust memory. The JPEG decoder
+/// counts only its output against it: a progressive JPEG also holds its coefficients (i16,
+/// about twice the output at 4:4:4) uncounted. The image crate's own default is 512 MiB
+/// (8 192² RGBA8).
 pub const MAX_DECODE_BYTES: u64 = (1 << 30) + (256 << 20);
 
 /// A decoded texture, and the size of the source image when it was larger than
@@ -36,10 +39,11 @@ impl Decoded {
 }
 
 /// Decodes an encoded PNG / JPEG image. Colour channels are treated as sRGB and converted to
-/// linear; alpha is kept as is (linear). Row 0 is the top row. The decoder may allocate at
+/// linear; alpha is kept as is (linear). Row 0 is the top row. The decoded image may take at
 /// most [`MAX_DECODE_BYTES`]; an image with a side over [`MAX_TEXTURE_SIDE`] is box-filtered
-/// down ([`texels::reduce_to_side`], in linear values) as it is converted, so the linear
-/// texture never exists at full size: peak memory is the decoded 8-bit image plus the result.
+/// down ([`texels::reduce_to_side`], in linear values) as it is read, so no converted copy
+/// exists at full size: peak memory is the decoded image (in its own layout, 8- or 16-bit or
+/// float) plus the result, and for a progressive JPEG its decoder's coefficient buffers.
 pub(crate) fn decode_srgb_texture(name: String, bytes: &[u8]) -> Result<Decoded, String> {
     let mut reader =
         image::ImageReader::new(std::io::Cursor::new(bytes)).with_guessed_format().map_err(|e| e.to_string())?;
@@ -50,64 +54,57 @@ pub(crate) fn decode_srgb_texture(name: String, bytes: &[u8]) -> Result<Decoded,
     let (width, height) = (img.width(), img.height());
     let (w, h) = (width as usize, height as usize);
     let lut: Vec<f32> = (0..256).map(|i| srgb_to_linear(i as f32 / 255.0)).collect();
-    let rgba8 = |p: [u8; 4]| [lut[p[0] as usize], lut[p[1] as usize], lut[p[2] as usize], f32::from(p[3]) / 255.0];
-    // Generic, not `dyn`: one call per source texel.
-    fn reduce(w: usize, h: usize, get: impl Fn(usize, usize) -> LinearRgba + Sync) -> (usize, usize, Vec<LinearRgba>) {
-        texels::reduce_to_side(w, h, MAX_TEXTURE_SIDE, get)
-    }
+    // Colour channels through the sRGB EOTF (8-bit by table), alpha as stored; u16 and u8 as
+    // the image crate normalises them (v / 65535, v / 255). Read in place, no converted copy.
+    let u8c = |v: u8| lut[v as usize];
+    let u8a = |v: u8| f32::from(v) / 255.0;
+    let u16c = |v: u16| srgb_to_linear(f32::from(v) / 65535.0);
+    let u16a = |v: u16| f32::from(v) / 65535.0;
     let (tw, th, texels_linear) = match &img {
-        image::DynamicImage::ImageRgba8(b) => {
-            let raw = b.as_raw();
-            reduce(w, h, |x, y| {
-                let i = 4 * (y * w + x);
-                rgba8([raw[i], raw[i + 1], raw[i + 2], raw[i + 3]])
-            })
-        }
-        image::DynamicImage::ImageRgb8(b) => {
-            let raw = b.as_raw();
-            reduce(w, h, |x, y| {
-                let i = 3 * (y * w + x);
-                rgba8([raw[i], raw[i + 1], raw[i + 2], 255])
-            })
-        }
-        image::DynamicImage::ImageLuma8(b) => {
-            let raw = b.as_raw();
-            reduce(w, h, |x, y| {
-                let l = raw[y * w + x];
-                rgba8([l, l, l, 255])
-            })
-        }
-        image::DynamicImage::ImageLumaA8(b) => {
-            let raw = b.as_raw();
-            reduce(w, h, |x, y| {
-                let i = 2 * (y * w + x);
-                rgba8([raw[i], raw[i], raw[i], raw[i + 1]])
-            })
-        }
-        image::DynamicImage::ImageLuma16(_)
-        | image::DynamicImage::ImageLumaA16(_)
-        | image::DynamicImage::ImageRgb16(_)
-        | image::DynamicImage::ImageRgba16(_)
-        | image::DynamicImage::ImageRgb32F(_)
-        | image::DynamicImage::ImageRgba32F(_) => {
-            let f = img.to_rgba32f();
-            let raw = f.as_raw();
-            reduce(w, h, |x, y| {
-                let i = 4 * (y * w + x);
-                [srgb_to_linear(raw[i]), srgb_to_linear(raw[i + 1]), srgb_to_linear(raw[i + 2]), raw[i + 3]]
-            })
-        }
-        _ => {
-            let b = img.to_rgba8();
-            let raw = b.as_raw();
-            reduce(w, h, |x, y| {
-                let i = 4 * (y * w + x);
-                rgba8([raw[i], raw[i + 1], raw[i + 2], raw[i + 3]])
-            })
-        }
+        image::DynamicImage::ImageLuma8(b) => layout(b.as_raw(), w, h, 1, u8c, u8a),
+        image::DynamicImage::ImageLumaA8(b) => layout(b.as_raw(), w, h, 2, u8c, u8a),
+        image::DynamicImage::ImageRgb8(b) => layout(b.as_raw(), w, h, 3, u8c, u8a),
+        image::DynamicImage::ImageRgba8(b) => layout(b.as_raw(), w, h, 4, u8c, u8a),
+        image::DynamicImage::ImageLuma16(b) => layout(b.as_raw(), w, h, 1, u16c, u16a),
+        image::DynamicImage::ImageLumaA16(b) => layout(b.as_raw(), w, h, 2, u16c, u16a),
+        image::DynamicImage::ImageRgb16(b) => layout(b.as_raw(), w, h, 3, u16c, u16a),
+        image::DynamicImage::ImageRgba16(b) => layout(b.as_raw(), w, h, 4, u16c, u16a),
+        image::DynamicImage::ImageRgb32F(b) => layout(b.as_raw(), w, h, 3, srgb_to_linear, |v| v),
+        image::DynamicImage::ImageRgba32F(b) => layout(b.as_raw(), w, h, 4, srgb_to_linear, |v| v),
+        // A layout this version of the image crate does not have.
+        _ => layout(img.to_rgba8().as_raw(), w, h, 4, u8c, u8a),
     };
     let reduced_from = (tw != w || th != h).then_some((width, height));
     Ok(Decoded { texture: Texture { name, width: tw as u32, height: th as u32, texels_linear }, reduced_from })
+}
+
+/// A `w`×`h` image of `channels` interleaved channels (1 grey, 2 grey + alpha, 3 RGB, 4 RGBA;
+/// a missing alpha is 1) as linear RGBA, colour channels through `colour` and alpha through
+/// `alpha`, reduced to at most [`MAX_TEXTURE_SIDE`] a side ([`texels::reduce_to_side`]).
+fn layout<T: Copy + Sync>(
+    raw: &[T],
+    w: usize,
+    h: usize,
+    channels: usize,
+    colour: impl Fn(T) -> f32 + Sync,
+    alpha: impl Fn(T) -> f32 + Sync,
+) -> (usize, usize, Vec<LinearRgba>) {
+    texels::reduce_to_side(w, h, MAX_TEXTURE_SIDE, |x, y| {
+        let p = &raw[channels * (y * w + x)..][..channels];
+        match *p {
+            [l] => {
+                let l = colour(l);
+                [l, l, l, 1.0]
+            }
+            [l, a] => {
+                let l = colour(l);
+                [l, l, l, alpha(a)]
+            }
+            [r, g, b] => [colour(r), colour(g), colour(b), 1.0],
+            [r, g, b, a, ..] => [colour(r), colour(g), colour(b), alpha(a)],
+            [] => [0.0; 4],
+        }
+    })
 }
 
 #[cfg(test)]

@@ -607,7 +607,7 @@ fn large_textures_are_reduced_at_decode_and_oversized_ones_refused() {
     assert!(!admitted.contains("limit"), "{admitted}");
 }
 
-/// Each 8-bit layout (grey, grey + alpha, RGB, RGBA) and a 16-bit one decode to the sRGB
+/// Each 8- and 16-bit layout (grey, grey + alpha, RGB, RGBA) decodes to the sRGB
 /// EOTF of their values per channel (grey to all three), alpha as stored.
 #[test]
 fn every_pixel_layout_decodes_to_linear_rgba() {
@@ -647,6 +647,39 @@ fn every_pixel_layout_decodes_to_linear_rgba() {
             Box::new(move |x, y| {
                 let c = |k: u32, add: f64| eotf((f64::from(v(x, y, k)) * 257.0 + add) / 65535.0);
                 [c(0, 3.0), c(1, 0.0), c(2, 0.0), 1.0]
+            }),
+        ),
+        (
+            image::ImageBuffer::<image::Luma<u16>, _>::from_fn(w, h, |x, y| image::Luma([u16::from(v(x, y, 0)) * 255]))
+                .into(),
+            Box::new(move |x, y| {
+                let l = eotf(f64::from(v(x, y, 0)) * 255.0 / 65535.0);
+                [l, l, l, 1.0]
+            }),
+        ),
+        (
+            image::ImageBuffer::<image::LumaA<u16>, _>::from_fn(w, h, |x, y| {
+                image::LumaA([u16::from(v(x, y, 0)) * 200, u16::from(v(x, y, 3)) * 256])
+            })
+            .into(),
+            Box::new(move |x, y| {
+                let l = eotf(f64::from(v(x, y, 0)) * 200.0 / 65535.0);
+                [l, l, l, f64::from(v(x, y, 3)) * 256.0 / 65535.0]
+            }),
+        ),
+        (
+            image::ImageBuffer::<image::Rgba<u16>, _>::from_fn(w, h, |x, y| {
+                image::Rgba([
+                    u16::from(v(x, y, 0)) * 256,
+                    u16::from(v(x, y, 1)) * 100,
+                    u16::from(v(x, y, 2)) * 257,
+                    u16::from(v(x, y, 3)) * 150,
+                ])
+            })
+            .into(),
+            Box::new(move |x, y| {
+                let c = |k: u32, m: f64| f64::from(v(x, y, k)) * m / 65535.0;
+                [eotf(c(0, 256.0)), eotf(c(1, 100.0)), eotf(c(2, 257.0)), c(3, 150.0)]
             }),
         ),
     ];
