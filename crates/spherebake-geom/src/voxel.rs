@@ -763,15 +763,13 @@ fn flood(
         let found = evaluate(&frontier);
         let mut next: Vec<u32> = Vec::new();
         for &c in &found {
+            all.set(c as usize);
             for q in neighbours_26(c as usize, dims) {
                 if open.get(q) && !seen.get(q) {
                     seen.set(q);
                     next.push(q as u32);
                 }
             }
-        }
-        for &c in &found {
-            all.set(c as usize);
         }
         frontier = next;
     }
