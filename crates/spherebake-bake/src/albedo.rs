@@ -46,8 +46,8 @@
 //!    with the material's UV set, KHR_texture_transform and wrap modes, trilinearly from a box-
 //!    filtered mip chain (`spherebake_geom::texels`; its base at most 4096 texels a side, as
 //!    the importers reduce larger textures); the level is log2 of the texel footprint's side in
-//!    texture texels: footprint = Ω_nominal · t² / |n·ω| (world area) × UV area per world area of the triangle
-//!    × texture size, Ω_nominal = (2/N)²/(1+u²+v²)^{3/2} (see [`TextureLod`]).
+//!    texture texels: footprint = Ω_nominal · t² / |n·ω| (world area) × UV area per world area
+//!    of the triangle × texture size, Ω_nominal = (2/N)²/(1+u²+v²)^{3/2} (see [`TextureLod`]).
 //! 4. **Projection** onto real orthonormal SH with the Condon–Shortley phase, index
 //!    i = l(l+1)+m (math reference §1), with exact texel solid angles (§4):
 //!    f_i = (4π/Σw) Σ_t w_t f(d_t) y_i(d_t).
