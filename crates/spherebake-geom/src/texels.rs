@@ -16,9 +16,9 @@ use rayon::prelude::*;
 /// (256 MiB of linear RGBA f32, plus its mip chain) whatever the source, and the chain costs
 /// what it does for one. The albedo bake reads a texture through the footprint of a cube-map
 /// texel and projects the colours onto low-order SH, so it barely sees the difference: spot's
-/// texture upscaled to 8192² bakes to the same bits at 64 spheres (every read is a level of
-/// 4096 or coarser) and within 6·10⁻⁴ of coefficients up to 3.5 at 1024 spheres
-/// (`docs/benchmarks.md`).
+/// texture upscaled to 8192² bakes to the same bits at 64 spheres (a cube-map texel's median
+/// footprint is about 10 texels at 8192) and within 6·10⁻⁴ of coefficients up to 3.5 at 1024
+/// spheres (`docs/benchmarks.md`).
 pub const MAX_TEXTURE_SIDE: usize = 4096;
 
 /// The size of one 2×2 → 1 step below a `w`×`h` image: each side halved (rounded down; an odd
