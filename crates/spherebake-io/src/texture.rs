@@ -50,7 +50,21 @@ pub(crate) fn decode_srgb_texture(name: String, bytes: &[u8]) -> Result<Decoded,
     let mut limits = image::Limits::default();
     limits.max_alloc = Some(MAX_DECODE_BYTES);
     reader.limits(limits);
-    let img = reader.decode().map_err(|e| e.to_string())?;
+    let img = reader.decode().map_err(|e| match e {
+        // Say which image and which cap, not only the image crate's "Memory limit exceeded".
+        image::ImageError::Limits(_) => {
+            let size = image::ImageReader::new(std::io::Cursor::new(bytes))
+                .with_guessed_format()
+                .ok()
+                .and_then(|r| r.into_dimensions().ok())
+                .map_or_else(String::new, |(w, h)| format!("its {w}×{h} pixels "));
+            format!(
+                "decoded, {size}would take more than the {:.2} GiB a texture may (memory limit exceeded)",
+                MAX_DECODE_BYTES as f64 / f64::from(1u32 << 30)
+            )
+        }
+        e => e.to_string(),
+    })?;
     let (width, height) = (img.width(), img.height());
     let (w, h) = (width as usize, height as usize);
     let lut: Vec<f32> = (0..256).map(|i| srgb_to_linear(i as f32 / 255.0)).collect();
