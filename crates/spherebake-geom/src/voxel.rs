@@ -26,8 +26,9 @@
 //! **Cells the surface passes through are not solid for that reason**: a cell is solid exactly
 //! when its centre is inside (for an open soup, a cell the rows leave undecided also needs
 //! its part of the solid to reach the surface: see "Which undecided cells are evaluated"
-//! below; a cell the rows decide is solid by its centre alone). The centre rule samples the definition without bias: where the
-//! surface cuts a cell, the part of the cell inside and the part outside trade places, and the
+//! below; a cell the rows decide is solid by its centre alone). The centre rule samples the
+//! definition without bias: where the surface cuts a cell, the part of the cell inside and the
+//! part outside trade places, and the
 //! solid volume converges to V(T) with errors of both signs that largely cancel (the closed
 //! armadillo at 128 cells: +0.02 % of its exact volume, while the cells the surface cuts hold
 //! 28 % of it; `tests/voxel_models.rs`). Counting every cut cell as solid instead adds about
@@ -69,8 +70,7 @@
 //! harmonic, and on a connected part of {|w| ≥ ½} w has one sign, so |w| = ±w is harmonic
 //! there too; by the maximum principle every such part has a triangle in its closure (a part
 //! without one would have |w| = ½ on its boundary and more inside, or reach infinity, where
-//! w → 0). On
-//! the grid a part is dropped only when its cells reach the surface through a neck thinner
+//! w → 0). On the grid a part is dropped only when its cells reach the surface through a neck thinner
 //! than a cell: 50 large random triangles at 128 cells lost 17 of 717 000 solid cells (w from
 //! −0.500 to −0.511); none of the shared models lost any (same files). So for an open soup
 //! the solid is the 26-connected parts of the cells whose centre is inside that hold a cell
@@ -89,9 +89,9 @@
 //! res 128: 0.3 % of the cells), and for an open soup's flood its surface cells (listed, at
 //! O(cells each triangle meets), or one tree query per undecided cell, whichever is fewer).
 //! Memory: 2 bits per cell (solid, undecided; 256 MB at 1024³) plus, while the rows are built,
-//! ~45 bytes per crossing and 9 per row, and during an open soup's flood 1–2 bits per cell
-//! (cells queued, surface cells when listed, which also take 4 bytes per cell a triangle meets
-//! while they are found) and 4 bytes per cell of the current frontier (each cell joins one
+//! ~45 bytes per crossing and 9 per row, and during an open soup's flood 2–3 bits per cell
+//! (cells queued, cells found, surface cells when listed, which also take 4 bytes per cell a
+//! triangle meets while they are found) and 4 bytes per cell of the current frontier (each cell joins one
 //! frontier at most). Parallel (rayon) over triangles, over blocks of cells and over each
 //! frontier; every cell's result depends only on shared read-only data, the crossings are
 //! sorted by value and the frontiers are built in one order, so the output is identical for
