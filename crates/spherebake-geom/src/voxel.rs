@@ -28,8 +28,7 @@
 //! its part of the solid to reach the surface: see "Which undecided cells are evaluated"
 //! below; a cell the rows decide is solid by its centre alone). The centre rule samples the
 //! definition without bias: where the surface cuts a cell, the part of the cell inside and the
-//! part outside trade places, and the
-//! solid volume converges to V(T) with errors of both signs that largely cancel (the closed
+//! part outside trade places, and the solid volume converges to V(T) with errors of both signs that largely cancel (the closed
 //! armadillo at 128 cells: +0.02 % of its exact volume, while the cells the surface cuts hold
 //! 28 % of it; `tests/voxel_models.rs`). Counting every cut cell as solid instead adds about
 //! half of that layer over the whole surface (the armadillo: +14.5 %), which would shrink E of open meshes for no better fit and bias the fit's
