@@ -23,19 +23,19 @@
 //!   the bake hands the fit the outward-oriented triangles);
 //! - **open sheets** (a single plane) enclose nothing: the solid is empty.
 //!
-//! **Cells the surface passes through are not solid for that reason**: a cell is solid exactly
-//! when its centre is inside (for an open soup, a cell the rows leave undecided also needs
-//! its part of the solid to reach the surface: see "Which undecided cells are evaluated"
-//! below; a cell the rows decide is solid by its centre alone). The centre rule samples the
-//! definition without bias: where the surface cuts a cell, the part of the cell inside and the
-//! part outside trade places, and the solid volume converges to V(T) with errors of both signs that largely cancel (the closed
-//! armadillo at 128 cells: +0.02 % of its exact volume, while the cells the surface cuts hold
-//! 28 % of it; `tests/voxel_models.rs`). Counting every cut cell as solid instead adds about
-//! half of that layer over the whole surface (the armadillo: +14.5 %), which would shrink E of open meshes for no better fit and bias the fit's
-//! energy outward on every mesh. The surface itself is bounded by the fit's rule 1 (every
-//! triangle inside a sphere), not through the solid. A soup that encloses nothing has an empty
-//! solid; a caller that still needs one (the fit, for sheets) takes [`surface_cells`], the
-//! layer of cells whose closed box meets a triangle.
+//! **Cells the surface passes through are not solid for that reason**: a cell is solid exactly when
+//! its centre is inside (for an open soup, a cell the rows leave undecided also needs its part of
+//! the solid to reach the surface: see "Which undecided cells are evaluated" below; a cell the rows
+//! decide is solid by its centre alone). The centre rule samples the definition without bias: where
+//! the surface cuts a cell, the part of the cell inside and the part outside trade places, and the
+//! solid volume converges to V(T) with errors of both signs that largely cancel (the closed
+//! armadillo at 128 cells: +0.02 % of its exact volume, while the cells the surface cuts hold 28 %
+//! of it; `tests/voxel_models.rs`). Counting every cut cell as solid instead adds about half of
+//! that layer over the whole surface (the armadillo: +14.5 %), which would shrink E of open meshes
+//! for no better fit and bias the fit's energy outward on every mesh. The surface itself is bounded
+//! by the fit's rule 1 (every triangle inside a sphere), not through the solid. A soup that
+//! encloses nothing has an empty solid; a caller that still needs one (the fit, for sheets) takes
+//! [`surface_cells`], the layer of cells whose closed box meets a triangle.
 //!
 //! **Grid.** Cubic cells of edge h = (longest bounding-box extent) / resolution; the origin is
 //! lo − 1.0137 h (the irregular offset keeps axis-aligned input faces off the cell-centre
@@ -60,41 +60,39 @@
 //!   generalized winding number at the centre decides ([`crate::winding`], built only when a
 //!   cell is left undecided, so a closed mesh without grazing rows never builds it).
 //!
-//! **Which undecided cells are evaluated.** A closed soup's undecided cells are the few on
-//! grazing rows: every one is. An open soup's can be nearly all of them (every row through a
-//! sheet abstains), so only the undecided cells a flood reaches are evaluated and the rest are
-//! outside: it starts at the undecided cells the surface passes through ([`surface_cells`]) or
-//! that touch (26 neighbours) a cell the rows made solid, and spreads from each cell found
-//! inside to its undecided neighbours. Exact in the continuum: away from the triangles w is
-//! harmonic, and on a connected part of {|w| ≥ ½} w has one sign, so |w| = ±w is harmonic
-//! there too; by the maximum principle every such part has a triangle in its closure (a part
-//! without one would have |w| = ½ on its boundary and more inside, or reach infinity, where
-//! w → 0). On the grid a part is dropped only when its cells reach the surface through a neck thinner
-//! than a cell: 50 large random triangles at 128 cells lost 17 of 717 000 solid cells (w from
-//! −0.500 to −0.511); none of the shared models lost any (same files). So for an open soup
-//! the solid is the 26-connected parts of the cells whose centre is inside that hold a cell
-//! the surface passes through or one the rows decided (`flood_tests` checks this against a
-//! brute-force labelling). The seeds' surface test is [`surface_cells`] when there are at
-//! least as many undecided cells as triangles, else a tree query per undecided cell (a large
-//! mesh with a few big holes: the bunny subdivided to 1.1 M triangles with its top fifth cut
-//! off voxelizes in 0.9 s as before, where listing all its surface cells cost 1.4 s). Cost:
-//! a bush of 1 000 random cards (2 000 triangles) evaluates 593 000 of its 1.65 M undecided
-//! cells, 16–17 → 7–7.6 s on one thread; where the surface and the solid fill the grid (10 000
-//! denser cards, large random triangles) it saves little.
+//! **Which undecided cells are evaluated.** A closed soup's undecided cells are the few on grazing
+//! rows: every one is. An open soup's can be nearly all of them (every row through a sheet
+//! abstains), so only the undecided cells a flood reaches are evaluated and the rest are outside:
+//! it starts at the undecided cells the surface passes through ([`surface_cells`]) or that touch
+//! (26 neighbours) a cell the rows made solid, and spreads from each cell found inside to its
+//! undecided neighbours. Exact in the continuum: away from the triangles w is harmonic, and on a
+//! connected part of {|w| ≥ ½} w has one sign, so |w| = ±w is harmonic there too; by the maximum
+//! principle every such part has a triangle in its closure (a part without one would have |w| = ½
+//! on its boundary and more inside, or reach infinity, where w → 0). On the grid a part is dropped
+//! only when its cells reach the surface through a neck thinner than a cell: 50 large random
+//! triangles at 128 cells lost 17 of 717 000 solid cells (w from −0.500 to −0.511); none of the
+//! shared models lost any (same files). So for an open soup the solid is the 26-connected parts of
+//! the cells whose centre is inside that hold a cell the surface passes through or one the rows
+//! decided (`flood_tests` checks this against a brute-force labelling). The seeds' surface test is
+//! [`surface_cells`] when there are at least as many undecided cells as triangles, else a tree
+//! query per undecided cell (a large mesh with a few big holes: the bunny subdivided to 1.1 M
+//! triangles with its top fifth cut off voxelizes in 0.9 s as before, where listing all its surface
+//! cells cost 1.4 s). Cost: a bush of 1 000 random cards (2 000 triangles) evaluates 593 000 of its
+//! 1.65 M undecided cells, 16–17 → 7–7.6 s on one thread; where the surface and the solid fill the
+//! grid (10 000 denser cards, large random triangles) it saves little.
 //!
-//! Cost model (T triangles, n cells per axis, N = n³ cells): O(T + crossings) per axis of rows;
-//! N votes (one incremental walk per x row, two binary searches per cell for open soups); the
-//! winding expansions O(T log T) plus O(log T)-ish per evaluated undecided cell (bunny, open,
-//! res 128: 0.3 % of the cells), and for an open soup's flood its surface cells (listed, at
-//! O(cells each triangle meets), or one tree query per undecided cell, whichever is fewer).
-//! Memory: 2 bits per cell (solid, undecided; 256 MB at 1024³) plus, while the rows are built,
-//! ~45 bytes per crossing and 9 per row, and during an open soup's flood 2–3 bits per cell
-//! (cells queued, cells found, surface cells when listed, which also take 4 bytes per cell a
-//! triangle meets while they are found) and 4 bytes per cell of the current frontier (each cell joins one
-//! frontier at most). Parallel (rayon) over triangles, over blocks of cells and over each
-//! frontier; every cell's result depends only on shared read-only data, the crossings are
-//! sorted by value and the frontiers are built in one order, so the output is identical for
-//! any thread count.
+//! Cost model (T triangles, n cells per axis, N = n³ cells): O(T + crossings) per axis of rows; N
+//! votes (one incremental walk per x row, two binary searches per cell for open soups); the winding
+//! expansions O(T log T) plus O(log T)-ish per evaluated undecided cell (bunny, open, res 128: 0.3
+//! % of the cells), and for an open soup's flood its surface cells (listed, at O(cells each
+//! triangle meets), or one tree query per undecided cell, whichever is fewer). Memory: 2 bits per
+//! cell (solid, undecided; 256 MB at 1024³) plus, while the rows are built, ~45 bytes per crossing
+//! and 9 per row, and during an open soup's flood 2–3 bits per cell (cells queued, cells found,
+//! surface cells when listed, which also take 4 bytes per cell a triangle meets while they are
+//! found) and 4 bytes per cell of the current frontier (each cell joins one frontier at most).
+//! Parallel (rayon) over triangles, over blocks of cells and over each frontier; every cell's
+//! result depends only on shared read-only data, the crossings are sorted by value and the
+//! frontiers are built in one order, so the output is identical for any thread count.
 
 use crate::bvh::{RayPre, TriangleBvh};
 use crate::triangle::cover_samples;
