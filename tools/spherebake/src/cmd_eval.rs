@@ -10,12 +10,12 @@ use std::process::ExitCode;
 pub struct EvalArgs {
     /// The baked file
     pub file: PathBuf,
-    /// The model it was baked from (.gltf, .glb, .obj)
-    pub model: PathBuf,
-    /// Voxel cells along the longest axis, for the solid of open meshes and the union estimate [default: 128, range 16..=1024]
+    #[command(flatten)]
+    pub model: crate::cmd_view::ModelArg,
+    /// Voxel cells along the longest axis, for the solid of open meshes and the union estimate [range 16..=1024]
     #[arg(long, default_value_t = 128)]
     pub voxels: u32,
-    /// Random surface points tested for coverage [default: 1000000]
+    /// Random surface points tested for coverage
     #[arg(long, default_value_t = 1_000_000)]
     pub surface_samples: usize,
     /// Print one JSON document instead of text

@@ -47,9 +47,8 @@ use std::time::Instant;
 pub struct LightArgs {
     /// The baked file
     pub file: PathBuf,
-    /// The model it was baked from (.gltf, .glb, .obj)
-    #[arg(long)]
-    pub model: PathBuf,
+    #[command(flatten)]
+    pub model: crate::cmd_view::ModelArg,
     /// Lighting environment
     #[arg(long, value_enum, default_value_t = LightArg::Uniform)]
     pub light: LightArg,

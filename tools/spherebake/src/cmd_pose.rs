@@ -14,9 +14,8 @@ use std::process::ExitCode;
 pub struct PoseArgs {
     /// The baked file
     pub file: PathBuf,
-    /// The model it was baked from (.gltf, .glb): skeleton, animations and mesh
-    #[arg(long)]
-    pub model: PathBuf,
+    #[command(flatten)]
+    pub model: crate::cmd_view::ModelArg,
     /// Animation name [default: the model's first animation; the rest pose if it has none]
     #[arg(long)]
     pub animation: Option<String>,

@@ -18,13 +18,12 @@ pub struct ExportArgs {
 pub struct RenderArgs {
     /// The baked file
     pub file: PathBuf,
-    /// The model it was baked from, drawn under the spheres
-    #[arg(long)]
-    pub model: PathBuf,
+    #[command(flatten)]
+    pub model: ModelArg,
     /// Output image (.png, or .jpg / .jpeg for JPEG): front, side and top views side by side
     #[arg(short, long, value_name = "VIEW.png")]
     pub output: PathBuf,
-    /// Image size in pixels, WIDTHxHEIGHT [default: 1200x400]
+    /// Image size in pixels, WIDTHxHEIGHT
     #[arg(long, default_value = "1200x400", value_parser = parse_size)]
     pub size: (u32, u32),
 }
@@ -37,6 +36,30 @@ fn parse_size(s: &str) -> std::result::Result<(u32, u32), String> {
         return Err(format!("size must be within 3..=16384 x 1..=16384, got {w}x{h}"));
     }
     Ok((w, h))
+}
+
+/// The model a `.sphb` was baked from, for the commands that measure or draw the proxy against
+/// it (`eval`, `render`, `shadows`, `pose`, `light`): given after the file (`FILE MODEL`) or as
+/// `--model MODEL`, exactly one of the two (clap refuses neither or both: a usage error, exit 2),
+/// so every such command takes both spellings.
+#[derive(Args, Debug)]
+pub struct ModelArg {
+    /// The model it was baked from (.gltf, .glb, .obj); the same as --model MODEL
+    #[arg(value_name = "MODEL", required_unless_present = "model_option", conflicts_with = "model_option")]
+    model_after_file: Option<PathBuf>,
+    /// The model it was baked from (.gltf, .glb, .obj)
+    #[arg(long = "model", value_name = "MODEL")]
+    model_option: Option<PathBuf>,
+}
+
+impl std::ops::Deref for ModelArg {
+    type Target = Path;
+
+    /// The model's path. clap requires one of the two spellings; were neither
+    /// given, this is the empty path, which every loader refuses with an error (never a panic).
+    fn deref(&self) -> &Path {
+        self.model_after_file.as_deref().or(self.model_option.as_deref()).unwrap_or(Path::new(""))
+    }
 }
 
 pub fn read_sphb(path: &Path) -> Result<spherebake_runtime::Proxy> {

@@ -230,6 +230,83 @@ fn usage_errors_exit_2() {
     assert!(!dir.path().join("x.sphb").exists());
 }
 
+/// Every command that reads a model beside its `.sphb` takes it after the file (`FILE MODEL`,
+/// as `eval` always did) or as `--model MODEL` (as the others did): both spellings give the
+/// same output, and neither or both is a usage error (exit 2).
+#[test]
+fn every_model_command_takes_the_model_after_the_file_or_as_an_option() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let input = repo().join("fixtures/capsule.obj");
+    std::fs::copy(&input, d.join("capsule.obj")).unwrap();
+    let o = run(&["bake", "capsule.obj", "-o", "c.sphb", "-q", "--spheres", "8", "--voxels", "32"], d);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    // Small settings per command (each is seeded, so deterministic), with --json where it exists.
+    let commands: [(&str, &[&str]); 5] = [
+        ("eval", &["--json", "--surface-samples", "500"]),
+        ("shadows", &["--json", "--resolution", "4", "--rays", "16"]),
+        ("light", &["--json", "--resolution", "4", "--model-receivers", "8", "--rays", "16"]),
+        ("pose", &["--json", "--time", "0"]),
+        ("render", &["--size", "30x10"]),
+    ];
+    // What a run printed (or, for render, drew), without the timings (`*_seconds`).
+    let result = |cmd: &str, model: &[&str], extra: &[&str], tag: &str| -> (Option<i32>, String) {
+        let png = format!("{cmd}-{tag}.png");
+        let mut args = vec![cmd, "c.sphb"];
+        args.extend_from_slice(model);
+        args.extend_from_slice(extra);
+        if cmd == "render" {
+            args.extend(["-o", png.as_str()]);
+        }
+        let o = run(&args, d);
+        if cmd == "render" {
+            let bytes = std::fs::read(d.join(&png)).unwrap_or_default();
+            return (o.status.code(), format!("{bytes:?}"));
+        }
+        let kept: Vec<&str> =
+            std::str::from_utf8(&o.stdout).unwrap().lines().filter(|l| !l.contains("_seconds\"")).collect();
+        (o.status.code(), kept.join("\n") + &stderr(&o))
+    };
+    for (cmd, extra) in commands {
+        let after_file = result(cmd, &["capsule.obj"], extra, "a");
+        let option = result(cmd, &["--model", "capsule.obj"], extra, "b");
+        let want = Some(0);
+        assert_eq!(after_file.0, want, "{cmd} FILE MODEL");
+        assert_eq!(option.0, want, "{cmd} FILE --model MODEL");
+        assert_eq!(after_file.1, option.1, "{cmd}: the two spellings differ");
+        assert!(after_file.1.len() > 20, "{cmd} wrote nothing: {}", after_file.1);
+        let neither = run(&[cmd, "c.sphb"], d);
+        assert_eq!(neither.status.code(), Some(2), "{cmd} without a model: {}", stderr(&neither));
+        assert!(stderr(&neither).contains("MODEL"), "{}", stderr(&neither));
+        let both = run(&[cmd, "c.sphb", "capsule.obj", "--model", "capsule.obj"], d);
+        assert_eq!(both.status.code(), Some(2), "{cmd} with the model twice: {}", stderr(&both));
+    }
+}
+
+/// clap appends `[default: …]` to an option's help itself: a help text that also states the
+/// default printed it twice (`eval --voxels`, `render --size`).
+#[test]
+fn no_help_line_states_its_default_twice() {
+    let dir = tempfile::tempdir().unwrap();
+    for cmd in ["bake", "inspect", "eval", "export", "render", "shadows", "pose", "light"] {
+        let o = run(&[cmd, "--help"], dir.path());
+        assert_eq!(o.status.code(), Some(0));
+        let help = String::from_utf8_lossy(&o.stdout).into_owned();
+        // One entry per argument: it starts at its name (`-x`, `--long`, `<ARG>`, `[ARG]`) and
+        // runs on over the lines of its text (long help puts the text on lines of its own).
+        let mut entries: Vec<String> = Vec::new();
+        for line in help.lines() {
+            if line.trim_start().starts_with(['-', '<', '[']) || entries.is_empty() {
+                entries.push(String::new());
+            }
+            entries.last_mut().unwrap().push_str(line);
+        }
+        for e in &entries {
+            assert!(e.matches("[default:").count() <= 1, "{cmd} --help states a default twice: {e}");
+        }
+    }
+}
+
 #[test]
 fn export_reimports_with_the_right_nodes_and_render_writes_a_nonblank_png() {
     let dir = tempfile::tempdir().unwrap();
