@@ -367,8 +367,17 @@ fn prepare(
     let mut grid = voxel::voxelize_bvh(&bvh, closed, &voxel::VoxelSettings { resolution: voxel_resolution });
     if grid.solid_count() == 0 {
         // A sheet encloses nothing: bound it anyway, with the cells its surface passes through
-        // as the solid (E is then relative to that one-cell-thick layer).
-        warnings.push("mesh encloses no volume: the solid is the layer of cells the surface passes through".into());
+        // as the solid (E is then relative to that one-cell-thick layer). A closed mesh thinner
+        // than a cell (a plank, a blade) does enclose volume, which its exact E still measures:
+        // only the fit's solid is that layer, and a finer grid would resolve it.
+        warnings.push(if closed {
+            format!(
+                "closed mesh thinner than a voxel cell ({:.3e} at resolution {voxel_resolution}): no cell centre is inside it, so the fit's solid is the layer of cells its surface passes through (E is still measured against its volume {vol:.3e}); a higher --voxels resolves its interior",
+                grid.cell_size
+            )
+        } else {
+            "mesh encloses no volume: the solid is the layer of cells the surface passes through".into()
+        });
         grid.solid = voxel::surface_cells(&bvh, &grid);
     }
     let solid = Solid::from_grid(grid);

@@ -348,6 +348,53 @@ fn flat_sheet_is_bounded() {
     }
 }
 
+/// A closed box thinner than a cell encloses volume, but no cell centre: the warning says so
+/// (not "encloses no volume"), E is measured against the box's exact volume, and the box is
+/// still bounded; at a resolution that puts cell centres inside it, the warning is gone.
+#[test]
+fn a_closed_mesh_thinner_than_a_cell_is_named_as_such_and_bounded() {
+    let (a, b, c) = (10.0f32, 1.0f32, 0.05f32);
+    let p: Vec<Vec3> =
+        (0..8).map(|i| Vec3::new(a * (i & 1) as f32, b * ((i >> 1) & 1) as f32, c * (i >> 2) as f32)).collect();
+    // Outward-wound faces of the box [0,a]×[0,b]×[0,c] (corner i = x + 2y + 4z).
+    let t = vec![
+        [0, 2, 3],
+        [0, 3, 1],
+        [4, 5, 7],
+        [4, 7, 6],
+        [0, 1, 5],
+        [0, 5, 4],
+        [2, 6, 7],
+        [2, 7, 3],
+        [0, 4, 6],
+        [0, 6, 2],
+        [1, 3, 7],
+        [1, 7, 5],
+    ];
+    let thin = fit(&p, &t, &FitSettings { spheres: 8, voxel_resolution: 32, ..Default::default() }, &|_| {}).unwrap();
+    let w = thin.warnings.iter().find(|w| w.contains("thinner than a voxel cell")).expect("the thin-box warning");
+    assert!(!thin.warnings.iter().any(|w| w.contains("encloses no volume")), "{:?}", thin.warnings);
+    // The cell is 10/32 = 0.3125 (> 0.05), the volume 0.5: both in the message.
+    assert!(w.contains("3.125e-1") && w.contains("5.000e-1"), "{w}");
+    assert_triangles_covered(&p, &t, &thin.spheres);
+    // E = Σ (V(S_i) − V(S_i ∩ T)) / V(T) against the box's exact volume V(T) = 0.5: the union
+    // holds T, so Σ V(S_i ∩ T) ≥ V(T), and each V(S_i ∩ T) ≤ V(T); hence
+    // Σ V(S_i)/V(T) − k ≤ E ≤ Σ V(S_i)/V(T) − 1. Against the surface layer's volume (~16× the
+    // box's here) E would be far below that range.
+    let vol = f64::from(a * b * c);
+    let k = thin.spheres.len() as f64;
+    let sum_v: f64 = thin.spheres.iter().map(|s| 4.0 / 3.0 * std::f64::consts::PI * f64::from(s[3]).powi(3)).sum();
+    let e = thin.stats.outside_ratio_e;
+    assert!(
+        e >= sum_v / vol - k - 1e-6 && e <= sum_v / vol - 1.0 + 1e-6,
+        "E {e}, Σ V(S_i)/V(T) {}, k {k}",
+        sum_v / vol
+    );
+    // At 512 cells along x the cell is 0.0195 < 0.05: centres fall inside, no warning.
+    let fine = fit(&p, &t, &FitSettings { spheres: 8, voxel_resolution: 512, ..Default::default() }, &|_| {}).unwrap();
+    assert!(!fine.warnings.iter().any(|w| w.contains("thinner") || w.contains("no volume")), "{:?}", fine.warnings);
+}
+
 #[test]
 fn voxel_proxy_agrees_with_exact_volume() {
     use spherebake_geom::volume::ball_mesh_intersection_volume;
