@@ -548,7 +548,8 @@ fn wrap_index(i: i64, n: usize, mode: WrapMode) -> usize {
 /// linear RGB (alpha ignored), written once and shared by the albedo bake (its cube-map texels)
 /// and the reference path tracer (`spherebake-reference`).
 ///
-/// The texture is sampled with the material's UV set (skipped when the mesh lacks it),
+/// The texture is sampled with the material's UV set (skipped when the mesh lacks it, or when
+/// a corner of the triangle holds [`spherebake_geom::NO_UV`]: its part has no such set),
 /// KHR_texture_transform (in f64) and the sampler's wrap modes, trilinearly from a box-filtered
 /// mip chain (2×2 → 1 per level, down to 1×1).
 #[derive(Clone)]
@@ -650,7 +651,7 @@ impl<'a> SurfaceAlbedo<'a> {
         if let Some(tr) = material.and_then(|m| m.base_color_texture.as_ref()) {
             let vcount = self.mesh.positions.len();
             if let (Some(uvs), Some(chain)) = (
-                self.mesh.uvs.get(tr.uv_set as usize).filter(|u| u.len() == vcount),
+                self.mesh.uvs.get(tr.uv_set as usize).filter(|u| u.len() == vcount && tri_has_uvs(u, tri)),
                 self.chains.get(tr.texture).and_then(Option::as_ref),
             ) {
                 let uv3 = tri.map(|v| {
@@ -874,7 +875,7 @@ impl<'a> Context<'a> {
                 let mi = mesh.triangle_materials.get(t).map_or(usize::MAX, |&m| m as usize);
                 if let (Some(m), Some(Some(ti))) = (mesh.materials.get(mi), texture_of_material.get(mi)) {
                     let tr = m.base_color_texture.as_ref().expect("texture_of_material is Some");
-                    match mesh.uvs.get(tr.uv_set as usize).filter(|u| u.len() == vcount) {
+                    match mesh.uvs.get(tr.uv_set as usize).filter(|u| u.len() == vcount && tri_has_uvs(u, *tri)) {
                         Some(uvs) => {
                             let [ua, ub, uc] = tri.map(|v| uvs[v as usize]);
                             let uv_area2 = ((f64::from(ub[0]) - f64::from(ua[0]))
@@ -1084,6 +1085,12 @@ impl<'a> Context<'a> {
 }
 
 /// KHR_texture_transform in f64 (same formula as `UvTransform::apply`).
+/// Whether every corner of `tri` has a UV in `uvs` (none is [`spherebake_geom::NO_UV`]: its part
+/// lacks the set). A triangle without reads its base colour factor, never the texel at (0, 0).
+fn tri_has_uvs(uvs: &[[f32; 2]], tri: [u32; 3]) -> bool {
+    tri.iter().all(|&v| uvs.get(v as usize).is_some_and(|&uv| spherebake_geom::has_uv(uv)))
+}
+
 fn apply_transform(t: &spherebake_geom::UvTransform, uv: [f64; 2]) -> [f64; 2] {
     let r = f64::from(t.rotation_rad);
     let (s, c) = r.sin_cos();

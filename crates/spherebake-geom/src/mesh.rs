@@ -185,6 +185,16 @@ pub struct Skin {
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct Warning(pub String);
 
+/// The UV of a vertex whose part has no such UV set (see [`Mesh::uvs`]): NaN, so no texture
+/// lookup can take it for a coordinate; test with [`has_uv`].
+pub const NO_UV: [f32; 2] = [f32::NAN, f32::NAN];
+
+/// Whether a stored UV is a coordinate (not [`NO_UV`]).
+#[inline]
+pub fn has_uv(uv: [f32; 2]) -> bool {
+    !uv[0].is_nan() && !uv[1].is_nan()
+}
+
 /// The canonical triangle mesh.
 #[derive(Clone, Debug, Default)]
 pub struct Mesh {
@@ -193,6 +203,9 @@ pub struct Mesh {
     /// Per-vertex unit shading normal, scene space (computed when the input has none).
     pub normals: Vec<Vec3>,
     /// Per-vertex UV sets (`uvs[0]` = TEXCOORD_0, ...); each either empty or one per vertex.
+    /// A vertex of a part (glTF primitive, OBJ group) that lacks the set holds [`NO_UV`], so a
+    /// textured triangle there is known to have no UVs (its base colour factor is used), rather
+    /// than reading the texel at UV (0, 0).
     pub uvs: Vec<Vec<[f32; 2]>>,
     /// Per-vertex colour (COLOR_0), linear RGBA; empty when absent.
     pub colors_linear: Vec<LinearRgba>,
@@ -371,11 +384,11 @@ impl Mesh {
         for s in 0..sets {
             let mine = &mut self.uvs[s];
             if mine.len() < n_self {
-                mine.resize(n_self, [0.0, 0.0]);
+                mine.resize(n_self, NO_UV);
             }
             match other.uvs.get(s) {
                 Some(o) if !o.is_empty() => mine.extend_from_slice(o),
-                _ => mine.resize(n_self + other.positions.len(), [0.0, 0.0]),
+                _ => mine.resize(n_self + other.positions.len(), NO_UV),
             }
         }
         if !self.colors_linear.is_empty() || !other.colors_linear.is_empty() {

@@ -13,7 +13,7 @@ use gltf::accessor::{DataType, Dimensions};
 use gltf::mesh::{Mode, Semantic};
 use spherebake_geom::{
     AnimChannel, AnimPath, Animation, Bone, FilterMode, Interpolation, Material, Mesh, Node, Skeleton, Skin,
-    SkinInfluences, TextureRef, UvTransform, WrapMode,
+    SkinInfluences, TextureRef, UvTransform, WrapMode, NO_UV,
 };
 
 use crate::gltf_ext;
@@ -1312,13 +1312,13 @@ impl Builder {
         m.uvs.resize(sets, Vec::new());
         self.uv_present.resize(sets, false);
         for (s, set) in m.uvs.iter_mut().enumerate() {
-            set.resize(v0, [0.0, 0.0]);
+            set.resize(v0, NO_UV);
             match uv_sets.get(s) {
                 Some(Some(uv)) => {
                     set.extend_from_slice(uv);
                     self.uv_present[s] = true;
                 }
-                _ => set.resize(v0 + n, [0.0, 0.0]),
+                _ => set.resize(v0 + n, NO_UV),
             }
         }
         m.colors_linear.resize(v0, [1.0; 4]);
@@ -1338,8 +1338,8 @@ impl Builder {
 
     fn finish(&mut self) -> Mesh {
         let mut m = std::mem::take(&mut self.mesh);
-        // Drop trailing UV sets no primitive had; keep earlier absent ones as zero-filled so that
-        // uvs[k] stays TEXCOORD_k.
+        // Drop trailing UV sets no primitive had; empty earlier absent ones so that uvs[k] stays
+        // TEXCOORD_k. A set some primitives have holds NO_UV at the others' vertices.
         while self.uv_present.last() == Some(&false) {
             self.uv_present.pop();
             m.uvs.pop();

@@ -665,7 +665,7 @@ pub(crate) fn import(ctx: &mut Ctx, bytes: &[u8]) -> Result<(Mesh, Vec<ImportedP
             has_uv = true;
             uvs.extend(m.texcoords.chunks_exact(2).map(|c| [c[0], 1.0 - c[1]]));
         } else {
-            uvs.resize(uvs.len() + n, [0.0, 0.0]);
+            uvs.resize(uvs.len() + n, spherebake_geom::mesh::NO_UV);
         }
         let key = m.material_id.filter(|&i| i < materials.len());
         let material = match material_map.get(&key) {
