@@ -41,8 +41,13 @@
 //!    COLOR_0), without the coverage pass: on the bunny subdivided to 1.1 M triangles (one
 //!    colour, 64 spheres) the stage fell from 4.5–4.6 s to 1.2 s, byte-identical files
 //!    (`docs/benchmarks.md`).
-//! 3. **Colour** = base colour factor × base-colour texture × COLOR_0, linear RGB (alpha is
-//!    ignored). The texture is sampled at the true (perspective-correct) barycentric point,
+//! 3. **Colour** = base colour factor × base-colour texture × COLOR_0, linear RGB. Alpha is
+//!    ignored, except for an alpha-masked material (glTF `alphaMode` `MASK`): a fragment of the
+//!    segment's own triangles whose alpha (factor × texture × COLOR_0, at the same level of
+//!    detail as its colour) is below the cutoff is a hole ([`SurfaceAlbedo::is_hole`]) and takes
+//!    no texel, so the surface behind a leaf card's cut-out shows (or the texel is filled). The
+//!    rule-2 coverage pass and the sample points (`samples`) still take masked triangles as
+//!    whole surfaces, and `BLEND` is opaque. The texture is sampled at the true (perspective-correct) barycentric point,
 //!    with the material's UV set, KHR_texture_transform and wrap modes, trilinearly from a box-
 //!    filtered mip chain (`spherebake_geom::texels`; its base at most 4096 texels a side, as
 //!    the importers reduce larger textures); the level is log2 of the texel footprint's side in
@@ -463,15 +468,18 @@ fn assign(pos: &[DVec3], triangles: &[[u32; 3]], spheres: &[SphereF64]) -> Vec<V
 // ---------------------------------------------------------------------------------------------
 // Textures
 
-/// A texture as a mip chain of linear RGB levels (box filter, 2×2 → 1: [`texels::halve`]).
+/// A texture as a mip chain of linear levels of `N` channels (RGB, or the alpha of a masked
+/// material's texture; box filter, 2×2 → 1: [`texels::halve`]).
 #[derive(Clone)]
-struct MipChain {
-    levels: Vec<(usize, usize, Vec<[f32; 3]>)>,
+struct MipChain<const N: usize> {
+    levels: Vec<(usize, usize, Vec<[f32; N]>)>,
 }
 
-impl MipChain {
-    fn new(width: usize, height: usize, texels: &[[f32; 4]]) -> Self {
-        let mut levels = vec![(width, height, texels.iter().map(|t| [t[0], t[1], t[2]]).collect::<Vec<_>>())];
+impl<const N: usize> MipChain<N> {
+    /// The chain over `width × height` texels, each channel of `texels` picked by `pick`.
+    fn new(width: usize, height: usize, texels: &[[f32; 4]], pick: [usize; N]) -> Self {
+        let base: Vec<[f32; N]> = texels.iter().map(|t| pick.map(|c| t[c])).collect();
+        let mut levels = vec![(width, height, base)];
         loop {
             let (w, h, ref src) = levels[levels.len() - 1];
             if w == 1 && h == 1 {
@@ -483,7 +491,7 @@ impl MipChain {
         Self { levels }
     }
 
-    fn bilinear(&self, level: usize, uv: [f64; 2], wrap: [WrapMode; 2]) -> [f64; 3] {
+    fn bilinear(&self, level: usize, uv: [f64; 2], wrap: [WrapMode; 2]) -> [f64; N] {
         let (w, h, ref tex) = self.levels[level];
         // Clamped so the integer texel coordinates below cannot overflow (far beyond any
         // texture, wrapping is unaffected in practice).
@@ -494,13 +502,13 @@ impl MipChain {
         let (xi, yi) = (xf as i64, yf as i64);
         let xs = [wrap_index(xi, w, wrap[0]), wrap_index(xi + 1, w, wrap[0])];
         let ys = [wrap_index(yi, h, wrap[1]), wrap_index(yi + 1, h, wrap[1])];
-        let mut out = [0.0f64; 3];
+        let mut out = [0.0f64; N];
         for (a, &yy) in ys.iter().enumerate() {
             let wy = if a == 0 { 1.0 - fy } else { fy };
             for (b, &xx) in xs.iter().enumerate() {
                 let wx = if b == 0 { 1.0 - fx } else { fx };
                 let t = tex[yy * w + xx];
-                for c in 0..3 {
+                for c in 0..N {
                     out[c] += wx * wy * f64::from(t[c]);
                 }
             }
@@ -509,7 +517,7 @@ impl MipChain {
     }
 
     /// Trilinear sample at fractional `lod` (clamped to the chain).
-    fn sample(&self, uv: [f64; 2], lod: f64, wrap: [WrapMode; 2]) -> [f64; 3] {
+    fn sample(&self, uv: [f64; 2], lod: f64, wrap: [WrapMode; 2]) -> [f64; N] {
         let max = (self.levels.len() - 1) as f64;
         let lod = if lod.is_finite() { lod.clamp(0.0, max) } else { 0.0 };
         let l0 = lod.floor();
@@ -519,7 +527,7 @@ impl MipChain {
             return a;
         }
         let b = self.bilinear(l0 as usize + 1, uv, wrap);
-        [a[0] + f * (b[0] - a[0]), a[1] + f * (b[1] - a[1]), a[2] + f * (b[2] - a[2])]
+        std::array::from_fn(|c| a[c] + f * (b[c] - a[c]))
     }
 }
 
@@ -555,8 +563,10 @@ fn wrap_index(i: i64, n: usize, mode: WrapMode) -> usize {
 #[derive(Clone)]
 pub struct SurfaceAlbedo<'a> {
     mesh: &'a Mesh,
-    /// Per texture: its mip chain when a material references it.
-    chains: Vec<Option<MipChain>>,
+    /// Per texture: its RGB mip chain when a material references it.
+    chains: Vec<Option<MipChain<3>>>,
+    /// Per texture: its alpha mip chain when an alpha-masked material references it.
+    alpha_chains: Vec<Option<MipChain<1>>>,
 }
 
 impl<'a> SurfaceAlbedo<'a> {
@@ -612,13 +622,25 @@ impl<'a> SurfaceAlbedo<'a> {
             }
             referenced[tr.texture] = true;
         }
-        let chains: Vec<Option<MipChain>> = mesh
+        let chains: Vec<Option<MipChain<3>>> = mesh
             .textures
             .par_iter()
             .zip(referenced.par_iter())
-            .map(|(t, &r)| r.then(|| MipChain::new(t.width as usize, t.height as usize, &t.texels_linear)))
+            .map(|(t, &r)| r.then(|| MipChain::new(t.width as usize, t.height as usize, &t.texels_linear, [0, 1, 2])))
             .collect();
-        Ok(Self { mesh, chains })
+        let mut masked = vec![false; mesh.textures.len()];
+        for m in mesh.materials.iter().filter(|m| m.alpha_mask_cutoff.is_some()) {
+            if let Some(tr) = &m.base_color_texture {
+                masked[tr.texture] = true;
+            }
+        }
+        let alpha_chains: Vec<Option<MipChain<1>>> = mesh
+            .textures
+            .par_iter()
+            .zip(masked.par_iter())
+            .map(|(t, &r)| r.then(|| MipChain::new(t.width as usize, t.height as usize, &t.texels_linear, [3])))
+            .collect();
+        Ok(Self { mesh, chains, alpha_chains })
     }
 
     /// The mesh this lookup reads.
@@ -668,6 +690,34 @@ impl<'a> SurfaceAlbedo<'a> {
         }
         col
     }
+
+    /// Whether triangle `triangle` is a hole at `bary` and `lod` (as in [`Self::albedo`]): its
+    /// material is alpha-masked (glTF `alphaMode` `MASK`) and the base colour's alpha there —
+    /// factor × COLOR_0 × texture, the texture only where the triangle has UVs — is below the
+    /// cutoff (glTF: "rendered fully transparent"). NaN alpha is not a hole.
+    pub fn is_hole(&self, triangle: usize, bary: [f64; 3], lod: f64) -> bool {
+        let Some(&tri) = self.mesh.triangles.get(triangle) else { return false };
+        let mi = self.mesh.triangle_materials.get(triangle).map_or(usize::MAX, |&m| m as usize);
+        let Some(material) = self.mesh.materials.get(mi) else { return false };
+        let Some(cutoff) = material.alpha_mask_cutoff else { return false };
+        let mut alpha = f64::from(material.base_color_factor_linear[3]);
+        if !self.mesh.colors_linear.is_empty() {
+            let vc = tri.map(|v| f64::from(self.mesh.colors_linear[v as usize][3]));
+            alpha *= bary[0] * vc[0] + bary[1] * vc[1] + bary[2] * vc[2];
+        }
+        if let Some(tr) = &material.base_color_texture {
+            let vcount = self.mesh.positions.len();
+            if let (Some(uvs), Some(chain)) = (
+                self.mesh.uvs.get(tr.uv_set as usize).filter(|u| u.len() == vcount && tri_has_uvs(u, tri)),
+                self.alpha_chains.get(tr.texture).and_then(Option::as_ref),
+            ) {
+                let uv3 = tri.map(|v| uvs[v as usize].map(f64::from));
+                let uv = [0, 1].map(|k| bary[0] * uv3[0][k] + bary[1] * uv3[1][k] + bary[2] * uv3[2][k]);
+                alpha *= chain.sample(apply_transform(&tr.transform, uv), lod, [tr.wrap_s, tr.wrap_t])[0];
+            }
+        }
+        alpha < f64::from(cutoff)
+    }
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -704,6 +754,9 @@ struct Context<'a> {
     /// The surface's one colour (module docs, "One colour"), when it has one and the uncovered
     /// texels are filled.
     one_colour: Option<[f32; 3]>,
+    /// Per triangle: its material is alpha-masked, so a segment fragment may be a hole
+    /// ([`SurfaceAlbedo::is_hole`]); empty when no material is.
+    masked: Vec<bool>,
 }
 
 #[derive(Default, Clone, Copy)]
@@ -899,6 +952,16 @@ impl<'a> Context<'a> {
         let shade: Vec<TriShade> = shaded.into_iter().map(|x| x.0).collect();
         let (clusters, cluster_tris) = clusters(&pos, &mesh.triangles);
         let one_colour = if settings.fill_uncovered { one_colour(mesh, &surface) } else { None };
+        let masked = if mesh.materials.iter().any(|m| m.alpha_mask_cutoff.is_some()) {
+            (0..tcount)
+                .map(|t| {
+                    let m = mesh.triangle_materials.get(t).and_then(|&m| mesh.materials.get(m as usize));
+                    m.is_some_and(|m| m.alpha_mask_cutoff.is_some())
+                })
+                .collect()
+        } else {
+            Vec::new()
+        };
         Ok(Self {
             mesh,
             pos,
@@ -915,6 +978,7 @@ impl<'a> Context<'a> {
             textured_without_uvs,
             sh_order: settings.sh_order,
             one_colour,
+            masked,
         })
     }
 
@@ -960,6 +1024,12 @@ impl<'a> Context<'a> {
         let [a, b, c] = self.mesh.triangles[t].map(|v| self.pos[v as usize] - centre);
         // det(a, b, c) = CCW normal · (a − centre): > 0 when the CCW side faces away.
         let det = a.dot(b.cross(c)) * self.orient[t];
+        // An alpha-masked segment fragment below the cutoff is a hole: it takes no texel, so
+        // the surface behind it (or the fill) shows. It still counts as back surface for rule 2,
+        // which the other triangles mark without reading their texture.
+        let masked = mine && self.masked.get(t).copied().unwrap_or(false);
+        let hole =
+            |f: &Fragment, sgn: f64| masked && self.surface.is_hole(t, f.bary, self.lod_at(f.texel, t, f.dist, sgn));
         if det > 0.0 {
             // Back-facing from the centre: seen along +ω.
             self.grid.rasterize(a, b, c, |f: Fragment| {
@@ -969,7 +1039,7 @@ impl<'a> Context<'a> {
                 }
                 if mine {
                     let h = &mut cv.back[f.texel];
-                    if f.dist > h.dist {
+                    if f.dist > h.dist && !hole(&f, 1.0) {
                         *h = Hit { dist: f.dist, tri: t as u32, bary: f.bary };
                     }
                 }
@@ -978,7 +1048,7 @@ impl<'a> Context<'a> {
             // Front-facing: seen through the centre (direction −(p − c)).
             self.grid.rasterize(-a, -b, -c, |f: Fragment| {
                 let h = &mut cv.front[f.texel];
-                if f.dist < h.dist {
+                if f.dist < h.dist && !hole(&f, -1.0) {
                     *h = Hit { dist: f.dist, tri: t as u32, bary: f.bary };
                 }
             });
@@ -1066,12 +1136,18 @@ impl<'a> Context<'a> {
     /// centre): [`SurfaceAlbedo::albedo`] at the texel footprint's level of detail.
     fn shade(&self, texel: usize, h: Hit, sgn: f64) -> [f64; 3] {
         let t = h.tri as usize;
-        let lod = match self.lod {
+        self.surface.albedo(t, h.bary, self.lod_at(texel, t, h.dist, sgn))
+    }
+
+    /// The texture level of detail of triangle `t` seen in `texel` at distance `dist` (`sgn` −1
+    /// when seen through the centre): see [`TextureLod`].
+    fn lod_at(&self, texel: usize, t: usize, dist: f64, sgn: f64) -> f64 {
+        match self.lod {
             TextureLod::Base => 0.0,
             TextureLod::Footprint => {
                 let d = self.grid.direction(texel) * sgn;
                 let cos = self.shade[t].normal.dot(d).abs().max(1e-3);
-                let area = self.grid.nominal_solid_angle(texel) * h.dist * h.dist / cos;
+                let area = self.grid.nominal_solid_angle(texel) * dist * dist / cos;
                 let texels = area * self.shade[t].texels_per_area;
                 if texels > 1.0 {
                     0.5 * texels.log2()
@@ -1079,18 +1155,17 @@ impl<'a> Context<'a> {
                     0.0
                 }
             }
-        };
-        self.surface.albedo(t, h.bary, lod)
+        }
     }
 }
 
-/// KHR_texture_transform in f64 (same formula as `UvTransform::apply`).
 /// Whether every corner of `tri` has a UV in `uvs` (none is [`spherebake_geom::NO_UV`]: its part
 /// lacks the set). A triangle without reads its base colour factor, never the texel at (0, 0).
 fn tri_has_uvs(uvs: &[[f32; 2]], tri: [u32; 3]) -> bool {
     tri.iter().all(|&v| uvs.get(v as usize).is_some_and(|&uv| spherebake_geom::has_uv(uv)))
 }
 
+/// KHR_texture_transform in f64 (same formula as `UvTransform::apply`).
 fn apply_transform(t: &spherebake_geom::UvTransform, uv: [f64; 2]) -> [f64; 2] {
     let r = f64::from(t.rotation_rad);
     let (s, c) = r.sin_cos();

@@ -89,7 +89,7 @@ pub struct SampleStats {
     pub counts: RuleCounts,
     /// Per sphere, in sphere order.
     pub per_sphere: Vec<RuleCounts>,
-    /// Sample areas ([`sample_areas`]): their sum, model units².
+    /// Sample areas (`sample_areas`, spec §7.2): their sum, model units².
     pub area_assigned: f64,
     /// Mesh area in segments of spheres without samples (no sample to carry it), model units².
     pub area_unassigned: f64,

@@ -86,11 +86,22 @@ pub struct Material {
     pub base_color_texture: Option<TextureRef>,
     /// glTF `doubleSided`.
     pub double_sided: bool,
+    /// glTF `alphaMode` `MASK`: its `alphaCutoff` (default 0.5). Where the base colour's alpha
+    /// (factor × texture × COLOR_0) is below it the surface is a hole for the albedo (a leaf
+    /// card's cut-out shows what lies behind it). `None` for `OPAQUE`, for `BLEND` (taken as
+    /// opaque) and for OBJ materials.
+    pub alpha_mask_cutoff: Option<f32>,
 }
 
 impl Default for Material {
     fn default() -> Self {
-        Self { name: String::new(), base_color_factor_linear: [1.0; 4], base_color_texture: None, double_sided: false }
+        Self {
+            name: String::new(),
+            base_color_factor_linear: [1.0; 4],
+            base_color_texture: None,
+            double_sided: false,
+            alpha_mask_cutoff: None,
+        }
     }
 }
 

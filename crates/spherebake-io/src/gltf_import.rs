@@ -1122,6 +1122,11 @@ impl Source<'_> {
             base_color_factor_linear: pbr.base_color_factor(),
             base_color_texture: None,
             double_sided: m.double_sided(),
+            // The document is validated before this (an unknown alphaMode is an error).
+            alpha_mask_cutoff: match m.alpha_mode() {
+                gltf::material::AlphaMode::Mask => Some(m.alpha_cutoff().unwrap_or(0.5)),
+                gltf::material::AlphaMode::Opaque | gltf::material::AlphaMode::Blend => None,
+            },
         };
         if let Some(info) = pbr.base_color_texture() {
             let tex = info.texture();

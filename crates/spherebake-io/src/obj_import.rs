@@ -722,6 +722,7 @@ fn obj_material(
         base_color_factor_linear: [kd[0], kd[1], kd[2], m.dissolve.unwrap_or(1.0)],
         base_color_texture: None,
         double_sided: false,
+        alpha_mask_cutoff: None,
     };
     if let Some(tex) = &m.diffuse_texture {
         // Options such as `-s 1 1 1` may precede the file name; the file name is the last token.

@@ -1,0 +1,168 @@
+//! Alpha-masked materials (glTF `alphaMode` `MASK`) in the albedo cube maps: where the base
+//! colour's alpha is below the cutoff the surface is a hole, so the surface behind it shows.
+//!
+//! Scene (sphere centre at the origin, both quads in its segment, both back-facing from it, so
+//! rule 1 takes the farther): an opaque blue quad z = 1 over x, y ∈ [−1, 1], and behind it a
+//! card z = 2 over x, y ∈ [−2, 2] whose n × n texture is red with alpha 0 in its left half and
+//! green with alpha 1 in its right half. Texel (i, j) of the +Z face looks along (u, −v, 1),
+//! u = 2(i+½)/n − 1, and meets the card at x = 2u, i.e. texture column i at its centre (the
+//! geometry of `albedo_bake.rs`' textured quad, twice as far and twice as large; the footprint
+//! is one texture texel). So the expected face is known without a sampler: columns i < n/2 see
+//! through the card (blue), the others green; unmasked, the left half is red.
+
+use glam::Vec3;
+use spherebake_bake::{render_albedo_cubemaps, AlbedoSettings, CubeMap, TextureLod};
+use spherebake_geom::{Material, Mesh, Texture, TextureRef, UvTransform, WrapMode};
+use spherebake_sh::CubeFace;
+
+const N: usize = 16;
+const RED: [f32; 3] = [1.0, 0.0, 0.0];
+const GREEN: [f32; 3] = [0.0, 1.0, 0.0];
+const BLUE: [f32; 3] = [0.0, 0.0, 1.0];
+
+fn card_texture() -> Texture {
+    let texels = (0..N)
+        .flat_map(|_| (0..N).map(|x| if x < N / 2 { [1.0, 0.0, 0.0, 0.0] } else { [0.0, 1.0, 0.0, 1.0] }))
+        .collect();
+    Texture { name: "card".into(), width: N as u32, height: N as u32, texels_linear: texels }
+}
+
+/// The two quads; the card's material has `cutoff` (None: opaque) and `factor`. With
+/// `card_near` the card and the blue quad trade places (the card at z = 1).
+fn scene_with(cutoff: Option<f32>, factor: [f32; 4], card_near: bool) -> Mesh {
+    let corners = [(-1.0f32, -1.0f32), (1.0, -1.0), (1.0, 1.0), (-1.0, 1.0)];
+    let (blue_z, card_z) = if card_near { (2.0, 1.0) } else { (1.0, 2.0) };
+    let mut positions: Vec<Vec3> = corners.iter().map(|&(x, y)| Vec3::new(x, y, 1.0) * blue_z).collect();
+    positions.extend(corners.iter().map(|&(x, y)| Vec3::new(x, y, 1.0) * card_z));
+    let uv: Vec<[f32; 2]> = corners.iter().map(|&(x, y)| [(x + 1.0) / 2.0, (1.0 - y) / 2.0]).collect();
+    let tref = TextureRef {
+        texture: 0,
+        uv_set: 0,
+        wrap_s: WrapMode::ClampToEdge,
+        wrap_t: WrapMode::ClampToEdge,
+        mag_filter: Default::default(),
+        transform: UvTransform::default(),
+    };
+    let mut m = Mesh {
+        positions,
+        normals: vec![Vec3::Z; 8],
+        uvs: vec![[uv.clone(), uv].concat()],
+        triangles: vec![[0, 1, 2], [0, 2, 3], [4, 5, 6], [4, 6, 7]],
+        triangle_materials: vec![0, 0, 1, 1],
+        materials: vec![
+            Material { base_color_factor_linear: [BLUE[0], BLUE[1], BLUE[2], 1.0], ..Default::default() },
+            Material {
+                base_color_factor_linear: factor,
+                base_color_texture: Some(tref),
+                alpha_mask_cutoff: cutoff,
+                ..Default::default()
+            },
+        ],
+        textures: vec![card_texture()],
+        ..Default::default()
+    };
+    m.rebuild_weld();
+    m
+}
+
+fn scene(cutoff: Option<f32>, factor: [f32; 4]) -> Mesh {
+    scene_with(cutoff, factor, false)
+}
+
+fn pos_z(mesh: &Mesh, lod: TextureLod) -> CubeMap {
+    let s = AlbedoSettings { sh_order: 2, cubemap_size: N, texture_lod: lod, ..Default::default() };
+    let (maps, stats) = render_albedo_cubemaps(mesh, &[false; 4], &[[0.0, 0.0, 0.0, 3.0]], &s).unwrap();
+    assert_eq!(stats.texels_rule1, (N * N) as u64, "both quads fill the +Z face");
+    maps.into_iter().next().unwrap()
+}
+
+/// Asserts every texel of column i of `face` is `want(i)`, skipping the columns within
+/// `margin` of the mask's edge (where a filtered level blends both halves).
+fn check_face(map: &CubeMap, face: CubeFace, want: impl Fn(usize) -> [f32; 3], margin: usize, what: &str) {
+    let face = face.index();
+    for j in 0..N {
+        for i in (0..N).filter(|&i| i + margin < N / 2 || i >= N / 2 + margin) {
+            let got = map.texels_linear[(face * N + j) * N + i];
+            let w = want(i);
+            for k in 0..3 {
+                assert!((got[k] - w[k]).abs() < 1e-5, "{what}: texel ({i}, {j}) {got:?}, want {w:?}");
+            }
+        }
+    }
+}
+
+fn check(map: &CubeMap, want: impl Fn(usize) -> [f32; 3], margin: usize, what: &str) {
+    check_face(map, CubeFace::PosZ, want, margin, what)
+}
+
+#[test]
+fn a_masked_cards_cut_out_shows_the_surface_behind_it() {
+    let left_right = |left: [f32; 3]| move |i: usize| if i < N / 2 { left } else { GREEN };
+    // Base level: every column exactly, the boundary too.
+    let masked = scene(Some(0.5), [1.0; 4]);
+    check(&pos_z(&masked, TextureLod::Base), left_right(BLUE), 0, "masked, base level");
+    // The bake's footprint level: the same away from the mask's edge.
+    check(&pos_z(&masked, TextureLod::Footprint), left_right(BLUE), 2, "masked, footprint level");
+    // Opaque (and BLEND, which imports as opaque): the card's red shows.
+    check(&pos_z(&scene(None, [1.0; 4]), TextureLod::Base), left_right(RED), 0, "opaque");
+    // The cutoff compares alpha: at 0.0 nothing is a hole (alpha 0 is not below 0).
+    check(&pos_z(&scene(Some(0.0), [1.0; 4]), TextureLod::Base), left_right(RED), 0, "cutoff 0");
+    // The factor's alpha multiplies: 0.4 × 1 < 0.5 makes the whole card a hole.
+    check(&pos_z(&scene(Some(0.5), [1.0, 1.0, 1.0, 0.4]), TextureLod::Base), |_| BLUE, 0, "factor alpha 0.4");
+    // ... and 0.6 × 1 ≥ 0.5 keeps the right half.
+    check(&pos_z(&scene(Some(0.5), [1.0, 1.0, 1.0, 0.6]), TextureLod::Base), left_right(BLUE), 0, "factor 0.6");
+
+    // Rule 3 (both quads face the centre, seen through it on the −Z face: the nearest wins),
+    // the card now nearest: its cut-out shows the blue quad behind it. Texel (i, j) of −Z sees
+    // the point (u, v, 1) (`albedo_bake.rs`), texture column i again.
+    let s = AlbedoSettings { sh_order: 2, cubemap_size: N, texture_lod: TextureLod::Base, ..Default::default() };
+    for (cutoff, left) in [(Some(0.5), BLUE), (None, RED)] {
+        let mesh = scene_with(cutoff, [1.0; 4], true);
+        let (maps, stats) = render_albedo_cubemaps(&mesh, &[true; 4], &[[0.0, 0.0, 0.0, 3.0]], &s).unwrap();
+        assert_eq!(stats.texels_rule3, (N * N) as u64);
+        check_face(&maps[0], CubeFace::NegZ, left_right(left), 0, "rule 3");
+    }
+}
+
+/// The importer reads `alphaMode` and `alphaCutoff`: MASK keeps its cutoff (0.5 when absent),
+/// OPAQUE and BLEND are opaque; an OBJ material is opaque.
+#[test]
+fn the_gltf_importer_reads_the_alpha_mode() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let mut bin: Vec<u8> = Vec::new();
+    for p in [[0.0f32, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]] {
+        bin.extend(p.iter().flat_map(|x| x.to_le_bytes()));
+    }
+    std::fs::write(d.join("m.bin"), &bin).unwrap();
+    let prims: Vec<String> =
+        (0..4).map(|i| format!(r#"{{"attributes": {{"POSITION": 0}}, "material": {i}}}"#)).collect();
+    let json = format!(
+        r#"{{
+      "asset": {{"version": "2.0"}}, "scene": 0, "scenes": [{{"nodes": [0]}}], "nodes": [{{"mesh": 0}}],
+      "meshes": [{{"primitives": [{}]}}],
+      "materials": [
+        {{"name": "mask", "alphaMode": "MASK", "alphaCutoff": 0.3}},
+        {{"name": "mask default", "alphaMode": "MASK"}},
+        {{"name": "blend", "alphaMode": "BLEND"}},
+        {{"name": "opaque"}}
+      ],
+      "accessors": [{{"bufferView": 0, "componentType": 5126, "count": 3, "type": "VEC3", "min": [0, 0, 0], "max": [1, 1, 0]}}],
+      "bufferViews": [{{"buffer": 0, "byteLength": 36}}],
+      "buffers": [{{"byteLength": 36, "uri": "m.bin"}}]
+    }}"#,
+        prims.join(", ")
+    );
+    std::fs::write(d.join("m.gltf"), json).unwrap();
+    let imp = spherebake_io::load_mesh(&d.join("m.gltf")).unwrap();
+    let cutoff = |name: &str| imp.mesh.materials.iter().find(|m| m.name == name).unwrap().alpha_mask_cutoff;
+    assert_eq!(cutoff("mask"), Some(0.3));
+    assert_eq!(cutoff("mask default"), Some(0.5));
+    assert_eq!(cutoff("blend"), None);
+    assert_eq!(cutoff("opaque"), None);
+    // An unknown alpha mode is a validation error, not a panic.
+    let bad = std::fs::read_to_string(d.join("m.gltf")).unwrap().replace("\"BLEND\"", "\"CUTOUT\"");
+    std::fs::write(d.join("bad.gltf"), bad).unwrap();
+    let Err(e) = spherebake_io::load_mesh(&d.join("bad.gltf")) else { panic!("an unknown alphaMode is refused") };
+    assert!(e.to_string().contains("bad.gltf"), "{e}");
+}
