@@ -736,7 +736,31 @@ impl Source<'_> {
                 };
                 let pos = self.read_vec(&pos_acc, &[3], "POSITION")?;
                 let n = pos.count();
-                let raw: Vec<Vec3> = (0..n).map(|v| Vec3::from(pos.get::<3>(v).map(|x| x as f32))).collect();
+                let mut raw: Vec<Vec3> = (0..n).map(|v| Vec3::from(pos.get::<3>(v).map(|x| x as f32))).collect();
+                // Morph targets at their default weights (the node's, else the mesh's): the shape
+                // every viewer shows at rest. Positions only; animated weights are not followed.
+                let weights = node.weights().or(mesh.weights()).unwrap_or(&[]);
+                if weights.iter().any(|&w| w != 0.0) {
+                    let mut sum: Vec<DVec3> = (0..n).map(|v| DVec3::from(pos.get::<3>(v))).collect();
+                    for (ti, (target, &w)) in prim.morph_targets().zip(weights).enumerate() {
+                        let Some(acc) = target.positions().filter(|_| w != 0.0) else { continue };
+                        let d = self.read_vec(&acc, &[3], "morph target POSITION")?;
+                        if d.count() != n {
+                            return Err(IoError::Accessor {
+                                path,
+                                accessor: acc.index(),
+                                reason: format!(
+                                    "morph target {ti} POSITION count {} differs from POSITION count {n}",
+                                    d.count()
+                                ),
+                            });
+                        }
+                        for (v, p) in sum.iter_mut().enumerate() {
+                            *p += DVec3::from(d.get::<3>(v)) * f64::from(w);
+                        }
+                    }
+                    raw = sum.iter().map(|p| p.as_vec3()).collect();
+                }
                 if let Some((v, p)) = raw.iter().enumerate().find(|(_, p)| !p.is_finite()) {
                     return Err(IoError::NonFinitePosition {
                         path,

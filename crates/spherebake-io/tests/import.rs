@@ -702,3 +702,48 @@ fn every_pixel_layout_decodes_to_linear_rgba() {
         }
     }
 }
+
+/// Morph targets at their default weights: the node's `weights` when present, else the mesh's,
+/// else none. Every viewer shows base + Σ wᵢ·targetᵢ at rest, so that is the shape imported.
+#[test]
+fn morph_targets_are_applied_at_their_default_weights() {
+    // Base triangle, then one target moving vertex 2 by (0, 0, 1) and another moving vertex 0
+    // by (2, 0, 0).
+    let mut bin: Vec<u8> = Vec::new();
+    let targets = [[[0.0f32, 0.0, 0.0], [0.0, 0.0, 0.0], [0.0, 0.0, 1.0]], [[2.0, 0.0, 0.0], [0.0; 3], [0.0; 3]]];
+    for p in TRI.iter().chain(targets.iter().flatten()) {
+        bin.extend(p.iter().flat_map(|x| x.to_le_bytes()));
+    }
+    let doc = |node_weights: &str, mesh_weights: &str, target_count: usize| {
+        format!(
+            r#"{{"asset":{{"version":"2.0"}},"scene":0,"scenes":[{{"nodes":[0]}}],"nodes":[{{"mesh":0{node_weights}}}],
+"meshes":[{{"primitives":[{{"attributes":{{"POSITION":0}},"targets":[{{"POSITION":1}},{{"POSITION":2}}]}}]{mesh_weights}}}],
+"buffers":[{{"byteLength":108,"uri":"data:application/octet-stream;base64,{}"}}],
+"bufferViews":[{{"buffer":0,"byteOffset":0,"byteLength":36}},{{"buffer":0,"byteOffset":36,"byteLength":36}},{{"buffer":0,"byteOffset":72,"byteLength":36}}],
+"accessors":[{{"bufferView":0,"componentType":5126,"count":3,"type":"VEC3"}},{{"bufferView":1,"componentType":5126,"count":{target_count},"type":"VEC3"}},{{"bufferView":2,"componentType":5126,"count":3,"type":"VEC3"}}]}}"#,
+            b64(&bin)
+        )
+    };
+    let positions =
+        |json: String| load_mesh_from_bytes(Path::new("mem/morph.gltf"), json.as_bytes()).unwrap().mesh.positions;
+    let base: Vec<Vec3> = TRI.iter().map(|p| Vec3::from(*p)).collect();
+    let shifted = |w0: f32, w1: f32| -> Vec<Vec3> {
+        let mut p = base.clone();
+        p[2].z += w0;
+        p[0].x += 2.0 * w1;
+        p
+    };
+    assert_eq!(positions(doc("", "", 3)), base, "no weights: the base shape");
+    assert_eq!(positions(doc("", r#","weights":[0,0]"#, 3)), base);
+    assert_eq!(positions(doc("", r#","weights":[0.5,0]"#, 3)), shifted(0.5, 0.0), "the mesh's weights");
+    assert_eq!(positions(doc("", r#","weights":[0.25,0.5]"#, 3)), shifted(0.25, 0.5), "both targets");
+    assert_eq!(
+        positions(doc(r#","weights":[1,0]"#, r#","weights":[0.5,0.5]"#, 3)),
+        shifted(1.0, 0.0),
+        "the node's weights override the mesh's"
+    );
+    // A target whose count differs from POSITION's is an error naming the file.
+    let e = load_mesh_from_bytes(Path::new("mem/morph.gltf"), doc("", r#","weights":[1,0]"#, 2).as_bytes());
+    let Err(e) = e else { panic!("a short morph target is refused") };
+    assert!(e.to_string().contains("morph.gltf") && e.to_string().contains("morph target 0"), "{e}");
+}
