@@ -1159,8 +1159,9 @@ impl<'a> Context<'a> {
     }
 }
 
-/// Whether every corner of `tri` has a UV in `uvs` (none is [`spherebake_geom::NO_UV`]: its part
-/// lacks the set). A triangle without reads its base colour factor, never the texel at (0, 0).
+/// Whether every corner of `tri` has a usable UV in `uvs` ([`spherebake_geom::has_uv`]: not
+/// [`spherebake_geom::NO_UV`], where its part lacks the set, nor otherwise non-finite). A
+/// triangle without reads its base colour factor, never the texel at (0, 0).
 fn tri_has_uvs(uvs: &[[f32; 2]], tri: [u32; 3]) -> bool {
     tri.iter().all(|&v| uvs.get(v as usize).is_some_and(|&uv| spherebake_geom::has_uv(uv)))
 }

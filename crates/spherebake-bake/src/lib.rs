@@ -304,7 +304,7 @@ pub fn bake_imported(
     timings.push(StageTime { stage: "albedo", seconds: t.elapsed().as_secs_f64() });
     if albedo_stats.textured_triangles_without_uvs > 0 {
         warnings.push(format!(
-            "{} textured triangles have no UVs: their base colour factor is used",
+            "{} textured triangles have no usable UVs (none, or not finite): their base colour factor is used",
             albedo_stats.textured_triangles_without_uvs
         ));
     }

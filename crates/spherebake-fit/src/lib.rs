@@ -372,7 +372,7 @@ fn prepare(
         // only the fit's solid is that layer, and a finer grid would resolve it.
         warnings.push(if closed {
             format!(
-                "closed mesh thinner than a voxel cell ({:.3e} at resolution {voxel_resolution}): no cell centre is inside it, so the fit's solid is the layer of cells its surface passes through (E is still measured against its volume {vol:.3e}); a higher --voxels resolves its interior",
+                "closed mesh thinner than a voxel cell ({:.3e} at resolution {voxel_resolution}): no cell centre is inside it, so the fit's solid is the layer of cells its surface passes through (E is still measured against its volume {vol:.3e}); a finer voxel grid (at most 1024 cells along the longest axis) may resolve its interior",
                 grid.cell_size
             )
         } else {

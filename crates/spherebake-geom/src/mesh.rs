@@ -200,10 +200,11 @@ pub struct Warning(pub String);
 /// lookup can take it for a coordinate; test with [`has_uv`].
 pub const NO_UV: [f32; 2] = [f32::NAN, f32::NAN];
 
-/// Whether a stored UV is a coordinate (not [`NO_UV`]).
+/// Whether a stored UV is a usable coordinate: finite (not [`NO_UV`], nor a NaN or infinite UV
+/// read from a file, which would address no texel).
 #[inline]
 pub fn has_uv(uv: [f32; 2]) -> bool {
-    !uv[0].is_nan() && !uv[1].is_nan()
+    uv[0].is_finite() && uv[1].is_finite()
 }
 
 /// The canonical triangle mesh.
@@ -393,13 +394,17 @@ impl Mesh {
         let sets = self.uvs.len().max(other.uvs.len());
         self.uvs.resize(sets, Vec::new());
         for s in 0..sets {
+            let theirs = other.uvs.get(s).filter(|o| !o.is_empty());
             let mine = &mut self.uvs[s];
+            if mine.is_empty() && theirs.is_none() {
+                continue; // absent from both: stays absent (empty)
+            }
             if mine.len() < n_self {
                 mine.resize(n_self, NO_UV);
             }
-            match other.uvs.get(s) {
-                Some(o) if !o.is_empty() => mine.extend_from_slice(o),
-                _ => mine.resize(n_self + other.positions.len(), NO_UV),
+            match theirs {
+                Some(o) => mine.extend_from_slice(o),
+                None => mine.resize(n_self + other.positions.len(), NO_UV),
             }
         }
         if !self.colors_linear.is_empty() || !other.colors_linear.is_empty() {
@@ -427,6 +432,31 @@ impl Mesh {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// `append` keeps uvs[k] = TEXCOORD_k for every vertex: a part without a set gets
+    /// [`NO_UV`] (not (0, 0), which would read a texel), and a set absent from both stays empty.
+    #[test]
+    fn append_fills_a_missing_uv_set_with_no_uv_and_keeps_absent_sets_empty() {
+        let part = |n: usize, uvs: Vec<Vec<[f32; 2]>>| Mesh {
+            positions: vec![Vec3::ZERO; n],
+            normals: vec![Vec3::Z; n],
+            uvs,
+            ..Default::default()
+        };
+        let mut a = part(2, vec![vec![[0.25, 0.5]; 2], Vec::new()]);
+        a.append(&part(3, Vec::new()));
+        assert_eq!(a.uvs.len(), 2);
+        assert_eq!(a.uvs[0][..2], [[0.25, 0.5]; 2]);
+        assert!(a.uvs[0][2..].iter().all(|&uv| !has_uv(uv)) && a.uvs[0].len() == 5, "{:?}", a.uvs[0]);
+        assert!(a.uvs[1].is_empty(), "absent from both parts: {:?}", a.uvs[1]);
+        let mut b = part(2, Vec::new());
+        b.append(&part(1, vec![vec![[0.75, 1.0]]]));
+        assert_eq!(b.uvs.len(), 1);
+        assert!(!has_uv(b.uvs[0][0]) && !has_uv(b.uvs[0][1]));
+        assert_eq!(b.uvs[0][2], [0.75, 1.0]);
+        // Usable means finite: NaN and infinite UVs read from a file address no texel either.
+        assert!(has_uv([0.0, 1.0]) && !has_uv([f32::INFINITY, 0.0]) && !has_uv([0.0, f32::NAN]));
+    }
 
     /// Against a brute-force pass over every earlier triangle (the same corner set): the same
     /// triangles and materials kept in order, the count of the others; a position written twice

@@ -44,7 +44,7 @@ fn parse_size(s: &str) -> std::result::Result<(u32, u32), String> {
 /// so every such command takes both spellings.
 #[derive(Args, Debug)]
 pub struct ModelArg {
-    /// The model it was baked from (.gltf, .glb, .obj); the same as --model MODEL
+    /// The model it was baked from (.gltf, .glb, .obj), here or as --model MODEL
     #[arg(value_name = "MODEL", required_unless_present = "model_option", conflicts_with = "model_option")]
     model_after_file: Option<PathBuf>,
     /// The model it was baked from (.gltf, .glb, .obj)

@@ -275,11 +275,18 @@ fn every_model_command_takes_the_model_after_the_file_or_as_an_option() {
         assert_eq!(option.0, want, "{cmd} FILE --model MODEL");
         assert_eq!(after_file.1, option.1, "{cmd}: the two spellings differ");
         assert!(after_file.1.len() > 20, "{cmd} wrote nothing: {}", after_file.1);
-        let neither = run(&[cmd, "c.sphb"], d);
+        // The command's other required arguments are given, so only the model can be wrong.
+        let required: &[&str] = match cmd {
+            "render" => &["-o", "x.png"],
+            "pose" => &["--time", "0"],
+            _ => &[],
+        };
+        let neither = run(&[&[cmd, "c.sphb"], required].concat(), d);
         assert_eq!(neither.status.code(), Some(2), "{cmd} without a model: {}", stderr(&neither));
-        assert!(stderr(&neither).contains("MODEL"), "{}", stderr(&neither));
-        let both = run(&[cmd, "c.sphb", "capsule.obj", "--model", "capsule.obj"], d);
+        assert!(stderr(&neither).contains("required arguments were not provided:\n  <MODEL>"), "{}", stderr(&neither));
+        let both = run(&[&[cmd, "c.sphb", "capsule.obj", "--model", "capsule.obj"], required].concat(), d);
         assert_eq!(both.status.code(), Some(2), "{cmd} with the model twice: {}", stderr(&both));
+        assert!(stderr(&both).contains("cannot be used with '--model"), "{}", stderr(&both));
     }
 }
 
@@ -292,11 +299,13 @@ fn no_help_line_states_its_default_twice() {
         let o = run(&[cmd, "--help"], dir.path());
         assert_eq!(o.status.code(), Some(0));
         let help = String::from_utf8_lossy(&o.stdout).into_owned();
-        // One entry per argument: it starts at its name (`-x`, `--long`, `<ARG>`, `[ARG]`) and
-        // runs on over the lines of its text (long help puts the text on lines of its own).
+        // One entry per argument: it starts at its name (`-x`, `--long`, `<ARG>`, `[ARG]`,
+        // indented by at most 6 columns) and runs on over the lines of its text (long help puts
+        // the text, and clap its `[default: …]`, on lines of their own, indented by 10).
         let mut entries: Vec<String> = Vec::new();
         for line in help.lines() {
-            if line.trim_start().starts_with(['-', '<', '[']) || entries.is_empty() {
+            let indent = line.len() - line.trim_start().len();
+            if (indent <= 6 && line.trim_start().starts_with(['-', '<', '['])) || entries.is_empty() {
                 entries.push(String::new());
             }
             entries.last_mut().unwrap().push_str(line);
