@@ -22,6 +22,7 @@ pub(crate) const SUPPORTED_REQUIRED: &[&str] = &[
     "EXT_meshopt_compression",
     "KHR_meshopt_compression",
     "KHR_texture_transform",
+    "KHR_materials_pbrSpecularGlossiness",
     "KHR_materials_unlit",
     "KHR_materials_emissive_strength",
     "KHR_materials_ior",

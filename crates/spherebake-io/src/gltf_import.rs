@@ -1137,13 +1137,20 @@ impl Source<'_> {
         image_map: &mut HashMap<usize, Option<usize>>,
     ) -> Material {
         let pbr = m.pbr_metallic_roughness();
+        // KHR_materials_pbrSpecularGlossiness (older exporters): when present it is the
+        // material, metallic-roughness being the fallback for viewers without it; its diffuse
+        // factor and texture (linear and sRGB, as the base colour's) are the albedo.
+        let (factor, colour_texture) = match m.pbr_specular_glossiness() {
+            Some(sg) => (sg.diffuse_factor(), sg.diffuse_texture()),
+            None => (pbr.base_color_factor(), pbr.base_color_texture()),
+        };
         let name = m.name().map(str::to_owned).unwrap_or_else(|| match m.index() {
             Some(i) => format!("material{i}"),
             None => "default".into(),
         });
         let mut out = Material {
             name,
-            base_color_factor_linear: pbr.base_color_factor(),
+            base_color_factor_linear: factor,
             base_color_texture: None,
             double_sided: m.double_sided(),
             // The document is validated before this (an unknown alphaMode is an error).
@@ -1152,7 +1159,7 @@ impl Source<'_> {
                 gltf::material::AlphaMode::Opaque | gltf::material::AlphaMode::Blend => None,
             },
         };
-        if let Some(info) = pbr.base_color_texture() {
+        if let Some(info) = colour_texture {
             let tex = info.texture();
             let img = tex.source();
             let ii = img.index();

@@ -747,3 +747,32 @@ fn morph_targets_are_applied_at_their_default_weights() {
     let Err(e) = e else { panic!("a short morph target is refused") };
     assert!(e.to_string().contains("morph.gltf") && e.to_string().contains("morph target 0"), "{e}");
 }
+
+/// KHR_materials_pbrSpecularGlossiness (older exporters): its diffuse factor and texture are
+/// the albedo, over the metallic-roughness fallback; listed as required it is accepted.
+#[test]
+fn specular_glossiness_diffuse_is_the_base_colour() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::copy(fixture("textured-cube/textured-cube.png"), dir.path().join("tex.png")).unwrap();
+    let extra = r#","extensionsUsed":["KHR_materials_pbrSpecularGlossiness"],"extensionsRequired":["KHR_materials_pbrSpecularGlossiness"],
+"materials":[{"name":"sg","pbrMetallicRoughness":{"baseColorFactor":[1,0,0,1]},
+  "extensions":{"KHR_materials_pbrSpecularGlossiness":{"diffuseFactor":[0,0.5,0,0.75],"diffuseTexture":{"index":0}}}},
+ {"name":"mr","pbrMetallicRoughness":{"baseColorFactor":[1,0,0,1]}}],
+"textures":[{"source":0}],"images":[{"uri":"tex.png"}]"#;
+    let (json, _) = gltf_json(&TRI, Some(&[0, 1, 2]), false, extra);
+    let json = json.replace(
+        r#""indices":1}"#,
+        r#""indices":1,"material":0},{"attributes":{"POSITION":0},"indices":1,"material":1}"#,
+    );
+    let p = dir.path().join("sg.gltf");
+    std::fs::write(&p, json).unwrap();
+    let imp = load_mesh(&p).unwrap();
+    let by_name = |n: &str| imp.mesh.materials.iter().find(|m| m.name == n).unwrap();
+    let sg = by_name("sg");
+    assert_eq!(sg.base_color_factor_linear, [0.0, 0.5, 0.0, 0.75]);
+    let t = sg.base_color_texture.as_ref().expect("the diffuse texture");
+    assert_eq!(imp.mesh.textures[t.texture].name, "tex.png");
+    let mr = by_name("mr");
+    assert_eq!(mr.base_color_factor_linear, [1.0, 0.0, 0.0, 1.0]);
+    assert!(mr.base_color_texture.is_none());
+}
