@@ -3,8 +3,9 @@
 //! nor the meshopt extensions), `EXT_meshopt_compression` / `KHR_meshopt_compression` buffer
 //! views (collected here, decoded in [`decode_views`]) and textures whose only image comes
 //! through `KHR_texture_basisu` / `EXT_texture_webp` / `EXT_texture_avif` (their `source` is
-//! filled in so that the crate accepts them; the image is then skipped with a warning naming the
-//! extension and the material keeps its base colour factor). `EXT_mesh_gpu_instancing` node
+//! filled in so that the crate accepts them; a WebP image is decoded like a PNG, a Basis or AVIF
+//! one is skipped with a warning naming the extension and the material keeps its base colour
+//! factor). `EXT_mesh_gpu_instancing` node
 //! attributes are collected here too (the importer places one copy of the mesh per instance).
 
 use std::collections::HashMap;
@@ -209,7 +210,9 @@ pub(crate) fn prepare(path: &Path, root: &mut Value) -> Result<Prepared, IoError
                 let src = t.get("extensions").and_then(|e| e.get(ext)).and_then(|e| e.get("source")).and_then(as_index);
                 if let Some(src) = src {
                     t.insert("source".into(), Value::from(src));
-                    prep.undecodable_images.insert(src, ext);
+                    if ext != "EXT_texture_webp" {
+                        prep.undecodable_images.insert(src, ext); // WebP is decoded (image crate)
+                    }
                     break;
                 }
             }

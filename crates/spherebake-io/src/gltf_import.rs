@@ -1210,7 +1210,6 @@ impl Source<'_> {
         if let Some(ext) = self.undecodable_images.get(&ii) {
             let what = match *ext {
                 "KHR_texture_basisu" => "KTX2 / Basis Universal",
-                "EXT_texture_webp" => "WebP",
                 _ => "AVIF",
             };
             self.ctx.warn(format!(

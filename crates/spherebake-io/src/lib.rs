@@ -19,7 +19,8 @@
 //! | `EXT_meshopt_compression`, `KHR_meshopt_compression` | buffer views decoded by [`meshopt`] (attribute codec v0 and v1, triangle and index-sequence codecs, all four filters); `fallback` buffers are never read |
 //! | `EXT_mesh_gpu_instancing` | one copy of the mesh per instance |
 //! | `KHR_texture_transform` | kept on the material's [`spherebake_geom::TextureRef`] |
-//! | `KHR_texture_basisu`, `EXT_texture_webp`, `EXT_texture_avif` | a fallback PNG / JPEG `source` is used when present; otherwise a warning naming the extension and the base colour factor |
+//! | `EXT_texture_webp` | a fallback PNG / JPEG `source` is used when present, otherwise the WebP image (lossy or lossless, decoded like a PNG) |
+//! | `KHR_texture_basisu`, `EXT_texture_avif` | a fallback PNG / JPEG `source` is used when present; otherwise a warning naming the extension and the base colour factor |
 //! | `KHR_materials_*`, `KHR_lights_punctual` | ignored (no effect on geometry or base colour) |
 //!
 //! Any other extension in `extensionsRequired` (for example `KHR_draco_mesh_compression`) is an

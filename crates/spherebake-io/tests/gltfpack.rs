@@ -364,7 +364,7 @@ fn tri_gltf(extra: &str, texture: &str) -> String {
 }
 
 #[test]
-fn draco_is_a_named_error_and_basis_textures_fall_back_with_a_warning() {
+fn draco_is_a_named_error_and_basis_and_avif_textures_fall_back_with_a_warning() {
     let p = Path::new("mem/t.gltf");
     assert!(load_mesh_from_bytes(p, tri_gltf("", "").as_bytes()).is_ok());
     let draco = tri_gltf(
@@ -374,7 +374,7 @@ fn draco_is_a_named_error_and_basis_textures_fall_back_with_a_warning() {
     let e = load_mesh_from_bytes(p, draco.as_bytes()).unwrap_err();
     assert!(matches!(&e, IoError::UnsupportedExtension { extension, .. } if extension == "KHR_draco_mesh_compression"));
     assert!(e.to_string().contains("KHR_draco_mesh_compression"), "{e}");
-    for (ext, mime) in [("KHR_texture_basisu", "image/ktx2"), ("EXT_texture_webp", "image/webp")] {
+    for (ext, mime) in [("KHR_texture_basisu", "image/ktx2"), ("EXT_texture_avif", "image/avif")] {
         let json = tri_gltf(
             &format!(
                 r#","extensionsUsed":["{ext}"],"extensionsRequired":["{ext}"],
@@ -395,4 +395,55 @@ fn draco_is_a_named_error_and_basis_textures_fall_back_with_a_warning() {
         // The undecodable image is not read (not an input).
         assert_eq!(imp.inputs, vec![p.to_path_buf()]);
     }
+}
+
+/// A texture whose only image comes through EXT_texture_webp is decoded (a lossless WebP here,
+/// so every texel is known): linear values from an independent sRGB EOTF, no image warning, and the
+/// image is an input of the bake (its hash makes the output stale when it changes).
+#[test]
+fn webp_textures_are_decoded() {
+    let dir = tempfile::tempdir().unwrap();
+    let (w, h) = (3u32, 2u32);
+    let rgba: Vec<u8> = (0..w * h).flat_map(|i| [(40 * i) as u8, 255 - (30 * i) as u8, 7, 255]).collect();
+    let mut webp = Vec::new();
+    image::codecs::webp::WebPEncoder::new_lossless(&mut webp)
+        .encode(&rgba, w, h, image::ExtendedColorType::Rgba8)
+        .unwrap();
+    std::fs::write(dir.path().join("tex.webp"), &webp).unwrap();
+    let ext = "EXT_texture_webp";
+    let json = tri_gltf(
+        &format!(
+            r#","extensionsUsed":["{ext}"],"extensionsRequired":["{ext}"],
+"textures":[{{"extensions":{{"{ext}":{{"source":0}}}}}}],
+"images":[{{"uri":"tex.webp","mimeType":"image/webp"}}]"#
+        ),
+        r#","baseColorTexture":{"index":0}"#,
+    );
+    let p = dir.path().join("t.gltf");
+    std::fs::write(&p, json).unwrap();
+    let imp = load_mesh(&p).unwrap();
+    // (The triangle has no UVs, which the importer warns about; nothing about the image.)
+    assert!(
+        !imp.warnings.iter().any(|w| w.0.contains("WebP") || w.0.contains("decode") || w.0.contains(ext)),
+        "{:?}",
+        imp.warnings
+    );
+    let tr = imp.mesh.materials[0].base_color_texture.as_ref().expect("the WebP texture");
+    let t = &imp.mesh.textures[tr.texture];
+    assert_eq!((t.width, t.height), (w, h));
+    let eotf = |c: u8| {
+        let v = f64::from(c) / 255.0;
+        if v <= 0.04045 {
+            v / 12.92
+        } else {
+            ((v + 0.055) / 1.055).powf(2.4)
+        }
+    };
+    for (i, texel) in t.texels_linear.iter().enumerate() {
+        for k in 0..3 {
+            assert!((f64::from(texel[k]) - eotf(rgba[4 * i + k])).abs() < 1e-6, "texel {i}: {texel:?}");
+        }
+        assert_eq!(texel[3], 1.0);
+    }
+    assert!(imp.inputs.iter().any(|f| f.ends_with("tex.webp")), "{:?}", imp.inputs);
 }
