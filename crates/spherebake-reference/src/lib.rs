@@ -34,7 +34,10 @@
 //!   whose ray from x hits the mesh first at y, with the diffuse exit radiance
 //!   L1(y) = albedo(y)/π · E_d(y) (albedo at the hit's triangle and barycentrics, level of detail 0;
 //!   E_d(y) about the outward shading normal at y, estimated with a few shadow rays per hit).
-//!   Rays that miss the mesh and go below the horizon hit the ground and contribute 0. Surfaces
+//!   Rays that miss the mesh and go below the horizon hit the ground and contribute 0. Rays pass
+//!   through the holes of alpha-masked materials (glTF `alphaMode` `MASK`: alpha below the cutoff
+//!   at level 0, [`spherebake_bake::SurfaceAlbedo::is_hole`], as the albedo bake sees through
+//!   them), for visibility and for the bounce alike, up to 64 holes per ray. Surfaces
 //!   are two-sided: a ray that reaches a triangle from its inner side sees that side lit about
 //!   the reversed normals (for a closed mesh and receivers outside it this never happens).
 //!
@@ -57,6 +60,9 @@
 //! against it.
 
 pub mod analytic;
+
+/// Holes of alpha-masked materials a ray passes through at most (see `Scene::first_hit`).
+const MAX_HOLES: usize = 64;
 
 use glam::{DVec3, Quat, Vec3};
 use rayon::prelude::*;
@@ -564,7 +570,7 @@ impl<'a> Scene<'a> {
         }
         let w = d / len;
         let o = (a + w * (2.0 * self.eps)).as_vec3();
-        self.bvh.closest_hit(o, w.as_vec3(), self.eps as f32, (len - 4.0 * self.eps) as f32).is_none()
+        self.first_hit(o, w.as_vec3(), self.eps as f32, (len - 4.0 * self.eps) as f32).is_none()
     }
 
     /// The textured albedo of the surface just under the point `p` along its normal `n` (development aid: the
@@ -578,6 +584,24 @@ impl<'a> Scene<'a> {
         Some(self.albedo(hit.triangle as usize, [1.0 - u - v, u, v]))
     }
 
+    /// The first hit in (t_min, t_max] that is not a hole of an alpha-masked material
+    /// ([`SurfaceAlbedo::is_hole`] at level 0): a ray passes through a leaf card's cut-out as
+    /// the albedo bake sees through it. At most [`MAX_HOLES`] holes are passed; a ray that meets
+    /// more takes the next hit as opaque (bounded work on pathological stacks of cards).
+    fn first_hit(&self, o: Vec3, w: Vec3, t_min: f32, t_max: f32) -> Option<spherebake_geom::bvh::Hit> {
+        let mut t0 = t_min;
+        for _ in 0..MAX_HOLES {
+            let hit = self.bvh.closest_hit(o, w, t0, t_max)?;
+            let (u, v) = (f64::from(hit.u), f64::from(hit.v));
+            if !self.albedo.is_hole(hit.triangle as usize, [1.0 - u - v, u, v], 0.0) {
+                return Some(hit);
+            }
+            // Past this hit: the next float above t, and at least the scene tolerance further.
+            t0 = f32::max(f32::from_bits(hit.t.to_bits() + 1), hit.t + self.eps as f32);
+        }
+        self.bvh.closest_hit(o, w, t0, t_max)
+    }
+
     /// sky(ω) when the ray from x (geometric normal g) along ω is not blocked by the mesh and
     /// leaves above x's own surface, else 0.
     fn sky_if_unblocked(&self, sky: &Sky, x: DVec3, g: DVec3, w: DVec3) -> f64 {
@@ -585,7 +609,7 @@ impl<'a> Scene<'a> {
             return 0.0;
         }
         let o = (x + g * (2.0 * self.eps)).as_vec3();
-        if self.bvh.closest_hit(o, w.as_vec3(), self.eps as f32, f32::INFINITY).is_some() {
+        if self.first_hit(o, w.as_vec3(), self.eps as f32, f32::INFINITY).is_some() {
             return 0.0;
         }
         sky.radiance(w.to_array())
@@ -597,7 +621,7 @@ impl<'a> Scene<'a> {
             return [0.0; 3];
         }
         let o = (x + g * (2.0 * self.eps)).as_vec3();
-        let Some(hit) = self.bvh.closest_hit(o, w.as_vec3(), self.eps as f32, f32::INFINITY) else {
+        let Some(hit) = self.first_hit(o, w.as_vec3(), self.eps as f32, f32::INFINITY) else {
             return [0.0; 3];
         };
         let t = hit.triangle as usize;

@@ -295,3 +295,58 @@ fn segment_visibility_and_albedo_under_a_point_follow_the_sphere() {
     }
     assert!(scene.albedo_near([5.0, 5.0, 5.0], [0.0, 1.0, 0.0]).is_none());
 }
+
+/// An alpha-masked card is a hole where its alpha is below the cutoff: rays pass through it as
+/// the albedo bake sees through it. A 20 × 20 card at height 1 over a ground point, whose
+/// factor alpha 0.25 is below the cutoff 0.5 everywhere, leaves the point's sky unoccluded (π
+/// under the uniform sky, exactly, as in the first test); opaque, it blocks most of it.
+#[test]
+fn rays_pass_through_the_holes_of_an_alpha_masked_card() {
+    use spherebake_geom::glam::Vec3;
+    use spherebake_geom::{Material, Mesh};
+    let card = |cutoff: Option<f32>| {
+        let mut positions = vec![
+            Vec3::new(-10.0, 1.0, -10.0),
+            Vec3::new(10.0, 1.0, -10.0),
+            Vec3::new(10.0, 1.0, 10.0),
+            Vec3::new(-10.0, 1.0, 10.0),
+        ];
+        // A small opaque triangle on the ground far away sets the ground plane y = 0.
+        positions.extend([Vec3::new(50.0, 0.0, 0.0), Vec3::new(51.0, 0.0, 0.0), Vec3::new(50.0, 0.0, 1.0)]);
+        let mut m = Mesh {
+            normals: vec![Vec3::Y; positions.len()],
+            positions,
+            triangles: vec![[0, 2, 1], [0, 3, 2], [4, 6, 5]],
+            triangle_materials: vec![0, 0, 1],
+            materials: vec![
+                Material {
+                    base_color_factor_linear: [0.5, 0.5, 0.5, 0.25],
+                    alpha_mask_cutoff: cutoff,
+                    ..Default::default()
+                },
+                Material::default(),
+            ],
+            ..Default::default()
+        };
+        m.rebuild_weld();
+        m
+    };
+    let sky = Sky::uniform(1.0).unwrap();
+    let s = ReferenceSettings { rays: 256, shadow_rays: 1, seed: 5 };
+    let at = [ground([0.0, 0.0, 0.0]), ground([3.0, 0.0, -4.0])];
+    let masked = card(Some(0.5));
+    let scene = Scene::new(&masked).unwrap();
+    assert!(scene.ground_y().abs() < 1e-9);
+    for e in scene.direct(&sky, &at, &s).unwrap() {
+        assert!((e - PI).abs() < 1e-12, "masked card: {e}");
+    }
+    let opaque = card(None);
+    for e in Scene::new(&opaque).unwrap().direct(&sky, &at, &s).unwrap() {
+        assert!(e < 0.5 * PI, "opaque card: {e}");
+    }
+    // At the cutoff 0.25 the alpha 0.25 is not below it: opaque again.
+    let at_cutoff = card(Some(0.25));
+    for e in Scene::new(&at_cutoff).unwrap().direct(&sky, &at, &s).unwrap() {
+        assert!(e < 0.5 * PI, "alpha equal to the cutoff: {e}");
+    }
+}
