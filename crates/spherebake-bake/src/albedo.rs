@@ -718,7 +718,38 @@ impl<'a> SurfaceAlbedo<'a> {
         }
         alpha < f64::from(cutoff)
     }
+
+    /// The first hit of the ray `origin + t·dir`, t in [`t_min`, `t_max`], on `bvh` (built over
+    /// this mesh's triangles, in order) that is not a hole ([`Self::is_hole`] at level 0): a ray
+    /// passes through a leaf card's cut-out as the albedo bake sees through it. Each hole moves
+    /// the search past its t by at least `step` (and one float); after [`MAX_HOLES_PER_RAY`]
+    /// holes the next hit counts as opaque (bounded work on stacks of cards). Without masked
+    /// materials this is `bvh.closest_hit`.
+    pub fn first_opaque_hit(
+        &self,
+        bvh: &spherebake_geom::bvh::TriangleBvh,
+        origin: glam::Vec3,
+        dir: glam::Vec3,
+        t_min: f32,
+        t_max: f32,
+        step: f32,
+    ) -> Option<spherebake_geom::bvh::Hit> {
+        let mut t0 = t_min;
+        for _ in 0..MAX_HOLES_PER_RAY {
+            let hit = bvh.closest_hit(origin, dir, t0, t_max)?;
+            let (u, v) = (f64::from(hit.u), f64::from(hit.v));
+            if !self.is_hole(hit.triangle as usize, [1.0 - u - v, u, v], 0.0) {
+                return Some(hit);
+            }
+            t0 = f32::max(f32::from_bits(hit.t.to_bits() + 1), hit.t + step);
+        }
+        bvh.closest_hit(origin, dir, t0, t_max)
+    }
 }
+
+/// Holes of alpha-masked materials a ray passes through at most in
+/// [`SurfaceAlbedo::first_opaque_hit`].
+pub const MAX_HOLES_PER_RAY: usize = 64;
 
 // ---------------------------------------------------------------------------------------------
 // Rendering

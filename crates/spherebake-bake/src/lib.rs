@@ -19,7 +19,7 @@ pub mod skin;
 
 pub use albedo::{
     bake_albedo, project_cubemaps, render_albedo_cubemaps, segment_triangles, write_debug_cubemaps, AlbedoError,
-    AlbedoSettings, AlbedoStats, CubeMap, SurfaceAlbedo, TextureLod,
+    AlbedoSettings, AlbedoStats, CubeMap, SurfaceAlbedo, TextureLod, MAX_HOLES_PER_RAY,
 };
 pub use incremental::{inputs_value, is_up_to_date, recorded_inputs, INPUTS_KEY};
 

@@ -37,7 +37,8 @@
 //!   Rays that miss the mesh and go below the horizon hit the ground and contribute 0. Rays pass
 //!   through the holes of alpha-masked materials (glTF `alphaMode` `MASK`: alpha below the cutoff
 //!   at level 0, [`spherebake_bake::SurfaceAlbedo::is_hole`], as the albedo bake sees through
-//!   them), for visibility and for the bounce alike, up to 64 holes per ray. Surfaces
+//!   them), for visibility and for the bounce alike, up to
+//!   [`spherebake_bake::MAX_HOLES_PER_RAY`] holes per ray. Surfaces
 //!   are two-sided: a ray that reaches a triangle from its inner side sees that side lit about
 //!   the reversed normals (for a closed mesh and receivers outside it this never happens).
 //!
@@ -60,9 +61,6 @@
 //! against it.
 
 pub mod analytic;
-
-/// Holes of alpha-masked materials a ray passes through at most (see `Scene::first_hit`).
-const MAX_HOLES: usize = 64;
 
 use glam::{DVec3, Quat, Vec3};
 use rayon::prelude::*;
@@ -584,22 +582,10 @@ impl<'a> Scene<'a> {
         Some(self.albedo(hit.triangle as usize, [1.0 - u - v, u, v]))
     }
 
-    /// The first hit in (t_min, t_max] that is not a hole of an alpha-masked material
-    /// ([`SurfaceAlbedo::is_hole`] at level 0): a ray passes through a leaf card's cut-out as
-    /// the albedo bake sees through it. At most [`MAX_HOLES`] holes are passed; a ray that meets
-    /// more takes the next hit as opaque (bounded work on pathological stacks of cards).
+    /// The first hit in [t_min, t_max] that is not a hole of an alpha-masked material
+    /// ([`SurfaceAlbedo::first_opaque_hit`], holes passed by at least the scene tolerance).
     fn first_hit(&self, o: Vec3, w: Vec3, t_min: f32, t_max: f32) -> Option<spherebake_geom::bvh::Hit> {
-        let mut t0 = t_min;
-        for _ in 0..MAX_HOLES {
-            let hit = self.bvh.closest_hit(o, w, t0, t_max)?;
-            let (u, v) = (f64::from(hit.u), f64::from(hit.v));
-            if !self.albedo.is_hole(hit.triangle as usize, [1.0 - u - v, u, v], 0.0) {
-                return Some(hit);
-            }
-            // Past this hit: the next float above t, and at least the scene tolerance further.
-            t0 = f32::max(f32::from_bits(hit.t.to_bits() + 1), hit.t + self.eps as f32);
-        }
-        self.bvh.closest_hit(o, w, t0, t_max)
+        self.albedo.first_opaque_hit(&self.bvh, o, w, t_min, t_max, self.eps as f32)
     }
 
     /// sky(ω) when the ray from x (geometric normal g) along ω is not blocked by the mesh and

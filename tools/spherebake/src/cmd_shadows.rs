@@ -150,7 +150,7 @@ pub fn run(a: ShadowsArgs) -> Result<ExitCode> {
     let proxy = crate::cmd_view::read_sphb(&a.file)?;
     let imported = spherebake_io::load_mesh(&a.model)?;
     let mesh = &imported.mesh;
-    let r = compute(&a, &proxy, &mesh.positions, &mesh.triangles)
+    let r = compute(&a, &proxy, mesh)
         .with_context(|| format!("{}: shadows against {}", a.file.display(), a.model.display()))?;
     if let Some(out) = &a.output {
         let mut read = imported.inputs.clone();
@@ -215,13 +215,15 @@ fn strata(rays: usize) -> usize {
     n
 }
 
-/// Runs truth and proxy for one baked proxy and mesh (model space, +Y up).
+/// Runs truth and proxy for one baked proxy and mesh (model space, +Y up). The truth's rays pass
+/// through the holes of alpha-masked materials (`SurfaceAlbedo::first_opaque_hit`), as the
+/// albedo bake and the light reference do.
 pub fn compute(
     a: &ShadowsArgs,
     proxy: &spherebake_runtime::Proxy,
-    positions: &[Vec3],
-    triangles: &[[u32; 3]],
+    mesh: &spherebake_geom::Mesh,
 ) -> Result<ShadowsResult> {
+    let (positions, triangles) = (&mesh.positions[..], &mesh.triangles[..]);
     let order = a.order;
     let nc = coeff_count(order);
     // Bounds over the corners of the triangles.
@@ -272,6 +274,12 @@ pub fn compute(
     let bvh = TriangleBvh::new(positions, triangles);
     let diag = (hi - lo).length();
     let t_min = 1e-5 * diag;
+    // The colour lookup only where a material is alpha-masked (its mip chains cost time).
+    let cutouts = if mesh.materials.iter().any(|m| m.alpha_mask_cutoff.is_some()) {
+        Some(spherebake_bake::SurfaceAlbedo::new(mesh).context("the model's materials")?)
+    } else {
+        None
+    };
     let ns = strata(a.rays);
     let k_total = (ns * ns) as f64;
     let seed = a.seed;
@@ -296,7 +304,11 @@ pub fn compute(
                     let s = (1.0 - c * c).max(0.0).sqrt();
                     let dir = [s * phi.cos(), c, s * phi.sin()];
                     let d32 = Vec3::new(dir[0] as f32, dir[1] as f32, dir[2] as f32);
-                    if bvh.closest_hit(origin, d32, t_min, f32::INFINITY).is_some() {
+                    let blocked = match &cutouts {
+                        Some(s) => s.first_opaque_hit(&bvh, origin, d32, t_min, f32::INFINITY, t_min).is_some(),
+                        None => bvh.closest_hit(origin, d32, t_min, f32::INFINITY).is_some(),
+                    };
+                    if blocked {
                         let _ = eval_sh_f64(order, dir, &mut y);
                         for (gi, yi) in g.iter_mut().zip(&y[..nc]) {
                             *gi += yi;

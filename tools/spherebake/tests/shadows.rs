@@ -118,3 +118,47 @@ fn bad_arguments() {
     assert_eq!(o.status.code(), Some(1));
     assert!(String::from_utf8_lossy(&o.stderr).contains("missing.sphb"));
 }
+
+/// The truth's rays pass through the holes of an alpha-masked material: a 20 × 20 card at
+/// height 1, whose factor alpha 0.25 is below the MASK cutoff 0.5 everywhere, shadows nothing
+/// (every receiver gets the unoccluded value 1 of the uniform light), while the same card
+/// opaque shadows the receivers under it. The proxy (the ball fixture's sphere file) is the
+/// same for both, so only the truth differs.
+#[test]
+fn the_truth_sees_through_an_alpha_masked_card() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    fixture(d);
+    // The card, and a small triangle on the ground far away that sets the ground plane y = 0.
+    let p: [[f32; 3]; 7] = [
+        [-10.0, 1.0, -10.0],
+        [10.0, 1.0, -10.0],
+        [10.0, 1.0, 10.0],
+        [-10.0, 1.0, 10.0],
+        [50.0, 0.0, 0.0],
+        [51.0, 0.0, 0.0],
+        [50.0, 0.0, 1.0],
+    ];
+    let idx: [u32; 9] = [0, 2, 1, 0, 3, 2, 4, 6, 5];
+    let mut bin: Vec<u8> = p.iter().flatten().flat_map(|x| x.to_le_bytes()).collect();
+    bin.extend(idx.iter().flat_map(|i| i.to_le_bytes()));
+    std::fs::write(d.join("card.bin"), &bin).unwrap();
+    let mean_truth = |mode: &str| -> f64 {
+        let json = format!(
+            r#"{{"asset":{{"version":"2.0"}},"scene":0,"scenes":[{{"nodes":[0]}}],"nodes":[{{"mesh":0}}],
+"meshes":[{{"primitives":[{{"attributes":{{"POSITION":0}},"indices":1,"material":0}}]}}],
+"materials":[{{{mode}"pbrMetallicRoughness":{{"baseColorFactor":[0.5,0.5,0.5,0.25]}}}}],
+"buffers":[{{"byteLength":120,"uri":"card.bin"}}],
+"bufferViews":[{{"buffer":0,"byteLength":84}},{{"buffer":0,"byteOffset":84,"byteLength":36}}],
+"accessors":[{{"bufferView":0,"componentType":5126,"count":7,"type":"VEC3","min":[-10,0,-10],"max":[51,1,10]}},
+ {{"bufferView":1,"componentType":5125,"count":9,"type":"SCALAR"}}]}}"#
+        );
+        std::fs::write(d.join("card.gltf"), json).unwrap();
+        let o = run(&["shadows", "ball.sphb", "card.gltf", "--json", "--resolution", "8", "--rays", "64"], d);
+        json_of(&o)["mean_truth"].as_f64().unwrap()
+    };
+    let masked = mean_truth(r#""alphaMode":"MASK","#);
+    assert!((masked - 1.0).abs() < 1e-9, "masked card: mean truth {masked}");
+    let opaque = mean_truth("");
+    assert!(opaque < 1.0 - 1e-3, "opaque card: mean truth {opaque}");
+}
