@@ -6,7 +6,7 @@ use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 
 use glam::Vec3;
-use spherebake_geom::{Material, Mesh, TextureRef};
+use spherebake_geom::{Material, Mesh, TextureRef, UvTransform};
 
 use crate::texture::decode_srgb_texture;
 use crate::{Ctx, ImportedPart, IoError, ReadLimit, MAX_IMAGE_BYTES, MAX_MTL_BYTES};
@@ -725,8 +725,8 @@ fn obj_material(
         alpha_mask_cutoff: None,
     };
     if let Some(tex) = &m.diffuse_texture {
-        // Options such as `-s 1 1 1` may precede the file name; the file name is the last token.
-        let file = tex.split_whitespace().last().unwrap_or("");
+        let map = parse_map_args(tex);
+        let file = map.file;
         let p = mtl_dir.join(file.replace('\\', "/"));
         let slot = match texture_map.get(&p) {
             Some(s) => *s,
@@ -765,16 +765,124 @@ fn obj_material(
                 wrap_s: Default::default(),
                 wrap_t: Default::default(),
                 mag_filter: Default::default(),
-                transform: Default::default(),
+                transform: map.transform(),
             });
         }
     }
     out
 }
 
+/// The arguments of an MTL texture statement (`map_Kd [options] file`).
+#[derive(Debug, PartialEq)]
+struct MapArgs<'a> {
+    /// The rest of the line after the options, inner spaces kept (`my texture.png`).
+    file: &'a str,
+    /// `-o u v`: the texture's origin offset, OBJ texture space (v up).
+    offset: [f32; 2],
+    /// `-s u v`: the texture's scale, OBJ texture space.
+    scale: [f32; 2],
+}
+
+impl MapArgs<'_> {
+    /// The lookup the options ask for, in the importer's UV convention: OBJ maps t = s·uv + o
+    /// in its own space (v up); with V = 1 − v on both sides that is
+    /// T = (s_u·U + o_u, s_v·V + 1 − s_v − o_v).
+    fn transform(&self) -> UvTransform {
+        let [su, sv] = self.scale;
+        let [ou, ov] = self.offset;
+        UvTransform { offset: [ou, 1.0 - sv - ov], rotation_rad: 0.0, scale: [su, sv] }
+    }
+}
+
+/// Splits `[options] file` by the options of the MTL specification, each with its argument
+/// count (`-o`, `-s`, `-t` take one to three numbers); anything else ends the options and the
+/// rest of the line is the file name, so a name with spaces survives. A missing `v` of `-o` or
+/// `-s` keeps its default (0 and 1).
+fn parse_map_args(line: &str) -> MapArgs<'_> {
+    fn pop(s: &str) -> (&str, &str) {
+        let s = s.trim_start();
+        let end = s.find(char::is_whitespace).unwrap_or(s.len());
+        (&s[..end], &s[end..])
+    }
+    let mut rest = line.trim();
+    let mut args = MapArgs { file: "", offset: [0.0, 0.0], scale: [1.0, 1.0] };
+    loop {
+        let (opt, after) = pop(rest);
+        let fixed = match opt {
+            "-blendu" | "-blendv" | "-boost" | "-cc" | "-clamp" | "-imfchan" | "-texres" | "-bm" | "-type" => 1,
+            "-mm" => 2,
+            "-o" | "-s" | "-t" => 0,
+            _ => break,
+        };
+        rest = after;
+        if fixed > 0 {
+            for _ in 0..fixed {
+                rest = pop(rest).1;
+            }
+            continue;
+        }
+        // One to three numbers.
+        let mut values = Vec::new();
+        while values.len() < 3 {
+            let (tok, after) = pop(rest);
+            match tok.parse::<f32>() {
+                Ok(v) if v.is_finite() => {
+                    values.push(v);
+                    rest = after;
+                }
+                _ => break,
+            }
+        }
+        let target = match opt {
+            "-o" => Some(&mut args.offset),
+            "-s" => Some(&mut args.scale),
+            _ => None,
+        };
+        if let Some(t) = target {
+            for (k, v) in values.into_iter().take(2).enumerate() {
+                t[k] = v;
+            }
+        }
+    }
+    args.file = rest.trim();
+    args
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn map_arguments_are_split_by_the_mtl_options() {
+        let args = |file, offset, scale| MapArgs { file, offset, scale };
+        assert_eq!(parse_map_args("tex.png"), args("tex.png", [0.0, 0.0], [1.0, 1.0]));
+        assert_eq!(parse_map_args("  my wood floor.jpg "), args("my wood floor.jpg", [0.0, 0.0], [1.0, 1.0]));
+        assert_eq!(
+            parse_map_args("-s 2 3 1 -o 0.5 0.25 0 -clamp on -mm 0 1 -bm 0.5 Textures\\a b.png"),
+            args("Textures\\a b.png", [0.5, 0.25], [2.0, 3.0])
+        );
+        // Optional components: -s u alone keeps v = 1; -t takes its numbers and no more.
+        assert_eq!(parse_map_args("-s 4 -t 1 2 x.png"), args("x.png", [0.0, 0.0], [4.0, 1.0]));
+        // An unknown option ends the options: it is part of the name, as is a name that is a number.
+        assert_eq!(parse_map_args("-weird x.png"), args("-weird x.png", [0.0, 0.0], [1.0, 1.0]));
+        assert_eq!(parse_map_args("-o 1 2 3 4.png"), args("4.png", [1.0, 2.0], [1.0, 1.0]));
+        assert_eq!(parse_map_args("-s"), args("", [0.0, 0.0], [1.0, 1.0]));
+    }
+
+    /// The transform maps the importer's UV (U, V = 1 − v) to where OBJ looks: its own
+    /// t = s·uv + o (v up), flipped the same way.
+    #[test]
+    fn map_offset_and_scale_become_the_uv_transform() {
+        let a = parse_map_args("-s 2 0.5 -o 0.25 0.1 t.png");
+        let tr = a.transform();
+        for (u, v) in [(0.1f32, 0.2f32), (0.0, 0.0), (0.9, 0.7)] {
+            let obj = [2.0 * u + 0.25, 0.5 * v + 0.1];
+            let want = [obj[0], 1.0 - obj[1]];
+            let got = tr.apply([u, 1.0 - v]);
+            assert!((got[0] - want[0]).abs() < 1e-6 && (got[1] - want[1]).abs() < 1e-6, "{got:?} vs {want:?}");
+        }
+        assert_eq!(parse_map_args("t.png").transform(), UvTransform::default());
+    }
 
     /// A random OBJ-like text: vertex lines (some bad), vt / vn, faces with absolute, negative,
     /// zero and out-of-range indices, comments, blank lines, `\`-continued lines, CRLF.

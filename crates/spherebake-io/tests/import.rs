@@ -776,3 +776,21 @@ fn specular_glossiness_diffuse_is_the_base_colour() {
     assert_eq!(mr.base_color_factor_linear, [1.0, 0.0, 0.0, 1.0]);
     assert!(mr.base_color_texture.is_none());
 }
+
+/// An MTL `map_Kd` with options and a file name with spaces: the options are skipped by the
+/// MTL specification's argument counts and the rest of the line is the name (it was the last
+/// word, so "my tex.png" read "tex.png" and the texture was lost); `-s` becomes the transform.
+#[test]
+fn obj_map_kd_with_options_and_spaces_in_the_name() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    std::fs::copy(fixture("textured-cube/textured-cube.png"), d.join("my tex.png")).unwrap();
+    std::fs::write(d.join("m.mtl"), "newmtl m\nKd 1 1 1\nmap_Kd -s 2 2 1 -clamp on my tex.png\n").unwrap();
+    std::fs::write(d.join("m.obj"), "mtllib m.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nusemtl m\nf 1/1 2/1 3/1\n")
+        .unwrap();
+    let imp = load_mesh(&d.join("m.obj")).unwrap();
+    assert!(imp.warnings.is_empty(), "{:?}", imp.warnings);
+    let tr = imp.mesh.materials[0].base_color_texture.as_ref().expect("the texture named with a space");
+    assert_eq!(imp.mesh.textures[tr.texture].name, "my tex.png");
+    assert_eq!((tr.transform.scale, tr.transform.offset), ([2.0, 2.0], [0.0, -1.0]));
+}
