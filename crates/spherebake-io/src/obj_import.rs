@@ -661,6 +661,14 @@ pub(crate) fn import(ctx: &mut Ctx, bytes: &[u8]) -> Result<(Mesh, Vec<ImportedP
             tmp.normals
         };
         // OBJ v runs bottom-up; glTF convention (row 0 = top) needs v' = 1 - v.
+        if !m.texcoords.is_empty() && m.texcoords.len() != 2 * n {
+            // Faces with and without `vt` in one group: tobj cannot pair them, so the group
+            // has no UVs (a textured material there shows its Kd).
+            ctx.warn(format!(
+                "object {:?}: some faces have texture coordinates (vt) and some not; the group's UVs are dropped",
+                model.name
+            ));
+        }
         if m.texcoords.len() == 2 * n && n > 0 {
             has_uv = true;
             uvs.extend(m.texcoords.chunks_exact(2).map(|c| [c[0], 1.0 - c[1]]));

@@ -794,3 +794,18 @@ fn obj_map_kd_with_options_and_spaces_in_the_name() {
     assert_eq!(imp.mesh.textures[tr.texture].name, "my tex.png");
     assert_eq!((tr.transform.scale, tr.transform.offset), ([2.0, 2.0], [0.0, -1.0]));
 }
+
+/// An OBJ group whose faces mix `vt` and no `vt` cannot keep its UVs: the importer says so
+/// (it used to drop them silently); a group with `vt` on every face keeps them, unwarned.
+#[test]
+fn obj_group_mixing_faces_with_and_without_vt_is_warned_about() {
+    let p = Path::new("mem/mix.obj");
+    let mixed = "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nvt 0 0\nf 1/1 2/1 3/1\nf 2 4 3\n";
+    let imp = load_mesh_from_bytes(p, mixed.as_bytes()).unwrap();
+    assert!(imp.mesh.uvs.is_empty());
+    assert!(imp.warnings.iter().any(|w| w.0.contains("some faces have texture coordinates")), "{:?}", imp.warnings);
+    let all = "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nvt 0 0\nf 1/1 2/1 3/1\nf 2/1 4/1 3/1\n";
+    let imp = load_mesh_from_bytes(p, all.as_bytes()).unwrap();
+    assert_eq!(imp.mesh.uvs.len(), 1);
+    assert!(imp.warnings.is_empty(), "{:?}", imp.warnings);
+}
