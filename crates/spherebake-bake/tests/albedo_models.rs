@@ -6,15 +6,7 @@ use spherebake_bake::{bake_albedo, render_albedo_cubemaps, AlbedoSettings};
 use spherebake_geom::winding::WindingNumber;
 use spherebake_sh::CubeFace;
 
-/// The sRGB EOTF (IEC 61966-2-1) written out here, independently of the importer.
-fn srgb8_to_linear(v: u8) -> f64 {
-    let c = f64::from(v) / 255.0;
-    if c <= 0.04045 {
-        c / 12.92
-    } else {
-        ((c + 0.055) / 1.055).powf(2.4)
-    }
-}
+use spherebake_testkit::oracle::srgb8_to_linear;
 
 #[test]
 fn srgb_texture_arrives_linear() {

@@ -431,14 +431,7 @@ fn webp_textures_are_decoded() {
     let tr = imp.mesh.materials[0].base_color_texture.as_ref().expect("the WebP texture");
     let t = &imp.mesh.textures[tr.texture];
     assert_eq!((t.width, t.height), (w, h));
-    let eotf = |c: u8| {
-        let v = f64::from(c) / 255.0;
-        if v <= 0.04045 {
-            v / 12.92
-        } else {
-            ((v + 0.055) / 1.055).powf(2.4)
-        }
-    };
+    let eotf = spherebake_testkit::oracle::srgb8_to_linear;
     for (i, texel) in t.texels_linear.iter().enumerate() {
         for k in 0..3 {
             assert!((f64::from(texel[k]) - eotf(rgba[4 * i + k])).abs() < 1e-6, "texel {i}: {texel:?}");

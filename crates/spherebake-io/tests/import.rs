@@ -84,6 +84,15 @@ fn glb(json: &str, bin: &[u8]) -> Vec<u8> {
 
 const TRI: [[f32; 3]; 3] = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]];
 
+/// The triangle twice, as two primitives with materials 0 and 1 (`extra` defines them).
+fn two_material_gltf(extra: &str) -> String {
+    let (json, _) = gltf_json(&TRI, Some(&[0, 1, 2]), false, extra);
+    json.replace(
+        r#""indices":1}"#,
+        r#""indices":1,"material":0},{"attributes":{"POSITION":0},"indices":1,"material":1}"#,
+    )
+}
+
 #[test]
 fn built_gltf_and_glb_import() {
     let (json, _) = gltf_json(&TRI, Some(&[0, 1, 2]), false, "");
@@ -242,11 +251,7 @@ fn obj_usemtl_names_no_library_defines_are_warned_about() {
 fn gltf_missing_or_bad_texture_warns_and_uses_factor() {
     let dir = tempfile::tempdir().unwrap();
     let extra = r#","materials":[{"pbrMetallicRoughness":{"baseColorFactor":[0.5,0.5,0.5,1],"baseColorTexture":{"index":0}}},{"pbrMetallicRoughness":{"baseColorTexture":{"index":1}}}],"textures":[{"source":0},{"source":1}],"images":[{"uri":"gone.png"},{"uri":"data:image/png;base64,AAAA"}]"#;
-    let (json, _) = gltf_json(&TRI, Some(&[0, 1, 2]), false, extra);
-    let json = json.replace(
-        r#""indices":1}"#,
-        r#""indices":1,"material":0},{"attributes":{"POSITION":0},"indices":1,"material":1}"#,
-    );
+    let json = two_material_gltf(extra);
     let p = dir.path().join("t.gltf");
     std::fs::write(&p, json).unwrap();
     let imp = load_mesh(&p).unwrap();
@@ -560,14 +565,7 @@ fn large_textures_are_reduced_at_decode_and_oversized_ones_refused() {
         imp.warnings
     );
     // Independent: the f64 mean of each 4 × 2 block of the sRGB EOTF of its texels.
-    let eotf = |c: u8| {
-        let c = f64::from(c) / 255.0;
-        if c <= 0.04045 {
-            c / 12.92
-        } else {
-            ((c + 0.055) / 1.055).powf(2.4)
-        }
-    };
+    let eotf = spherebake_testkit::oracle::srgb8_to_linear;
     for x in 0..t.width {
         for ch in 0..3 {
             let mut s = 0.0;
@@ -611,7 +609,7 @@ fn large_textures_are_reduced_at_decode_and_oversized_ones_refused() {
 /// EOTF of their values per channel (grey to all three), alpha as stored.
 #[test]
 fn every_pixel_layout_decodes_to_linear_rgba() {
-    let eotf = |c: f64| if c <= 0.04045 { c / 12.92 } else { ((c + 0.055) / 1.055).powf(2.4) };
+    let eotf = spherebake_testkit::oracle::srgb_to_linear;
     let dir = tempfile::tempdir().unwrap();
     let obj = "mtllib a.mtl\nusemtl m\nv 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nvt 1 0\nvt 0 1\nf 1/1 2/2 3/3\n";
     std::fs::write(dir.path().join("a.obj"), obj).unwrap();
@@ -759,11 +757,7 @@ fn specular_glossiness_diffuse_is_the_base_colour() {
   "extensions":{"KHR_materials_pbrSpecularGlossiness":{"diffuseFactor":[0,0.5,0,0.75],"diffuseTexture":{"index":0}}}},
  {"name":"mr","pbrMetallicRoughness":{"baseColorFactor":[1,0,0,1]}}],
 "textures":[{"source":0}],"images":[{"uri":"tex.png"}]"#;
-    let (json, _) = gltf_json(&TRI, Some(&[0, 1, 2]), false, extra);
-    let json = json.replace(
-        r#""indices":1}"#,
-        r#""indices":1,"material":0},{"attributes":{"POSITION":0},"indices":1,"material":1}"#,
-    );
+    let json = two_material_gltf(extra);
     let p = dir.path().join("sg.gltf");
     std::fs::write(&p, json).unwrap();
     let imp = load_mesh(&p).unwrap();

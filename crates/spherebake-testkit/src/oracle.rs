@@ -196,6 +196,21 @@ pub fn convex_inside(p: &[[f64; 3]], t: &[[u32; 3]]) -> impl Fn([f64; 3]) -> boo
     move |x| planes.iter().all(|(n, d)| dot(*n, x) <= *d)
 }
 
+/// The sRGB EOTF (IEC 61966-2-1) of a value in [0, 1], written out here independently of the
+/// importer: linear = c / 12.92 up to 0.04045, else ((c + 0.055) / 1.055)^2.4.
+pub fn srgb_to_linear(c: f64) -> f64 {
+    if c <= 0.04045 {
+        c / 12.92
+    } else {
+        ((c + 0.055) / 1.055).powf(2.4)
+    }
+}
+
+/// [`srgb_to_linear`] of an 8-bit code value.
+pub fn srgb8_to_linear(v: u8) -> f64 {
+    srgb_to_linear(f64::from(v) / 255.0)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
