@@ -43,9 +43,11 @@
 //!    (`docs/benchmarks.md`).
 //! 3. **Colour** = base colour factor × base-colour texture × COLOR_0, linear RGB. Alpha is
 //!    ignored, except for an alpha-masked material (glTF `alphaMode` `MASK`): a fragment of the
-//!    segment's own triangles whose alpha (factor × texture × COLOR_0, at the same level of
-//!    detail as its colour) is below the cutoff is a hole ([`SurfaceAlbedo::is_hole`]) and takes
-//!    no texel, so the surface behind a leaf card's cut-out shows (or the texel is filled). The
+//!    segment's own triangles whose alpha (factor × texture × COLOR_0, the texture at level 0)
+//!    is below the cutoff is a hole ([`SurfaceAlbedo::is_hole`]) and takes no texel, so the
+//!    surface behind a leaf card's cut-out shows (or the texel is filled); the colour of a
+//!    masked texture is α-weighted at every level (Σ RGB·α / Σ α), so its cut-out texels'
+//!    colour never bleeds into the opaque part. The
 //!    rule-2 coverage pass and the sample points (`samples`) still take masked triangles as
 //!    whole surfaces, and `BLEND` is opaque. The texture is sampled at the true (perspective-correct) barycentric point,
 //!    with the material's UV set, KHR_texture_transform and wrap modes, trilinearly from a box-
@@ -468,17 +470,17 @@ fn assign(pos: &[DVec3], triangles: &[[u32; 3]], spheres: &[SphereF64]) -> Vec<V
 // ---------------------------------------------------------------------------------------------
 // Textures
 
-/// A texture as a mip chain of linear levels of `N` channels (RGB, or the alpha of a masked
-/// material's texture; box filter, 2×2 → 1: [`texels::halve`]).
+/// A texture as a mip chain of linear levels of `N` channels (RGB, or a masked material's
+/// texture premultiplied, RGB·α and α; box filter, 2×2 → 1: [`texels::halve`]).
 #[derive(Clone)]
 struct MipChain<const N: usize> {
     levels: Vec<(usize, usize, Vec<[f32; N]>)>,
 }
 
 impl<const N: usize> MipChain<N> {
-    /// The chain over `width × height` texels, each channel of `texels` picked by `pick`.
-    fn new(width: usize, height: usize, texels: &[[f32; 4]], pick: [usize; N]) -> Self {
-        let base: Vec<[f32; N]> = texels.iter().map(|t| pick.map(|c| t[c])).collect();
+    /// The chain over `width × height` texels, each mapped by `channels`.
+    fn new(width: usize, height: usize, texels: &[[f32; 4]], channels: impl Fn(&[f32; 4]) -> [f32; N]) -> Self {
+        let base: Vec<[f32; N]> = texels.iter().map(channels).collect();
         let mut levels = vec![(width, height, base)];
         loop {
             let (w, h, ref src) = levels[levels.len() - 1];
@@ -565,8 +567,10 @@ pub struct SurfaceAlbedo<'a> {
     mesh: &'a Mesh,
     /// Per texture: its RGB mip chain when a material references it.
     chains: Vec<Option<MipChain<3>>>,
-    /// Per texture: its alpha mip chain when an alpha-masked material references it.
-    alpha_chains: Vec<Option<MipChain<1>>>,
+    /// Per texture: its premultiplied mip chain (RGB·α, α) when an alpha-masked material
+    /// references it: a masked surface's colour is Σ RGB·α / Σ α over the footprint, so the
+    /// colour of its cut-out texels never bleeds in, and its holes are tested on level 0's α.
+    masked_chains: Vec<Option<MipChain<4>>>,
 }
 
 impl<'a> SurfaceAlbedo<'a> {
@@ -626,7 +630,9 @@ impl<'a> SurfaceAlbedo<'a> {
             .textures
             .par_iter()
             .zip(referenced.par_iter())
-            .map(|(t, &r)| r.then(|| MipChain::new(t.width as usize, t.height as usize, &t.texels_linear, [0, 1, 2])))
+            .map(|(t, &r)| {
+                r.then(|| MipChain::new(t.width as usize, t.height as usize, &t.texels_linear, |t| [t[0], t[1], t[2]]))
+            })
             .collect();
         let mut masked = vec![false; mesh.textures.len()];
         for m in mesh.materials.iter().filter(|m| m.alpha_mask_cutoff.is_some()) {
@@ -634,13 +640,19 @@ impl<'a> SurfaceAlbedo<'a> {
                 masked[tr.texture] = true;
             }
         }
-        let alpha_chains: Vec<Option<MipChain<1>>> = mesh
+        let masked_chains: Vec<Option<MipChain<4>>> = mesh
             .textures
             .par_iter()
             .zip(masked.par_iter())
-            .map(|(t, &r)| r.then(|| MipChain::new(t.width as usize, t.height as usize, &t.texels_linear, [3])))
+            .map(|(t, &r)| {
+                r.then(|| {
+                    MipChain::new(t.width as usize, t.height as usize, &t.texels_linear, |t| {
+                        [t[0] * t[3], t[1] * t[3], t[2] * t[3], t[3]]
+                    })
+                })
+            })
             .collect();
-        Ok(Self { mesh, chains, alpha_chains })
+        Ok(Self { mesh, chains, masked_chains })
     }
 
     /// The mesh this lookup reads.
@@ -682,7 +694,20 @@ impl<'a> SurfaceAlbedo<'a> {
                 });
                 let uv = [interp(uv3, 0), interp(uv3, 1)];
                 let uv = apply_transform(&tr.transform, uv);
-                let s = chain.sample(uv, lod, [tr.wrap_s, tr.wrap_t]);
+                let wrap = [tr.wrap_s, tr.wrap_t];
+                // A masked material: the α-weighted colour (its cut-out texels' colour left out);
+                // where the footprint holds no opaque texel at all, the plain colour.
+                let s = match self.masked_chains.get(tr.texture).and_then(Option::as_ref) {
+                    Some(m) if material.is_some_and(|m| m.alpha_mask_cutoff.is_some()) => {
+                        let p = m.sample(uv, lod, wrap);
+                        if p[3] > 0.0 {
+                            [p[0] / p[3], p[1] / p[3], p[2] / p[3]]
+                        } else {
+                            chain.sample(uv, lod, wrap)
+                        }
+                    }
+                    _ => chain.sample(uv, lod, wrap),
+                };
                 for k in 0..3 {
                     col[k] *= s[k];
                 }
@@ -709,17 +734,17 @@ impl<'a> SurfaceAlbedo<'a> {
             let vcount = self.mesh.positions.len();
             if let (Some(uvs), Some(chain)) = (
                 self.mesh.uvs.get(tr.uv_set as usize).filter(|u| u.len() == vcount && tri_has_uvs(u, tri)),
-                self.alpha_chains.get(tr.texture).and_then(Option::as_ref),
+                self.masked_chains.get(tr.texture).and_then(Option::as_ref),
             ) {
                 let uv3 = tri.map(|v| uvs[v as usize].map(f64::from));
                 let uv = [0, 1].map(|k| bary[0] * uv3[0][k] + bary[1] * uv3[1][k] + bary[2] * uv3[2][k]);
-                alpha *= chain.sample(apply_transform(&tr.transform, uv), lod, [tr.wrap_s, tr.wrap_t])[0];
+                alpha *= chain.sample(apply_transform(&tr.transform, uv), lod, [tr.wrap_s, tr.wrap_t])[3];
             }
         }
         alpha < f64::from(cutoff)
     }
 
-    /// The first hit of the ray `origin + t·dir`, t in [`t_min`, `t_max`], on `bvh` (built over
+    /// The first hit of the ray `origin + t·dir`, t in (`t_min`, `t_max`), on `bvh` (built over
     /// this mesh's triangles, in order) that is not a hole ([`Self::is_hole`] at level 0): a ray
     /// passes through a leaf card's cut-out as the albedo bake sees through it. Each hole moves
     /// the search past its t by at least `step` (and one float); after [`MAX_HOLES_PER_RAY`]
@@ -1059,8 +1084,9 @@ impl<'a> Context<'a> {
         // the surface behind it (or the fill) shows. It still counts as back surface for rule 2,
         // which the other triangles mark without reading their texture.
         let masked = mine && self.masked.get(t).copied().unwrap_or(false);
-        let hole =
-            |f: &Fragment, sgn: f64| masked && self.surface.is_hole(t, f.bary, self.lod_at(f.texel, t, f.dist, sgn));
+        // The hole test reads level 0 (a coarse level's mean α would drop a sparse card whole or
+        // keep a dense one's cut-outs), as the light reference does.
+        let hole = |f: &Fragment| masked && self.surface.is_hole(t, f.bary, 0.0);
         if det > 0.0 {
             // Back-facing from the centre: seen along +ω.
             self.grid.rasterize(a, b, c, |f: Fragment| {
@@ -1070,7 +1096,7 @@ impl<'a> Context<'a> {
                 }
                 if mine {
                     let h = &mut cv.back[f.texel];
-                    if f.dist > h.dist && !hole(&f, 1.0) {
+                    if f.dist > h.dist && !hole(&f) {
                         *h = Hit { dist: f.dist, tri: t as u32, bary: f.bary };
                     }
                 }
@@ -1079,7 +1105,7 @@ impl<'a> Context<'a> {
             // Front-facing: seen through the centre (direction −(p − c)).
             self.grid.rasterize(-a, -b, -c, |f: Fragment| {
                 let h = &mut cv.front[f.texel];
-                if f.dist < h.dist && !hole(&f, -1.0) {
+                if f.dist < h.dist && !hole(&f) {
                     *h = Hit { dist: f.dist, tri: t as u32, bary: f.bary };
                 }
             });

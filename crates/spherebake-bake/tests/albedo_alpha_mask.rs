@@ -21,10 +21,15 @@ const GREEN: [f32; 3] = [0.0, 1.0, 0.0];
 const BLUE: [f32; 3] = [0.0, 0.0, 1.0];
 
 fn card_texture() -> Texture {
-    let texels = (0..N)
-        .flat_map(|_| (0..N).map(|x| if x < N / 2 { [1.0, 0.0, 0.0, 0.0] } else { [0.0, 1.0, 0.0, 1.0] }))
+    card_texture_sized(N, N / 2)
+}
+
+/// An n × n card texture whose columns below `cut` are red with alpha 0, the rest green, opaque.
+fn card_texture_sized(n: usize, cut: usize) -> Texture {
+    let texels = (0..n)
+        .flat_map(|_| (0..n).map(move |x| if x < cut { [1.0, 0.0, 0.0, 0.0] } else { [0.0, 1.0, 0.0, 1.0] }))
         .collect();
-    Texture { name: "card".into(), width: N as u32, height: N as u32, texels_linear: texels }
+    Texture { name: "card".into(), width: n as u32, height: n as u32, texels_linear: texels }
 }
 
 /// The two quads; the card's material has `cutoff` (None: opaque) and `factor`. With
@@ -105,8 +110,10 @@ fn a_masked_cards_cut_out_shows_the_surface_behind_it() {
     check(&pos_z(&masked, TextureLod::Footprint), left_right(BLUE), 2, "masked, footprint level");
     // Opaque (and BLEND, which imports as opaque): the card's red shows.
     check(&pos_z(&scene(None, [1.0; 4]), TextureLod::Base), left_right(RED), 0, "opaque");
-    // The cutoff compares alpha: at 0.0 nothing is a hole (alpha 0 is not below 0).
-    check(&pos_z(&scene(Some(0.0), [1.0; 4]), TextureLod::Base), left_right(RED), 0, "cutoff 0");
+    // The cutoff compares alpha: at 0.0 nothing is a hole (alpha 0 is not below 0), so the
+    // card takes every texel and the blue quad behind it shows nowhere.
+    let all_card = pos_z(&scene(Some(0.0), [1.0; 4]), TextureLod::Base);
+    assert!(all_card.texels_linear[CubeFace::PosZ.index() * N * N..][..N * N].iter().all(|t| t[2] == 0.0), "cutoff 0");
     // The factor's alpha multiplies: 0.4 × 1 < 0.5 makes the whole card a hole.
     check(&pos_z(&scene(Some(0.5), [1.0, 1.0, 1.0, 0.4]), TextureLod::Base), |_| BLUE, 0, "factor alpha 0.4");
     // ... and 0.6 × 1 ≥ 0.5 keeps the right half.
@@ -165,4 +172,29 @@ fn the_gltf_importer_reads_the_alpha_mode() {
     std::fs::write(d.join("bad.gltf"), bad).unwrap();
     let Err(e) = spherebake_io::load_mesh(&d.join("bad.gltf")) else { panic!("an unknown alphaMode is refused") };
     assert!(e.to_string().contains("bad.gltf"), "{e}");
+}
+
+/// A texture finer than the cube map: 64² on a 16² face, so the footprint reads level 2, whose
+/// texel i is the mean of texture columns 4i..4i+3, while a texel centre's level-0 lookup reads
+/// columns 4i+1 and 4i+2 (halfway between them). Stripes: columns with x mod 4 in {1, 2} are
+/// opaque green, the others cut out (red, alpha 0), cutoff 0.6. Level 0 finds alpha 1 at every
+/// texel centre (no hole), level 2 would find 0.5 < 0.6 (all holes: blue); the α-weighted colour
+/// is green where the plain level-2 mean would be (0.5, 0.5, 0). So every texel must be green.
+#[test]
+fn a_fine_masked_texture_is_tested_at_full_resolution_and_its_colour_alpha_weighted() {
+    let n = 64;
+    let texels = (0..n)
+        .flat_map(|_| (0..n).map(|x| if matches!(x % 4, 1 | 2) { [0.0, 1.0, 0.0, 1.0] } else { [1.0, 0.0, 0.0, 0.0] }))
+        .collect();
+    let mut mesh = scene(Some(0.6), [1.0; 4]);
+    mesh.textures = vec![Texture { name: "stripes".into(), width: n as u32, height: n as u32, texels_linear: texels }];
+    check(&pos_z(&mesh, TextureLod::Footprint), |_| GREEN, 0, "stripes at the footprint level");
+    // A coarse cut, aligned with level 2's texels: the cut-out quarter shows the blue behind.
+    mesh.textures = vec![card_texture_sized(64, 16)];
+    mesh.materials[1].alpha_mask_cutoff = Some(0.5);
+    check(&pos_z(&mesh, TextureLod::Footprint), |i| if i < 4 { BLUE } else { GREEN }, 0, "a quarter cut out");
+    // COLOR_0's alpha multiplies too: 0.2 on the card makes all of it a hole.
+    let mut mesh = scene(Some(0.5), [1.0; 4]);
+    mesh.colors_linear = (0..8).map(|v| if v < 4 { [1.0; 4] } else { [1.0, 1.0, 1.0, 0.2] }).collect();
+    check(&pos_z(&mesh, TextureLod::Base), |_| BLUE, 0, "COLOR_0 alpha 0.2");
 }

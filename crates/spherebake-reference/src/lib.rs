@@ -582,7 +582,7 @@ impl<'a> Scene<'a> {
         Some(self.albedo(hit.triangle as usize, [1.0 - u - v, u, v]))
     }
 
-    /// The first hit in [t_min, t_max] that is not a hole of an alpha-masked material
+    /// The first hit in (t_min, t_max) that is not a hole of an alpha-masked material
     /// ([`SurfaceAlbedo::first_opaque_hit`], holes passed by at least the scene tolerance).
     fn first_hit(&self, o: Vec3, w: Vec3, t_min: f32, t_max: f32) -> Option<spherebake_geom::bvh::Hit> {
         self.albedo.first_opaque_hit(&self.bvh, o, w, t_min, t_max, self.eps as f32)
