@@ -34,15 +34,17 @@ pub(crate) const SUPPORTED_REQUIRED: &[&str] = &[
     "KHR_materials_sheen",
     "KHR_lights_punctual",
     "EXT_mesh_gpu_instancing",
-    // Texture formats the importer cannot decode: the material falls back to its base colour
-    // factor with a warning naming the extension.
-    "KHR_texture_basisu",
+    // Texture sources: WebP is decoded; Basis and AVIF cannot be, and the material falls back
+    // to its base colour factor with a warning naming the extension.
     "EXT_texture_webp",
+    "KHR_texture_basisu",
     "EXT_texture_avif",
 ];
 
 const MESHOPT: [&str; 2] = ["EXT_meshopt_compression", "KHR_meshopt_compression"];
-const TEXTURE_SOURCES: [&str; 3] = ["KHR_texture_basisu", "EXT_texture_webp", "EXT_texture_avif"];
+/// In order of preference: the first one the texture offers is its image (WebP, which decodes,
+/// before the two that do not).
+const TEXTURE_SOURCES: [&str; 3] = ["EXT_texture_webp", "KHR_texture_basisu", "EXT_texture_avif"];
 
 /// Compression mode of a meshopt buffer view.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

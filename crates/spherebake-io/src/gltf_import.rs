@@ -27,6 +27,10 @@ const MAX_VERTICES: usize = 1 << 27;
 /// Largest accessor (in components) accepted without a buffer view (zeros + sparse values).
 const MAX_VIEWLESS_VALUES: usize = 1 << 26;
 
+/// Most morph-target vertex deltas one import reads (targets × vertices, every instance and
+/// both POSITION and NORMAL counted): a few seconds of work at most.
+const MAX_MORPH_VALUES: usize = 1 << 28;
+
 const GLB_JSON: u32 = 0x4E4F_534A;
 const GLB_BIN: u32 = 0x004E_4942;
 
@@ -171,6 +175,8 @@ struct Source<'c> {
     /// A referenced image that must not be read (outside the folder, not a regular file, over
     /// the input budget): the import fails with it.
     refused: Option<IoError>,
+    /// Morph-target vertex deltas read so far (capped by [`MAX_MORPH_VALUES`]).
+    morph_values_read: usize,
 }
 
 pub(crate) fn import(ctx: &mut Ctx, bytes: &[u8], glb: bool) -> Result<(Mesh, Vec<ImportedPart>), IoError> {
@@ -299,6 +305,7 @@ pub(crate) fn import(ctx: &mut Ctx, bytes: &[u8], glb: bool) -> Result<(Mesh, Ve
         undecodable_images: prep.undecodable_images,
         instancing: prep.instancing,
         refused: None,
+        morph_values_read: 0,
     };
     let built = src.build();
     match src.refused.take() {
@@ -527,6 +534,56 @@ impl Source<'_> {
     }
 
     /// Reads an accessor that must be float-like with `comps` components (or one of `alt`).
+    /// Adds Σ wᵢ·Δᵢ of the primitive's morph targets' `semantic` (POSITION or NORMAL) to `base`
+    /// (one VEC3 per vertex). Targets sharing an accessor read it once, their weights summed; the
+    /// values read over the whole import are capped ([`MAX_MORPH_VALUES`]), so a small file
+    /// naming one large sparse accessor from many targets cannot make the import run for hours.
+    fn add_morph_deltas(
+        &mut self,
+        prim: &gltf::Primitive,
+        weights: &[f32],
+        semantic: Semantic,
+        base: &mut [DVec3],
+    ) -> Result<(), IoError> {
+        let n = base.len();
+        let mut by_accessor: Vec<(gltf::Accessor, f64, usize)> = Vec::new();
+        for (ti, (target, &w)) in prim.morph_targets().zip(weights).enumerate() {
+            let acc = match semantic {
+                Semantic::Positions => target.positions(),
+                _ => target.normals(),
+            };
+            let Some(acc) = acc.filter(|_| w != 0.0) else { continue };
+            match by_accessor.iter_mut().find(|(a, _, _)| a.index() == acc.index()) {
+                Some(entry) => entry.1 += f64::from(w),
+                None => by_accessor.push((acc, f64::from(w), ti)),
+            }
+        }
+        let what = if matches!(semantic, Semantic::Positions) { "POSITION" } else { "NORMAL" };
+        for (acc, w, ti) in by_accessor {
+            self.morph_values_read = self.morph_values_read.saturating_add(acc.count());
+            if self.morph_values_read > MAX_MORPH_VALUES {
+                return Err(IoError::Invalid {
+                    path: self.path(),
+                    message: format!(
+                        "morph targets: more than {MAX_MORPH_VALUES} vertex deltas to read (targets × vertices, instances included)"
+                    ),
+                });
+            }
+            let d = self.read_vec(&acc, &[3], &format!("morph target {what}"))?;
+            if d.count() != n {
+                return Err(IoError::Accessor {
+                    path: self.path(),
+                    accessor: acc.index(),
+                    reason: format!("morph target {ti} {what} count {} differs from {what} count {n}", d.count()),
+                });
+            }
+            for (v, p) in base.iter_mut().enumerate() {
+                *p += DVec3::from(d.get::<3>(v)) * w;
+            }
+        }
+        Ok(())
+    }
+
     fn read_vec(&self, acc: &gltf::Accessor, allowed: &[usize], what: &str) -> Result<AccessorData, IoError> {
         let d = self.read_accessor(acc)?;
         if !allowed.contains(&d.comps) {
@@ -740,25 +797,10 @@ impl Source<'_> {
                 // Morph targets at their default weights (the node's, else the mesh's): the shape
                 // every viewer shows at rest. Positions only; animated weights are not followed.
                 let weights = node.weights().or(mesh.weights()).unwrap_or(&[]);
-                if weights.iter().any(|&w| w != 0.0) {
+                let morphed = weights.iter().any(|&w| w != 0.0);
+                if morphed {
                     let mut sum: Vec<DVec3> = (0..n).map(|v| DVec3::from(pos.get::<3>(v))).collect();
-                    for (ti, (target, &w)) in prim.morph_targets().zip(weights).enumerate() {
-                        let Some(acc) = target.positions().filter(|_| w != 0.0) else { continue };
-                        let d = self.read_vec(&acc, &[3], "morph target POSITION")?;
-                        if d.count() != n {
-                            return Err(IoError::Accessor {
-                                path,
-                                accessor: acc.index(),
-                                reason: format!(
-                                    "morph target {ti} POSITION count {} differs from POSITION count {n}",
-                                    d.count()
-                                ),
-                            });
-                        }
-                        for (v, p) in sum.iter_mut().enumerate() {
-                            *p += DVec3::from(d.get::<3>(v)) * f64::from(w);
-                        }
-                    }
+                    self.add_morph_deltas(&prim, weights, Semantic::Positions, &mut sum)?;
                     raw = sum.iter().map(|p| p.as_vec3()).collect();
                 }
                 if let Some((v, p)) = raw.iter().enumerate().find(|(_, p)| !p.is_finite()) {
@@ -830,13 +872,20 @@ impl Source<'_> {
                 };
 
                 // Attributes.
-                let normals = match prim.get(&Semantic::Normals) {
+                let mut normals = match prim.get(&Semantic::Normals) {
                     Some(acc) => {
                         let d = self.read_vec(&acc, &[3], "NORMAL")?;
                         (d.count() == n).then(|| (0..n).map(|v| DVec3::from(d.get::<3>(v))).collect::<Vec<_>>())
                     }
                     None => None,
                 };
+                if let (true, Some(ns)) = (morphed, normals.as_mut()) {
+                    // The morphed normal is normalize(n + Σ wᵢ·Δnᵢ) (glTF §3.7.2.2).
+                    self.add_morph_deltas(&prim, weights, Semantic::Normals, ns)?;
+                    for nv in ns.iter_mut() {
+                        *nv = nv.try_normalize().unwrap_or(*nv);
+                    }
+                }
                 let mut uv_sets: Vec<Option<Vec<[f32; 2]>>> = Vec::new();
                 for set in 0..8u32 {
                     let Some(acc) = prim.get(&Semantic::TexCoords(set)) else {

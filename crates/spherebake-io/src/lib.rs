@@ -21,7 +21,8 @@
 //! | `KHR_texture_transform` | kept on the material's [`spherebake_geom::TextureRef`] |
 //! | `EXT_texture_webp` | a fallback PNG / JPEG `source` is used when present, otherwise the WebP image (lossy or lossless, decoded like a PNG) |
 //! | `KHR_texture_basisu`, `EXT_texture_avif` | a fallback PNG / JPEG `source` is used when present; otherwise a warning naming the extension and the base colour factor |
-//! | `KHR_materials_*`, `KHR_lights_punctual` | ignored (no effect on geometry or base colour) |
+//! | `KHR_materials_pbrSpecularGlossiness` | its diffuse factor and texture are the base colour |
+//! | other `KHR_materials_*`, `KHR_lights_punctual` | ignored (no effect on geometry or base colour) |
 //!
 //! Any other extension in `extensionsRequired` (for example `KHR_draco_mesh_compression`) is an
 //! [`IoError::UnsupportedExtension`] naming it. A malformed compressed view is an

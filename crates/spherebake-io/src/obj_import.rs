@@ -622,6 +622,7 @@ pub(crate) fn import(ctx: &mut Ctx, bytes: &[u8]) -> Result<(Mesh, Vec<ImportedP
     let mut parts = Vec::new();
     let mut has_uv = false;
     let mut uvs = Vec::new();
+    let mut mixed_vt: Vec<&str> = Vec::new();
     for (mi, model) in models.iter().enumerate() {
         let m = &model.mesh;
         let n = m.positions.len() / 3;
@@ -663,11 +664,8 @@ pub(crate) fn import(ctx: &mut Ctx, bytes: &[u8]) -> Result<(Mesh, Vec<ImportedP
         // OBJ v runs bottom-up; glTF convention (row 0 = top) needs v' = 1 - v.
         if !m.texcoords.is_empty() && m.texcoords.len() != 2 * n {
             // Faces with and without `vt` in one group: tobj cannot pair them, so the group
-            // has no UVs (a textured material there shows its Kd).
-            ctx.warn(format!(
-                "object {:?}: some faces have texture coordinates (vt) and some not; the group's UVs are dropped",
-                model.name
-            ));
+            // has no UVs (a textured material there shows its Kd). One warning for all groups.
+            mixed_vt.push(model.name.as_str());
         }
         if m.texcoords.len() == 2 * n && n > 0 {
             has_uv = true;
@@ -705,6 +703,15 @@ pub(crate) fn import(ctx: &mut Ctx, bytes: &[u8]) -> Result<(Mesh, Vec<ImportedP
             triangles: t0..mesh.triangles.len() as u32,
         });
     }
+    if let Some(first) = mixed_vt.first() {
+        let more = match mixed_vt.len() {
+            1 => String::new(),
+            k => format!(" (and {} more)", k - 1),
+        };
+        ctx.warn(format!(
+            "object {first:?}{more}: some faces have texture coordinates (vt) and some not; the group's UVs are dropped"
+        ));
+    }
     if let Some(e) = refused {
         return Err(e);
     }
@@ -732,7 +739,13 @@ fn obj_material(
         double_sided: false,
         alpha_mask_cutoff: None,
     };
-    if let Some(tex) = &m.diffuse_texture {
+    if let Some(tex) = m.diffuse_texture.as_ref().filter(|t| {
+        let empty = parse_map_args(t).file.is_empty();
+        if empty {
+            ctx.warn(format!("material {:?}: map_Kd names no file; using Kd", m.name));
+        }
+        !empty
+    }) {
         let map = parse_map_args(tex);
         let file = map.file;
         let p = mtl_dir.join(file.replace('\\', "/"));
@@ -773,7 +786,10 @@ fn obj_material(
                 wrap_s: Default::default(),
                 wrap_t: Default::default(),
                 mag_filter: Default::default(),
-                transform: map.transform(),
+                transform: map.transform().unwrap_or_else(|| {
+                    ctx.warn(format!("material {:?}: map_Kd -o / -s out of range; ignored", m.name));
+                    UvTransform::default()
+                }),
             });
         }
     }
@@ -794,11 +810,12 @@ struct MapArgs<'a> {
 impl MapArgs<'_> {
     /// The lookup the options ask for, in the importer's UV convention: OBJ maps t = s·uv + o
     /// in its own space (v up); with V = 1 − v on both sides that is
-    /// T = (s_u·U + o_u, s_v·V + 1 − s_v − o_v).
-    fn transform(&self) -> UvTransform {
+    /// T = (s_u·U + o_u, s_v·V + 1 − s_v − o_v). `None` when that offset is not a finite f32.
+    fn transform(&self) -> Option<UvTransform> {
         let [su, sv] = self.scale;
         let [ou, ov] = self.offset;
-        UvTransform { offset: [ou, 1.0 - sv - ov], rotation_rad: 0.0, scale: [su, sv] }
+        let ov = (1.0 - f64::from(sv) - f64::from(ov)) as f32;
+        ov.is_finite().then_some(UvTransform { offset: [ou, ov], rotation_rad: 0.0, scale: [su, sv] })
     }
 }
 
@@ -882,14 +899,16 @@ mod tests {
     #[test]
     fn map_offset_and_scale_become_the_uv_transform() {
         let a = parse_map_args("-s 2 0.5 -o 0.25 0.1 t.png");
-        let tr = a.transform();
+        let tr = a.transform().unwrap();
         for (u, v) in [(0.1f32, 0.2f32), (0.0, 0.0), (0.9, 0.7)] {
             let obj = [2.0 * u + 0.25, 0.5 * v + 0.1];
             let want = [obj[0], 1.0 - obj[1]];
             let got = tr.apply([u, 1.0 - v]);
             assert!((got[0] - want[0]).abs() < 1e-6 && (got[1] - want[1]).abs() < 1e-6, "{got:?} vs {want:?}");
         }
-        assert_eq!(parse_map_args("t.png").transform(), UvTransform::default());
+        assert_eq!(parse_map_args("t.png").transform(), Some(UvTransform::default()));
+        // An offset that overflows f32 is refused rather than made infinite.
+        assert_eq!(parse_map_args("-o 0 3e38 -s 1 3e38 t.png").transform(), None);
     }
 
     /// A random OBJ-like text: vertex lines (some bad), vt / vn, faces with absolute, negative,

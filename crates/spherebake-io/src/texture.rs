@@ -1,4 +1,4 @@
-//! Texture decoding (PNG, JPEG) into linear RGBA f32.
+//! Texture decoding (PNG, JPEG, WebP) into linear RGBA f32.
 
 use spherebake_geom::texels::{self, MAX_TEXTURE_SIDE};
 use spherebake_geom::{LinearRgba, Texture};
@@ -38,7 +38,7 @@ impl Decoded {
     }
 }
 
-/// Decodes an encoded PNG / JPEG image. Colour channels are treated as sRGB and converted to
+/// Decodes an encoded PNG / JPEG / WebP image. Colour channels are treated as sRGB and converted to
 /// linear; alpha is kept as is (linear). Row 0 is the top row. The decoded image may take at
 /// most [`MAX_DECODE_BYTES`]; an image with a side over [`MAX_TEXTURE_SIDE`] is box-filtered
 /// down ([`texels::reduce_to_side`], in linear values) as it is read, so no converted copy

@@ -439,4 +439,15 @@ fn webp_textures_are_decoded() {
         assert_eq!(texel[3], 1.0);
     }
     assert!(imp.inputs.iter().any(|f| f.ends_with("tex.webp")), "{:?}", imp.inputs);
+    // A texture offering Basis and WebP takes the WebP (it decodes), whatever the order.
+    let both = tri_gltf(
+        r#","extensionsUsed":["KHR_texture_basisu","EXT_texture_webp"],"extensionsRequired":["KHR_texture_basisu","EXT_texture_webp"],
+"textures":[{"extensions":{"KHR_texture_basisu":{"source":1},"EXT_texture_webp":{"source":0}}}],
+"images":[{"uri":"tex.webp","mimeType":"image/webp"},{"uri":"missing.ktx2","mimeType":"image/ktx2"}]"#,
+        r#","baseColorTexture":{"index":0}"#,
+    );
+    std::fs::write(&p, both).unwrap();
+    let imp = load_mesh(&p).unwrap();
+    let tr = imp.mesh.materials[0].base_color_texture.as_ref().expect("the WebP of the two");
+    assert_eq!(imp.mesh.textures[tr.texture].width, w);
 }

@@ -803,3 +803,59 @@ fn obj_group_mixing_faces_with_and_without_vt_is_warned_about() {
     assert_eq!(imp.mesh.uvs.len(), 1);
     assert!(imp.warnings.is_empty(), "{:?}", imp.warnings);
 }
+
+/// Morph targets move the normals too: normalize(n + Σ wᵢ·Δnᵢ) (glTF §3.7.2.2). Two targets
+/// share one NORMAL accessor (read once, weights summed: 0.25 + 0.25).
+#[test]
+fn morph_targets_move_the_normals_too() {
+    let mut bin: Vec<u8> = Vec::new();
+    let normals = [[0.0f32, 0.0, 1.0]; 3];
+    let zero = [[0.0f32; 3]; 3];
+    let dn = [[0.0f32, 0.0, 0.0], [0.0, 0.0, 0.0], [1.0, 0.0, 0.0]];
+    for p in TRI.iter().chain(&normals).chain(&zero).chain(&dn) {
+        bin.extend(p.iter().flat_map(|x| x.to_le_bytes()));
+    }
+    let view = |k: usize| format!(r#"{{"buffer":0,"byteOffset":{},"byteLength":36}}"#, 36 * k);
+    let acc = |k: usize| format!(r#"{{"bufferView":{k},"componentType":5126,"count":3,"type":"VEC3"}}"#);
+    let json = format!(
+        r#"{{"asset":{{"version":"2.0"}},"scene":0,"scenes":[{{"nodes":[0]}}],"nodes":[{{"mesh":0}}],
+"meshes":[{{"primitives":[{{"attributes":{{"POSITION":0,"NORMAL":1}},
+  "targets":[{{"POSITION":2,"NORMAL":3}},{{"POSITION":2,"NORMAL":3}}]}}],"weights":[0.25,0.25]}}],
+"buffers":[{{"byteLength":144,"uri":"data:application/octet-stream;base64,{}"}}],
+"bufferViews":[{},{},{},{}],"accessors":[{},{},{},{}]}}"#,
+        b64(&bin),
+        view(0),
+        view(1),
+        view(2),
+        view(3),
+        acc(0),
+        acc(1),
+        acc(2),
+        acc(3)
+    );
+    let imp = load_mesh_from_bytes(Path::new("mem/n.gltf"), json.as_bytes()).unwrap();
+    let want = Vec3::new(0.5, 0.0, 1.0).normalize();
+    assert!((imp.mesh.normals[2] - want).length() < 1e-6, "{:?}", imp.mesh.normals);
+    assert_eq!(imp.mesh.normals[0], Vec3::Z);
+    assert_eq!(imp.mesh.positions, TRI.iter().map(|p| Vec3::from(*p)).collect::<Vec<_>>());
+}
+
+/// A `map_Kd` with options but no file name warns and keeps Kd (it is not a path to refuse);
+/// several groups mixing faces with and without `vt` give one warning naming the first.
+#[test]
+fn obj_map_kd_without_a_name_and_many_mixed_groups_warn_once() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    std::fs::write(d.join("m.mtl"), "newmtl m\nKd 0.5 0.5 0.5\nmap_Kd -s 2 2\n").unwrap();
+    let mut obj = String::from("mtllib m.mtl\nusemtl m\nv 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nvt 0 0\n");
+    for g in 0..3 {
+        obj += &format!("o g{g}\nf 1/1 2/1 3/1\nf 2 4 3\n");
+    }
+    std::fs::write(d.join("m.obj"), obj).unwrap();
+    let imp = load_mesh(&d.join("m.obj")).unwrap();
+    assert!(imp.mesh.materials[0].base_color_texture.is_none());
+    assert!(imp.warnings.iter().any(|w| w.0.contains("map_Kd names no file")), "{:?}", imp.warnings);
+    let mixed: Vec<_> = imp.warnings.iter().filter(|w| w.0.contains("some faces have texture coordinates")).collect();
+    assert_eq!(mixed.len(), 1, "{:?}", imp.warnings);
+    assert!(mixed[0].0.contains("\"g0\" (and 2 more)"), "{:?}", mixed[0]);
+}

@@ -344,6 +344,20 @@ fn rays_pass_through_the_holes_of_an_alpha_masked_card() {
     for e in Scene::new(&opaque).unwrap().direct(&sky, &at, &s).unwrap() {
         assert!(e < 0.5 * PI, "opaque card: {e}");
     }
+    // An opaque roof at height 2 over the holes: the rays go through the card and stop there
+    // (a search that gave up at the first hole would see the sky).
+    let mut roofed = card(Some(0.5));
+    let r0 = roofed.positions.len() as u32;
+    roofed
+        .positions
+        .extend([[-10.0, 2.0, -10.0], [10.0, 2.0, -10.0], [10.0, 2.0, 10.0], [-10.0, 2.0, 10.0]].map(Vec3::from));
+    roofed.normals = vec![Vec3::Y; roofed.positions.len()];
+    roofed.triangles.extend([[r0, r0 + 2, r0 + 1], [r0, r0 + 3, r0 + 2]]);
+    roofed.triangle_materials.extend([1, 1]);
+    roofed.rebuild_weld();
+    for e in Scene::new(&roofed).unwrap().direct(&sky, &at, &s).unwrap() {
+        assert!(e < 0.5 * PI, "a roof over the masked card: {e}");
+    }
     // At the cutoff 0.25 the alpha 0.25 is not below it: opaque again.
     let at_cutoff = card(Some(0.25));
     for e in Scene::new(&at_cutoff).unwrap().direct(&sky, &at, &s).unwrap() {
