@@ -43,18 +43,18 @@
 //!    (`docs/benchmarks.md`).
 //! 3. **Colour** = base colour factor × base-colour texture × COLOR_0, linear RGB. Alpha is
 //!    ignored, except for an alpha-masked material (glTF `alphaMode` `MASK`): a fragment of the
-//!    segment's own triangles whose alpha (factor × texture × COLOR_0, the texture at level 0)
-//!    is below the cutoff is a hole ([`SurfaceAlbedo::is_hole`]) and takes no texel, so the
-//!    surface behind a leaf card's cut-out shows (or the texel is filled); the colour of a
-//!    masked texture is α-weighted at every level (Σ RGB·α / Σ α), so its cut-out texels'
-//!    colour never bleeds into the opaque part. The
-//!    rule-2 coverage pass and the sample points (`samples`) still take masked triangles as
-//!    whole surfaces, and `BLEND` is opaque. The texture is sampled at the true (perspective-correct) barycentric point,
-//!    with the material's UV set, KHR_texture_transform and wrap modes, trilinearly from a box-
-//!    filtered mip chain (`spherebake_geom::texels`; its base at most 4096 texels a side, as
-//!    the importers reduce larger textures); the level is log2 of the texel footprint's side in
-//!    texture texels: footprint = Ω_nominal · t² / |n·ω| (world area) × UV area per world area
-//!    of the triangle × texture size, Ω_nominal = (2/N)²/(1+u²+v²)^{3/2} (see [`TextureLod`]).
+//!    segment's own triangles whose alpha (factor × texture × COLOR_0, the texture at level 0) is
+//!    below the cutoff is a hole ([`SurfaceAlbedo::is_hole`]) and takes no texel, so the surface
+//!    behind a leaf card's cut-out shows (or the texel is filled); the colour of a masked texture
+//!    is α-weighted at every level (Σ RGB·α / Σ α), so its cut-out texels' colour never bleeds into
+//!    the opaque part. The rule-2 coverage pass and the sample points (`samples`) still take masked
+//!    triangles as whole surfaces, and `BLEND` is opaque. The texture is sampled at the true
+//!    (perspective-correct) barycentric point, with the material's UV set, KHR_texture_transform
+//!    and wrap modes, trilinearly from a box-filtered mip chain (`spherebake_geom::texels`; its
+//!    base at most 4096 texels a side, as the importers reduce larger textures); the level is log2
+//!    of the texel footprint's side in texture texels: footprint = Ω_nominal · t² / |n·ω| (world
+//!    area) × UV area per world area of the triangle × texture size, Ω_nominal =
+//!    (2/N)²/(1+u²+v²)^{3/2} (see [`TextureLod`]).
 //! 4. **Projection** onto real orthonormal SH with the Condon–Shortley phase, index
 //!    i = l(l+1)+m (math reference §1), with exact texel solid angles (§4):
 //!    f_i = (4π/Σw) Σ_t w_t f(d_t) y_i(d_t).

@@ -533,7 +533,6 @@ impl Source<'_> {
         Ok(AccessorData { comps, values })
     }
 
-    /// Reads an accessor that must be float-like with `comps` components (or one of `alt`).
     /// Adds Σ wᵢ·Δᵢ of the primitive's morph targets' `semantic` (POSITION or NORMAL) to `base`
     /// (one VEC3 per vertex). Targets sharing an accessor read it once, their weights summed; the
     /// values read over the whole import are capped ([`MAX_MORPH_VALUES`]), so a small file
@@ -584,6 +583,7 @@ impl Source<'_> {
         Ok(())
     }
 
+    /// Reads an accessor that must be float-like with `comps` components (or one of `alt`).
     fn read_vec(&self, acc: &gltf::Accessor, allowed: &[usize], what: &str) -> Result<AccessorData, IoError> {
         let d = self.read_accessor(acc)?;
         if !allowed.contains(&d.comps) {
@@ -795,7 +795,8 @@ impl Source<'_> {
                 let n = pos.count();
                 let mut raw: Vec<Vec3> = (0..n).map(|v| Vec3::from(pos.get::<3>(v).map(|x| x as f32))).collect();
                 // Morph targets at their default weights (the node's, else the mesh's): the shape
-                // every viewer shows at rest. Positions only; animated weights are not followed.
+                // every viewer shows at rest (positions here, normals below); animated weights
+                // are not followed.
                 let weights = node.weights().or(mesh.weights()).unwrap_or(&[]);
                 let morphed = weights.iter().any(|&w| w != 0.0);
                 if morphed {
