@@ -533,6 +533,20 @@ impl<const N: usize> MipChain<N> {
     }
 }
 
+/// Per texture of `mesh`, its mip chain of `channels` where `wanted` says so (in parallel, ordered
+/// collect).
+fn build_chains<const N: usize>(
+    mesh: &Mesh,
+    wanted: &[bool],
+    channels: impl Fn(&[f32; 4]) -> [f32; N] + Sync,
+) -> Vec<Option<MipChain<N>>> {
+    mesh.textures
+        .par_iter()
+        .zip(wanted.par_iter())
+        .map(|(t, &w)| w.then(|| MipChain::new(t.width as usize, t.height as usize, &t.texels_linear, &channels)))
+        .collect()
+}
+
 /// Texel index `i` wrapped into `0..n` (glTF sampler semantics on texel indices).
 fn wrap_index(i: i64, n: usize, mode: WrapMode) -> usize {
     let n = n as i64;
@@ -626,32 +640,14 @@ impl<'a> SurfaceAlbedo<'a> {
             }
             referenced[tr.texture] = true;
         }
-        let chains: Vec<Option<MipChain<3>>> = mesh
-            .textures
-            .par_iter()
-            .zip(referenced.par_iter())
-            .map(|(t, &r)| {
-                r.then(|| MipChain::new(t.width as usize, t.height as usize, &t.texels_linear, |t| [t[0], t[1], t[2]]))
-            })
-            .collect();
+        let chains = build_chains(mesh, &referenced, |t| [t[0], t[1], t[2]]);
         let mut masked = vec![false; mesh.textures.len()];
         for m in mesh.materials.iter().filter(|m| m.alpha_mask_cutoff.is_some()) {
             if let Some(tr) = &m.base_color_texture {
                 masked[tr.texture] = true;
             }
         }
-        let masked_chains: Vec<Option<MipChain<4>>> = mesh
-            .textures
-            .par_iter()
-            .zip(masked.par_iter())
-            .map(|(t, &r)| {
-                r.then(|| {
-                    MipChain::new(t.width as usize, t.height as usize, &t.texels_linear, |t| {
-                        [t[0] * t[3], t[1] * t[3], t[2] * t[3], t[3]]
-                    })
-                })
-            })
-            .collect();
+        let masked_chains = build_chains(mesh, &masked, |t| [t[0] * t[3], t[1] * t[3], t[2] * t[3], t[3]]);
         Ok(Self { mesh, chains, masked_chains })
     }
 
@@ -688,12 +684,7 @@ impl<'a> SurfaceAlbedo<'a> {
                 self.mesh.uvs.get(tr.uv_set as usize).filter(|u| u.len() == vcount && tri_has_uvs(u, tri)),
                 self.chains.get(tr.texture).and_then(Option::as_ref),
             ) {
-                let uv3 = tri.map(|v| {
-                    let u = uvs[v as usize];
-                    [u[0], u[1], 0.0, 0.0]
-                });
-                let uv = [interp(uv3, 0), interp(uv3, 1)];
-                let uv = apply_transform(&tr.transform, uv);
+                let uv = texture_uv(uvs, tri, bary, &tr.transform);
                 let wrap = [tr.wrap_s, tr.wrap_t];
                 // A masked material: the α-weighted colour (its cut-out texels' colour left out);
                 // where the footprint holds no opaque texel at all, the plain colour.
@@ -736,9 +727,7 @@ impl<'a> SurfaceAlbedo<'a> {
                 self.mesh.uvs.get(tr.uv_set as usize).filter(|u| u.len() == vcount && tri_has_uvs(u, tri)),
                 self.masked_chains.get(tr.texture).and_then(Option::as_ref),
             ) {
-                let uv3 = tri.map(|v| uvs[v as usize].map(f64::from));
-                let uv = [0, 1].map(|k| bary[0] * uv3[0][k] + bary[1] * uv3[1][k] + bary[2] * uv3[2][k]);
-                alpha *= chain.sample(apply_transform(&tr.transform, uv), lod, [tr.wrap_s, tr.wrap_t])[3];
+                alpha *= chain.sample(texture_uv(uvs, tri, bary, &tr.transform), lod, [tr.wrap_s, tr.wrap_t])[3];
             }
         }
         alpha < f64::from(cutoff)
@@ -1221,6 +1210,15 @@ impl<'a> Context<'a> {
 /// triangle without reads its base colour factor, never the texel at (0, 0).
 fn tri_has_uvs(uvs: &[[f32; 2]], tri: [u32; 3]) -> bool {
     tri.iter().all(|&v| uvs.get(v as usize).is_some_and(|&uv| spherebake_geom::has_uv(uv)))
+}
+
+/// The texture coordinate of triangle `tri` at barycentric `bary`: its corners' UVs
+/// interpolated in f64, then KHR_texture_transform.
+fn texture_uv(uvs: &[[f32; 2]], tri: [u32; 3], bary: [f64; 3], transform: &spherebake_geom::UvTransform) -> [f64; 2] {
+    let uv3 = tri.map(|v| uvs[v as usize]);
+    let uv = [0, 1]
+        .map(|k| bary[0] * f64::from(uv3[0][k]) + bary[1] * f64::from(uv3[1][k]) + bary[2] * f64::from(uv3[2][k]));
+    apply_transform(transform, uv)
 }
 
 /// KHR_texture_transform in f64 (same formula as `UvTransform::apply`).

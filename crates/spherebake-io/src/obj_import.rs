@@ -739,14 +739,11 @@ fn obj_material(
         double_sided: false,
         alpha_mask_cutoff: None,
     };
-    if let Some(tex) = m.diffuse_texture.as_ref().filter(|t| {
-        let empty = parse_map_args(t).file.is_empty();
-        if empty {
-            ctx.warn(format!("material {:?}: map_Kd names no file; using Kd", m.name));
-        }
-        !empty
-    }) {
-        let map = parse_map_args(tex);
+    let map = m.diffuse_texture.as_deref().map(parse_map_args);
+    if map.as_ref().is_some_and(|a| a.file.is_empty()) {
+        ctx.warn(format!("material {:?}: map_Kd names no file; using Kd", m.name));
+    }
+    if let Some(map) = map.filter(|a| !a.file.is_empty()) {
         let file = map.file;
         let p = mtl_dir.join(file.replace('\\', "/"));
         let slot = match texture_map.get(&p) {
