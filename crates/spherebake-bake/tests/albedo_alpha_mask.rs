@@ -198,3 +198,102 @@ fn a_fine_masked_texture_is_tested_at_full_resolution_and_its_colour_alpha_weigh
     mesh.colors_linear = (0..8).map(|v| if v < 4 { [1.0; 4] } else { [1.0, 1.0, 1.0, 0.2] }).collect();
     check(&pos_z(&mesh, TextureLod::Base), |_| BLUE, 0, "COLOR_0 alpha 0.2");
 }
+
+/// The scene of [`scene`] as an OBJ whose card material has a `map_d` (MTL's dissolve texture,
+/// `dmap` its line after `map_d`) written by `write_maps` into the folder: imported, the card's
+/// mask cuts it out like glTF's MASK at 0.5 (`d` × the map's value). The card's `map_Kd` is
+/// `card.png`, red in its left half and green in its right, opaque RGB.
+fn obj_scene(d_line: &str, dmap: &str, write_maps: impl Fn(&std::path::Path)) -> Mesh {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let card = image::RgbImage::from_fn(N as u32, N as u32, |x, _| {
+        if (x as usize) < N / 2 {
+            image::Rgb([255, 0, 0])
+        } else {
+            image::Rgb([0, 255, 0])
+        }
+    });
+    card.save(d.join("card.png")).unwrap();
+    write_maps(d);
+    std::fs::write(
+        d.join("m.mtl"),
+        format!("newmtl blue\nKd 0 0 1\nnewmtl card\nKd 1 1 1\n{d_line}\nmap_Kd card.png\nmap_d {dmap}\n"),
+    )
+    .unwrap();
+    // OBJ's v runs bottom-up: vt (x + 1)/2, (y + 1)/2 is the glTF scene's UV after the flip.
+    let mut obj = String::from("mtllib m.mtl\n");
+    for z in [1.0, 2.0] {
+        for (x, y) in [(-1.0, -1.0), (1.0, -1.0), (1.0, 1.0), (-1.0, 1.0)] {
+            obj += &format!("v {} {} {z}\n", x * z, y * z);
+        }
+    }
+    for (x, y) in [(-1.0f32, -1.0f32), (1.0, -1.0), (1.0, 1.0), (-1.0, 1.0)] {
+        obj += &format!("vt {} {}\n", (x + 1.0) / 2.0, (y + 1.0) / 2.0);
+    }
+    obj += "usemtl blue\nf 1/1 2/2 3/3\nf 1/1 3/3 4/4\nusemtl card\nf 5/1 6/2 7/3\nf 5/1 7/3 8/4\n";
+    std::fs::write(d.join("m.obj"), obj).unwrap();
+    let imp = spherebake_io::load_mesh(&d.join("m.obj")).unwrap_or_else(|e| panic!("{e}"));
+    assert!(imp.warnings.is_empty(), "{:?}", imp.warnings);
+    imp.mesh
+}
+
+/// A grey mask image, `w` × 1: columns below w/2 black, the others white.
+fn grey_mask(w: u32) -> image::GrayImage {
+    image::GrayImage::from_fn(w, 1, |x, _| image::Luma([if x < w / 2 { 0 } else { 255 }]))
+}
+
+#[test]
+fn an_obj_map_d_cuts_the_card_out() {
+    let left_right = |left: [f32; 3]| move |i: usize| if i < N / 2 { left } else { GREEN };
+    // A grey mask of the card's size (Sponza-style `map_d`): the left half shows the blue quad.
+    let mesh = obj_scene("d 1", "mask.png", |d| grey_mask(N as u32).save(d.join("mask.png")).unwrap());
+    let card = mesh.materials.iter().find(|m| m.name == "card").unwrap();
+    assert_eq!(card.alpha_mask_cutoff, Some(0.5));
+    assert!(mesh.materials.iter().find(|m| m.name == "blue").unwrap().alpha_mask_cutoff.is_none());
+    check(&pos_z(&mesh, TextureLod::Base), left_right(BLUE), 0, "grey map_d");
+    check(&pos_z(&mesh, TextureLod::Footprint), left_right(BLUE), 2, "grey map_d, footprint level");
+    // A 2 × 1 mask is read at the nearest texel: the same halves.
+    let mesh = obj_scene("d 1", "tiny mask.png", |d| grey_mask(2).save(d.join("tiny mask.png")).unwrap());
+    check(&pos_z(&mesh, TextureLod::Base), left_right(BLUE), 0, "2 × 1 map_d");
+    // `d` multiplies: 0.4 × 1 < 0.5 cuts out the whole card.
+    let mesh = obj_scene("d 0.4", "mask.png", |d| grey_mask(N as u32).save(d.join("mask.png")).unwrap());
+    check(&pos_z(&mesh, TextureLod::Base), |_| BLUE, 0, "d 0.4");
+    // An RGBA map whose alpha is not opaque everywhere is read by its alpha (an exporter that
+    // points map_d at the diffuse texture): alpha 0 on the right, so the right half is cut out
+    // although its colour is white.
+    let rgba = |d: &std::path::Path| {
+        let img = image::RgbaImage::from_fn(N as u32, 1, |x, _| {
+            if (x as usize) < N / 2 {
+                image::Rgba([0, 0, 0, 255])
+            } else {
+                image::Rgba([255, 255, 255, 0])
+            }
+        });
+        img.save(d.join("rgba.png")).unwrap();
+    };
+    let mesh = obj_scene("d 1", "rgba.png", rgba);
+    check(&pos_z(&mesh, TextureLod::Base), |i| if i < N / 2 { RED } else { BLUE }, 0, "RGBA map_d by alpha");
+    // ... unless `-imfchan l` asks for its luminance: then the left half (black) is cut out.
+    let mesh = obj_scene("d 1", "-imfchan l rgba.png", rgba);
+    check(&pos_z(&mesh, TextureLod::Base), left_right(BLUE), 0, "RGBA map_d, -imfchan l");
+    // An RGBA map that is opaque everywhere is read by its luminance; `-imfchan g` reads green.
+    let opaque = |d: &std::path::Path| {
+        let img = image::RgbaImage::from_fn(N as u32, 1, |x, _| {
+            if (x as usize) < N / 2 {
+                image::Rgba([255, 0, 0, 255])
+            } else {
+                image::Rgba([255, 255, 255, 255])
+            }
+        });
+        img.save(d.join("opaque.png")).unwrap();
+    };
+    // Luminance of the left half: 0.2126 < 0.5, cut out.
+    check(&pos_z(&obj_scene("d 1", "opaque.png", opaque), TextureLod::Base), left_right(BLUE), 0, "opaque RGBA");
+    // Its red channel is 1 everywhere: nothing is cut out.
+    check(
+        &pos_z(&obj_scene("d 1", "-imfchan r opaque.png", opaque), TextureLod::Base),
+        left_right(RED),
+        0,
+        "-imfchan r",
+    );
+}

@@ -8,7 +8,7 @@ use std::path::{Path, PathBuf};
 use glam::Vec3;
 use spherebake_geom::{Material, Mesh, TextureRef, UvTransform};
 
-use crate::texture::decode_srgb_texture;
+use crate::texture::{decode_mask, decode_srgb_texture, Mask, MaskChannel};
 use crate::{Ctx, ImportedPart, IoError, ReadLimit, MAX_IMAGE_BYTES, MAX_MTL_BYTES};
 
 /// An MTL file tobj asked for: resolved path and its bytes (or why it could not be read).
@@ -616,7 +616,7 @@ pub(crate) fn import(ctx: &mut Ctx, bytes: &[u8]) -> Result<(Mesh, Vec<ImportedP
 
     let mut mesh = Mesh::default();
     let mut material_map: HashMap<Option<usize>, u32> = HashMap::new();
-    let mut texture_map: HashMap<PathBuf, Option<usize>> = HashMap::new();
+    let mut texture_map = ObjTextures::default();
     // A texture that must not be read (outside the folder, not a regular file, over budget).
     let mut refused: Option<IoError> = None;
     let mut parts = Vec::new();
@@ -722,14 +722,59 @@ pub(crate) fn import(ctx: &mut Ctx, bytes: &[u8]) -> Result<(Mesh, Vec<ImportedP
     Ok((mesh, parts))
 }
 
+/// The alpha cutoff of an OBJ material with a `map_d` (MTL has none; 0.5 is glTF's default
+/// `alphaCutoff` and the usual alpha test).
+pub const OBJ_MASK_CUTOFF: f32 = 0.5;
+
+/// The textures an OBJ's materials share, each decoded once.
+#[derive(Default)]
+struct ObjTextures {
+    /// `map_Kd` file → its index in `Mesh::textures` (`None`: it could not be read).
+    colour: HashMap<PathBuf, Option<usize>>,
+    /// (`map_d` file, channel) → the mask (`None`: it could not be read).
+    masks: HashMap<(PathBuf, MaskChannel), Option<std::rc::Rc<Mask>>>,
+    /// (colour texture, `map_d` file, channel) → the cut-out texture's index.
+    cut: HashMap<(Option<usize>, PathBuf, MaskChannel), usize>,
+}
+
+/// The texture a material with a `map_d` reads: the colour texture's texels (white without
+/// one) with their alpha multiplied by the mask, at the colour texture's size (else the
+/// mask's); the mask is read at the nearest texel when the sizes differ (both follow the same
+/// UVs).
+fn cut_out_texture(
+    colour: Option<&spherebake_geom::Texture>,
+    mask: &Mask,
+    mask_name: &str,
+) -> spherebake_geom::Texture {
+    let (w, h) = colour.map_or((mask.width, mask.height), |t| (t.width, t.height));
+    let (mw, mh) = (mask.width as usize, mask.height as usize);
+    let near = |x: usize, n: usize, m: usize| (((x as f64 + 0.5) * m as f64 / n as f64) as usize).min(m - 1);
+    let mut texels = Vec::with_capacity(w as usize * h as usize);
+    for y in 0..h as usize {
+        let my = near(y, h as usize, mh);
+        for x in 0..w as usize {
+            let a = mask.values[my * mw + near(x, w as usize, mw)];
+            let mut t = colour.map_or([1.0; 4], |c| c.texels_linear[y * w as usize + x]);
+            t[3] *= a;
+            texels.push(t);
+        }
+    }
+    let name = match colour {
+        Some(c) => format!("{} cut out by {mask_name}", c.name),
+        None => format!("white cut out by {mask_name}"),
+    };
+    spherebake_geom::Texture { name, width: w, height: h, texels_linear: texels }
+}
+
 fn obj_material(
     ctx: &mut Ctx,
     m: &tobj::Material,
     mtl_dir: &Path,
     mesh: &mut Mesh,
-    texture_map: &mut HashMap<PathBuf, Option<usize>>,
+    textures: &mut ObjTextures,
     refused: &mut Option<IoError>,
 ) -> Material {
+    let texture_map = &mut textures.colour;
     let kd = m.diffuse.unwrap_or([1.0; 3]);
     let mut out = Material {
         name: m.name.clone(),
@@ -790,7 +835,98 @@ fn obj_material(
             });
         }
     }
+    obj_cut_out(ctx, m, mtl_dir, mesh, textures, refused, &mut out);
     out
+}
+
+/// A material's `map_d` (MTL's dissolve texture): a cut-out, like glTF's `alphaMode` `MASK`
+/// with a cutoff of [`OBJ_MASK_CUTOFF`]. Where `d` × the map's value (the channel
+/// [`MaskChannel`] picks) is below it, the surface is a hole for the albedo. The material then
+/// reads [`cut_out_texture`]. A `map_d` that cannot be read leaves the material opaque, with
+/// a warning.
+fn obj_cut_out(
+    ctx: &mut Ctx,
+    m: &tobj::Material,
+    mtl_dir: &Path,
+    mesh: &mut Mesh,
+    textures: &mut ObjTextures,
+    refused: &mut Option<IoError>,
+    out: &mut Material,
+) {
+    let Some(dmap) = m.dissolve_texture.as_deref().map(parse_map_args) else { return };
+    if dmap.file.is_empty() {
+        ctx.warn(format!("material {:?}: map_d names no file; no cut-out", m.name));
+        return;
+    }
+    let file = dmap.file;
+    let p = mtl_dir.join(file.replace('\\', "/"));
+    let key = (p.clone(), dmap.channel);
+    let mask = match textures.masks.get(&key) {
+        Some(mask) => mask.clone(),
+        None => {
+            let mask = match ctx.read_referenced(file, &p, ReadLimit::AtMost(MAX_IMAGE_BYTES)) {
+                Ok(bytes) => match decode_mask(file.to_owned(), &bytes, dmap.channel) {
+                    Ok(mask) => {
+                        if let Some((w, h)) = mask.reduced_from {
+                            ctx.warn(format!(
+                                "material {:?}: map_d {file} is {w}×{h}; read box-filtered to {}×{}",
+                                m.name, mask.width, mask.height
+                            ));
+                        }
+                        Some(std::rc::Rc::new(mask))
+                    }
+                    Err(e) => {
+                        ctx.warn(format!(
+                            "material {:?}: cannot decode map_d {}: {e}; no cut-out",
+                            m.name,
+                            p.display()
+                        ));
+                        None
+                    }
+                },
+                Err(e) if e.is_refusal() => {
+                    refused.get_or_insert(e);
+                    None
+                }
+                Err(e) => {
+                    ctx.warn(format!("material {:?}: map_d {e}; no cut-out", m.name));
+                    None
+                }
+            };
+            textures.masks.insert(key, mask.clone());
+            mask
+        }
+    };
+    let Some(mask) = mask else { return };
+    let colour = out.base_color_texture.as_ref().map(|t| t.texture);
+    let index = *textures.cut.entry((colour, p, dmap.channel)).or_insert_with(|| {
+        mesh.textures.push(cut_out_texture(colour.map(|i| &mesh.textures[i]), &mask, file));
+        mesh.textures.len() - 1
+    });
+    let transform = match &out.base_color_texture {
+        Some(t) => {
+            if dmap.transform() != Some(t.transform) {
+                ctx.warn(format!(
+                    "material {:?}: map_d's -o / -s differ from map_Kd's; the cut-out is read with map_Kd's",
+                    m.name
+                ));
+            }
+            t.transform
+        }
+        None => dmap.transform().unwrap_or_else(|| {
+            ctx.warn(format!("material {:?}: map_d -o / -s out of range; ignored", m.name));
+            UvTransform::default()
+        }),
+    };
+    out.base_color_texture = Some(TextureRef {
+        texture: index,
+        uv_set: 0,
+        wrap_s: Default::default(),
+        wrap_t: Default::default(),
+        mag_filter: Default::default(),
+        transform,
+    });
+    out.alpha_mask_cutoff = Some(OBJ_MASK_CUTOFF);
 }
 
 /// The arguments of an MTL texture statement (`map_Kd [options] file`).
@@ -802,6 +938,9 @@ struct MapArgs<'a> {
     offset: [f32; 2],
     /// `-s u v`: the texture's scale, OBJ texture space.
     scale: [f32; 2],
+    /// `-imfchan r|g|b|m|l`: the channel a scalar texture (`map_d`) reads; `Auto` without it
+    /// (and for `z` or anything else).
+    channel: MaskChannel,
 }
 
 impl MapArgs<'_> {
@@ -827,7 +966,7 @@ fn parse_map_args(line: &str) -> MapArgs<'_> {
         (&s[..end], &s[end..])
     }
     let mut rest = line.trim();
-    let mut args = MapArgs { file: "", offset: [0.0, 0.0], scale: [1.0, 1.0] };
+    let mut args = MapArgs { file: "", offset: [0.0, 0.0], scale: [1.0, 1.0], channel: MaskChannel::Auto };
     loop {
         let (opt, after) = pop(rest);
         let fixed = match opt {
@@ -837,6 +976,16 @@ fn parse_map_args(line: &str) -> MapArgs<'_> {
             _ => break,
         };
         rest = after;
+        if opt == "-imfchan" {
+            args.channel = match pop(rest).0 {
+                "r" => MaskChannel::R,
+                "g" => MaskChannel::G,
+                "b" => MaskChannel::B,
+                "m" => MaskChannel::Alpha,
+                "l" => MaskChannel::Luminance,
+                _ => MaskChannel::Auto,
+            };
+        }
         if fixed > 0 {
             for _ in 0..fixed {
                 rest = pop(rest).1;
@@ -876,7 +1025,7 @@ mod tests {
 
     #[test]
     fn map_arguments_are_split_by_the_mtl_options() {
-        let args = |file, offset, scale| MapArgs { file, offset, scale };
+        let args = |file, offset, scale| MapArgs { file, offset, scale, channel: MaskChannel::Auto };
         assert_eq!(parse_map_args("tex.png"), args("tex.png", [0.0, 0.0], [1.0, 1.0]));
         assert_eq!(parse_map_args("  my wood floor.jpg "), args("my wood floor.jpg", [0.0, 0.0], [1.0, 1.0]));
         assert_eq!(
@@ -889,6 +1038,19 @@ mod tests {
         assert_eq!(parse_map_args("-weird x.png"), args("-weird x.png", [0.0, 0.0], [1.0, 1.0]));
         assert_eq!(parse_map_args("-o 1 2 3 4.png"), args("4.png", [1.0, 2.0], [1.0, 1.0]));
         assert_eq!(parse_map_args("-s"), args("", [0.0, 0.0], [1.0, 1.0]));
+        // -imfchan names the channel a scalar map reads (z and anything else: the default).
+        for (c, want) in [
+            ("r", MaskChannel::R),
+            ("g", MaskChannel::G),
+            ("b", MaskChannel::B),
+            ("m", MaskChannel::Alpha),
+            ("l", MaskChannel::Luminance),
+            ("z", MaskChannel::Auto),
+        ] {
+            let line = format!("-imfchan {c} -o 0.5 mask.png");
+            let a = parse_map_args(&line);
+            assert_eq!((a.file, a.channel, a.offset), ("mask.png", want, [0.5, 0.0]), "-imfchan {c}");
+        }
     }
 
     /// The transform maps the importer's UV (U, V = 1 − v) to where OBJ looks: its own

@@ -45,6 +45,13 @@ impl Decoded {
 /// exists at full size: peak memory is the decoded image (in its own layout, 8- or 16-bit or
 /// float) plus the result, and for a progressive JPEG its decoder's coefficient buffers.
 pub(crate) fn decode_srgb_texture(name: String, bytes: &[u8]) -> Result<Decoded, String> {
+    decode_texture(name, bytes, true).map(|(d, _)| d)
+}
+
+/// [`decode_srgb_texture`] with the colour channels through the sRGB EOTF when `srgb`, else as
+/// stored (normalised to [0, 1]: data such as an MTL `map_d` mask). Also returns whether the
+/// image has an alpha channel.
+fn decode_texture(name: String, bytes: &[u8], srgb: bool) -> Result<(Decoded, bool), String> {
     let mut reader =
         image::ImageReader::new(std::io::Cursor::new(bytes)).with_guessed_format().map_err(|e| e.to_string())?;
     let mut limits = image::Limits::default();
@@ -67,13 +74,16 @@ pub(crate) fn decode_srgb_texture(name: String, bytes: &[u8]) -> Result<Decoded,
     })?;
     let (width, height) = (img.width(), img.height());
     let (w, h) = (width as usize, height as usize);
-    let lut: Vec<f32> = (0..256).map(|i| srgb_to_linear(i as f32 / 255.0)).collect();
-    // Colour channels through the sRGB EOTF (8-bit by table), alpha as stored; u16 and u8 as
-    // the image crate normalises them (v / 65535, v / 255). Read in place, no converted copy.
+    let curve = |v: f32| if srgb { srgb_to_linear(v) } else { v };
+    let lut: Vec<f32> = (0..256).map(|i| curve(i as f32 / 255.0)).collect();
+    // Colour channels through the sRGB EOTF (8-bit by table) when `srgb`, alpha as stored; u16
+    // and u8 as the image crate normalises them (v / 65535, v / 255). Read in place, no
+    // converted copy.
     let u8c = |v: u8| lut[v as usize];
     let u8a = |v: u8| f32::from(v) / 255.0;
-    let u16c = |v: u16| srgb_to_linear(f32::from(v) / 65535.0);
+    let u16c = |v: u16| curve(f32::from(v) / 65535.0);
     let u16a = |v: u16| f32::from(v) / 65535.0;
+    let has_alpha = img.color().has_alpha();
     let (tw, th, texels_linear) = match &img {
         image::DynamicImage::ImageLuma8(b) => layout(b.as_raw(), w, h, 1, u8c, u8a),
         image::DynamicImage::ImageLumaA8(b) => layout(b.as_raw(), w, h, 2, u8c, u8a),
@@ -83,13 +93,61 @@ pub(crate) fn decode_srgb_texture(name: String, bytes: &[u8]) -> Result<Decoded,
         image::DynamicImage::ImageLumaA16(b) => layout(b.as_raw(), w, h, 2, u16c, u16a),
         image::DynamicImage::ImageRgb16(b) => layout(b.as_raw(), w, h, 3, u16c, u16a),
         image::DynamicImage::ImageRgba16(b) => layout(b.as_raw(), w, h, 4, u16c, u16a),
-        image::DynamicImage::ImageRgb32F(b) => layout(b.as_raw(), w, h, 3, srgb_to_linear, |v| v),
-        image::DynamicImage::ImageRgba32F(b) => layout(b.as_raw(), w, h, 4, srgb_to_linear, |v| v),
+        image::DynamicImage::ImageRgb32F(b) => layout(b.as_raw(), w, h, 3, curve, |v| v),
+        image::DynamicImage::ImageRgba32F(b) => layout(b.as_raw(), w, h, 4, curve, |v| v),
         // A layout this version of the image crate does not have.
         _ => layout(img.to_rgba8().as_raw(), w, h, 4, u8c, u8a),
     };
     let reduced_from = (tw != w || th != h).then_some((width, height));
-    Ok(Decoded { texture: Texture { name, width: tw as u32, height: th as u32, texels_linear }, reduced_from })
+    let texture = Texture { name, width: tw as u32, height: th as u32, texels_linear };
+    Ok((Decoded { texture, reduced_from }, has_alpha))
+}
+
+/// Which channel of an image an MTL scalar texture (`map_d`) reads: `-imfchan r|g|b|m|l`
+/// (`m`, matte, is alpha; `l` luminance), or by default the alpha channel when the image has
+/// one that is not opaque everywhere (an exporter that points `map_d` at the RGBA diffuse
+/// texture, as Blender's does), else the luminance (a grey mask, as in the Sponza OBJ).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub(crate) enum MaskChannel {
+    R,
+    G,
+    B,
+    Alpha,
+    Luminance,
+    Auto,
+}
+
+/// A scalar texture: `width` × `height` values in [0, 1], row-major, row 0 the top row.
+pub(crate) struct Mask {
+    pub width: u32,
+    pub height: u32,
+    pub values: Vec<f32>,
+    pub reduced_from: Option<(u32, u32)>,
+}
+
+/// Decodes an image as an MTL scalar texture (`map_d`): values as stored (no sRGB curve, a
+/// mask is data), of the channel `channel` names; luminance is Rec. 709's
+/// 0.2126 R + 0.7152 G + 0.0722 B. Reduced as [`decode_srgb_texture`] reduces.
+pub(crate) fn decode_mask(name: String, bytes: &[u8], channel: MaskChannel) -> Result<Mask, String> {
+    let (d, has_alpha) = decode_texture(name, bytes, false)?;
+    let t = d.texture;
+    let channel = match channel {
+        MaskChannel::Auto if has_alpha && t.texels_linear.iter().any(|p| p[3] < 1.0) => MaskChannel::Alpha,
+        MaskChannel::Auto => MaskChannel::Luminance,
+        c => c,
+    };
+    let values = t
+        .texels_linear
+        .iter()
+        .map(|p| match channel {
+            MaskChannel::R => p[0],
+            MaskChannel::G => p[1],
+            MaskChannel::B => p[2],
+            MaskChannel::Alpha => p[3],
+            _ => 0.2126 * p[0] + 0.7152 * p[1] + 0.0722 * p[2],
+        })
+        .collect();
+    Ok(Mask { width: t.width, height: t.height, values, reduced_from: d.reduced_from })
 }
 
 /// A `w`×`h` image of `channels` interleaved channels (1 grey, 2 grey + alpha, 3 RGB, 4 RGBA;

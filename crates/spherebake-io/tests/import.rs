@@ -5,7 +5,7 @@ use std::path::{Path, PathBuf};
 
 use spherebake_geom::glam::Vec3;
 use spherebake_geom::topology::TopologyReport;
-use spherebake_geom::{FilterMode, WrapMode};
+use spherebake_geom::{FilterMode, UvTransform, WrapMode};
 use spherebake_io::{load_mesh, load_mesh_from_bytes, load_mesh_from_memory, ImportOptions, IoError};
 use spherebake_testkit::shared_models_dir;
 
@@ -858,4 +858,73 @@ fn obj_map_kd_without_a_name_and_many_mixed_groups_warn_once() {
     let mixed: Vec<_> = imp.warnings.iter().filter(|w| w.0.contains("some faces have texture coordinates")).collect();
     assert_eq!(mixed.len(), 1, "{:?}", imp.warnings);
     assert!(mixed[0].0.contains("\"g0\" (and 2 more)"), "{:?}", mixed[0]);
+}
+
+/// `map_d` (MTL's dissolve texture) makes an OBJ material a cut-out: one cut-out texture per
+/// (map_Kd, map_d) pair, shared by the materials naming both; a `map_d` that names no file or
+/// cannot be read warns and leaves the material opaque; `-o`/`-s` differing from `map_Kd`'s warn.
+#[test]
+fn obj_map_d_makes_a_cut_out_and_its_failures_warn() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    image::RgbImage::from_fn(4, 2, |x, y| image::Rgb([(x * 60) as u8, (y * 100) as u8, 7]))
+        .save(d.join("c.png"))
+        .unwrap();
+    image::GrayImage::from_fn(2, 2, |x, y| image::Luma([(x * 200 + y * 50) as u8])).save(d.join("m.png")).unwrap();
+    let mtl = "newmtl a\nmap_Kd c.png\nmap_d m.png\n\
+               newmtl b\nKd 0.5 0.5 0.5\nmap_Kd c.png\nmap_d m.png\n\
+               newmtl nomask\nmap_Kd c.png\nmap_d missing.png\n\
+               newmtl noname\nmap_d -imfchan l\n\
+               newmtl shifted\nmap_Kd c.png\nmap_d -o 0.5 0 m.png\n\
+               newmtl maskonly\nKd 0.2 0.4 0.6\nmap_d -s 2 2 m.png\n";
+    std::fs::write(d.join("m.mtl"), mtl).unwrap();
+    let mut obj = String::from("mtllib m.mtl\nvt 0 0\nvt 1 0\nvt 0 1\n");
+    for (i, m) in ["a", "b", "nomask", "noname", "shifted", "maskonly"].into_iter().enumerate() {
+        obj += &format!("g {m}\nusemtl {m}\nv 0 0 {i}\nv 1 0 {i}\nv 0 1 {i}\nf -3/1 -2/2 -1/3\n");
+    }
+    std::fs::write(d.join("m.obj"), obj).unwrap();
+    let imp = load_mesh(&d.join("m.obj")).unwrap();
+    let mat = |n: &str| imp.mesh.materials.iter().find(|m| m.name == n).unwrap();
+    let tex = |n: &str| &imp.mesh.textures[mat(n).base_color_texture.as_ref().unwrap().texture];
+    let warned = |s: &str| imp.warnings.iter().any(|w| w.0.contains(s));
+    // a and b share one cut-out texture: c.png's colour, its alpha the mask at the nearest texel
+    // (mask column x / 2, row y), as stored (no sRGB curve).
+    assert_eq!(mat("a").alpha_mask_cutoff, Some(0.5));
+    assert_eq!(mat("a").base_color_texture, mat("b").base_color_texture);
+    let eotf = spherebake_testkit::oracle::srgb_to_linear;
+    let t = tex("a");
+    assert_eq!((t.width, t.height), (4, 2));
+    for y in 0..2u32 {
+        for x in 0..4u32 {
+            let got = t.texels_linear[(y * 4 + x) as usize];
+            let want = [
+                eotf(f64::from(x * 60) / 255.0),
+                eotf(f64::from(y * 100) / 255.0),
+                eotf(7.0 / 255.0),
+                f64::from((x / 2) * 200 + y * 50) / 255.0,
+            ];
+            for c in 0..4 {
+                assert!((f64::from(got[c]) - want[c]).abs() < 1e-6, "({x}, {y}) channel {c}: {got:?} vs {want:?}");
+            }
+        }
+    }
+    // Unreadable or unnamed masks: opaque, with c.png (or nothing) as before, and a warning.
+    assert_eq!(mat("nomask").alpha_mask_cutoff, None);
+    assert_eq!(tex("nomask").name, "c.png");
+    assert!(warned("missing.png") && warned("no cut-out"), "{:?}", imp.warnings);
+    assert_eq!(mat("noname").alpha_mask_cutoff, None);
+    assert!(warned("map_d names no file"), "{:?}", imp.warnings);
+    // Different -o: cut out, read through map_Kd's transform, warned.
+    assert_eq!(mat("shifted").alpha_mask_cutoff, Some(0.5));
+    assert_eq!(mat("shifted").base_color_texture.as_ref().unwrap().transform, UvTransform::default());
+    assert!(warned("map_d's -o / -s differ from map_Kd's"), "{:?}", imp.warnings);
+    // A mask alone: white texels at the mask's size with its values as alpha, Kd the colour,
+    // the mask's own -s as the transform.
+    let m = mat("maskonly");
+    assert_eq!((m.alpha_mask_cutoff, m.base_color_factor_linear), (Some(0.5), [0.2, 0.4, 0.6, 1.0]));
+    assert_eq!(m.base_color_texture.as_ref().unwrap().transform.scale, [2.0, 2.0]);
+    let t = tex("maskonly");
+    assert_eq!((t.width, t.height), (2, 2));
+    assert_eq!(t.texels_linear[3], [1.0, 1.0, 1.0, 250.0 / 255.0]);
+    assert_eq!(imp.warnings.len(), 3, "{:?}", imp.warnings);
 }
