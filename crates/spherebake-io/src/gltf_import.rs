@@ -177,6 +177,11 @@ struct Source<'c> {
     refused: Option<IoError>,
     /// Morph-target vertex deltas read so far (capped by [`MAX_MORPH_VALUES`]).
     morph_values_read: usize,
+    /// The texels each decoded image may hold: [`crate::texture::MAX_TOTAL_TEXELS`] shared by
+    /// the distinct images the materials name as base colour (or diffuse).
+    texel_share: usize,
+    /// The images reduced for that share ([`crate::texture::Decoded::shared`]), warned once.
+    shared_reductions: Vec<String>,
 }
 
 pub(crate) fn import(ctx: &mut Ctx, bytes: &[u8], glb: bool) -> Result<(Mesh, Vec<ImportedPart>), IoError> {
@@ -297,6 +302,16 @@ pub(crate) fn import(ctx: &mut Ctx, bytes: &[u8], glb: bool) -> Result<(Mesh, Ve
             });
         }
     }
+    // The images a material may decode: its colour texture's (diffuse for specular-glossiness).
+    let colour_images: std::collections::BTreeSet<usize> = doc
+        .materials()
+        .filter_map(|m| match m.pbr_specular_glossiness() {
+            Some(sg) => sg.diffuse_texture(),
+            None => m.pbr_metallic_roughness().base_color_texture(),
+        })
+        .map(|info| info.texture().source().index())
+        .collect();
+    let texel_share = crate::texture::texel_share(colour_images.len());
     let mut src = Source {
         ctx,
         doc,
@@ -306,8 +321,13 @@ pub(crate) fn import(ctx: &mut Ctx, bytes: &[u8], glb: bool) -> Result<(Mesh, Ve
         instancing: prep.instancing,
         refused: None,
         morph_values_read: 0,
+        texel_share,
+        shared_reductions: Vec::new(),
     };
     let built = src.build();
+    if let Some(w) = crate::texture::share_warning(&src.shared_reductions, src.texel_share) {
+        src.ctx.warn(w);
+    }
     match src.refused.take() {
         Some(e) => Err(e),
         None => built,
@@ -1299,11 +1319,12 @@ impl Source<'_> {
                 }
             },
         };
-        match decode_srgb_texture(name.clone(), &bytes) {
+        match decode_srgb_texture(name.clone(), &bytes, self.texel_share) {
             Ok(d) => {
                 if let Some(w) = d.reduction_warning(&format!("material {material:?}")) {
                     self.ctx.warn(w);
                 }
+                self.shared_reductions.extend(d.shared());
                 Some(d.texture)
             }
             Err(e) => {

@@ -616,7 +616,12 @@ pub(crate) fn import(ctx: &mut Ctx, bytes: &[u8]) -> Result<(Mesh, Vec<ImportedP
 
     let mut mesh = Mesh::default();
     let mut material_map: HashMap<Option<usize>, u32> = HashMap::new();
-    let mut texture_map = ObjTextures::default();
+    // The textures the materials may decode: each distinct map_Kd, and a cut-out per map_d.
+    let colour_files: std::collections::BTreeSet<&str> =
+        materials.iter().filter_map(|m| m.diffuse_texture.as_deref().map(|l| parse_map_args(l).file)).collect();
+    let cut_outs = materials.iter().filter(|m| m.dissolve_texture.is_some()).count();
+    let mut texture_map =
+        ObjTextures { texel_share: crate::texture::texel_share(colour_files.len() + cut_outs), ..Default::default() };
     // A texture that must not be read (outside the folder, not a regular file, over budget).
     let mut refused: Option<IoError> = None;
     let mut parts = Vec::new();
@@ -712,6 +717,9 @@ pub(crate) fn import(ctx: &mut Ctx, bytes: &[u8]) -> Result<(Mesh, Vec<ImportedP
             "object {first:?}{more}: some faces have texture coordinates (vt) and some not; the group's UVs are dropped"
         ));
     }
+    if let Some(w) = crate::texture::share_warning(&texture_map.shared, texture_map.texel_share) {
+        ctx.warn(w);
+    }
     if let Some(e) = refused {
         return Err(e);
     }
@@ -735,6 +743,11 @@ struct ObjTextures {
     masks: HashMap<(PathBuf, MaskChannel), Option<std::rc::Rc<Mask>>>,
     /// (colour texture, `map_d` file, channel) → the cut-out texture's index.
     cut: HashMap<(Option<usize>, PathBuf, MaskChannel), usize>,
+    /// The texels each decoded texture and mask may hold ([`crate::texture::texel_share`] of
+    /// the distinct `map_Kd` files and the `map_d` cut-outs).
+    texel_share: usize,
+    /// The textures and masks reduced for that share, warned once.
+    shared: Vec<String>,
 }
 
 /// The texture a material with a `map_d` reads: the colour texture's texels (white without
@@ -795,11 +808,12 @@ fn obj_material(
             Some(s) => *s,
             None => {
                 let s = match ctx.read_referenced(file, &p, ReadLimit::AtMost(MAX_IMAGE_BYTES)) {
-                    Ok(bytes) => match decode_srgb_texture(file.to_owned(), &bytes) {
+                    Ok(bytes) => match decode_srgb_texture(file.to_owned(), &bytes, textures.texel_share) {
                         Ok(d) => {
                             if let Some(w) = d.reduction_warning(&format!("material {:?}", m.name)) {
                                 ctx.warn(w);
                             }
+                            textures.shared.extend(d.shared());
                             mesh.textures.push(d.texture);
                             Some(mesh.textures.len() - 1)
                         }
@@ -865,8 +879,9 @@ fn obj_cut_out(
         Some(mask) => mask.clone(),
         None => {
             let mask = match ctx.read_referenced(file, &p, ReadLimit::AtMost(MAX_IMAGE_BYTES)) {
-                Ok(bytes) => match decode_mask(file.to_owned(), &bytes, dmap.channel) {
+                Ok(bytes) => match decode_mask(file.to_owned(), &bytes, dmap.channel, textures.texel_share) {
                     Ok(mask) => {
+                        textures.shared.extend(mask.shared.clone());
                         if let Some((w, h)) = mask.reduced_from {
                             ctx.warn(format!(
                                 "material {:?}: map_d {file} is {w}×{h}; read box-filtered to {}×{}",

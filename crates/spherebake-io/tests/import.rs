@@ -928,3 +928,62 @@ fn obj_map_d_makes_a_cut_out_and_its_failures_warn() {
     assert_eq!(t.texels_linear[3], [1.0, 1.0, 1.0, 250.0 / 255.0]);
     assert_eq!(imp.warnings.len(), 3, "{:?}", imp.warnings);
 }
+
+/// All of a model's textures share 2²⁶ texels: with 4096 distinct colour images named, each may
+/// hold 2²⁶ / 4096 = 16 384 texels, so a 256² image is read at 128² (16 384), box-filtered
+/// (the mean of each 2 × 2 block), and one warning names the first and counts the rest. A few
+/// textures keep their size.
+#[test]
+fn a_models_textures_share_one_texel_budget() {
+    let n = 4096;
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    // Grey, sRGB-encoded 0 and 255 alternating by column: each 2 × 2 block's mean is 0.5.
+    image::GrayImage::from_fn(256, 256, |x, _| image::Luma([if x % 2 == 0 { 0 } else { 255 }]))
+        .save(d.join("t.png"))
+        .unwrap();
+    let check = |imp: &spherebake_io::Imported, decoded: usize| {
+        let t = &imp.mesh.textures[0];
+        assert_eq!((t.width, t.height), (128, 128), "{:?}", imp.warnings);
+        assert!(
+            t.texels_linear.iter().all(|p| (p[0] - 0.5).abs() < 1e-6 && p[3] == 1.0),
+            "{:?}",
+            &t.texels_linear[..2]
+        );
+        let want = format!("{decoded} texture(s) read box-filtered to at most 16384 texels each");
+        let w: Vec<_> = imp.warnings.iter().filter(|w| w.0.contains("box-filtered")).collect();
+        assert_eq!(w.len(), 1, "{:?}", imp.warnings);
+        assert!(w[0].0.contains(&want) && w[0].0.contains("256×256 → 128×128"), "{}", w[0].0);
+    };
+    // glTF: 4096 materials, each with its own image (all the same file); two are used.
+    let mats: Vec<String> =
+        (0..n).map(|i| format!(r#"{{"pbrMetallicRoughness":{{"baseColorTexture":{{"index":{i}}}}}}}"#)).collect();
+    let texs: Vec<String> = (0..n).map(|i| format!(r#"{{"source":{i}}}"#)).collect();
+    let imgs: Vec<String> = (0..n).map(|_| r#"{"uri":"t.png"}"#.to_string()).collect();
+    let extra =
+        format!(r#","materials":[{}],"textures":[{}],"images":[{}]"#, mats.join(","), texs.join(","), imgs.join(","));
+    std::fs::write(d.join("m.gltf"), two_material_gltf(&extra)).unwrap();
+    let imp = load_mesh(&d.join("m.gltf")).unwrap();
+    check(&imp, 2);
+    // OBJ: 4096 materials naming distinct map_Kd files; the one used exists.
+    let mtl: String = (0..n)
+        .map(|i| format!("newmtl m{i}\nmap_Kd {}.png\n", if i == 0 { "t".into() } else { format!("t{i}") }))
+        .collect();
+    std::fs::write(d.join("m.mtl"), mtl).unwrap();
+    std::fs::write(
+        d.join("m.obj"),
+        "mtllib m.mtl\nusemtl m0\nv 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nvt 1 0\nvt 0 1\nf 1/1 2/2 3/3\n",
+    )
+    .unwrap();
+    let imp = load_mesh(&d.join("m.obj")).unwrap();
+    check(&imp, 1);
+    // Two materials: each may hold 2²⁵ texels, so the image keeps its size and nothing warns.
+    std::fs::write(d.join("two.mtl"), "newmtl a\nmap_Kd t.png\nnewmtl b\nmap_Kd u.png\n").unwrap();
+    std::fs::write(
+        d.join("two.obj"),
+        "mtllib two.mtl\nusemtl a\nv 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nvt 1 0\nvt 0 1\nf 1/1 2/2 3/3\n",
+    )
+    .unwrap();
+    let imp = load_mesh(&d.join("two.obj")).unwrap();
+    assert_eq!((imp.mesh.textures[0].width, imp.warnings.len()), (256, 0), "{:?}", imp.warnings);
+}
