@@ -25,6 +25,6 @@ fuzz_target!(|data: &[u8]| {
         files.insert(PathBuf::from("/fuzz/asset").join(n), side.to_vec());
     }
     let path = if glb { Path::new("/fuzz/asset/a.glb") } else { Path::new("/fuzz/asset/a.gltf") };
-    let opts = spherebake_io::ImportOptions { allow_outside_paths: false, max_input_bytes: 64 << 20 };
+    let opts = spherebake_io::ImportOptions { allow_outside_paths: false, max_input_bytes: 64 << 20, ..Default::default() };
     let _ = spherebake_io::load_mesh_from_memory(path, model, files, &opts);
 });

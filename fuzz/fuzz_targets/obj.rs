@@ -22,6 +22,6 @@ fuzz_target!(|data: &[u8]| {
     for n in ["tex.png", "a.png"] {
         files.insert(dir.join(n), Vec::new());
     }
-    let opts = spherebake_io::ImportOptions { allow_outside_paths: false, max_input_bytes: 64 << 20 };
+    let opts = spherebake_io::ImportOptions { allow_outside_paths: false, max_input_bytes: 64 << 20, ..Default::default() };
     let _ = spherebake_io::load_mesh_from_memory(Path::new("/fuzz/asset/a.obj"), obj, files, &opts);
 });

@@ -89,8 +89,8 @@ pub struct Material {
     /// glTF `alphaMode` `MASK`: its `alphaCutoff` (default 0.5). Where the base colour's alpha
     /// (factor × texture × COLOR_0) is below it the surface is a hole for the albedo (a leaf
     /// card's cut-out shows what lies behind it). `None` for `OPAQUE` and for `BLEND` (taken as
-    /// opaque). OBJ: 0.5 for a material with a `map_d`, whose mask the importer multiplies into
-    /// the base colour texture's alpha; `None` otherwise (`d` alone is taken as opaque).
+    /// opaque). OBJ: 0.5 for a material with a `map_d`, whose mask the importer makes the base
+    /// colour texture's alpha; `None` otherwise (`d` alone is taken as opaque).
     pub alpha_mask_cutoff: Option<f32>,
 }
 

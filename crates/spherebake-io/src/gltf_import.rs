@@ -17,7 +17,7 @@ use spherebake_geom::{
 };
 
 use crate::gltf_ext;
-use crate::texture::decode_srgb_texture;
+use crate::texture::{decode_srgb_texture, TexelBudget};
 use crate::{Ctx, ImportedPart, IoError, ReadLimit, MAX_IMAGE_BYTES};
 
 /// Most vertices one import may produce (all instances together): bounds memory for files whose
@@ -177,11 +177,8 @@ struct Source<'c> {
     refused: Option<IoError>,
     /// Morph-target vertex deltas read so far (capped by [`MAX_MORPH_VALUES`]).
     morph_values_read: usize,
-    /// The texels each decoded image may hold: [`crate::texture::MAX_TOTAL_TEXELS`] shared by
-    /// the distinct images the materials name as base colour (or diffuse).
-    texel_share: usize,
-    /// The images reduced for that share ([`crate::texture::Decoded::shared`]), warned once.
-    shared_reductions: Vec<String>,
+    /// Holds the decoded textures to [`crate::texture::MAX_TOTAL_TEXELS`] together.
+    texel_budget: TexelBudget,
 }
 
 pub(crate) fn import(ctx: &mut Ctx, bytes: &[u8], glb: bool) -> Result<(Mesh, Vec<ImportedPart>), IoError> {
@@ -302,16 +299,7 @@ pub(crate) fn import(ctx: &mut Ctx, bytes: &[u8], glb: bool) -> Result<(Mesh, Ve
             });
         }
     }
-    // The images a material may decode: its colour texture's (diffuse for specular-glossiness).
-    let colour_images: std::collections::BTreeSet<usize> = doc
-        .materials()
-        .filter_map(|m| match m.pbr_specular_glossiness() {
-            Some(sg) => sg.diffuse_texture(),
-            None => m.pbr_metallic_roughness().base_color_texture(),
-        })
-        .map(|info| info.texture().source().index())
-        .collect();
-    let texel_share = crate::texture::texel_share(colour_images.len());
+    let texel_budget = TexelBudget::new(ctx.opts.max_texels);
     let mut src = Source {
         ctx,
         doc,
@@ -321,12 +309,13 @@ pub(crate) fn import(ctx: &mut Ctx, bytes: &[u8], glb: bool) -> Result<(Mesh, Ve
         instancing: prep.instancing,
         refused: None,
         morph_values_read: 0,
-        texel_share,
-        shared_reductions: Vec::new(),
+        texel_budget,
     };
     let built = src.build();
-    if let Some(w) = crate::texture::share_warning(&src.shared_reductions, src.texel_share) {
-        src.ctx.warn(w);
+    if let Ok((mesh, _)) = &built {
+        if let Some(w) = src.texel_budget.warning(&mesh.textures) {
+            src.ctx.warn(w);
+        }
     }
     match src.refused.take() {
         Some(e) => Err(e),
@@ -1240,6 +1229,9 @@ impl Source<'_> {
                         mesh.textures.push(t);
                         mesh.textures.len() - 1
                     });
+                    if let Some(i) = s {
+                        self.texel_budget.add(&mut mesh.textures, i);
+                    }
                     image_map.insert(ii, s);
                     s
                 }
@@ -1319,12 +1311,11 @@ impl Source<'_> {
                 }
             },
         };
-        match decode_srgb_texture(name.clone(), &bytes, self.texel_share) {
+        match decode_srgb_texture(name.clone(), &bytes) {
             Ok(d) => {
                 if let Some(w) = d.reduction_warning(&format!("material {material:?}")) {
                     self.ctx.warn(w);
                 }
-                self.shared_reductions.extend(d.shared());
                 Some(d.texture)
             }
             Err(e) => {

@@ -42,7 +42,7 @@ use std::path::{Path, PathBuf};
 pub use error::IoError;
 pub use hash::Fnv1a64;
 pub use spherebake_geom::{Mesh, Warning};
-pub use texture::srgb_to_linear;
+pub use texture::{srgb_to_linear, MAX_TOTAL_TEXELS};
 
 /// Where one primitive (glTF) or model (OBJ) landed in the imported [`Mesh`].
 #[derive(Clone, Debug, PartialEq)]
@@ -114,7 +114,7 @@ pub const MAX_MTL_BYTES: u64 = 16 << 20;
 /// What an import may read.
 ///
 /// By default every file a model references (glTF buffer and image `uri`s after
-/// percent-decoding, OBJ `mtllib` and `map_Kd`) must resolve, symlinks included, to a regular
+/// percent-decoding, OBJ `mtllib`, `map_Kd` and `map_d`) must resolve, symlinks included, to a regular
 /// file inside the model's folder tree (the directory of the model path and its
 /// sub-directories); anything else is an error naming the URI, and the file is not opened.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -125,11 +125,15 @@ pub struct ImportOptions {
     /// Bytes read per model in total (model + buffers + images + MTL); reading more is an error.
     /// Default [`DEFAULT_MAX_INPUT_BYTES`].
     pub max_input_bytes: u64,
+    /// Texels the decoded textures of a model may hold together; over it, the largest are
+    /// halved as they are read (`texture::TexelBudget`), with a warning. Default
+    /// [`MAX_TOTAL_TEXELS`] (4 × 4096²).
+    pub max_texels: usize,
 }
 
 impl Default for ImportOptions {
     fn default() -> Self {
-        Self { allow_outside_paths: false, max_input_bytes: DEFAULT_MAX_INPUT_BYTES }
+        Self { allow_outside_paths: false, max_input_bytes: DEFAULT_MAX_INPUT_BYTES, max_texels: MAX_TOTAL_TEXELS }
     }
 }
 

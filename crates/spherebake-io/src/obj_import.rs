@@ -8,7 +8,7 @@ use std::path::{Path, PathBuf};
 use glam::Vec3;
 use spherebake_geom::{Material, Mesh, TextureRef, UvTransform};
 
-use crate::texture::{decode_mask, decode_srgb_texture, Mask, MaskChannel};
+use crate::texture::{decode_mask, decode_srgb_texture, Mask, MaskChannel, TexelBudget};
 use crate::{Ctx, ImportedPart, IoError, ReadLimit, MAX_IMAGE_BYTES, MAX_MTL_BYTES};
 
 /// An MTL file tobj asked for: resolved path and its bytes (or why it could not be read).
@@ -616,14 +616,12 @@ pub(crate) fn import(ctx: &mut Ctx, bytes: &[u8]) -> Result<(Mesh, Vec<ImportedP
 
     let mut mesh = Mesh::default();
     let mut material_map: HashMap<Option<usize>, u32> = HashMap::new();
-    // The textures the materials may decode: each distinct map_Kd, and a cut-out per map_d.
-    let colour_files: std::collections::BTreeSet<&str> =
-        materials.iter().filter_map(|m| m.diffuse_texture.as_deref().map(|l| parse_map_args(l).file)).collect();
-    let cut_outs = materials.iter().filter(|m| m.dissolve_texture.is_some()).count();
-    let mut texture_map =
-        ObjTextures { texel_share: crate::texture::texel_share(colour_files.len() + cut_outs), ..Default::default() };
-    // A texture that must not be read (outside the folder, not a regular file, over budget).
-    let mut refused: Option<IoError> = None;
+    let mut texture_map = ObjTextures {
+        colour: HashMap::new(),
+        cut: HashMap::new(),
+        budget: TexelBudget::new(ctx.opts.max_texels),
+        refused: None,
+    };
     let mut parts = Vec::new();
     let mut has_uv = false;
     let mut uvs = Vec::new();
@@ -683,7 +681,7 @@ pub(crate) fn import(ctx: &mut Ctx, bytes: &[u8]) -> Result<(Mesh, Vec<ImportedP
             Some(&id) => id,
             None => {
                 let mat = match key {
-                    Some(i) => obj_material(ctx, &materials[i], &mtl_dir, &mut mesh, &mut texture_map, &mut refused),
+                    Some(i) => obj_material(ctx, &materials[i], &mtl_dir, &mut mesh, &mut texture_map),
                     None => Material { name: "default".into(), ..Default::default() },
                 };
                 mesh.materials.push(mat);
@@ -717,10 +715,10 @@ pub(crate) fn import(ctx: &mut Ctx, bytes: &[u8]) -> Result<(Mesh, Vec<ImportedP
             "object {first:?}{more}: some faces have texture coordinates (vt) and some not; the group's UVs are dropped"
         ));
     }
-    if let Some(w) = crate::texture::share_warning(&texture_map.shared, texture_map.texel_share) {
+    if let Some(w) = texture_map.budget.warning(&mesh.textures) {
         ctx.warn(w);
     }
-    if let Some(e) = refused {
+    if let Some(e) = texture_map.refused {
         return Err(e);
     }
     if has_uv {
@@ -735,40 +733,38 @@ pub(crate) fn import(ctx: &mut Ctx, bytes: &[u8]) -> Result<(Mesh, Vec<ImportedP
 pub const OBJ_MASK_CUTOFF: f32 = 0.5;
 
 /// The textures an OBJ's materials share, each decoded once.
-#[derive(Default)]
 struct ObjTextures {
     /// `map_Kd` file → its index in `Mesh::textures` (`None`: it could not be read).
     colour: HashMap<PathBuf, Option<usize>>,
-    /// (`map_d` file, channel) → the mask (`None`: it could not be read).
-    masks: HashMap<(PathBuf, MaskChannel), Option<std::rc::Rc<Mask>>>,
-    /// (colour texture, `map_d` file, channel) → the cut-out texture's index.
-    cut: HashMap<(Option<usize>, PathBuf, MaskChannel), usize>,
-    /// The texels each decoded texture and mask may hold ([`crate::texture::texel_share`] of
-    /// the distinct `map_Kd` files and the `map_d` cut-outs).
-    texel_share: usize,
-    /// The textures and masks reduced for that share, warned once.
-    shared: Vec<String>,
+    /// (colour texture, `map_d` file, channel) → the cut-out texture's index (`None`: the mask
+    /// could not be read). A mask is decoded for its cut-out and dropped.
+    cut: HashMap<(Option<usize>, PathBuf, MaskChannel), Option<usize>>,
+    /// Holds the decoded textures to [`crate::texture::MAX_TOTAL_TEXELS`] together.
+    budget: TexelBudget,
+    /// A texture that must not be read (outside the folder, not a regular file, over the input
+    /// budget): the import fails with it.
+    refused: Option<IoError>,
 }
 
-/// The texture a material with a `map_d` reads: the colour texture's texels (white without
-/// one) with their alpha multiplied by the mask, at the colour texture's size (else the
-/// mask's); the mask is read at the nearest texel when the sizes differ (both follow the same
-/// UVs).
+/// The texture a material with a `map_d` reads: the colour texture's colour (white without
+/// one) with the mask as its alpha (the colour texture's own alpha is not MTL's dissolve), at
+/// the larger of the two sizes on each axis, each read at its nearest texel (both follow the
+/// same UVs), so neither loses resolution.
 fn cut_out_texture(
     colour: Option<&spherebake_geom::Texture>,
     mask: &Mask,
     mask_name: &str,
 ) -> spherebake_geom::Texture {
-    let (w, h) = colour.map_or((mask.width, mask.height), |t| (t.width, t.height));
+    let (cw, ch) = colour.map_or((1, 1), |t| (t.width as usize, t.height as usize));
     let (mw, mh) = (mask.width as usize, mask.height as usize);
+    let (w, h) = (cw.max(mw), ch.max(mh));
     let near = |x: usize, n: usize, m: usize| (((x as f64 + 0.5) * m as f64 / n as f64) as usize).min(m - 1);
-    let mut texels = Vec::with_capacity(w as usize * h as usize);
-    for y in 0..h as usize {
-        let my = near(y, h as usize, mh);
-        for x in 0..w as usize {
-            let a = mask.values[my * mw + near(x, w as usize, mw)];
-            let mut t = colour.map_or([1.0; 4], |c| c.texels_linear[y * w as usize + x]);
-            t[3] *= a;
+    let mut texels = Vec::with_capacity(w * h);
+    for y in 0..h {
+        let (my, cy) = (near(y, h, mh), near(y, h, ch));
+        for x in 0..w {
+            let mut t = colour.map_or([1.0; 4], |c| c.texels_linear[cy * cw + near(x, w, cw)]);
+            t[3] = mask.values[my * mw + near(x, w, mw)];
             texels.push(t);
         }
     }
@@ -776,7 +772,7 @@ fn cut_out_texture(
         Some(c) => format!("{} cut out by {mask_name}", c.name),
         None => format!("white cut out by {mask_name}"),
     };
-    spherebake_geom::Texture { name, width: w, height: h, texels_linear: texels }
+    spherebake_geom::Texture { name, width: w as u32, height: h as u32, texels_linear: texels }
 }
 
 fn obj_material(
@@ -785,7 +781,6 @@ fn obj_material(
     mtl_dir: &Path,
     mesh: &mut Mesh,
     textures: &mut ObjTextures,
-    refused: &mut Option<IoError>,
 ) -> Material {
     let texture_map = &mut textures.colour;
     let kd = m.diffuse.unwrap_or([1.0; 3]);
@@ -798,6 +793,8 @@ fn obj_material(
         alpha_mask_cutoff: None,
     };
     let map = m.diffuse_texture.as_deref().map(parse_map_args);
+    // map_Kd's -o and -s as written, for the cut-out's check that map_d's are the same.
+    let kd_placement = map.as_ref().map(|a| (a.offset, a.scale));
     if map.as_ref().is_some_and(|a| a.file.is_empty()) {
         ctx.warn(format!("material {:?}: map_Kd names no file; using Kd", m.name));
     }
@@ -808,14 +805,15 @@ fn obj_material(
             Some(s) => *s,
             None => {
                 let s = match ctx.read_referenced(file, &p, ReadLimit::AtMost(MAX_IMAGE_BYTES)) {
-                    Ok(bytes) => match decode_srgb_texture(file.to_owned(), &bytes, textures.texel_share) {
+                    Ok(bytes) => match decode_srgb_texture(file.to_owned(), &bytes) {
                         Ok(d) => {
                             if let Some(w) = d.reduction_warning(&format!("material {:?}", m.name)) {
                                 ctx.warn(w);
                             }
-                            textures.shared.extend(d.shared());
                             mesh.textures.push(d.texture);
-                            Some(mesh.textures.len() - 1)
+                            let i = mesh.textures.len() - 1;
+                            textures.budget.add(&mut mesh.textures, i);
+                            Some(i)
                         }
                         Err(e) => {
                             ctx.warn(format!("material {:?}: cannot decode {}: {e}; using Kd", m.name, p.display()));
@@ -823,7 +821,7 @@ fn obj_material(
                         }
                     },
                     Err(e) if e.is_refusal() => {
-                        refused.get_or_insert(e);
+                        textures.refused.get_or_insert(e);
                         None
                     }
                     Err(e) => {
@@ -849,7 +847,7 @@ fn obj_material(
             });
         }
     }
-    obj_cut_out(ctx, m, mtl_dir, mesh, textures, refused, &mut out);
+    obj_cut_out(ctx, m, mtl_dir, mesh, textures, kd_placement, &mut out);
     out
 }
 
@@ -864,7 +862,7 @@ fn obj_cut_out(
     mtl_dir: &Path,
     mesh: &mut Mesh,
     textures: &mut ObjTextures,
-    refused: &mut Option<IoError>,
+    kd_placement: Option<([f32; 2], [f32; 2])>,
     out: &mut Material,
 ) {
     let Some(dmap) = m.dissolve_texture.as_deref().map(parse_map_args) else { return };
@@ -874,21 +872,21 @@ fn obj_cut_out(
     }
     let file = dmap.file;
     let p = mtl_dir.join(file.replace('\\', "/"));
-    let key = (p.clone(), dmap.channel);
-    let mask = match textures.masks.get(&key) {
-        Some(mask) => mask.clone(),
+    let colour = out.base_color_texture.as_ref().map(|t| t.texture);
+    let key = (colour, p.clone(), dmap.channel);
+    let index = match textures.cut.get(&key) {
+        Some(&index) => index,
         None => {
             let mask = match ctx.read_referenced(file, &p, ReadLimit::AtMost(MAX_IMAGE_BYTES)) {
-                Ok(bytes) => match decode_mask(file.to_owned(), &bytes, dmap.channel, textures.texel_share) {
+                Ok(bytes) => match decode_mask(file.to_owned(), &bytes, dmap.channel) {
                     Ok(mask) => {
-                        textures.shared.extend(mask.shared.clone());
                         if let Some((w, h)) = mask.reduced_from {
                             ctx.warn(format!(
                                 "material {:?}: map_d {file} is {w}×{h}; read box-filtered to {}×{}",
                                 m.name, mask.width, mask.height
                             ));
                         }
-                        Some(std::rc::Rc::new(mask))
+                        Some(mask)
                     }
                     Err(e) => {
                         ctx.warn(format!(
@@ -900,7 +898,7 @@ fn obj_cut_out(
                     }
                 },
                 Err(e) if e.is_refusal() => {
-                    refused.get_or_insert(e);
+                    textures.refused.get_or_insert(e);
                     None
                 }
                 Err(e) => {
@@ -908,19 +906,20 @@ fn obj_cut_out(
                     None
                 }
             };
-            textures.masks.insert(key, mask.clone());
-            mask
+            let index = mask.map(|mask| {
+                mesh.textures.push(cut_out_texture(colour.map(|i| &mesh.textures[i]), &mask, file));
+                let i = mesh.textures.len() - 1;
+                textures.budget.add(&mut mesh.textures, i);
+                i
+            });
+            textures.cut.insert(key, index);
+            index
         }
     };
-    let Some(mask) = mask else { return };
-    let colour = out.base_color_texture.as_ref().map(|t| t.texture);
-    let index = *textures.cut.entry((colour, p, dmap.channel)).or_insert_with(|| {
-        mesh.textures.push(cut_out_texture(colour.map(|i| &mesh.textures[i]), &mask, file));
-        mesh.textures.len() - 1
-    });
+    let Some(index) = index else { return };
     let transform = match &out.base_color_texture {
         Some(t) => {
-            if dmap.transform() != Some(t.transform) {
+            if kd_placement != Some((dmap.offset, dmap.scale)) {
                 ctx.warn(format!(
                     "material {:?}: map_d's -o / -s differ from map_Kd's; the cut-out is read with map_Kd's",
                     m.name

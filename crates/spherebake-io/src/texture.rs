@@ -19,80 +19,103 @@ pub fn srgb_to_linear(c: f32) -> f32 {
 /// (8 192² RGBA8).
 pub const MAX_DECODE_BYTES: u64 = (1 << 30) + (256 << 20);
 
-/// Texels all the textures of one model may hold once decoded: 4 × 4096² (1 GiB of linear
-/// RGBA f32; the albedo bake's mip chains add about as much again). A model with more
-/// texture than that shares it evenly ([`texel_share`]): each texture is halved (box-filtered,
-/// as [`MAX_TEXTURE_SIDE`] reduces) until it holds at most its share, so a small file naming
-/// many huge images cannot exhaust memory, and a model of many 4K textures still bakes (the
-/// bake reads them at its cube maps' footprint, a few texels per cube-map texel).
+/// Texels all the textures of one model may hold together once decoded: 4 × 4096² (1 GiB of
+/// linear RGBA f32; the albedo bake's mip chains add about as much again). See [`TexelBudget`].
 pub const MAX_TOTAL_TEXELS: usize = 1 << 26;
 
-/// The texels each of `textures` textures may hold: [`MAX_TOTAL_TEXELS`] shared evenly
-/// (at least 1).
-pub(crate) fn texel_share(textures: usize) -> usize {
-    (MAX_TOTAL_TEXELS / textures.max(1)).max(1)
+/// Holds a model's decoded textures to [`MAX_TOTAL_TEXELS`] together: after each texture is
+/// added, the largest (the first added of equal size) is halved ([`texels::halve`], the box
+/// filter the side cap uses, so the result is the source box-filtered to that size) until
+/// they fit. Textures that fit keep their size: a model of four 4096² textures and any number
+/// of small ones is read whole; a fifth 4096² one halves the first; a small file naming
+/// thousands of large images stays within the bound. Peak memory is the bound plus the one
+/// texture being added. O(log n) per halving.
+pub(crate) struct TexelBudget {
+    /// The texels the textures may hold together ([`MAX_TOTAL_TEXELS`] unless the import
+    /// options say otherwise).
+    cap: usize,
+    total: usize,
+    /// (texels, reversed index) of every texture added; entries whose texels are stale are
+    /// skipped when popped.
+    heap: std::collections::BinaryHeap<(usize, std::cmp::Reverse<usize>)>,
+    /// Each texture halved, with its size when added, in the order first halved.
+    reduced: Vec<(usize, (u32, u32))>,
 }
 
-/// The largest side a `w`×`h` image keeps when read with at most `max_texels` texels:
-/// halvings ([`texels::half_size`]) until both sides are at most [`MAX_TEXTURE_SIDE`] and
-/// the texels at most `max_texels` (a 1×1 image always fits).
-fn kept_side(w: usize, h: usize, max_texels: usize) -> usize {
-    let (mut w, mut h) = (w.max(1), h.max(1));
-    while w.max(h) > MAX_TEXTURE_SIDE || (w.saturating_mul(h) > max_texels && (w, h) != (1, 1)) {
-        (w, h) = texels::half_size(w, h);
+impl TexelBudget {
+    /// A budget of `cap` texels.
+    pub fn new(cap: usize) -> Self {
+        Self { cap, total: 0, heap: Default::default(), reduced: Vec::new() }
     }
-    w.max(h)
+
+    /// Accounts for `textures[index]`, just added, and halves the largest until the textures
+    /// hold at most the cap.
+    pub fn add(&mut self, textures: &mut [Texture], index: usize) {
+        let count = |t: &Texture| t.width as usize * t.height as usize;
+        let Some(t) = textures.get(index) else { return };
+        self.total += count(t);
+        self.heap.push((count(t), std::cmp::Reverse(index)));
+        while self.total > self.cap {
+            let Some((n, std::cmp::Reverse(i))) = self.heap.pop() else { break };
+            let t = &mut textures[i];
+            if n != count(t) {
+                continue; // stale: halved since
+            }
+            if n <= 1 {
+                break; // every texture is 1×1
+            }
+            if !self.reduced.iter().any(|r| r.0 == i) {
+                self.reduced.push((i, (t.width, t.height)));
+            }
+            let (w, h, v) = texels::halve(t.width as usize, t.height as usize, &t.texels_linear);
+            (t.width, t.height, t.texels_linear) = (w as u32, h as u32, v);
+            self.total -= n - count(t);
+            self.heap.push((count(t), std::cmp::Reverse(i)));
+        }
+    }
+
+    /// The one warning for the textures halved, naming the first three; `None` when none was.
+    pub fn warning(&self, textures: &[Texture]) -> Option<String> {
+        let named: Vec<String> = self
+            .reduced
+            .iter()
+            .take(3)
+            .map(|&(i, (w, h))| {
+                let t = &textures[i];
+                format!("{} {w}×{h} → {}×{}", t.name, t.width, t.height)
+            })
+            .collect();
+        let more = match self.reduced.len() {
+            n if n > 3 => format!(", and {} more", n - 3),
+            _ => String::new(),
+        };
+        (!named.is_empty()).then(|| {
+            format!(
+                "the textures would hold more than {} texels together; the largest are read box-filtered further: {}{more}",
+                self.cap,
+                named.join(", ")
+            )
+        })
+    }
 }
 
-/// A decoded texture, and the size of the source image when it was reduced to `texture`'s size
-/// (larger than [`MAX_TEXTURE_SIDE`], or than its share of [`MAX_TOTAL_TEXELS`]).
+/// A decoded texture, and the size of the source image when it was larger than
+/// [`MAX_TEXTURE_SIDE`] and was reduced to `texture`'s size.
 pub(crate) struct Decoded {
     pub texture: Texture,
     pub reduced_from: Option<(u32, u32)>,
 }
 
 impl Decoded {
-    /// Whether it was reduced below [`MAX_TEXTURE_SIDE`] for its share of [`MAX_TOTAL_TEXELS`].
-    fn reduced_for_share(&self) -> bool {
-        let t = &self.texture;
-        self.reduced_from
-            .is_some_and(|(w, h)| kept_side(w as usize, h as usize, usize::MAX) > t.width.max(t.height) as usize)
-    }
-
-    /// The warning the importers give for a texture reduced to [`MAX_TEXTURE_SIDE`], if it was
-    /// (a reduction for its share of the texels is reported once for all, [`Self::shared`]).
+    /// The warning the importers give for a reduced texture, if it was reduced.
     pub fn reduction_warning(&self, context: &str) -> Option<String> {
-        let (w, h) = self.reduced_from.filter(|_| !self.reduced_for_share())?;
+        let (w, h) = self.reduced_from?;
         let t = &self.texture;
         Some(format!(
             "{context}: {} is {w}×{h}; the albedo bake reads it box-filtered to {}×{} (largest side {MAX_TEXTURE_SIDE})",
             t.name, t.width, t.height
         ))
     }
-
-    /// "name W×H → w×h" when it was reduced for its share of [`MAX_TOTAL_TEXELS`], for
-    /// [`share_warning`].
-    pub fn shared(&self) -> Option<String> {
-        let (w, h) = self.reduced_from.filter(|_| self.reduced_for_share())?;
-        let t = &self.texture;
-        Some(format!("{} {w}×{h} → {}×{}", t.name, t.width, t.height))
-    }
-}
-
-/// The one warning for the textures of a model reduced for their share of
-/// [`MAX_TOTAL_TEXELS`] (`reduced`: [`Decoded::shared`] and the masks' alike, in reading
-/// order), naming the first; `None` when there are none.
-pub(crate) fn share_warning(reduced: &[String], share: usize) -> Option<String> {
-    let first = reduced.first()?;
-    let more = match reduced.len() {
-        1 => String::new(),
-        n => format!(", and {} more", n - 1),
-    };
-    Some(format!(
-        "{} texture(s) read box-filtered to at most {share} texels each, so that all of the model's textures hold at most \
-         {MAX_TOTAL_TEXELS} (4 × 4096²): {first}{more}",
-        reduced.len()
-    ))
 }
 
 /// Decodes an encoded PNG / JPEG / WebP image. Colour channels are treated as sRGB and converted to
@@ -101,14 +124,14 @@ pub(crate) fn share_warning(reduced: &[String], share: usize) -> Option<String> 
 /// down ([`texels::reduce_to_side`], in linear values) as it is read, so no converted copy
 /// exists at full size: peak memory is the decoded image (in its own layout, 8- or 16-bit or
 /// float) plus the result, and for a progressive JPEG its decoder's coefficient buffers.
-pub(crate) fn decode_srgb_texture(name: String, bytes: &[u8], max_texels: usize) -> Result<Decoded, String> {
-    decode_texture(name, bytes, true, max_texels).map(|(d, _)| d)
+pub(crate) fn decode_srgb_texture(name: String, bytes: &[u8]) -> Result<Decoded, String> {
+    decode_texture(name, bytes, true).map(|(d, _)| d)
 }
 
 /// [`decode_srgb_texture`] with the colour channels through the sRGB EOTF when `srgb`, else as
 /// stored (normalised to [0, 1]: data such as an MTL `map_d` mask). Also returns whether the
-/// image has an alpha channel. Reduced to at most `max_texels` texels ([`texel_share`]).
-fn decode_texture(name: String, bytes: &[u8], srgb: bool, max_texels: usize) -> Result<(Decoded, bool), String> {
+/// image has an alpha channel.
+fn decode_texture(name: String, bytes: &[u8], srgb: bool) -> Result<(Decoded, bool), String> {
     let mut reader =
         image::ImageReader::new(std::io::Cursor::new(bytes)).with_guessed_format().map_err(|e| e.to_string())?;
     let mut limits = image::Limits::default();
@@ -141,20 +164,19 @@ fn decode_texture(name: String, bytes: &[u8], srgb: bool, max_texels: usize) -> 
     let u16c = |v: u16| curve(f32::from(v) / 65535.0);
     let u16a = |v: u16| f32::from(v) / 65535.0;
     let has_alpha = img.color().has_alpha();
-    let side = kept_side(w, h, max_texels);
     let (tw, th, texels_linear) = match &img {
-        image::DynamicImage::ImageLuma8(b) => layout(b.as_raw(), w, h, 1, side, u8c, u8a),
-        image::DynamicImage::ImageLumaA8(b) => layout(b.as_raw(), w, h, 2, side, u8c, u8a),
-        image::DynamicImage::ImageRgb8(b) => layout(b.as_raw(), w, h, 3, side, u8c, u8a),
-        image::DynamicImage::ImageRgba8(b) => layout(b.as_raw(), w, h, 4, side, u8c, u8a),
-        image::DynamicImage::ImageLuma16(b) => layout(b.as_raw(), w, h, 1, side, u16c, u16a),
-        image::DynamicImage::ImageLumaA16(b) => layout(b.as_raw(), w, h, 2, side, u16c, u16a),
-        image::DynamicImage::ImageRgb16(b) => layout(b.as_raw(), w, h, 3, side, u16c, u16a),
-        image::DynamicImage::ImageRgba16(b) => layout(b.as_raw(), w, h, 4, side, u16c, u16a),
-        image::DynamicImage::ImageRgb32F(b) => layout(b.as_raw(), w, h, 3, side, curve, |v| v),
-        image::DynamicImage::ImageRgba32F(b) => layout(b.as_raw(), w, h, 4, side, curve, |v| v),
+        image::DynamicImage::ImageLuma8(b) => layout(b.as_raw(), w, h, 1, u8c, u8a),
+        image::DynamicImage::ImageLumaA8(b) => layout(b.as_raw(), w, h, 2, u8c, u8a),
+        image::DynamicImage::ImageRgb8(b) => layout(b.as_raw(), w, h, 3, u8c, u8a),
+        image::DynamicImage::ImageRgba8(b) => layout(b.as_raw(), w, h, 4, u8c, u8a),
+        image::DynamicImage::ImageLuma16(b) => layout(b.as_raw(), w, h, 1, u16c, u16a),
+        image::DynamicImage::ImageLumaA16(b) => layout(b.as_raw(), w, h, 2, u16c, u16a),
+        image::DynamicImage::ImageRgb16(b) => layout(b.as_raw(), w, h, 3, u16c, u16a),
+        image::DynamicImage::ImageRgba16(b) => layout(b.as_raw(), w, h, 4, u16c, u16a),
+        image::DynamicImage::ImageRgb32F(b) => layout(b.as_raw(), w, h, 3, curve, |v| v),
+        image::DynamicImage::ImageRgba32F(b) => layout(b.as_raw(), w, h, 4, curve, |v| v),
         // A layout this version of the image crate does not have.
-        _ => layout(img.to_rgba8().as_raw(), w, h, 4, side, u8c, u8a),
+        _ => layout(img.to_rgba8().as_raw(), w, h, 4, u8c, u8a),
     };
     let reduced_from = (tw != w || th != h).then_some((width, height));
     let texture = Texture { name, width: tw as u32, height: th as u32, texels_linear };
@@ -180,22 +202,14 @@ pub(crate) struct Mask {
     pub width: u32,
     pub height: u32,
     pub values: Vec<f32>,
-    /// The source's size when it was reduced to [`MAX_TEXTURE_SIDE`].
     pub reduced_from: Option<(u32, u32)>,
-    /// [`Decoded::shared`].
-    pub shared: Option<String>,
 }
 
 /// Decodes an image as an MTL scalar texture (`map_d`): values as stored (no sRGB curve, a
 /// mask is data), of the channel `channel` names; luminance is Rec. 709's
-/// 0.2126 R + 0.7152 G + 0.0722 B. Reduced as [`decode_srgb_texture`] reduces, to at most
-/// `max_texels` texels.
-pub(crate) fn decode_mask(name: String, bytes: &[u8], channel: MaskChannel, max_texels: usize) -> Result<Mask, String> {
-    let (d, has_alpha) = decode_texture(name, bytes, false, max_texels)?;
-    let (reduced_from, shared) = match d.shared() {
-        Some(note) => (None, Some(note)),
-        None => (d.reduced_from, None),
-    };
+/// 0.2126 R + 0.7152 G + 0.0722 B. Reduced as [`decode_srgb_texture`] reduces.
+pub(crate) fn decode_mask(name: String, bytes: &[u8], channel: MaskChannel) -> Result<Mask, String> {
+    let (d, has_alpha) = decode_texture(name, bytes, false)?;
     let t = d.texture;
     let channel = match channel {
         MaskChannel::Auto if has_alpha && t.texels_linear.iter().any(|p| p[3] < 1.0) => MaskChannel::Alpha,
@@ -213,22 +227,21 @@ pub(crate) fn decode_mask(name: String, bytes: &[u8], channel: MaskChannel, max_
             _ => 0.2126 * p[0] + 0.7152 * p[1] + 0.0722 * p[2],
         })
         .collect();
-    Ok(Mask { width: t.width, height: t.height, values, reduced_from, shared })
+    Ok(Mask { width: t.width, height: t.height, values, reduced_from: d.reduced_from })
 }
 
 /// A `w`×`h` image of `channels` interleaved channels (1 grey, 2 grey + alpha, 3 RGB, 4 RGBA;
 /// a missing alpha is 1) as linear RGBA, colour channels through `colour` and alpha through
-/// `alpha`, reduced to at most `side` a side ([`texels::reduce_to_side`]).
+/// `alpha`, reduced to at most [`MAX_TEXTURE_SIDE`] a side ([`texels::reduce_to_side`]).
 fn layout<T: Copy + Sync>(
     raw: &[T],
     w: usize,
     h: usize,
     channels: usize,
-    side: usize,
     colour: impl Fn(T) -> f32 + Sync,
     alpha: impl Fn(T) -> f32 + Sync,
 ) -> (usize, usize, Vec<LinearRgba>) {
-    texels::reduce_to_side(w, h, side, |x, y| {
+    texels::reduce_to_side(w, h, MAX_TEXTURE_SIDE, |x, y| {
         let p = &raw[channels * (y * w + x)..][..channels];
         match *p {
             [l] => {
@@ -250,20 +263,61 @@ fn layout<T: Copy + Sync>(
 mod tests {
     use super::*;
 
-    /// The side kept: halvings (floor, at least 1) until the side cap and the texel share hold.
+    fn tex(name: &str, w: u32, h: u32, seed: u32) -> Texture {
+        let texels = (0..w * h).map(|i| [((i * 7 + seed) % 11) as f32 / 10.0, 0.5, (i % 3) as f32, 1.0]).collect();
+        Texture { name: name.into(), width: w, height: h, texels_linear: texels }
+    }
+
+    /// The largest texture (the first of equal size) is halved, box-filtered, until the total
+    /// fits; textures that fit are untouched; the warning names the first three halved.
     #[test]
-    fn the_kept_side_halves_until_both_caps_hold() {
-        assert_eq!(kept_side(4096, 4096, usize::MAX), 4096);
-        assert_eq!(kept_side(8192, 1, usize::MAX), 4096);
-        assert_eq!(kept_side(4096, 4096, (1 << 24) - 1), 2048);
-        assert_eq!(kept_side(4096, 4096, 1 << 24), 4096);
-        // 5000 × 3000 → 2500 × 1500 (3.75 M) → 1250 × 750 (0.94 M ≤ 1 M).
-        assert_eq!(kept_side(5000, 3000, 1_000_000), 1250);
-        assert_eq!(kept_side(3, 1, 1), 1);
-        assert_eq!(kept_side(1, 1, 0), 1);
-        assert_eq!(texel_share(0), MAX_TOTAL_TEXELS);
-        assert_eq!(texel_share(3), MAX_TOTAL_TEXELS / 3);
-        assert_eq!(texel_share(usize::MAX), 1);
+    fn the_texel_budget_halves_the_largest_until_the_textures_fit() {
+        let mut b = TexelBudget::new(200);
+        let mut t = vec![tex("a", 8, 8, 1), tex("b", 16, 16, 2)];
+        b.add(&mut t, 0);
+        b.add(&mut t, 1);
+        // 64 + 256 = 320 > 200: b (the largest) → 8×8, 128 ≤ 200.
+        assert_eq!([(t[0].width, t[0].height), (t[1].width, t[1].height)], [(8, 8), (8, 8)]);
+        let src = tex("b", 16, 16, 2);
+        for y in 0..8 {
+            for x in 0..8 {
+                let at = |xx: usize, yy: usize| src.texels_linear[yy * 16 + xx];
+                let got = t[1].texels_linear[y * 8 + x];
+                for (c, &g) in got.iter().enumerate() {
+                    let mean = (at(2 * x, 2 * y)[c]
+                        + at(2 * x + 1, 2 * y)[c]
+                        + at(2 * x, 2 * y + 1)[c]
+                        + at(2 * x + 1, 2 * y + 1)[c]) as f64
+                        / 4.0;
+                    assert!((f64::from(g) - mean).abs() < 1e-6, "({x}, {y}) {c}");
+                }
+            }
+        }
+        assert_eq!(t[0].texels_linear, tex("a", 8, 8, 1).texels_linear, "a fit: untouched");
+        // Two more 8×8 (256 > 200): the first of the equal largest (a) is halved → 208, then b.
+        t.push(tex("c", 8, 8, 3));
+        b.add(&mut t, 2);
+        t.push(tex("d", 8, 8, 4));
+        b.add(&mut t, 3);
+        let sizes: Vec<u32> = t.iter().map(|x| x.width).collect();
+        assert_eq!(sizes, [4, 4, 8, 8]);
+        let w = b.warning(&t).unwrap();
+        assert!(w.contains("more than 200 texels") && w.contains("b 16×16 → 4×4, a 8×8 → 4×4"), "{w}");
+        assert!(!w.contains(", and"), "{w}");
+        // Nothing halved: no warning. Only 1×1 textures over the cap: the loop ends.
+        let mut b = TexelBudget::new(1);
+        let mut one = vec![tex("x", 1, 1, 0), tex("y", 1, 1, 0)];
+        b.add(&mut one, 0);
+        assert!(b.warning(&one).is_none());
+        b.add(&mut one, 1);
+        assert_eq!((one[1].width, b.warning(&one)), (1, None));
+        // More than three halved: the rest are counted.
+        let mut b = TexelBudget::new(10);
+        let mut many: Vec<Texture> = (0..5).map(|i| tex(&format!("t{i}"), 4, 4, i)).collect();
+        for i in 0..5 {
+            b.add(&mut many, i);
+        }
+        assert!(b.total <= 10 && b.warning(&many).unwrap().ends_with(", and 2 more"), "{:?}", b.warning(&many));
     }
 
     #[test]

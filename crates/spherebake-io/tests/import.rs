@@ -5,7 +5,7 @@ use std::path::{Path, PathBuf};
 
 use spherebake_geom::glam::Vec3;
 use spherebake_geom::topology::TopologyReport;
-use spherebake_geom::{FilterMode, UvTransform, WrapMode};
+use spherebake_geom::{FilterMode, WrapMode};
 use spherebake_io::{load_mesh, load_mesh_from_bytes, load_mesh_from_memory, ImportOptions, IoError};
 use spherebake_testkit::shared_models_dir;
 
@@ -875,17 +875,19 @@ fn obj_map_d_makes_a_cut_out_and_its_failures_warn() {
                newmtl b\nKd 0.5 0.5 0.5\nmap_Kd c.png\nmap_d m.png\n\
                newmtl nomask\nmap_Kd c.png\nmap_d missing.png\n\
                newmtl noname\nmap_d -imfchan l\n\
-               newmtl shifted\nmap_Kd c.png\nmap_d -o 0.5 0 m.png\n\
+               newmtl shifted\nmap_Kd -o 0.25 0 c.png\nmap_d -o 0.5 0 m.png\n\
+               newmtl same\nmap_Kd -o 0.25 0 c.png\nmap_d -o 0.25 0 m.png\n\
                newmtl maskonly\nKd 0.2 0.4 0.6\nmap_d -s 2 2 m.png\n";
     std::fs::write(d.join("m.mtl"), mtl).unwrap();
     let mut obj = String::from("mtllib m.mtl\nvt 0 0\nvt 1 0\nvt 0 1\n");
-    for (i, m) in ["a", "b", "nomask", "noname", "shifted", "maskonly"].into_iter().enumerate() {
+    for (i, m) in ["a", "b", "nomask", "noname", "shifted", "same", "maskonly"].into_iter().enumerate() {
         obj += &format!("g {m}\nusemtl {m}\nv 0 0 {i}\nv 1 0 {i}\nv 0 1 {i}\nf -3/1 -2/2 -1/3\n");
     }
     std::fs::write(d.join("m.obj"), obj).unwrap();
     let imp = load_mesh(&d.join("m.obj")).unwrap();
     let mat = |n: &str| imp.mesh.materials.iter().find(|m| m.name == n).unwrap();
     let tex = |n: &str| &imp.mesh.textures[mat(n).base_color_texture.as_ref().unwrap().texture];
+    assert!(!imp.warnings.iter().any(|w| w.0.contains("\"same\"")), "{:?}", imp.warnings);
     let warned = |s: &str| imp.warnings.iter().any(|w| w.0.contains(s));
     // a and b share one cut-out texture: c.png's colour, its alpha the mask at the nearest texel
     // (mask column x / 2, row y), as stored (no sRGB curve).
@@ -916,7 +918,10 @@ fn obj_map_d_makes_a_cut_out_and_its_failures_warn() {
     assert!(warned("map_d names no file"), "{:?}", imp.warnings);
     // Different -o: cut out, read through map_Kd's transform, warned.
     assert_eq!(mat("shifted").alpha_mask_cutoff, Some(0.5));
-    assert_eq!(mat("shifted").base_color_texture.as_ref().unwrap().transform, UvTransform::default());
+    let kd_offset = mat("shifted").base_color_texture.as_ref().unwrap().transform.offset;
+    assert_eq!(kd_offset, [0.25, 0.0], "map_Kd's -o 0.25 (OBJ v up: the offset's v is 1 - s_v - o_v = 0)");
+    // The same -o on both: no warning (the count below), the same transform.
+    assert_eq!(mat("same").base_color_texture.as_ref().unwrap().transform.offset, [0.25, 0.0]);
     assert!(warned("map_d's -o / -s differ from map_Kd's"), "{:?}", imp.warnings);
     // A mask alone: white texels at the mask's size with its values as alpha, Kd the colour,
     // the mask's own -s as the transform.
@@ -929,61 +934,96 @@ fn obj_map_d_makes_a_cut_out_and_its_failures_warn() {
     assert_eq!(imp.warnings.len(), 3, "{:?}", imp.warnings);
 }
 
-/// All of a model's textures share 2²⁶ texels: with 4096 distinct colour images named, each may
-/// hold 2²⁶ / 4096 = 16 384 texels, so a 256² image is read at 128² (16 384), box-filtered
-/// (the mean of each 2 × 2 block), and one warning names the first and counts the rest. A few
-/// textures keep their size.
+/// map_d's mask replaces the colour texture's alpha (MTL's dissolve is d × the map, not the
+/// diffuse texture's own alpha): with map_Kd and map_d naming one RGBA file (Blender's
+/// export), the stored alpha comes through once, not squared. A mask larger than map_Kd keeps
+/// its resolution: the cut-out takes the larger size, the colour repeated at its nearest texel.
 #[test]
-fn a_models_textures_share_one_texel_budget() {
-    let n = 4096;
+fn obj_map_d_replaces_the_alpha_and_keeps_the_larger_size() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
-    // Grey, sRGB-encoded 0 and 255 alternating by column: each 2 × 2 block's mean is 0.5.
-    image::GrayImage::from_fn(256, 256, |x, _| image::Luma([if x % 2 == 0 { 0 } else { 255 }]))
-        .save(d.join("t.png"))
+    let alphas = [0u8, 128, 160, 255];
+    image::RgbaImage::from_fn(4, 1, |x, _| image::Rgba([10, 20, 30, alphas[x as usize]]))
+        .save(d.join("leaf.png"))
         .unwrap();
-    let check = |imp: &spherebake_io::Imported, decoded: usize| {
-        let t = &imp.mesh.textures[0];
-        assert_eq!((t.width, t.height), (128, 128), "{:?}", imp.warnings);
-        assert!(
-            t.texels_linear.iter().all(|p| (p[0] - 0.5).abs() < 1e-6 && p[3] == 1.0),
-            "{:?}",
-            &t.texels_linear[..2]
-        );
-        let want = format!("{decoded} texture(s) read box-filtered to at most 16384 texels each");
-        let w: Vec<_> = imp.warnings.iter().filter(|w| w.0.contains("box-filtered")).collect();
-        assert_eq!(w.len(), 1, "{:?}", imp.warnings);
-        assert!(w[0].0.contains(&want) && w[0].0.contains("256×256 → 128×128"), "{}", w[0].0);
-    };
-    // glTF: 4096 materials, each with its own image (all the same file); two are used.
-    let mats: Vec<String> =
-        (0..n).map(|i| format!(r#"{{"pbrMetallicRoughness":{{"baseColorTexture":{{"index":{i}}}}}}}"#)).collect();
-    let texs: Vec<String> = (0..n).map(|i| format!(r#"{{"source":{i}}}"#)).collect();
-    let imgs: Vec<String> = (0..n).map(|_| r#"{"uri":"t.png"}"#.to_string()).collect();
-    let extra =
-        format!(r#","materials":[{}],"textures":[{}],"images":[{}]"#, mats.join(","), texs.join(","), imgs.join(","));
-    std::fs::write(d.join("m.gltf"), two_material_gltf(&extra)).unwrap();
-    let imp = load_mesh(&d.join("m.gltf")).unwrap();
-    check(&imp, 2);
-    // OBJ: 4096 materials naming distinct map_Kd files; the one used exists.
-    let mtl: String = (0..n)
-        .map(|i| format!("newmtl m{i}\nmap_Kd {}.png\n", if i == 0 { "t".into() } else { format!("t{i}") }))
-        .collect();
+    image::RgbImage::from_fn(1, 1, |_, _| image::Rgb([255, 0, 0])).save(d.join("red.png")).unwrap();
+    image::GrayImage::from_fn(16, 2, |x, _| image::Luma([if x < 8 { 0 } else { 255 }]))
+        .save(d.join("fine.png"))
+        .unwrap();
+    let mtl = "newmtl leaf\nmap_Kd leaf.png\nmap_d leaf.png\nnewmtl flat\nmap_Kd red.png\nmap_d fine.png\n";
     std::fs::write(d.join("m.mtl"), mtl).unwrap();
+    let mut obj = String::from("mtllib m.mtl\nvt 0 0\nvt 1 0\nvt 0 1\n");
+    for (i, m) in ["leaf", "flat"].into_iter().enumerate() {
+        obj += &format!("usemtl {m}\nv 0 0 {i}\nv 1 0 {i}\nv 0 1 {i}\nf -3/1 -2/2 -1/3\n");
+    }
+    std::fs::write(d.join("m.obj"), obj).unwrap();
+    let imp = load_mesh(&d.join("m.obj")).unwrap();
+    assert!(imp.warnings.is_empty(), "{:?}", imp.warnings);
+    let tex = |n: &str| {
+        let m = imp.mesh.materials.iter().find(|m| m.name == n).unwrap();
+        &imp.mesh.textures[m.base_color_texture.as_ref().unwrap().texture]
+    };
+    let leaf = tex("leaf");
+    for (x, &a) in alphas.iter().enumerate() {
+        assert!(
+            (leaf.texels_linear[x][3] - f32::from(a) / 255.0).abs() < 1e-6,
+            "texel {x}: {:?}",
+            leaf.texels_linear[x]
+        );
+    }
+    let flat = tex("flat");
+    assert_eq!((flat.width, flat.height), (16, 2));
+    for (i, t) in flat.texels_linear.iter().enumerate() {
+        let want_a = if i % 16 < 8 { 0.0 } else { 1.0 };
+        assert_eq!(*t, [1.0, 0.0, 0.0, want_a], "texel {i}");
+    }
+}
+
+/// The decoded textures of a model share `ImportOptions::max_texels` (here 200; by default
+/// 4 × 4096²): over it, the largest is halved (box-filtered) as the textures are read, the
+/// others keep their size, and one warning names it. Map_d cut-outs count too.
+#[test]
+fn the_textures_of_a_model_share_the_texel_budget() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let v = |x: u32, y: u32| ((x * 37 + y * 91) % 256) as u8;
+    image::GrayImage::from_fn(16, 16, |x, y| image::Luma([v(x, y)])).save(d.join("big.png")).unwrap();
+    image::GrayImage::from_fn(8, 8, |x, y| image::Luma([v(y, x)])).save(d.join("small.png")).unwrap();
+    let opts = ImportOptions { max_texels: 200, ..Default::default() };
+    // glTF: two materials, 256 + 64 texels > 200: big.png → 8×8.
+    let extra = r#","materials":[{"pbrMetallicRoughness":{"baseColorTexture":{"index":0}}},{"pbrMetallicRoughness":{"baseColorTexture":{"index":1}}}],"textures":[{"source":0},{"source":1}],"images":[{"uri":"big.png"},{"uri":"small.png"}]"#;
+    std::fs::write(d.join("m.gltf"), two_material_gltf(extra)).unwrap();
+    let imp = spherebake_io::load_mesh_with(&d.join("m.gltf"), &opts).unwrap();
+    let sizes: Vec<(u32, u32)> = imp.mesh.textures.iter().map(|t| (t.width, t.height)).collect();
+    assert_eq!(sizes, [(8, 8), (8, 8)]);
+    let eotf = |b: u8| spherebake_testkit::oracle::srgb_to_linear(f64::from(b) / 255.0);
+    for y in 0..8u32 {
+        for x in 0..8u32 {
+            let mean = (eotf(v(2 * x, 2 * y))
+                + eotf(v(2 * x + 1, 2 * y))
+                + eotf(v(2 * x, 2 * y + 1))
+                + eotf(v(2 * x + 1, 2 * y + 1)))
+                / 4.0;
+            let got = imp.mesh.textures[0].texels_linear[(y * 8 + x) as usize];
+            assert!((f64::from(got[0]) - mean).abs() < 1e-6, "({x}, {y}): {got:?} vs {mean}");
+            let small = imp.mesh.textures[1].texels_linear[(y * 8 + x) as usize];
+            assert!((f64::from(small[0]) - eotf(v(y, x))).abs() < 1e-6, "small.png untouched");
+        }
+    }
+    let w: Vec<_> = imp.warnings.iter().filter(|w| w.0.contains("texels together")).collect();
+    assert!(w.len() == 1 && w[0].0.contains("big.png 16×16 → 8×8"), "{:?}", imp.warnings);
+    // OBJ: small.png (64) and a cut-out of it by big.png (16×16 = 256): the cut-out is halved.
+    std::fs::write(d.join("m.mtl"), "newmtl m\nmap_Kd small.png\nmap_d big.png\n").unwrap();
     std::fs::write(
         d.join("m.obj"),
-        "mtllib m.mtl\nusemtl m0\nv 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nvt 1 0\nvt 0 1\nf 1/1 2/2 3/3\n",
+        "mtllib m.mtl\nusemtl m\nv 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nvt 1 0\nvt 0 1\nf 1/1 2/2 3/3\n",
     )
     .unwrap();
+    let imp = spherebake_io::load_mesh_with(&d.join("m.obj"), &opts).unwrap();
+    let sizes: Vec<(u32, u32)> = imp.mesh.textures.iter().map(|t| (t.width, t.height)).collect();
+    assert_eq!(sizes, [(8, 8), (8, 8)], "{:?}", imp.warnings);
+    assert!(imp.warnings.iter().any(|w| w.0.contains("cut out by big.png 16×16 → 8×8")), "{:?}", imp.warnings);
+    // The default budget reads both whole.
     let imp = load_mesh(&d.join("m.obj")).unwrap();
-    check(&imp, 1);
-    // Two materials: each may hold 2²⁵ texels, so the image keeps its size and nothing warns.
-    std::fs::write(d.join("two.mtl"), "newmtl a\nmap_Kd t.png\nnewmtl b\nmap_Kd u.png\n").unwrap();
-    std::fs::write(
-        d.join("two.obj"),
-        "mtllib two.mtl\nusemtl a\nv 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nvt 1 0\nvt 0 1\nf 1/1 2/2 3/3\n",
-    )
-    .unwrap();
-    let imp = load_mesh(&d.join("two.obj")).unwrap();
-    assert_eq!((imp.mesh.textures[0].width, imp.warnings.len()), (256, 0), "{:?}", imp.warnings);
+    assert_eq!(imp.mesh.textures[1].width, 16);
 }

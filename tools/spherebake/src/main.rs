@@ -68,6 +68,7 @@ fn main() -> ExitCode {
     spherebake_io::set_default_options(spherebake_io::ImportOptions {
         allow_outside_paths: cli.allow_outside_paths,
         max_input_bytes: cli.max_input_mb.map_or(spherebake_io::DEFAULT_MAX_INPUT_BYTES, |m| m << 20),
+        ..Default::default()
     });
     let result = match cli.command {
         Command::Bake(a) => cmd_bake::run(a),
