@@ -23,7 +23,7 @@ pub enum IoError {
     /// only, as for [`IoError::Read`]).
     #[error("{}: cannot read referenced file {uri:?}: {cause}", path.display())]
     ReferenceRead { path: PathBuf, uri: String, cause: std::io::Error },
-    /// A referenced file (glTF buffer / image `uri`, OBJ `mtllib` / `map_Kd`) resolves outside
+    /// A referenced file (glTF buffer / image `uri`, OBJ `mtllib` / `map_Kd` / `map_d`) resolves outside
     /// the model's folder tree and [`crate::ImportOptions::allow_outside_paths`] is off.
     #[error("{}: {uri:?} is outside the model's folder; refused (--allow-outside-paths allows it)", path.display())]
     OutsideAsset { path: PathBuf, uri: String },

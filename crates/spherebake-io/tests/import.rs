@@ -1027,3 +1027,21 @@ fn the_textures_of_a_model_share_the_texel_budget() {
     let imp = load_mesh(&d.join("m.obj")).unwrap();
     assert_eq!(imp.mesh.textures[1].width, 16);
 }
+
+/// A `map_d` outside the model's folder is refused like a `map_Kd` there: the import fails
+/// naming the reference, and the file is not read; allowed with `allow_outside_paths`.
+#[test]
+fn an_obj_map_d_outside_the_folder_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let (d, model) = (dir.path(), dir.path().join("model"));
+    std::fs::create_dir(&model).unwrap();
+    image::GrayImage::from_fn(2, 1, |x, _| image::Luma([(x * 255) as u8])).save(d.join("mask.png")).unwrap();
+    std::fs::write(model.join("m.mtl"), "newmtl m\nmap_d ../mask.png\n").unwrap();
+    let obj = "mtllib m.mtl\nusemtl m\nv 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nvt 1 0\nvt 0 1\nf 1/1 2/2 3/3\n";
+    std::fs::write(model.join("m.obj"), obj).unwrap();
+    let Err(e) = load_mesh(&model.join("m.obj")) else { panic!("a map_d outside the folder is refused") };
+    assert!(e.to_string().contains("\"../mask.png\" is outside the model's folder"), "{e}");
+    let opts = ImportOptions { allow_outside_paths: true, ..Default::default() };
+    let imp = spherebake_io::load_mesh_with(&model.join("m.obj"), &opts).unwrap();
+    assert_eq!(imp.mesh.materials[0].alpha_mask_cutoff, Some(0.5));
+}
