@@ -237,6 +237,13 @@ fn obj_scene(d_line: &str, dmap: &str, write_maps: impl Fn(&std::path::Path)) ->
     imp.mesh
 }
 
+/// Writes `name`, an N × 1 RGBA image: `left` in the columns below N/2, `right` in the others.
+fn halves(d: &std::path::Path, name: &str, left: [u8; 4], right: [u8; 4]) {
+    let img =
+        image::RgbaImage::from_fn(N as u32, 1, |x, _| image::Rgba(if (x as usize) < N / 2 { left } else { right }));
+    img.save(d.join(name)).unwrap();
+}
+
 /// A grey mask image, `w` × 1: columns below w/2 black, the others white.
 fn grey_mask(w: u32) -> image::GrayImage {
     image::GrayImage::from_fn(w, 1, |x, _| image::Luma([if x < w / 2 { 0 } else { 255 }]))
@@ -261,32 +268,14 @@ fn an_obj_map_d_cuts_the_card_out() {
     // An RGBA map whose alpha is not opaque everywhere is read by its alpha (an exporter that
     // points map_d at the diffuse texture): alpha 0 on the right, so the right half is cut out
     // although its colour is white.
-    let rgba = |d: &std::path::Path| {
-        let img = image::RgbaImage::from_fn(N as u32, 1, |x, _| {
-            if (x as usize) < N / 2 {
-                image::Rgba([0, 0, 0, 255])
-            } else {
-                image::Rgba([255, 255, 255, 0])
-            }
-        });
-        img.save(d.join("rgba.png")).unwrap();
-    };
+    let rgba = |d: &std::path::Path| halves(d, "rgba.png", [0, 0, 0, 255], [255, 255, 255, 0]);
     let mesh = obj_scene("d 1", "rgba.png", rgba);
     check(&pos_z(&mesh, TextureLod::Base), |i| if i < N / 2 { RED } else { BLUE }, 0, "RGBA map_d by alpha");
     // ... unless `-imfchan l` asks for its luminance: then the left half (black) is cut out.
     let mesh = obj_scene("d 1", "-imfchan l rgba.png", rgba);
     check(&pos_z(&mesh, TextureLod::Base), left_right(BLUE), 0, "RGBA map_d, -imfchan l");
-    // An RGBA map that is opaque everywhere is read by its luminance; `-imfchan g` reads green.
-    let opaque = |d: &std::path::Path| {
-        let img = image::RgbaImage::from_fn(N as u32, 1, |x, _| {
-            if (x as usize) < N / 2 {
-                image::Rgba([255, 0, 0, 255])
-            } else {
-                image::Rgba([255, 255, 255, 255])
-            }
-        });
-        img.save(d.join("opaque.png")).unwrap();
-    };
+    // An RGBA map that is opaque everywhere is read by its luminance; `-imfchan r` reads red.
+    let opaque = |d: &std::path::Path| halves(d, "opaque.png", [255, 0, 0, 255], [255, 255, 255, 255]);
     // Luminance of the left half: 0.2126 < 0.5, cut out.
     check(&pos_z(&obj_scene("d 1", "opaque.png", opaque), TextureLod::Base), left_right(BLUE), 0, "opaque RGBA");
     // Its red channel is 1 everywhere: nothing is cut out.

@@ -804,31 +804,19 @@ fn obj_material(
         let slot = match texture_map.get(&p) {
             Some(s) => *s,
             None => {
-                let s = match ctx.read_referenced(file, &p, ReadLimit::AtMost(MAX_IMAGE_BYTES)) {
-                    Ok(bytes) => match decode_srgb_texture(file.to_owned(), &bytes) {
-                        Ok(d) => {
-                            if let Some(w) = d.reduction_warning(&format!("material {:?}", m.name)) {
-                                ctx.warn(w);
-                            }
-                            mesh.textures.push(d.texture);
-                            let i = mesh.textures.len() - 1;
-                            textures.budget.add(&mut mesh.textures, i);
-                            Some(i)
-                        }
-                        Err(e) => {
-                            ctx.warn(format!("material {:?}: cannot decode {}: {e}; using Kd", m.name, p.display()));
-                            None
-                        }
-                    },
-                    Err(e) if e.is_refusal() => {
-                        textures.refused.get_or_insert(e);
-                        None
+                let read =
+                    read_image(ctx, &mut textures.refused, &m.name, ("", "texture", "using Kd"), file, &p, |b| {
+                        decode_srgb_texture(file.to_owned(), b)
+                    });
+                let s = read.map(|d| {
+                    if let Some(w) = d.reduction_warning(&format!("material {:?}", m.name)) {
+                        ctx.warn(w);
                     }
-                    Err(e) => {
-                        ctx.warn(format!("material {:?}: texture {e}; using Kd", m.name));
-                        None
-                    }
-                };
+                    mesh.textures.push(d.texture);
+                    let i = mesh.textures.len() - 1;
+                    textures.budget.add(&mut mesh.textures, i);
+                    i
+                });
                 texture_map.insert(p, s);
                 s
             }
@@ -877,35 +865,18 @@ fn obj_cut_out(
     let index = match textures.cut.get(&key) {
         Some(&index) => index,
         None => {
-            let mask = match ctx.read_referenced(file, &p, ReadLimit::AtMost(MAX_IMAGE_BYTES)) {
-                Ok(bytes) => match decode_mask(file.to_owned(), &bytes, dmap.channel) {
-                    Ok(mask) => {
-                        if let Some((w, h)) = mask.reduced_from {
-                            ctx.warn(format!(
-                                "material {:?}: map_d {file} is {w}×{h}; read box-filtered to {}×{}",
-                                m.name, mask.width, mask.height
-                            ));
-                        }
-                        Some(mask)
-                    }
-                    Err(e) => {
-                        ctx.warn(format!(
-                            "material {:?}: cannot decode map_d {}: {e}; no cut-out",
-                            m.name,
-                            p.display()
-                        ));
-                        None
-                    }
-                },
-                Err(e) if e.is_refusal() => {
-                    textures.refused.get_or_insert(e);
-                    None
+            let read =
+                read_image(ctx, &mut textures.refused, &m.name, ("map_d ", "map_d", "no cut-out"), file, &p, |b| {
+                    decode_mask(file.to_owned(), b, dmap.channel)
+                });
+            let mask = read.inspect(|mask| {
+                if let Some((w, h)) = mask.reduced_from {
+                    ctx.warn(format!(
+                        "material {:?}: map_d {file} is {w}×{h}; read box-filtered to {}×{}",
+                        m.name, mask.width, mask.height
+                    ));
                 }
-                Err(e) => {
-                    ctx.warn(format!("material {:?}: map_d {e}; no cut-out", m.name));
-                    None
-                }
-            };
+            });
             let index = mask.map(|mask| {
                 mesh.textures.push(cut_out_texture(colour.map(|i| &mesh.textures[i]), &mask, file));
                 let i = mesh.textures.len() - 1;
@@ -941,6 +912,40 @@ fn obj_cut_out(
         transform,
     });
     out.alpha_mask_cutoff = Some(OBJ_MASK_CUTOFF);
+}
+
+/// Reads the image `file` (resolved to `p`) a texture statement of material `material` names
+/// and decodes it with `decode`. On failure, warns and gives `None`: "material M: cannot
+/// decode {what}P: E; {fallback}" or "material M: {reading} E; {fallback}" (`labels` =
+/// (what, reading, fallback)); a reference that must not be read (outside the folder, not a
+/// regular file, over the input budget) is kept in `refused` instead, failing the import.
+fn read_image<T>(
+    ctx: &mut Ctx,
+    refused: &mut Option<IoError>,
+    material: &str,
+    labels: (&str, &str, &str),
+    file: &str,
+    p: &Path,
+    decode: impl FnOnce(&[u8]) -> Result<T, String>,
+) -> Option<T> {
+    let (what, reading, fallback) = labels;
+    match ctx.read_referenced(file, p, ReadLimit::AtMost(MAX_IMAGE_BYTES)) {
+        Ok(bytes) => match decode(&bytes) {
+            Ok(v) => Some(v),
+            Err(e) => {
+                ctx.warn(format!("material {material:?}: cannot decode {what}{}: {e}; {fallback}", p.display()));
+                None
+            }
+        },
+        Err(e) if e.is_refusal() => {
+            refused.get_or_insert(e);
+            None
+        }
+        Err(e) => {
+            ctx.warn(format!("material {material:?}: {reading} {e}; {fallback}"));
+            None
+        }
+    }
 }
 
 /// The arguments of an MTL texture statement (`map_Kd [options] file`).
