@@ -619,6 +619,7 @@ pub(crate) fn import(ctx: &mut Ctx, bytes: &[u8]) -> Result<(Mesh, Vec<ImportedP
     let mut texture_map = ObjTextures {
         colour: HashMap::new(),
         cut: HashMap::new(),
+        counted: Default::default(),
         budget: TexelBudget::new(ctx.opts.max_texels),
         refused: None,
     };
@@ -728,6 +729,9 @@ pub(crate) fn import(ctx: &mut Ctx, bytes: &[u8]) -> Result<(Mesh, Vec<ImportedP
     Ok((mesh, parts))
 }
 
+/// A texture statement's `-o` and `-s` as written (offset, scale).
+type Placement = ([f32; 2], [f32; 2]);
+
 /// The alpha cutoff of an OBJ material with a `map_d` (MTL has none; 0.5 is glTF's default
 /// `alphaCutoff` and the usual alpha test).
 pub const OBJ_MASK_CUTOFF: f32 = 0.5;
@@ -736,9 +740,12 @@ pub const OBJ_MASK_CUTOFF: f32 = 0.5;
 struct ObjTextures {
     /// `map_Kd` file → its index in `Mesh::textures` (`None`: it could not be read).
     colour: HashMap<PathBuf, Option<usize>>,
-    /// (colour texture, `map_d` file, channel) → the cut-out texture's index (`None`: the mask
+    /// (`map_Kd` file, `map_d` file, channel) → the cut-out texture's index (`None`: the mask
     /// could not be read). A mask is decoded for its cut-out and dropped.
-    cut: HashMap<(Option<usize>, PathBuf, MaskChannel), Option<usize>>,
+    cut: HashMap<(Option<PathBuf>, PathBuf, MaskChannel), Option<usize>>,
+    /// The colour textures counted against `budget`: those a material reads directly (not only
+    /// through a cut-out).
+    counted: std::collections::HashSet<usize>,
     /// Holds the decoded textures to [`crate::texture::MAX_TOTAL_TEXELS`] together.
     budget: TexelBudget,
     /// A texture that must not be read (outside the folder, not a regular file, over the input
@@ -798,9 +805,11 @@ fn obj_material(
     if map.as_ref().is_some_and(|a| a.file.is_empty()) {
         ctx.warn(format!("material {:?}: map_Kd names no file; using Kd", m.name));
     }
+    let mut kd_path = None;
     if let Some(map) = map.filter(|a| !a.file.is_empty()) {
         let file = map.file;
         let p = mtl_dir.join(file.replace('\\', "/"));
+        kd_path = Some(p.clone());
         let slot = match texture_map.get(&p) {
             Some(s) => *s,
             None => {
@@ -813,9 +822,7 @@ fn obj_material(
                         ctx.warn(w);
                     }
                     mesh.textures.push(d.texture);
-                    let i = mesh.textures.len() - 1;
-                    textures.budget.add(&mut mesh.textures, i);
-                    i
+                    mesh.textures.len() - 1
                 });
                 texture_map.insert(p, s);
                 s
@@ -835,7 +842,22 @@ fn obj_material(
             });
         }
     }
-    obj_cut_out(ctx, m, mtl_dir, mesh, textures, kd_placement, &mut out);
+    let colour = out.base_color_texture.as_ref().map(|t| t.texture);
+    obj_cut_out(ctx, m, mtl_dir, mesh, textures, kd_path.as_deref().zip(kd_placement), &mut out);
+    // The colour texture counts against the texel budget once a material reads it directly. One
+    // only cut-outs read is dropped (they hold its colour, built from it at full size), so it
+    // costs neither memory nor budget; a later material reading it directly decodes it again.
+    if let (Some(p), Some(slot)) = (kd_path, colour) {
+        if out.alpha_mask_cutoff.is_none() {
+            if textures.counted.insert(slot) {
+                textures.budget.add(&mut mesh.textures, slot);
+            }
+        } else if !textures.counted.contains(&slot) {
+            let t = &mut mesh.textures[slot];
+            (t.width, t.height, t.texels_linear) = (1, 1, vec![[0.0; 4]]);
+            textures.colour.remove(&p);
+        }
+    }
     out
 }
 
@@ -843,16 +865,17 @@ fn obj_material(
 /// with a cutoff of [`OBJ_MASK_CUTOFF`]. Where `d` × the map's value (the channel
 /// [`MaskChannel`] picks) is below it, the surface is a hole for the albedo. The material then
 /// reads [`cut_out_texture`]. A `map_d` that cannot be read leaves the material opaque, with
-/// a warning.
+/// a warning. `kd`: the material's `map_Kd` file and its `-o` / `-s` as written.
 fn obj_cut_out(
     ctx: &mut Ctx,
     m: &tobj::Material,
     mtl_dir: &Path,
     mesh: &mut Mesh,
     textures: &mut ObjTextures,
-    kd_placement: Option<([f32; 2], [f32; 2])>,
+    kd: Option<(&Path, Placement)>,
     out: &mut Material,
 ) {
+    let (kd_path, kd_placement) = (kd.map(|k| k.0), kd.map(|k| k.1));
     let Some(dmap) = m.dissolve_texture.as_deref().map(parse_map_args) else { return };
     if dmap.file.is_empty() {
         ctx.warn(format!("material {:?}: map_d names no file; no cut-out", m.name));
@@ -861,7 +884,7 @@ fn obj_cut_out(
     let file = dmap.file;
     let p = mtl_dir.join(file.replace('\\', "/"));
     let colour = out.base_color_texture.as_ref().map(|t| t.texture);
-    let key = (colour, p.clone(), dmap.channel);
+    let key = (kd_path.map(Path::to_path_buf), p.clone(), dmap.channel);
     let index = match textures.cut.get(&key) {
         Some(&index) => index,
         None => {

@@ -26,10 +26,12 @@ pub const MAX_TOTAL_TEXELS: usize = 1 << 26;
 /// Holds a model's decoded textures to [`MAX_TOTAL_TEXELS`] together: after each texture is
 /// added, the largest (the first added of equal size) is halved ([`texels::halve`], the box
 /// filter the side cap uses, so the result is the source box-filtered to that size) until
-/// they fit. Textures that fit keep their size: a model of four 4096² textures and any number
-/// of small ones is read whole; a fifth 4096² one halves the first; a small file naming
-/// thousands of large images stays within the bound. Peak memory is the bound plus the one
-/// texture being added. O(log n) per halving.
+/// they fit. Textures that fit keep their size: four 4096² textures fit exactly, and anything
+/// more halves the first of them; a small file naming thousands of large images stays within
+/// the bound. Peak memory is the bound plus the one texture being added. O(log n) per
+/// halving. Like the side cap's reduction, a halving averages colour without weighting it by
+/// alpha, so at a masked texture's cut-out edges the reduced level 0 mixes in the cut-out
+/// texels' colour (the albedo's α-weighted mip chain starts from that level).
 pub(crate) struct TexelBudget {
     /// The texels the textures may hold together ([`MAX_TOTAL_TEXELS`] unless the import
     /// options say otherwise).

@@ -950,10 +950,15 @@ fn obj_map_d_replaces_the_alpha_and_keeps_the_larger_size() {
     image::GrayImage::from_fn(16, 2, |x, _| image::Luma([if x < 8 { 0 } else { 255 }]))
         .save(d.join("fine.png"))
         .unwrap();
-    let mtl = "newmtl leaf\nmap_Kd leaf.png\nmap_d leaf.png\nnewmtl flat\nmap_Kd red.png\nmap_d fine.png\n";
+    image::RgbImage::from_fn(2, 1, |x, _| image::Rgb(if x == 0 { [255, 0, 0] } else { [0, 0, 255] }))
+        .save(d.join("two.png"))
+        .unwrap();
+    image::GrayImage::from_fn(4, 2, |x, y| image::Luma([(x * 80 + y * 10) as u8])).save(d.join("four.png")).unwrap();
+    let mtl = "newmtl leaf\nmap_Kd leaf.png\nmap_d leaf.png\nnewmtl flat\nmap_Kd red.png\nmap_d fine.png\n\
+               newmtl wide\nmap_Kd two.png\nmap_d four.png\n";
     std::fs::write(d.join("m.mtl"), mtl).unwrap();
     let mut obj = String::from("mtllib m.mtl\nvt 0 0\nvt 1 0\nvt 0 1\n");
-    for (i, m) in ["leaf", "flat"].into_iter().enumerate() {
+    for (i, m) in ["leaf", "flat", "wide"].into_iter().enumerate() {
         obj += &format!("usemtl {m}\nv 0 0 {i}\nv 1 0 {i}\nv 0 1 {i}\nf -3/1 -2/2 -1/3\n");
     }
     std::fs::write(d.join("m.obj"), obj).unwrap();
@@ -976,6 +981,19 @@ fn obj_map_d_replaces_the_alpha_and_keeps_the_larger_size() {
     for (i, t) in flat.texels_linear.iter().enumerate() {
         let want_a = if i % 16 < 8 { 0.0 } else { 1.0 };
         assert_eq!(*t, [1.0, 0.0, 0.0, want_a], "texel {i}");
+    }
+    // A 2 × 1 colour under a 4 × 2 mask: 4 × 2, each colour texel over two columns (texel
+    // centres 0.5 and 1.5 of 4 fall in colour texel 0, 2.5 and 3.5 in texel 1).
+    let wide = tex("wide");
+    assert_eq!((wide.width, wide.height), (4, 2));
+    for y in 0..2usize {
+        for x in 0..4usize {
+            let rgb = if x < 2 { [1.0, 0.0, 0.0] } else { [0.0, 0.0, 1.0] };
+            let a = (x * 80 + y * 10) as f32 / 255.0;
+            let got = wide.texels_linear[y * 4 + x];
+            assert_eq!(got[..3], rgb, "({x}, {y})");
+            assert!((got[3] - a).abs() < 1e-6, "({x}, {y}) {got:?}");
+        }
     }
 }
 
@@ -1012,7 +1030,8 @@ fn the_textures_of_a_model_share_the_texel_budget() {
     }
     let w: Vec<_> = imp.warnings.iter().filter(|w| w.0.contains("texels together")).collect();
     assert!(w.len() == 1 && w[0].0.contains("big.png 16×16 → 8×8"), "{:?}", imp.warnings);
-    // OBJ: small.png (64) and a cut-out of it by big.png (16×16 = 256): the cut-out is halved.
+    // OBJ: small.png (64) read only through its cut-out by big.png (16×16 = 256): small.png is
+    // dropped (to 1×1, not counted), and the cut-out alone is over 200, so it is halved.
     std::fs::write(d.join("m.mtl"), "newmtl m\nmap_Kd small.png\nmap_d big.png\n").unwrap();
     std::fs::write(
         d.join("m.obj"),
@@ -1021,8 +1040,24 @@ fn the_textures_of_a_model_share_the_texel_budget() {
     .unwrap();
     let imp = spherebake_io::load_mesh_with(&d.join("m.obj"), &opts).unwrap();
     let sizes: Vec<(u32, u32)> = imp.mesh.textures.iter().map(|t| (t.width, t.height)).collect();
-    assert_eq!(sizes, [(8, 8), (8, 8)], "{:?}", imp.warnings);
+    assert_eq!(sizes, [(1, 1), (8, 8)], "{:?}", imp.warnings);
     assert!(imp.warnings.iter().any(|w| w.0.contains("cut out by big.png 16×16 → 8×8")), "{:?}", imp.warnings);
+    // Read directly by a second material too, small.png counts (64 + 256 > 200 still halves
+    // only the cut-out, the largest).
+    std::fs::write(d.join("m.mtl"), "newmtl m\nmap_Kd small.png\nmap_d big.png\nnewmtl plain\nmap_Kd small.png\n")
+        .unwrap();
+    let obj = "mtllib m.mtl\nusemtl m\nv 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nvt 1 0\nvt 0 1\nf 1/1 2/2 3/3\n\
+               usemtl plain\nv 0 0 1\nv 1 0 1\nv 0 1 1\nf 4/1 5/2 6/3\n";
+    std::fs::write(d.join("m.obj"), obj).unwrap();
+    let imp = spherebake_io::load_mesh_with(&d.join("m.obj"), &opts).unwrap();
+    let used: Vec<(u32, u32)> = imp
+        .mesh
+        .materials
+        .iter()
+        .map(|m| &imp.mesh.textures[m.base_color_texture.as_ref().unwrap().texture])
+        .map(|t| (t.width, t.height))
+        .collect();
+    assert_eq!(used, [(8, 8), (8, 8)], "the cut-out halved, small.png whole: {:?}", imp.warnings);
     // The default budget reads both whole.
     let imp = load_mesh(&d.join("m.obj")).unwrap();
     assert_eq!(imp.mesh.textures[1].width, 16);
