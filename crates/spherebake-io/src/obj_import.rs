@@ -800,16 +800,15 @@ fn obj_material(
         alpha_mask_cutoff: None,
     };
     let map = m.diffuse_texture.as_deref().map(parse_map_args);
-    // map_Kd's -o and -s as written, for the cut-out's check that map_d's are the same.
-    let kd_placement = map.as_ref().map(|a| (a.offset, a.scale));
     if map.as_ref().is_some_and(|a| a.file.is_empty()) {
         ctx.warn(format!("material {:?}: map_Kd names no file; using Kd", m.name));
     }
-    let mut kd_path = None;
+    // map_Kd's file, and its -o and -s as written (the cut-out checks map_d's are the same).
+    let mut kd: Option<(PathBuf, Placement)> = None;
     if let Some(map) = map.filter(|a| !a.file.is_empty()) {
         let file = map.file;
         let p = mtl_dir.join(file.replace('\\', "/"));
-        kd_path = Some(p.clone());
+        kd = Some((p.clone(), (map.offset, map.scale)));
         let slot = match texture_map.get(&p) {
             Some(s) => *s,
             None => {
@@ -843,11 +842,11 @@ fn obj_material(
         }
     }
     let colour = out.base_color_texture.as_ref().map(|t| t.texture);
-    obj_cut_out(ctx, m, mtl_dir, mesh, textures, kd_path.as_deref().zip(kd_placement), &mut out);
+    obj_cut_out(ctx, m, mtl_dir, mesh, textures, kd.as_ref().map(|(p, pl)| (p.as_path(), *pl)), &mut out);
     // The colour texture counts against the texel budget once a material reads it directly. One
     // only cut-outs read is dropped (they hold its colour, built from it at full size), so it
     // costs neither memory nor budget; a later material reading it directly decodes it again.
-    if let (Some(p), Some(slot)) = (kd_path, colour) {
+    if let (Some((p, _)), Some(slot)) = (kd, colour) {
         if out.alpha_mask_cutoff.is_none() {
             if textures.counted.insert(slot) {
                 textures.budget.add(&mut mesh.textures, slot);
