@@ -263,8 +263,8 @@ typedef struct {
   float center[3];
   // Radius of that ball (model units).
   float radius;
-  // The receivers' mean unit normal, for the reflection ratios at the centre; used when
-  // `has_normal` is 1.
+  // The receivers' mean unit normal, for the reflection ratios (taken at the centre and at four
+  // points on the disc of this normal through it); used when `has_normal` is 1.
   float normal[3];
   // 1: `normal` is given; 0: no normal (reflection ratios are 1, no overlap correction).
   uint32_t has_normal;

@@ -316,8 +316,8 @@ pub struct SphbClusterSpec {
     pub center: [f32; 3],
     /// Radius of that ball (model units).
     pub radius: f32,
-    /// The receivers' mean unit normal, for the reflection ratios at the centre; used when
-    /// `has_normal` is 1.
+    /// The receivers' mean unit normal, for the reflection ratios (taken at the centre and at four
+    /// points on the disc of this normal through it); used when `has_normal` is 1.
     pub normal: [f32; 3],
     /// 1: `normal` is given; 0: no normal (reflection ratios are 1, no overlap correction).
     pub has_normal: u32,

@@ -315,10 +315,14 @@ fn duck_at_64_spheres_keeps_its_measured_ground_error_under_the_uniform_sky() {
 /// CesiumMan at 64 spheres, at rest and mid-walk (t = 1 s), with and without the soft-deformation rotation
 /// (seed 000 §7.1). Issue 14: ground ≤ 0.20 at 64² receivers and 4096 rays, asserted at those settings (0.191;
 /// before the fit's boundary moves 0.183). The posed comparison runs at coarser settings (24² receivers, 2048
-/// rays): mid-walk ground / model 0.234 / 0.357 with the rotation, 0.265 / 0.511 without. The rest error is not
-/// asserted at 24²: there one or two receivers under a foot (dark in the path-traced reference, where the
-/// spheres' contact with the ground differs) dominate it, and it jumps with the grid (the same file: 0.197 at
-/// 24², 0.208 at 32², 0.266 at 40², 0.223 at 48²).
+/// rays): mid-walk ground / model 0.234 / 0.357 with the rotation, 0.265 / 0.511 without.
+///
+/// At rest on the coarse grids whose middle 8² tile is centred between the feet (24² and 40² receivers: 3 × 3 and
+/// 5 × 5 tiles), the reflection ratios taken at that centre alone, where the head's nodes are hidden by the body,
+/// reached 6–16 and lit the whole tile 2× too bright: ground 0.502 and 0.434, against 0.223 / 0.262 / 0.236 at 16²
+/// / 32² / 48². Taken over the tile (its centre and four points on its disc, `light::RATIO_PROBE_RADIUS`) they give
+/// 0.292 and 0.242. One receiver under a sole (reference 0; the spheres' contact with the ground differs) is most of
+/// what is left at 24². Ceilings: the measured values × 1.1.
 #[test]
 fn cesium_man_at_64_spheres_and_the_soft_rotation_reduces_the_posed_error() {
     let Some(man) = spherebake_testkit::shared_model("gltf/CesiumMan.glb") else { return };
@@ -336,6 +340,12 @@ fn cesium_man_at_64_spheres_and_the_soft_rotation_reduces_the_posed_error() {
     let fine = light_at(d, "man.sphb", model, ["64", "4096", "16"], &[]);
     let rest = fine["indirect"]["ground"]["rel_rmse"].as_f64().unwrap();
     assert!(rest <= 0.20, "CesiumMan ground indirect relative RMSE at 64² receivers, 4096 rays: {rest}");
+    for (res, ceiling) in [("24", 0.32), ("40", 0.27)] {
+        let j = light_at(d, "man.sphb", model, [res, "2048", "16"], &[]);
+        let g = j["indirect"]["ground"]["rel_rmse"].as_f64().unwrap();
+        eprintln!("CesiumMan, 64 spheres, {res}² ground receivers: {g:.4}");
+        assert!(g <= ceiling, "CesiumMan ground indirect relative RMSE at {res}² receivers: {g} (ceiling {ceiling})");
+    }
     let (g_rot, m_rot) = errors(&["--time", "1.0"]);
     let (g_no, m_no) = errors(&["--time", "1.0", "--no-soft-rotation"]);
     assert!(g_rot < g_no, "the rotation must reduce the ground error: {g_rot} vs {g_no}");
