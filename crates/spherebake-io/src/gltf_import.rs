@@ -17,7 +17,7 @@ use spherebake_geom::{
 };
 
 use crate::gltf_ext;
-use crate::texture::{decode_srgb_texture, TexelBudget};
+use crate::texture::{decode_srgb_texture, DecodeBudget, TexelBudget, OVER_DECODE_BUDGET};
 use crate::{Ctx, ImportedPart, IoError, ReadLimit, MAX_IMAGE_BYTES};
 
 /// Most vertices one import may produce (all instances together): bounds memory for files whose
@@ -179,6 +179,19 @@ struct Source<'c> {
     morph_values_read: usize,
     /// Holds the decoded textures to [`crate::texture::MAX_TOTAL_TEXELS`] together.
     texel_budget: TexelBudget,
+    /// Bounds the pixels the images decode together ([`crate::texture::MAX_DECODED_PIXELS`]).
+    decode_budget: DecodeBudget,
+}
+
+/// What a base-colour image is decoded from, so that images with the same source are decoded
+/// once: a buffer view (thousands of images may point at one), a URI (the same file or data
+/// URI named by several images), or, for an image only an undecodable extension provides, its
+/// index.
+#[derive(Clone, Debug, PartialEq, Eq, Hash)]
+enum ImageKey {
+    View(usize),
+    Uri(String),
+    Image(usize),
 }
 
 pub(crate) fn import(ctx: &mut Ctx, bytes: &[u8], glb: bool) -> Result<(Mesh, Vec<ImportedPart>), IoError> {
@@ -300,6 +313,7 @@ pub(crate) fn import(ctx: &mut Ctx, bytes: &[u8], glb: bool) -> Result<(Mesh, Ve
         }
     }
     let texel_budget = TexelBudget::new(ctx.opts.max_texels);
+    let ctx_decode_cap = ctx.opts.max_decoded_pixels;
     let mut src = Source {
         ctx,
         doc,
@@ -310,9 +324,13 @@ pub(crate) fn import(ctx: &mut Ctx, bytes: &[u8], glb: bool) -> Result<(Mesh, Ve
         refused: None,
         morph_values_read: 0,
         texel_budget,
+        decode_budget: DecodeBudget::new(ctx_decode_cap),
     };
     let built = src.build();
     if let Ok((mesh, _)) = &built {
+        if let Some(w) = src.decode_budget.warning() {
+            src.ctx.warn(w);
+        }
         if let Some(w) = src.texel_budget.warning(&mesh.textures) {
             src.ctx.warn(w);
         }
@@ -769,7 +787,7 @@ impl Source<'_> {
         let mut b = Builder::default();
         let mut parts = Vec::new();
         let mut material_map: HashMap<Option<usize>, u32> = HashMap::new();
-        let mut image_map: HashMap<usize, Option<usize>> = HashMap::new();
+        let mut image_map: HashMap<ImageKey, Option<usize>> = HashMap::new();
         let mut warned_unattached = false;
         // Mesh placements: one per node, or one per EXT_mesh_gpu_instancing instance (scene ←
         // node ← instance). Skinned nodes ignore instancing (the extension excludes skins).
@@ -1193,7 +1211,7 @@ impl Source<'_> {
         &mut self,
         m: &gltf::Material,
         mesh: &mut Mesh,
-        image_map: &mut HashMap<usize, Option<usize>>,
+        image_map: &mut HashMap<ImageKey, Option<usize>>,
     ) -> Material {
         let pbr = m.pbr_metallic_roughness();
         // KHR_materials_pbrSpecularGlossiness (older exporters): when present it is the
@@ -1222,7 +1240,12 @@ impl Source<'_> {
             let tex = info.texture();
             let img = tex.source();
             let ii = img.index();
-            let slot = match image_map.get(&ii) {
+            let key = match img.source() {
+                _ if self.undecodable_images.contains_key(&ii) => ImageKey::Image(ii),
+                gltf::image::Source::View { view, .. } => ImageKey::View(view.index()),
+                gltf::image::Source::Uri { uri, .. } => ImageKey::Uri(uri.to_owned()),
+            };
+            let slot = match image_map.get(&key) {
                 Some(s) => *s,
                 None => {
                     let s = self.load_image(&img, &out.name).map(|t| {
@@ -1232,7 +1255,7 @@ impl Source<'_> {
                     if let Some(i) = s {
                         self.texel_budget.add(&mut mesh.textures, i);
                     }
-                    image_map.insert(ii, s);
+                    image_map.insert(key, s);
                     s
                 }
             };
@@ -1311,13 +1334,14 @@ impl Source<'_> {
                 }
             },
         };
-        match decode_srgb_texture(name.clone(), &bytes) {
+        match decode_srgb_texture(name.clone(), &bytes, &mut self.decode_budget) {
             Ok(d) => {
                 if let Some(w) = d.reduction_warning(&format!("material {material:?}")) {
                     self.ctx.warn(w);
                 }
                 Some(d.texture)
             }
+            Err(e) if e == OVER_DECODE_BUDGET => None, // one warning for all (`DecodeBudget::warning`)
             Err(e) => {
                 self.ctx
                     .warn(format!("material {material:?}: cannot decode {name}: {e}; using the base colour factor"));

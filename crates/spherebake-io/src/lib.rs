@@ -42,7 +42,7 @@ use std::path::{Path, PathBuf};
 pub use error::IoError;
 pub use hash::Fnv1a64;
 pub use spherebake_geom::{Mesh, Warning};
-pub use texture::{srgb_to_linear, MAX_TOTAL_TEXELS};
+pub use texture::{srgb_to_linear, MAX_DECODED_PIXELS, MAX_TOTAL_TEXELS};
 
 /// Where one primitive (glTF) or model (OBJ) landed in the imported [`Mesh`].
 #[derive(Clone, Debug, PartialEq)]
@@ -129,11 +129,20 @@ pub struct ImportOptions {
     /// halved as they are read (`texture::TexelBudget`), with a warning. Default
     /// [`MAX_TOTAL_TEXELS`] (4 × 4096²).
     pub max_texels: usize,
+    /// Pixels the images of a model may decode together, from their headers; past it an image
+    /// is not decoded (a warning; the base colour factor is used). Default
+    /// [`MAX_DECODED_PIXELS`] (2³¹).
+    pub max_decoded_pixels: u64,
 }
 
 impl Default for ImportOptions {
     fn default() -> Self {
-        Self { allow_outside_paths: false, max_input_bytes: DEFAULT_MAX_INPUT_BYTES, max_texels: MAX_TOTAL_TEXELS }
+        Self {
+            allow_outside_paths: false,
+            max_input_bytes: DEFAULT_MAX_INPUT_BYTES,
+            max_texels: MAX_TOTAL_TEXELS,
+            max_decoded_pixels: MAX_DECODED_PIXELS,
+        }
     }
 }
 

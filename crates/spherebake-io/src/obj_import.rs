@@ -8,7 +8,9 @@ use std::path::{Path, PathBuf};
 use glam::Vec3;
 use spherebake_geom::{Material, Mesh, TextureRef, UvTransform};
 
-use crate::texture::{decode_mask, decode_srgb_texture, Mask, MaskChannel, TexelBudget};
+use crate::texture::{
+    decode_mask, decode_srgb_texture, DecodeBudget, Mask, MaskChannel, TexelBudget, OVER_DECODE_BUDGET,
+};
 use crate::{Ctx, ImportedPart, IoError, ReadLimit, MAX_IMAGE_BYTES, MAX_MTL_BYTES};
 
 /// An MTL file tobj asked for: resolved path and its bytes (or why it could not be read).
@@ -621,6 +623,7 @@ pub(crate) fn import(ctx: &mut Ctx, bytes: &[u8]) -> Result<(Mesh, Vec<ImportedP
         cut: HashMap::new(),
         counted: Default::default(),
         budget: TexelBudget::new(ctx.opts.max_texels),
+        decode: DecodeBudget::new(ctx.opts.max_decoded_pixels),
         refused: None,
     };
     let mut parts = Vec::new();
@@ -716,6 +719,9 @@ pub(crate) fn import(ctx: &mut Ctx, bytes: &[u8]) -> Result<(Mesh, Vec<ImportedP
             "object {first:?}{more}: some faces have texture coordinates (vt) and some not; the group's UVs are dropped"
         ));
     }
+    if let Some(w) = texture_map.decode.warning() {
+        ctx.warn(w);
+    }
     if let Some(w) = texture_map.budget.warning(&mesh.textures) {
         ctx.warn(w);
     }
@@ -748,6 +754,8 @@ struct ObjTextures {
     counted: std::collections::HashSet<usize>,
     /// Holds the decoded textures to [`crate::texture::MAX_TOTAL_TEXELS`] together.
     budget: TexelBudget,
+    /// Bounds the pixels the images decode together ([`crate::texture::MAX_DECODED_PIXELS`]).
+    decode: DecodeBudget,
     /// A texture that must not be read (outside the folder, not a regular file, over the input
     /// budget): the import fails with it.
     refused: Option<IoError>,
@@ -814,7 +822,7 @@ fn obj_material(
             None => {
                 let read =
                     read_image(ctx, &mut textures.refused, &m.name, ("", "texture", "using Kd"), file, &p, |b| {
-                        decode_srgb_texture(file.to_owned(), b)
+                        decode_srgb_texture(file.to_owned(), b, &mut textures.decode)
                     });
                 let s = read.map(|d| {
                     if let Some(w) = d.reduction_warning(&format!("material {:?}", m.name)) {
@@ -889,7 +897,7 @@ fn obj_cut_out(
         None => {
             let read =
                 read_image(ctx, &mut textures.refused, &m.name, ("map_d ", "map_d", "no cut-out"), file, &p, |b| {
-                    decode_mask(file.to_owned(), b, dmap.channel)
+                    decode_mask(file.to_owned(), b, dmap.channel, &mut textures.decode)
                 });
             let mask = read.inspect(|mask| {
                 if let Some((w, h)) = mask.reduced_from {
@@ -954,6 +962,7 @@ fn read_image<T>(
     match ctx.read_referenced(file, p, ReadLimit::AtMost(MAX_IMAGE_BYTES)) {
         Ok(bytes) => match decode(&bytes) {
             Ok(v) => Some(v),
+            Err(e) if e == OVER_DECODE_BUDGET => None, // one warning for all (`DecodeBudget::warning`)
             Err(e) => {
                 ctx.warn(format!("material {material:?}: cannot decode {what}{}: {e}; {fallback}", p.display()));
                 None

@@ -23,6 +23,77 @@ pub const MAX_DECODE_BYTES: u64 = (1 << 30) + (256 << 20);
 /// linear RGBA f32; the albedo bake's mip chains add about as much again). See [`TexelBudget`].
 pub const MAX_TOTAL_TEXELS: usize = 1 << 26;
 
+/// Pixels the images of one model may decode together, counted from their headers before each
+/// is decoded: 2³¹, 8 × 16 384² or 128 × 4096². Decoding costs about 25 ns a pixel (a 4096² PNG
+/// about 0.4 s), so this bounds a model's decoding to about a minute however many images it
+/// names; past it an image is not decoded (the importers warn and use the base colour factor).
+/// See [`DecodeBudget`].
+pub const MAX_DECODED_PIXELS: u64 = 1 << 31;
+
+/// The pixels a model's images may still decode ([`MAX_DECODED_PIXELS`] unless the import
+/// options say otherwise). The texel budget bounds what the decoded textures keep; this bounds
+/// the work of decoding them, which a small file naming thousands of large (or
+/// highly compressible) images would otherwise make unbounded.
+#[derive(Clone, Debug)]
+pub(crate) struct DecodeBudget {
+    cap: u64,
+    left: u64,
+    /// The images not decoded for it: how many, and the first three (name, width, height).
+    skipped: usize,
+    first: Vec<(String, u32, u32)>,
+}
+
+/// The error [`decode_srgb_texture`] and [`decode_mask`] give for an image past the
+/// [`DecodeBudget`]: the importers give no warning of their own for it ([`DecodeBudget::warning`]
+/// sums them up in one).
+pub(crate) const OVER_DECODE_BUDGET: &str = "over the model's decode budget";
+
+impl DecodeBudget {
+    /// A budget of `cap` pixels.
+    pub fn new(cap: u64) -> Self {
+        Self { cap, left: cap, skipped: 0, first: Vec::new() }
+    }
+
+    /// Charges the image `bytes` by the width × height its header gives, or, past the budget,
+    /// records it and returns [`OVER_DECODE_BUDGET`]. An image whose header cannot be read is
+    /// not charged (decoding it fails with the decoder's own message).
+    fn charge(&mut self, name: &str, bytes: &[u8]) -> Result<(), String> {
+        let dims = image::ImageReader::new(std::io::Cursor::new(bytes))
+            .with_guessed_format()
+            .ok()
+            .and_then(|r| r.into_dimensions().ok());
+        let Some((w, h)) = dims else { return Ok(()) };
+        let n = u64::from(w) * u64::from(h);
+        if n > self.left {
+            self.skipped += 1;
+            if self.first.len() < 3 {
+                self.first.push((name.to_owned(), w, h));
+            }
+            return Err(OVER_DECODE_BUDGET.to_owned());
+        }
+        self.left -= n;
+        Ok(())
+    }
+
+    /// The one warning for the images not decoded, naming the first three; `None` when every
+    /// image fitted.
+    pub fn warning(&self) -> Option<String> {
+        let named: Vec<String> = self.first.iter().map(|(n, w, h)| format!("{n} ({w}×{h})")).collect();
+        let more = match self.skipped {
+            n if n > 3 => format!(", and {} more", n - 3),
+            _ => String::new(),
+        };
+        (self.skipped > 0).then(|| {
+            format!(
+                "the images would decode more than {} pixels together; {} not decoded (the materials that read them use the base colour factor): {}{more}",
+                self.cap,
+                self.skipped,
+                named.join(", ")
+            )
+        })
+    }
+}
+
 /// Holds a model's decoded textures to [`MAX_TOTAL_TEXELS`] together: after each texture is
 /// added, the largest (the first added of equal size) is halved ([`texels::halve`], the box
 /// filter the side cap uses, so the result is the source box-filtered to that size) until
@@ -125,12 +196,14 @@ impl Decoded {
 /// most [`MAX_DECODE_BYTES`]; an image with a side over [`MAX_TEXTURE_SIDE`] is box-filtered
 /// down ([`texels::reduce_to_side`], in linear values) as it is read, so no converted copy
 /// exists at full size: peak memory is the decoded image (in its own layout, 8- or 16-bit or
-/// float) plus the result, and for a progressive JPEG its decoder's coefficient buffers.
-pub(crate) fn decode_srgb_texture(name: String, bytes: &[u8]) -> Result<Decoded, String> {
+/// float) plus the result, and for a progressive JPEG its decoder's coefficient buffers. Its
+/// pixels are charged to `budget` first; an image past it is not decoded.
+pub(crate) fn decode_srgb_texture(name: String, bytes: &[u8], budget: &mut DecodeBudget) -> Result<Decoded, String> {
+    budget.charge(&name, bytes)?;
     decode_texture(name, bytes, true).map(|(d, _)| d)
 }
 
-/// [`decode_srgb_texture`] with the colour channels through the sRGB EOTF when `srgb`, else as
+/// [`decode_srgb_texture`] (without the budget) with the colour channels through the sRGB EOTF when `srgb`, else as
 /// stored (normalised to [0, 1]: data such as an MTL `map_d` mask). Also returns whether the
 /// image has an alpha channel.
 fn decode_texture(name: String, bytes: &[u8], srgb: bool) -> Result<(Decoded, bool), String> {
@@ -209,8 +282,14 @@ pub(crate) struct Mask {
 
 /// Decodes an image as an MTL scalar texture (`map_d`): values as stored (no sRGB curve, a
 /// mask is data), of the channel `channel` names; luminance is Rec. 709's
-/// 0.2126 R + 0.7152 G + 0.0722 B. Reduced as [`decode_srgb_texture`] reduces.
-pub(crate) fn decode_mask(name: String, bytes: &[u8], channel: MaskChannel) -> Result<Mask, String> {
+/// 0.2126 R + 0.7152 G + 0.0722 B. Reduced and charged as [`decode_srgb_texture`] is.
+pub(crate) fn decode_mask(
+    name: String,
+    bytes: &[u8],
+    channel: MaskChannel,
+    budget: &mut DecodeBudget,
+) -> Result<Mask, String> {
+    budget.charge(&name, bytes)?;
     let (d, has_alpha) = decode_texture(name, bytes, false)?;
     let t = d.texture;
     let channel = match channel {

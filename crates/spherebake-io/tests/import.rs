@@ -1080,3 +1080,91 @@ fn an_obj_map_d_outside_the_folder_is_refused() {
     let imp = spherebake_io::load_mesh_with(&model.join("m.obj"), &opts).unwrap();
     assert_eq!(imp.mesh.materials[0].alpha_mask_cutoff, Some(0.5));
 }
+
+/// Images with one source are decoded once, and a model's images decode at most
+/// `ImportOptions::max_decoded_pixels` together (by their headers, before decoding): the
+/// images past it are not decoded, their materials use the base colour factor, and one warning
+/// names them. Before, a 118 KB glTF of 300 images pointing at one 4096² PNG decoded it 300
+/// times (130 s, 2.6 GB); 300 distinct views of it now stop after 128 decodes.
+#[test]
+fn images_with_one_source_decode_once_and_a_model_decodes_a_bounded_number_of_pixels() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let png = |w: u32, h: u32| {
+        let mut out = std::io::Cursor::new(Vec::new());
+        image::RgbImage::from_fn(w, h, |x, y| image::Rgb([(x * 10) as u8, (y * 10) as u8, 7]))
+            .write_to(&mut out, image::ImageFormat::Png)
+            .unwrap();
+        out.into_inner()
+    };
+    // A GLB: material i reads image i; images 0 and 1 are the same buffer view (a 16×16 PNG),
+    // image 2 another (8×8).
+    let extra = r#","materials":[{"pbrMetallicRoughness":{"baseColorTexture":{"index":0}}},{"pbrMetallicRoughness":{"baseColorTexture":{"index":1}}},{"pbrMetallicRoughness":{"baseColorTexture":{"index":2}}}],"textures":[{"source":0},{"source":1},{"source":2}],"images":[{"bufferView":2,"mimeType":"image/png"},{"bufferView":2,"mimeType":"image/png"},{"bufferView":3,"mimeType":"image/png"}]"#;
+    let (json, mut bin) = gltf_json(&TRI, Some(&[0, 1, 2]), true, extra);
+    let old_len = bin.len();
+    let mut views = String::new();
+    for p in [png(16, 16), png(8, 8)] {
+        views += &format!(r#",{{"buffer":0,"byteOffset":{},"byteLength":{}}}"#, bin.len(), p.len());
+        bin.extend(p);
+        while bin.len() % 4 != 0 {
+            bin.push(0);
+        }
+    }
+    let prim = r#"{"attributes":{"POSITION":0},"indices":1"#;
+    let json = json
+        .replace(
+            &format!(r#""buffers":[{{"byteLength":{old_len}}}]"#),
+            &format!(r#""buffers":[{{"byteLength":{}}}]"#, bin.len()),
+        )
+        .replacen("}],\n\"accessors\"", &format!("}}{views}],\n\"accessors\""), 1)
+        .replace(
+            &format!("{prim}}}"),
+            &format!(r#"{prim},"material":0}},{prim},"material":1}},{prim},"material":2}}"#),
+        );
+    let bytes = glb(&json, &bin);
+    std::fs::write(d.join("m.glb"), &bytes).unwrap();
+    let texture_of = |imp: &spherebake_io::Imported| -> Vec<Option<(usize, u32, u32)>> {
+        imp.mesh
+            .materials
+            .iter()
+            .map(|m| {
+                m.base_color_texture.as_ref().map(|t| {
+                    let tex = &imp.mesh.textures[t.texture];
+                    (t.texture, tex.width, tex.height)
+                })
+            })
+            .collect()
+    };
+    let imp = load_mesh(&d.join("m.glb")).unwrap();
+    assert_eq!(imp.mesh.textures.len(), 2, "the shared view decoded once");
+    assert_eq!(texture_of(&imp), [Some((0, 16, 16)), Some((0, 16, 16)), Some((1, 8, 8))]);
+    assert!(!imp.warnings.iter().any(|w| w.0.contains("decode")), "{:?}", imp.warnings);
+    // 300 pixels: the 16×16 image (256) fits, the 8×8 one (64) would pass 300.
+    let opts = ImportOptions { max_decoded_pixels: 300, ..Default::default() };
+    let imp = spherebake_io::load_mesh_with(&d.join("m.glb"), &opts).unwrap();
+    assert_eq!(texture_of(&imp), [Some((0, 16, 16)), Some((0, 16, 16)), None]);
+    let w: Vec<_> = imp.warnings.iter().filter(|w| w.0.contains("decode more than 300 pixels")).collect();
+    assert!(w.len() == 1 && w[0].0.contains("image[2] (8×8)"), "{:?}", imp.warnings);
+    let per_image = imp.warnings.iter().filter(|w| w.0.contains("cannot decode")).count();
+    assert_eq!(per_image, 0, "no warning of its own per image: {:?}", imp.warnings);
+    // Exactly enough: both decoded.
+    let opts = ImportOptions { max_decoded_pixels: 320, ..Default::default() };
+    let imp = spherebake_io::load_mesh_with(&d.join("m.glb"), &opts).unwrap();
+    assert_eq!(texture_of(&imp), [Some((0, 16, 16)), Some((0, 16, 16)), Some((1, 8, 8))]);
+    // OBJ: map_Kd and map_d count too; a.png (256) fits 300, then b.png's mask (64) does not.
+    std::fs::write(d.join("a.png"), png(16, 16)).unwrap();
+    std::fs::write(d.join("b.png"), png(8, 8)).unwrap();
+    std::fs::write(d.join("m.mtl"), "newmtl one\nmap_Kd a.png\nnewmtl two\nmap_Kd a.png\nmap_d b.png\n").unwrap();
+    let obj = "mtllib m.mtl\nvt 0 0\nvt 1 0\nvt 0 1\nusemtl one\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1/1 2/2 3/3\n\
+               usemtl two\nv 0 0 1\nv 1 0 1\nv 0 1 1\nf 4/1 5/2 6/3\n";
+    std::fs::write(d.join("m.obj"), obj).unwrap();
+    let opts = ImportOptions { max_decoded_pixels: 300, ..Default::default() };
+    let imp = spherebake_io::load_mesh_with(&d.join("m.obj"), &opts).unwrap();
+    let w: Vec<_> = imp.warnings.iter().filter(|w| w.0.contains("decode more than 300 pixels")).collect();
+    assert!(w.len() == 1 && w[0].0.contains("b.png (8×8)"), "{:?}", imp.warnings);
+    let two = imp.mesh.materials.iter().find(|m| m.name == "two").unwrap();
+    assert!(two.alpha_mask_cutoff.is_none(), "no cut-out without its mask");
+    let imp = load_mesh(&d.join("m.obj")).unwrap();
+    let two = imp.mesh.materials.iter().find(|m| m.name == "two").unwrap();
+    assert!(two.alpha_mask_cutoff.is_some(), "the default budget reads the mask: {:?}", imp.warnings);
+}
