@@ -184,14 +184,24 @@ struct Source<'c> {
 }
 
 /// What a base-colour image is decoded from, so that images with the same source are decoded
-/// once: a buffer view (thousands of images may point at one), a URI (the same file or data
-/// URI named by several images), or, for an image only an undecodable extension provides, its
+/// once: a range of a buffer (thousands of images, or of views, may name one), a meshopt-decoded
+/// buffer view (its bytes are not its buffer's range), a file URI (the same file named by
+/// several images), or, for a data URI or an image only an undecodable extension provides, its
 /// index.
 #[derive(Clone, Debug, PartialEq, Eq, Hash)]
 enum ImageKey {
+    Range { buffer: usize, offset: usize, length: usize },
     View(usize),
     Uri(String),
     Image(usize),
+}
+
+/// The decoded base-colour images (their index in `Mesh::textures`, `None`: not decoded), by
+/// image index, and by source ([`ImageKey`]), which is worked out once per image.
+#[derive(Default)]
+struct ImageMaps {
+    by_image: HashMap<usize, Option<usize>>,
+    by_source: HashMap<ImageKey, Option<usize>>,
 }
 
 pub(crate) fn import(ctx: &mut Ctx, bytes: &[u8], glb: bool) -> Result<(Mesh, Vec<ImportedPart>), IoError> {
@@ -313,7 +323,7 @@ pub(crate) fn import(ctx: &mut Ctx, bytes: &[u8], glb: bool) -> Result<(Mesh, Ve
         }
     }
     let texel_budget = TexelBudget::new(ctx.opts.max_texels);
-    let ctx_decode_cap = ctx.opts.max_decoded_pixels;
+    let decode_caps = (ctx.opts.max_decoded_pixels, ctx.opts.max_input_bytes);
     let mut src = Source {
         ctx,
         doc,
@@ -324,7 +334,7 @@ pub(crate) fn import(ctx: &mut Ctx, bytes: &[u8], glb: bool) -> Result<(Mesh, Ve
         refused: None,
         morph_values_read: 0,
         texel_budget,
-        decode_budget: DecodeBudget::new(ctx_decode_cap),
+        decode_budget: DecodeBudget::new(decode_caps.0, decode_caps.1),
     };
     let built = src.build();
     if let Ok((mesh, _)) = &built {
@@ -787,7 +797,7 @@ impl Source<'_> {
         let mut b = Builder::default();
         let mut parts = Vec::new();
         let mut material_map: HashMap<Option<usize>, u32> = HashMap::new();
-        let mut image_map: HashMap<ImageKey, Option<usize>> = HashMap::new();
+        let mut image_map = ImageMaps::default();
         let mut warned_unattached = false;
         // Mesh placements: one per node, or one per EXT_mesh_gpu_instancing instance (scene ←
         // node ← instance). Skinned nodes ignore instancing (the extension excludes skins).
@@ -1207,12 +1217,7 @@ impl Source<'_> {
             .collect())
     }
 
-    fn material(
-        &mut self,
-        m: &gltf::Material,
-        mesh: &mut Mesh,
-        image_map: &mut HashMap<ImageKey, Option<usize>>,
-    ) -> Material {
+    fn material(&mut self, m: &gltf::Material, mesh: &mut Mesh, image_map: &mut ImageMaps) -> Material {
         let pbr = m.pbr_metallic_roughness();
         // KHR_materials_pbrSpecularGlossiness (older exporters): when present it is the
         // material, metallic-roughness being the fallback for viewers without it; its diffuse
@@ -1240,22 +1245,37 @@ impl Source<'_> {
             let tex = info.texture();
             let img = tex.source();
             let ii = img.index();
-            let key = match img.source() {
-                _ if self.undecodable_images.contains_key(&ii) => ImageKey::Image(ii),
-                gltf::image::Source::View { view, .. } => ImageKey::View(view.index()),
-                gltf::image::Source::Uri { uri, .. } => ImageKey::Uri(uri.to_owned()),
-            };
-            let slot = match image_map.get(&key) {
+            let slot = match image_map.by_image.get(&ii) {
                 Some(s) => *s,
                 None => {
-                    let s = self.load_image(&img, &out.name).map(|t| {
-                        mesh.textures.push(t);
-                        mesh.textures.len() - 1
-                    });
-                    if let Some(i) = s {
-                        self.texel_budget.add(&mut mesh.textures, i);
-                    }
-                    image_map.insert(key, s);
+                    let key = match img.source() {
+                        _ if self.undecodable_images.contains_key(&ii) => ImageKey::Image(ii),
+                        gltf::image::Source::View { view, .. } if self.decoded.contains_key(&view.index()) => {
+                            ImageKey::View(view.index())
+                        }
+                        gltf::image::Source::View { view, .. } => ImageKey::Range {
+                            buffer: view.buffer().index(),
+                            offset: view.offset(),
+                            length: view.length(),
+                        },
+                        gltf::image::Source::Uri { uri, .. } if uri.starts_with("data:") => ImageKey::Image(ii),
+                        gltf::image::Source::Uri { uri, .. } => ImageKey::Uri(uri.to_owned()),
+                    };
+                    let s = match image_map.by_source.get(&key) {
+                        Some(s) => *s,
+                        None => {
+                            let s = self.load_image(&img, &out.name).map(|t| {
+                                mesh.textures.push(t);
+                                mesh.textures.len() - 1
+                            });
+                            if let Some(i) = s {
+                                self.texel_budget.add(&mut mesh.textures, i);
+                            }
+                            image_map.by_source.insert(key, s);
+                            s
+                        }
+                    };
+                    image_map.by_image.insert(ii, s);
                     s
                 }
             };

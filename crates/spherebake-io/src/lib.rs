@@ -131,7 +131,8 @@ pub struct ImportOptions {
     pub max_texels: usize,
     /// Pixels the images of a model may decode together, from their headers; past it an image
     /// is not decoded (a warning; the base colour factor is used). Default
-    /// [`MAX_DECODED_PIXELS`] (2³¹).
+    /// [`MAX_DECODED_PIXELS`] (2³¹). The encoded bytes the images are read from are held to
+    /// `max_input_bytes` together the same way.
     pub max_decoded_pixels: u64,
 }
 

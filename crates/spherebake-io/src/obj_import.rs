@@ -623,7 +623,7 @@ pub(crate) fn import(ctx: &mut Ctx, bytes: &[u8]) -> Result<(Mesh, Vec<ImportedP
         cut: HashMap::new(),
         counted: Default::default(),
         budget: TexelBudget::new(ctx.opts.max_texels),
-        decode: DecodeBudget::new(ctx.opts.max_decoded_pixels),
+        decode: DecodeBudget::new(ctx.opts.max_decoded_pixels, ctx.opts.max_input_bytes),
         refused: None,
     };
     let mut parts = Vec::new();

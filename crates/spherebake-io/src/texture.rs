@@ -25,22 +25,25 @@ pub const MAX_TOTAL_TEXELS: usize = 1 << 26;
 
 /// Pixels the images of one model may decode together, counted from their headers before each
 /// is decoded: 2³¹, 8 × 16 384² or 128 × 4096². Decoding costs about 25 ns a pixel (a 4096² PNG
-/// about 0.4 s), so this bounds a model's decoding to about a minute however many images it
-/// names; past it an image is not decoded (the importers warn and use the base colour factor).
-/// See [`DecodeBudget`].
+/// about 0.4 s), so the pixels decoded take about a minute at most, however many images a
+/// model names; past it an image is not decoded (the importers warn once and use the base
+/// colour factor). See [`DecodeBudget`].
 pub const MAX_DECODED_PIXELS: u64 = 1 << 31;
 
-/// The pixels a model's images may still decode ([`MAX_DECODED_PIXELS`] unless the import
-/// options say otherwise). The texel budget bounds what the decoded textures keep; this bounds
-/// the work of decoding them, which a small file naming thousands of large (or
-/// highly compressible) images would otherwise make unbounded.
+/// What a model's images may still cost to decode: pixels ([`MAX_DECODED_PIXELS`] unless the
+/// import options say otherwise) and encoded bytes examined (the input budget,
+/// `ImportOptions::max_input_bytes`: every image's bytes, also those of buffer views, which the
+/// input budget counts once as their buffer however many views read them). The texel budget
+/// bounds what the decoded textures keep; this bounds the work of decoding them, which a small
+/// file naming thousands of large (or highly compressible) images would otherwise make
+/// unbounded.
 #[derive(Clone, Debug)]
 pub(crate) struct DecodeBudget {
-    cap: u64,
-    left: u64,
-    /// The images not decoded for it: how many, and the first three (name, width, height).
+    pixels: (u64, u64),
+    bytes: (u64, u64),
+    /// The images not decoded for it: how many, and the first three described.
     skipped: usize,
-    first: Vec<(String, u32, u32)>,
+    first: Vec<String>,
 }
 
 /// The error [`decode_srgb_texture`] and [`decode_mask`] give for an image past the
@@ -49,46 +52,53 @@ pub(crate) struct DecodeBudget {
 pub(crate) const OVER_DECODE_BUDGET: &str = "over the model's decode budget";
 
 impl DecodeBudget {
-    /// A budget of `cap` pixels.
-    pub fn new(cap: u64) -> Self {
-        Self { cap, left: cap, skipped: 0, first: Vec::new() }
+    /// A budget of `pixels` pixels and `bytes` encoded bytes.
+    pub fn new(pixels: u64, bytes: u64) -> Self {
+        Self { pixels: (pixels, pixels), bytes: (bytes, bytes), skipped: 0, first: Vec::new() }
     }
 
-    /// Charges the image `bytes` by the width × height its header gives, or, past the budget,
-    /// records it and returns [`OVER_DECODE_BUDGET`]. An image whose header cannot be read is
-    /// not charged (decoding it fails with the decoder's own message).
-    fn charge(&mut self, name: &str, bytes: &[u8]) -> Result<(), String> {
-        let dims = image::ImageReader::new(std::io::Cursor::new(bytes))
-            .with_guessed_format()
-            .ok()
-            .and_then(|r| r.into_dimensions().ok());
-        let Some((w, h)) = dims else { return Ok(()) };
-        let n = u64::from(w) * u64::from(h);
-        if n > self.left {
-            self.skipped += 1;
-            if self.first.len() < 3 {
-                self.first.push((name.to_owned(), w, h));
-            }
-            return Err(OVER_DECODE_BUDGET.to_owned());
+    fn skip(&mut self, what: String) -> Result<(), String> {
+        self.skipped += 1;
+        if self.first.len() < 3 {
+            self.first.push(what);
         }
-        self.left -= n;
+        Err(OVER_DECODE_BUDGET.to_owned())
+    }
+
+    /// Charges an image's encoded bytes, before its header is read.
+    fn charge_bytes(&mut self, name: &str, n: usize) -> Result<(), String> {
+        let n = n as u64;
+        if n > self.bytes.1 {
+            return self.skip(format!("{name} ({n} bytes)"));
+        }
+        self.bytes.1 -= n;
+        Ok(())
+    }
+
+    /// Charges a `w` × `h` image, before it is decoded.
+    fn charge_pixels(&mut self, name: &str, w: u32, h: u32) -> Result<(), String> {
+        let n = u64::from(w) * u64::from(h);
+        if n > self.pixels.1 {
+            return self.skip(format!("{name} ({w}×{h})"));
+        }
+        self.pixels.1 -= n;
         Ok(())
     }
 
     /// The one warning for the images not decoded, naming the first three; `None` when every
     /// image fitted.
     pub fn warning(&self) -> Option<String> {
-        let named: Vec<String> = self.first.iter().map(|(n, w, h)| format!("{n} ({w}×{h})")).collect();
         let more = match self.skipped {
             n if n > 3 => format!(", and {} more", n - 3),
             _ => String::new(),
         };
         (self.skipped > 0).then(|| {
             format!(
-                "the images would decode more than {} pixels together; {} not decoded (the materials that read them use the base colour factor): {}{more}",
-                self.cap,
+                "the images would decode more than {} pixels, or {} encoded bytes, together; {} not decoded (the materials that read them use the base colour factor): {}{more}",
+                self.pixels.0,
+                self.bytes.0,
                 self.skipped,
-                named.join(", ")
+                self.first.join(", ")
             )
         })
     }
@@ -197,34 +207,56 @@ impl Decoded {
 /// down ([`texels::reduce_to_side`], in linear values) as it is read, so no converted copy
 /// exists at full size: peak memory is the decoded image (in its own layout, 8- or 16-bit or
 /// float) plus the result, and for a progressive JPEG its decoder's coefficient buffers. Its
-/// pixels are charged to `budget` first; an image past it is not decoded.
+/// bytes, then (once its header is read and fits the memory cap) its pixels are charged to
+/// `budget`; an image past it is not decoded.
 pub(crate) fn decode_srgb_texture(name: String, bytes: &[u8], budget: &mut DecodeBudget) -> Result<Decoded, String> {
-    budget.charge(&name, bytes)?;
-    decode_texture(name, bytes, true).map(|(d, _)| d)
+    decode_texture(name, bytes, true, budget).map(|(d, _)| d)
 }
 
-/// [`decode_srgb_texture`] (without the budget) with the colour channels through the sRGB EOTF when `srgb`, else as
+/// [`decode_srgb_texture`] with the colour channels through the sRGB EOTF when `srgb`, else as
 /// stored (normalised to [0, 1]: data such as an MTL `map_d` mask). Also returns whether the
 /// image has an alpha channel.
-fn decode_texture(name: String, bytes: &[u8], srgb: bool) -> Result<(Decoded, bool), String> {
-    let mut reader =
-        image::ImageReader::new(std::io::Cursor::new(bytes)).with_guessed_format().map_err(|e| e.to_string())?;
-    let mut limits = image::Limits::default();
-    limits.max_alloc = Some(MAX_DECODE_BYTES);
-    reader.limits(limits);
-    let img = reader.decode().map_err(|e| match e {
-        // Say which image and which cap, not only the image crate's "Memory limit exceeded".
-        image::ImageError::Limits(_) => {
-            let size = image::ImageReader::new(std::io::Cursor::new(bytes))
-                .with_guessed_format()
-                .ok()
-                .and_then(|r| r.into_dimensions().ok())
-                .map_or_else(String::new, |(w, h)| format!("its {w}×{h} pixels "));
-            format!(
-                "decoded, {size}would take more than the {:.2} GiB a texture may (memory limit exceeded)",
-                MAX_DECODE_BYTES as f64 / f64::from(1u32 << 30)
-            )
-        }
+fn decode_texture(
+    name: String,
+    bytes: &[u8],
+    srgb: bool,
+    budget: &mut DecodeBudget,
+) -> Result<(Decoded, bool), String> {
+    budget.charge_bytes(&name, bytes.len())?;
+    let reader = || -> Result<_, String> {
+        let mut r =
+            image::ImageReader::new(std::io::Cursor::new(bytes)).with_guessed_format().map_err(|e| e.to_string())?;
+        let mut limits = image::Limits::default();
+        limits.max_alloc = Some(MAX_DECODE_BYTES);
+        r.limits(limits);
+        Ok(r)
+    };
+    // Say which image and which cap, not only the image crate's "Memory limit exceeded".
+    let too_large = |size: Option<(u32, u32)>| {
+        format!(
+            "decoded, {}would take more than the {:.2} GiB a texture may (memory limit exceeded)",
+            size.map_or_else(String::new, |(w, h)| format!("its {w}×{h} pixels ")),
+            MAX_DECODE_BYTES as f64 / f64::from(1u32 << 30)
+        )
+    };
+    let message = |e: image::ImageError| match e {
+        image::ImageError::Limits(_) => too_large(None),
+        e => e.to_string(),
+    };
+    // The header first, under the decode's own limits: the image is charged only once it is
+    // known to fit them (the decode below reads the header again).
+    let (width, height, bytes_needed) = {
+        use image::ImageDecoder;
+        let d = reader()?.into_decoder().map_err(message)?;
+        let (w, h) = d.dimensions();
+        (w, h, d.total_bytes())
+    };
+    if bytes_needed > MAX_DECODE_BYTES {
+        return Err(too_large(Some((width, height))));
+    }
+    budget.charge_pixels(&name, width, height)?;
+    let img = reader()?.decode().map_err(|e| match e {
+        image::ImageError::Limits(_) => too_large(Some((width, height))),
         e => e.to_string(),
     })?;
     let (width, height) = (img.width(), img.height());
@@ -289,8 +321,7 @@ pub(crate) fn decode_mask(
     channel: MaskChannel,
     budget: &mut DecodeBudget,
 ) -> Result<Mask, String> {
-    budget.charge(&name, bytes)?;
-    let (d, has_alpha) = decode_texture(name, bytes, false)?;
+    let (d, has_alpha) = decode_texture(name, bytes, false, budget)?;
     let t = d.texture;
     let channel = match channel {
         MaskChannel::Auto if has_alpha && t.texels_linear.iter().any(|p| p[3] < 1.0) => MaskChannel::Alpha,
@@ -342,6 +373,24 @@ fn layout<T: Copy + Sync>(
 
 #[cfg(test)]
 mod tests {
+    #[test]
+    fn the_decode_budget_charges_bytes_then_pixels_and_sums_up_what_it_skipped() {
+        let mut b = super::DecodeBudget::new(100, 1000);
+        assert!(b.charge_bytes("a", 600).is_ok());
+        assert!(b.charge_pixels("a", 10, 10).is_ok(), "exactly the pixels left");
+        assert_eq!(b.charge_bytes("b", 401).unwrap_err(), super::OVER_DECODE_BUDGET);
+        assert!(b.charge_bytes("c", 400).is_ok(), "exactly the bytes left");
+        assert_eq!(b.charge_pixels("c", 1, 1).unwrap_err(), super::OVER_DECODE_BUDGET);
+        for name in ["d", "e"] {
+            assert!(b.charge_bytes(name, 1).is_err());
+        }
+        assert_eq!(
+            b.warning().unwrap(),
+            "the images would decode more than 100 pixels, or 1000 encoded bytes, together; 4 not decoded \
+             (the materials that read them use the base colour factor): b (401 bytes), c (1×1), d (1 bytes), and 1 more"
+        );
+        assert!(super::DecodeBudget::new(1, 1).warning().is_none());
+    }
     use super::*;
 
     fn tex(name: &str, w: u32, h: u32, seed: u32) -> Texture {

@@ -1097,30 +1097,62 @@ fn images_with_one_source_decode_once_and_a_model_decodes_a_bounded_number_of_pi
             .unwrap();
         out.into_inner()
     };
-    // A GLB: material i reads image i; images 0 and 1 are the same buffer view (a 16×16 PNG),
-    // image 2 another (8×8).
-    let extra = r#","materials":[{"pbrMetallicRoughness":{"baseColorTexture":{"index":0}}},{"pbrMetallicRoughness":{"baseColorTexture":{"index":1}}},{"pbrMetallicRoughness":{"baseColorTexture":{"index":2}}}],"textures":[{"source":0},{"source":1},{"source":2}],"images":[{"bufferView":2,"mimeType":"image/png"},{"bufferView":2,"mimeType":"image/png"},{"bufferView":3,"mimeType":"image/png"}]"#;
-    let (json, mut bin) = gltf_json(&TRI, Some(&[0, 1, 2]), true, extra);
+    // A PNG header claiming 46 300² pixels (6.4 GB decoded), then a few bytes of IDAT.
+    let huge = {
+        let chunk = |t: &[u8], d: &[u8]| {
+            let mut c = (d.len() as u32).to_be_bytes().to_vec();
+            c.extend(t);
+            c.extend(d);
+            let mut h = crc32fast::Hasher::new();
+            h.update(t);
+            h.update(d);
+            c.extend(h.finalize().to_be_bytes());
+            c
+        };
+        let mut ihdr = 46_300u32.to_be_bytes().to_vec();
+        ihdr.extend(46_300u32.to_be_bytes());
+        ihdr.extend([8, 2, 0, 0, 0]);
+        let mut p = b"\x89PNG\r\n\x1a\n".to_vec();
+        p.extend(chunk(b"IHDR", &ihdr));
+        p.extend(chunk(b"IDAT", &[0x78, 0x9c, 0x03, 0x00]));
+        p.extend(chunk(b"IEND", &[]));
+        p
+    };
+    // A GLB: material i reads image i. Images 0 and 1 are buffer view 2 (a 16×16 PNG), image 2
+    // is view 4 (the huge header), image 3 is view 5 (the same bytes as view 2, another view),
+    // image 4 is view 3 (8×8).
+    let images = [2, 2, 4, 5, 3].map(|v| format!(r#"{{"bufferView":{v},"mimeType":"image/png"}}"#)).join(",");
+    let materials = (0..5)
+        .map(|i| format!(r#"{{"pbrMetallicRoughness":{{"baseColorTexture":{{"index":{i}}}}}}}"#))
+        .collect::<Vec<_>>()
+        .join(",");
+    let textures = (0..5).map(|i| format!(r#"{{"source":{i}}}"#)).collect::<Vec<_>>().join(",");
+    let extra = format!(r#","materials":[{materials}],"textures":[{textures}],"images":[{images}]"#);
+    let (json, mut bin) = gltf_json(&TRI, Some(&[0, 1, 2]), true, &extra);
     let old_len = bin.len();
     let mut views = String::new();
-    for p in [png(16, 16), png(8, 8)] {
+    let mut first = 0;
+    for (k, p) in [png(16, 16), png(8, 8), huge].into_iter().enumerate() {
+        if k == 0 {
+            first = bin.len();
+        }
         views += &format!(r#",{{"buffer":0,"byteOffset":{},"byteLength":{}}}"#, bin.len(), p.len());
         bin.extend(p);
         while bin.len() % 4 != 0 {
             bin.push(0);
         }
     }
+    let len16 = png(16, 16).len();
+    views += &format!(r#",{{"buffer":0,"byteOffset":{first},"byteLength":{len16}}}"#);
     let prim = r#"{"attributes":{"POSITION":0},"indices":1"#;
+    let prims = (0..5).map(|i| format!(r#"{prim},"material":{i}}}"#)).collect::<Vec<_>>().join(",");
     let json = json
         .replace(
             &format!(r#""buffers":[{{"byteLength":{old_len}}}]"#),
             &format!(r#""buffers":[{{"byteLength":{}}}]"#, bin.len()),
         )
         .replacen("}],\n\"accessors\"", &format!("}}{views}],\n\"accessors\""), 1)
-        .replace(
-            &format!("{prim}}}"),
-            &format!(r#"{prim},"material":0}},{prim},"material":1}},{prim},"material":2}}"#),
-        );
+        .replace(&format!("{prim}}}"), &prims);
     let bytes = glb(&json, &bin);
     std::fs::write(d.join("m.glb"), &bytes).unwrap();
     let texture_of = |imp: &spherebake_io::Imported| -> Vec<Option<(usize, u32, u32)>> {
@@ -1135,22 +1167,37 @@ fn images_with_one_source_decode_once_and_a_model_decodes_a_bounded_number_of_pi
             })
             .collect()
     };
+    let a = Some((0, 16, 16));
     let imp = load_mesh(&d.join("m.glb")).unwrap();
-    assert_eq!(imp.mesh.textures.len(), 2, "the shared view decoded once");
-    assert_eq!(texture_of(&imp), [Some((0, 16, 16)), Some((0, 16, 16)), Some((1, 8, 8))]);
-    assert!(!imp.warnings.iter().any(|w| w.0.contains("decode")), "{:?}", imp.warnings);
+    assert_eq!(imp.mesh.textures.len(), 2, "the shared bytes decoded once: {:?}", imp.warnings);
+    assert_eq!(texture_of(&imp), [a, a, None, a, Some((1, 8, 8))]);
+    let decode_warnings = |imp: &spherebake_io::Imported| -> Vec<String> {
+        imp.warnings.iter().filter(|w| w.0.contains("decode")).map(|w| w.0.clone()).collect()
+    };
+    let w = decode_warnings(&imp);
+    assert!(w.len() == 1 && w[0].contains("46300×46300 pixels would take more than"), "{w:?}");
+    // 320 pixels: exactly the two real images; the huge header is refused by the memory cap
+    // before it is charged.
+    let opts = ImportOptions { max_decoded_pixels: 320, ..Default::default() };
+    let imp = spherebake_io::load_mesh_with(&d.join("m.glb"), &opts).unwrap();
+    assert_eq!(texture_of(&imp), [a, a, None, a, Some((1, 8, 8))]);
     // 300 pixels: the 16×16 image (256) fits, the 8×8 one (64) would pass 300.
     let opts = ImportOptions { max_decoded_pixels: 300, ..Default::default() };
     let imp = spherebake_io::load_mesh_with(&d.join("m.glb"), &opts).unwrap();
-    assert_eq!(texture_of(&imp), [Some((0, 16, 16)), Some((0, 16, 16)), None]);
-    let w: Vec<_> = imp.warnings.iter().filter(|w| w.0.contains("decode more than 300 pixels")).collect();
-    assert!(w.len() == 1 && w[0].0.contains("image[2] (8×8)"), "{:?}", imp.warnings);
-    let per_image = imp.warnings.iter().filter(|w| w.0.contains("cannot decode")).count();
-    assert_eq!(per_image, 0, "no warning of its own per image: {:?}", imp.warnings);
-    // Exactly enough: both decoded.
-    let opts = ImportOptions { max_decoded_pixels: 320, ..Default::default() };
-    let imp = spherebake_io::load_mesh_with(&d.join("m.glb"), &opts).unwrap();
-    assert_eq!(texture_of(&imp), [Some((0, 16, 16)), Some((0, 16, 16)), Some((1, 8, 8))]);
+    assert_eq!(texture_of(&imp), [a, a, None, a, None]);
+    let w = decode_warnings(&imp);
+    assert_eq!(w.len(), 2, "the memory cap's, and one for the budget: {w:?}");
+    assert!(
+        w[1].contains("decode more than 300 pixels, or 1073741824 encoded bytes, together; 1 not decoded")
+            && w[1].ends_with(": image[4] (8×8)"),
+        "{w:?}"
+    );
+    // The same file URI named by two images: read and decoded once.
+    std::fs::write(d.join("a.png"), png(16, 16)).unwrap();
+    let extra = r#","materials":[{"pbrMetallicRoughness":{"baseColorTexture":{"index":0}}},{"pbrMetallicRoughness":{"baseColorTexture":{"index":1}}}],"textures":[{"source":0},{"source":1}],"images":[{"uri":"a.png"},{"uri":"a.png"}]"#;
+    std::fs::write(d.join("m.gltf"), two_material_gltf(extra)).unwrap();
+    let imp = load_mesh(&d.join("m.gltf")).unwrap();
+    assert_eq!(texture_of(&imp), [a, a]);
     // OBJ: map_Kd and map_d count too; a.png (256) fits 300, then b.png's mask (64) does not.
     std::fs::write(d.join("a.png"), png(16, 16)).unwrap();
     std::fs::write(d.join("b.png"), png(8, 8)).unwrap();
