@@ -223,6 +223,7 @@ fn decode_texture(
     budget: &mut DecodeBudget,
 ) -> Result<(Decoded, bool), String> {
     budget.charge_bytes(&name, bytes.len())?;
+    let bytes = &*without_compressed_png_chunks(bytes);
     let reader = || -> Result<_, String> {
         let mut r =
             image::ImageReader::new(std::io::Cursor::new(bytes)).with_guessed_format().map_err(|e| e.to_string())?;
@@ -288,6 +289,43 @@ fn decode_texture(
     let reduced_from = (tw != w || th != h).then_some((width, height));
     let texture = Texture { name, width: tw as u32, height: th as u32, texels_linear };
     Ok((Decoded { texture, reduced_from }, has_alpha))
+}
+
+/// A PNG's bytes without its compressed ancillary chunks (iCCP, zTXt, iTXt): the decoder
+/// inflates them while it reads the header, up to the per-image memory cap, work that neither
+/// the pixels nor the bytes of the image measure (a 0.5 MB colour profile can inflate to
+/// 500 MiB), and the texture needs none of them (colour is read as sRGB, text is not read). Any
+/// other input, or a PNG whose chunks cannot be walked to the end, is returned as it is (the
+/// decoder then reports what is wrong); a PNG without such chunks is not copied.
+fn without_compressed_png_chunks(bytes: &[u8]) -> std::borrow::Cow<'_, [u8]> {
+    const SIGNATURE: &[u8] = b"\x89PNG\r\n\x1a\n";
+    const DROPPED: [&[u8; 4]; 3] = [b"iCCP", b"zTXt", b"iTXt"];
+    if !bytes.starts_with(SIGNATURE) {
+        return bytes.into();
+    }
+    // Chunks: length (4, big-endian), type (4), data, CRC (4).
+    let mut chunks = Vec::new();
+    let mut at = SIGNATURE.len();
+    while at < bytes.len() {
+        let Some(head) = bytes.get(at..at + 8) else { return bytes.into() };
+        let len = u32::from_be_bytes([head[0], head[1], head[2], head[3]]) as usize;
+        let Some(end) = at.checked_add(12).and_then(|x| x.checked_add(len)).filter(|&e| e <= bytes.len()) else {
+            return bytes.into();
+        };
+        chunks.push((at, end, DROPPED.iter().any(|t| head[4..8] == t[..])));
+        if &head[4..8] == b"IEND" {
+            break; // what follows is not part of the image
+        }
+        at = end;
+    }
+    if !chunks.iter().any(|c| c.2) {
+        return bytes.into();
+    }
+    let mut out = SIGNATURE.to_vec();
+    for (a, b, _) in chunks.into_iter().filter(|c| !c.2) {
+        out.extend_from_slice(&bytes[a..b]);
+    }
+    out.into()
 }
 
 /// Which channel of an image an MTL scalar texture (`map_d`) reads: `-imfchan r|g|b|m|l`
@@ -373,6 +411,67 @@ fn layout<T: Copy + Sync>(
 
 #[cfg(test)]
 mod tests {
+    /// A PNG with a colour profile, compressed and uncompressed text and bytes after IEND: the
+    /// compressed chunks go, the rest stays in order, and the pixels are the same.
+    #[test]
+    fn compressed_png_chunks_are_dropped_before_decoding() {
+        let mut png = std::io::Cursor::new(Vec::new());
+        image::RgbaImage::from_fn(5, 3, |x, y| image::Rgba([x as u8 * 40, y as u8 * 70, 9, 200 - x as u8]))
+            .write_to(&mut png, image::ImageFormat::Png)
+            .unwrap();
+        let png = png.into_inner();
+        let chunk = |t: &[u8], d: &[u8]| {
+            let mut c = (d.len() as u32).to_be_bytes().to_vec();
+            c.extend(t);
+            c.extend(d);
+            let mut h = crc32fast::Hasher::new();
+            h.update(t);
+            h.update(d);
+            c.extend(h.finalize().to_be_bytes());
+            c
+        };
+        let chunks = |b: &[u8]| {
+            let (mut at, mut out) = (8, Vec::new());
+            while at + 8 <= b.len() {
+                let n = u32::from_be_bytes(b[at..at + 4].try_into().unwrap()) as usize;
+                out.push(String::from_utf8_lossy(&b[at + 4..at + 8]).into_owned());
+                at += 12 + n;
+            }
+            out
+        };
+        // A zlib stream (one stored block) of 1000 zeros: a profile's or a text's payload.
+        let zeros = {
+            let data = vec![0u8; 1000];
+            let n = data.len() as u16;
+            let mut z = vec![0x78, 0x01, 0x01];
+            z.extend(n.to_le_bytes());
+            z.extend((!n).to_le_bytes());
+            z.extend(&data);
+            let (a, b) = data.iter().fold((1u32, 0u32), |(a, b), &x| {
+                let a = (a + u32::from(x)) % 65_521;
+                (a, (b + a) % 65_521)
+            });
+            z.extend(((b << 16) | a).to_be_bytes());
+            z
+        };
+        let ihdr_end = 8 + 12 + 13;
+        let mut with = png[..ihdr_end].to_vec();
+        with.extend(chunk(b"iCCP", &[b"p".as_slice(), &[0, 0], &zeros].concat()));
+        with.extend(chunk(b"tEXt", b"Comment\0kept"));
+        with.extend(chunk(b"zTXt", &[b"k".as_slice(), &[0, 0], &zeros].concat()));
+        with.extend(chunk(b"iTXt", &[b"k".as_slice(), &[0, 1, 0, 0, 0], &zeros].concat()));
+        with.extend(&png[ihdr_end..]);
+        with.extend(b"trailing");
+        let got = super::without_compressed_png_chunks(&with);
+        assert_eq!(chunks(&got), ["IHDR", "tEXt", "IDAT", "IEND"]);
+        assert!(matches!(super::without_compressed_png_chunks(&png), std::borrow::Cow::Borrowed(_)));
+        let truncated = &with[..with.len() - 25]; // into the IDAT chunk
+        assert!(matches!(super::without_compressed_png_chunks(truncated), std::borrow::Cow::Borrowed(_)));
+        let mut budget = super::DecodeBudget::new(1 << 20, 1 << 20);
+        let a = super::decode_srgb_texture("a".into(), &png, &mut budget).unwrap().texture;
+        let b = super::decode_srgb_texture("b".into(), &with, &mut budget).unwrap().texture;
+        assert_eq!((a.width, a.height, a.texels_linear), (b.width, b.height, b.texels_linear));
+    }
     #[test]
     fn the_decode_budget_charges_bytes_then_pixels_and_sums_up_what_it_skipped() {
         let mut b = super::DecodeBudget::new(100, 1000);
