@@ -420,16 +420,7 @@ mod tests {
             .write_to(&mut png, image::ImageFormat::Png)
             .unwrap();
         let png = png.into_inner();
-        let chunk = |t: &[u8], d: &[u8]| {
-            let mut c = (d.len() as u32).to_be_bytes().to_vec();
-            c.extend(t);
-            c.extend(d);
-            let mut h = crc32fast::Hasher::new();
-            h.update(t);
-            h.update(d);
-            c.extend(h.finalize().to_be_bytes());
-            c
-        };
+        use spherebake_testkit::png::chunk;
         let chunks = |b: &[u8]| {
             let (mut at, mut out) = (8, Vec::new());
             while at + 8 <= b.len() {

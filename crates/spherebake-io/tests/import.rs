@@ -1099,16 +1099,7 @@ fn images_with_one_source_decode_once_and_a_model_decodes_a_bounded_number_of_pi
     };
     // A PNG header claiming 46 300² pixels (6.4 GB decoded), then a few bytes of IDAT.
     let huge = {
-        let chunk = |t: &[u8], d: &[u8]| {
-            let mut c = (d.len() as u32).to_be_bytes().to_vec();
-            c.extend(t);
-            c.extend(d);
-            let mut h = crc32fast::Hasher::new();
-            h.update(t);
-            h.update(d);
-            c.extend(h.finalize().to_be_bytes());
-            c
-        };
+        use spherebake_testkit::png::chunk;
         let mut ihdr = 46_300u32.to_be_bytes().to_vec();
         ihdr.extend(46_300u32.to_be_bytes());
         ihdr.extend([8, 2, 0, 0, 0]);

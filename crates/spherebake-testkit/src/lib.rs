@@ -11,9 +11,11 @@
 //!   `spherebake_geom::rng`.
 //! - [`mesh`]: the test meshes several crates' tests build (the unit cube) and a minimal
 //!   OBJ reader, as plain arrays.
+//! - [`png`]: PNG chunks (with their CRC) for tests that build PNGs by hand.
 
 pub mod mesh;
 pub mod oracle;
+pub mod png;
 pub mod rng;
 
 use std::path::{Path, PathBuf};
