@@ -224,14 +224,14 @@ fn decode_texture(
 ) -> Result<(Decoded, bool), String> {
     budget.charge_bytes(&name, bytes.len())?;
     let bytes = &*without_compressed_png_chunks(bytes);
-    let reader = || -> Result<_, String> {
-        let mut r =
-            image::ImageReader::new(std::io::Cursor::new(bytes)).with_guessed_format().map_err(|e| e.to_string())?;
+    let limits = || {
         let mut limits = image::Limits::default();
         limits.max_alloc = Some(MAX_DECODE_BYTES);
-        r.limits(limits);
-        Ok(r)
+        limits
     };
+    let mut reader =
+        image::ImageReader::new(std::io::Cursor::new(bytes)).with_guessed_format().map_err(|e| e.to_string())?;
+    reader.limits(limits());
     // Say which image and which cap, not only the image crate's "Memory limit exceeded".
     let too_large = |size: Option<(u32, u32)>| {
         format!(
@@ -240,26 +240,22 @@ fn decode_texture(
             MAX_DECODE_BYTES as f64 / f64::from(1u32 << 30)
         )
     };
-    let message = |e: image::ImageError| match e {
-        image::ImageError::Limits(_) => too_large(None),
+    let message = |e: image::ImageError, size| match e {
+        image::ImageError::Limits(_) => too_large(size),
         e => e.to_string(),
     };
-    // The header first, under the decode's own limits: the image is charged only once it is
-    // known to fit them (the decode below reads the header again).
-    let (width, height, bytes_needed) = {
-        use image::ImageDecoder;
-        let d = reader()?.into_decoder().map_err(message)?;
-        let (w, h) = d.dimensions();
-        (w, h, d.total_bytes())
-    };
-    if bytes_needed > MAX_DECODE_BYTES {
-        return Err(too_large(Some((width, height))));
-    }
+    // The header, under the decode's limits; the image is charged only once it is known to fit
+    // them. Then the decoder's allocations are held to what the image itself leaves of the cap,
+    // as `ImageReader::decode` does.
+    use image::ImageDecoder;
+    let mut decoder = reader.into_decoder().map_err(|e| message(e, None))?;
+    let (width, height) = decoder.dimensions();
+    let size = Some((width, height));
+    let mut rest = limits();
+    rest.reserve(decoder.total_bytes()).map_err(|e| message(e, size))?;
     budget.charge_pixels(&name, width, height)?;
-    let img = reader()?.decode().map_err(|e| match e {
-        image::ImageError::Limits(_) => too_large(Some((width, height))),
-        e => e.to_string(),
-    })?;
+    decoder.set_limits(rest).map_err(|e| message(e, size))?;
+    let img = image::DynamicImage::from_decoder(decoder).map_err(|e| message(e, size))?;
     let (width, height) = (img.width(), img.height());
     let (w, h) = (width as usize, height as usize);
     let curve = |v: f32| if srgb { srgb_to_linear(v) } else { v };
