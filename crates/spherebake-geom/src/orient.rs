@@ -37,6 +37,14 @@
 //!    at least three quarters of those agree. Otherwise the patch keeps the file's winding and
 //!    its triangles are counted in [`Orientation::ambiguous`].
 //!
+//!    *Isolated closed patches* skip the samples: a patch whose every edge is manifold and
+//!    consistent, and whose bounding box meets no other patch's box, bounds a region that no
+//!    other surface reaches into or encloses (a surface enclosing a point has the point in its
+//!    box), so its inside is the solid near it, and its root winding is outward exactly when its
+//!    signed volume is positive. This is the samples' answer without their cost: a field of
+//!    20 000 separate cubes took 5 s of winding evaluations on one core. Patches counted in
+//!    [`Orientation::by_volume`].
+//!
 //! **By defect:**
 //! - *whole mesh or whole part flipped*: w = −1 inside, |w| sees the same solid: the part is
 //!   flipped back;
@@ -54,9 +62,10 @@
 //! - *degenerate triangles* (zero area, non-finite or out-of-range corners): not joined, kept,
 //!   counted in [`Orientation::degenerate`].
 //!
-//! Cost: O(T log T) for sorting the edges, O(T) for the walk, one winding-number build when the
-//! file's winding is inconsistent, and at most 64 × 4 fast winding evaluations per patch
-//! (parallel with rayon). Every decision depends only on the input and the fixed sample choice,
+//! Cost: O(T log T) for sorting the edges, O(T) for the walk, O(P log P) and at most 1024 × P
+//! box tests for finding the isolated closed patches among P, one winding-number build when
+//! the file's winding is inconsistent (and some patch needs samples), and at most 64 × 4 fast
+//! winding evaluations per other patch (parallel with rayon). Every decision depends only on the input and the fixed sample choice,
 //! so the result is identical for any thread count.
 
 use crate::winding::{solid_angle, WindingNumber};
@@ -87,6 +96,9 @@ pub struct Orientation {
     pub patches: usize,
     /// Manifold edges whose two triangles disagree after the walk (non-orientable patches).
     pub inconsistent_edges: usize,
+    /// Patches decided by their signed volume: closed, consistent, and with a bounding box
+    /// that meets no other patch's (see the module docs); the rest are decided by samples.
+    pub by_volume: usize,
 }
 
 /// Decides, for every triangle, whether its counter-clockwise normal must be flipped to point
@@ -153,6 +165,8 @@ pub fn outward_orientation(positions: &[Vec3], triangles: &[[u32; 3]], winding: 
     let mut patch = vec![u32::MAX; n];
     let mut against = vec![false; n];
     let mut patches: Vec<Vec<u32>> = Vec::new();
+    // Per patch: some manifold edge of it disagrees after the walk.
+    let mut conflicted: Vec<bool> = Vec::new();
     let mut inconsistent = 0usize;
     let mut queue = std::collections::VecDeque::new();
     for root in 0..n {
@@ -160,6 +174,7 @@ pub fn outward_orientation(positions: &[Vec3], triangles: &[[u32; 3]], winding: 
             continue;
         }
         let id = patches.len() as u32;
+        let mut conflict = false;
         let mut members = vec![root as u32];
         patch[root] = id;
         queue.push_back(root as u32);
@@ -172,13 +187,15 @@ pub fn outward_orientation(positions: &[Vec3], triangles: &[[u32; 3]], winding: 
                     against[u as usize] = want;
                     members.push(u);
                     queue.push_back(u);
-                } else if against[u as usize] != want && t < u {
-                    inconsistent += 1;
+                } else if against[u as usize] != want {
+                    conflict = true;
+                    inconsistent += usize::from(t < u);
                 }
             }
         }
         members.sort_unstable();
         patches.push(members);
+        conflicted.push(conflict);
     }
 
     // Step 2 looks at the patches wound consistently (like their roots): when the file
@@ -186,17 +203,22 @@ pub fn outward_orientation(positions: &[Vec3], triangles: &[[u32; 3]], winding: 
     // patch does not corrupt the solid it is judged against.
     let rewound: Vec<[u32; 3]> =
         triangles.iter().zip(&against).map(|(t, &a)| if a { [t[0], t[2], t[1]] } else { *t }).collect();
+    // Isolated closed patches are decided by their signed volume, without samples.
+    let closed = |m: &[u32]| m.iter().all(|&t| adj_start[t as usize + 1] - adj_start[t as usize] == 3);
+    let by_volume = isolated_closed_patches(positions, &rewound, &patches, |p| !conflicted[p] && closed(&patches[p]));
     let rebuilt;
-    let solid = if against.iter().any(|&a| a) {
+    let solid = if against.iter().any(|&a| a) && by_volume.iter().any(Option::is_none) {
         rebuilt = WindingNumber::new(positions, &rewound);
         &rebuilt
     } else {
         winding
     };
-    // Samples: up to SAMPLES_PER_PATCH per patch, evenly spread over its sorted triangle list.
+    // Samples: up to SAMPLES_PER_PATCH per patch not decided above, evenly spread over its
+    // sorted triangle list.
     let samples: Vec<(usize, u32)> = patches
         .iter()
         .enumerate()
+        .filter(|(p, _)| by_volume[*p].is_none())
         .flat_map(|(p, m)| {
             let k = m.len().min(SAMPLES_PER_PATCH);
             (0..k).map(move |s| (p, m[s * m.len() / k]))
@@ -224,15 +246,19 @@ pub fn outward_orientation(positions: &[Vec3], triangles: &[[u32; 3]], winding: 
         ..Default::default()
     };
     out.degenerate = geo.iter().filter(|g| g.is_none()).count();
+    out.by_volume = by_volume.iter().filter(|d| d.is_some()).count();
     for (p, members) in patches.iter().enumerate() {
         let (total, decided, votes) = tally[p];
         // At least a quarter decided, and at least three quarters of those agree.
         let decisive = 4 * decided >= total && decided > 0 && 2 * votes.abs() >= decided;
-        if !decisive {
-            out.ambiguous += members.len();
-            continue;
-        }
-        let root_out = votes > 0;
+        let root_out = match by_volume[p] {
+            Some(out) => out,
+            None if decisive => votes > 0,
+            None => {
+                out.ambiguous += members.len();
+                continue;
+            }
+        };
         for &t in members {
             let f = against[t as usize] == root_out;
             out.flip[t as usize] = f;
@@ -240,6 +266,97 @@ pub fn outward_orientation(positions: &[Vec3], triangles: &[[u32; 3]], winding: 
         }
     }
     out
+}
+
+/// Pair tests of the box sweep in [`isolated_closed_patches`] at most, per patch; past it the
+/// patches not yet swept are left to the samples.
+const SWEEP_TESTS_PER_PATCH: usize = 1024;
+
+/// Per patch, `Some(root winding points outward)` when the patch is closed and consistent
+/// (`eligible`) and its bounding box meets no other patch's box, from the sign of its signed
+/// volume; else `None` (decided by the samples). Such a patch bounds a region no other surface
+/// reaches into or encloses (a surface enclosing a point has it in its box), so the solid near
+/// it is its own inside, which lies behind its triangles exactly when its signed volume
+/// (rewound, about its first vertex) is positive. A volume within 10⁻⁹ of its box's volume (a
+/// flat or self-cancelling patch) is left to the samples. Cost: O(P log P) for the sweep over
+/// the patches' boxes along x, at most [`SWEEP_TESTS_PER_PATCH`] × P box tests, and O(T) for the
+/// volumes.
+fn isolated_closed_patches(
+    positions: &[Vec3],
+    rewound: &[[u32; 3]],
+    patches: &[Vec<u32>],
+    eligible: impl Fn(usize) -> bool,
+) -> Vec<Option<bool>> {
+    let corner = |t: u32, k: usize| positions[rewound[t as usize][k] as usize];
+    let boxes: Vec<(Vec3, Vec3)> = patches
+        .iter()
+        .map(|m| {
+            let (mut lo, mut hi) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
+            for &t in m {
+                for k in 0..3 {
+                    lo = lo.min(corner(t, k));
+                    hi = hi.max(corner(t, k));
+                }
+            }
+            (lo, hi)
+        })
+        .collect();
+    let mut isolated = vec![true; patches.len()];
+    let mut order: Vec<usize> = (0..patches.len()).collect();
+    order.sort_unstable_by(|&a, &b| boxes[a].0.x.total_cmp(&boxes[b].0.x).then(a.cmp(&b)));
+    let mut budget = SWEEP_TESTS_PER_PATCH.saturating_mul(patches.len());
+    for (i, &a) in order.iter().enumerate() {
+        let (alo, ahi) = boxes[a];
+        for &b in &order[i + 1..] {
+            let (blo, bhi) = boxes[b];
+            if blo.x > ahi.x {
+                break;
+            }
+            if budget == 0 {
+                // Patches from `a` on have not met every later box: not known to be isolated.
+                for &c in &order[i..] {
+                    isolated[c] = false;
+                }
+                return decide(positions, rewound, patches, &isolated, &boxes, &eligible);
+            }
+            budget -= 1;
+            if blo.y <= ahi.y && alo.y <= bhi.y && blo.z <= ahi.z && alo.z <= bhi.z {
+                isolated[a] = false;
+                isolated[b] = false;
+            }
+        }
+    }
+    decide(positions, rewound, patches, &isolated, &boxes, &eligible)
+}
+
+/// The signed-volume decision of [`isolated_closed_patches`] for its isolated eligible patches.
+fn decide(
+    positions: &[Vec3],
+    rewound: &[[u32; 3]],
+    patches: &[Vec<u32>],
+    isolated: &[bool],
+    boxes: &[(Vec3, Vec3)],
+    eligible: &impl Fn(usize) -> bool,
+) -> Vec<Option<bool>> {
+    (0..patches.len())
+        .map(|p| {
+            if !isolated[p] || !eligible(p) {
+                return None;
+            }
+            let m = &patches[p];
+            let o = positions[rewound[m[0] as usize][0] as usize].as_dvec3();
+            let six_v: f64 = m
+                .iter()
+                .map(|&t| {
+                    let [a, b, c] = rewound[t as usize].map(|i| positions[i as usize].as_dvec3() - o);
+                    a.dot(b.cross(c))
+                })
+                .sum();
+            let ext = (boxes[p].1 - boxes[p].0).as_dvec3();
+            let box_v = ext.x * ext.y * ext.z;
+            (box_v > 0.0 && six_v.abs() / 6.0 > 1e-9 * box_v && six_v.is_finite()).then_some(six_v > 0.0)
+        })
+        .collect()
 }
 
 /// A non-degenerate triangle's geometry, f64.
@@ -356,6 +473,60 @@ mod tests {
         let expect: Vec<bool> = (0..8).map(|i| patch.contains(&i)).collect();
         assert_eq!(o.flip, expect);
         assert_eq!((o.patches, o.inconsistent_edges), (1, 0));
+    }
+
+    /// An axis-aligned box with corners `lo` and `hi` as 12 outward triangles, appended to
+    /// `p`/`t`; wound inward when `inward`.
+    fn push_box(p: &mut Vec<Vec3>, t: &mut Vec<[u32; 3]>, lo: Vec3, hi: Vec3, inward: bool) {
+        let b = p.len() as u32;
+        for i in 0..8 {
+            p.push(Vec3::new(
+                if i & 1 == 0 { lo.x } else { hi.x },
+                if i & 2 == 0 { lo.y } else { hi.y },
+                if i & 4 == 0 { lo.z } else { hi.z },
+            ));
+        }
+        let quads = [[0, 2, 3, 1], [4, 5, 7, 6], [0, 1, 5, 4], [2, 6, 7, 3], [0, 4, 6, 2], [1, 3, 7, 5]];
+        for q in quads {
+            for f in [[q[0], q[1], q[2]], [q[0], q[2], q[3]]] {
+                t.push(if inward { [b + f[0], b + f[2], b + f[1]] } else { f.map(|i| b + i) });
+            }
+        }
+    }
+
+    #[test]
+    fn isolated_closed_boxes_are_decided_by_volume_and_nested_ones_by_samples() {
+        // A row of separate boxes, every third inside out: each is isolated, so each is decided
+        // by its volume, and exactly the inside-out ones flip.
+        let (mut p, mut t) = (Vec::new(), Vec::new());
+        let inward = |i: usize| i % 3 == 1;
+        for i in 0..30 {
+            let lo = Vec3::new(2.0 * i as f32, 0.5 * (i % 4) as f32, 0.0);
+            push_box(&mut p, &mut t, lo, lo + Vec3::new(1.0, 1.0 + 0.1 * i as f32, 0.5), inward(i));
+        }
+        let w = WindingNumber::new(&p, &t);
+        let o = outward_orientation(&p, &t, &w);
+        assert_eq!((o.patches, o.by_volume, o.ambiguous), (30, 30, 0));
+        let expect: Vec<bool> = (0..30 * 12).map(|f| inward(f / 12)).collect();
+        assert_eq!(o.flip, expect);
+        // A hollow box: an outer box wound outward and an inner box wound inward (its
+        // faces point into the cavity, away from the shell). The inner box is closed but
+        // enclosed, so samples decide it, and neither box flips; judged by its own volume
+        // alone it would flip and fill the cavity.
+        let (mut p, mut t) = (Vec::new(), Vec::new());
+        push_box(&mut p, &mut t, Vec3::ZERO, Vec3::splat(4.0), false);
+        push_box(&mut p, &mut t, Vec3::ONE, Vec3::splat(3.0), true);
+        let w = WindingNumber::new(&p, &t);
+        let o = outward_orientation(&p, &t, &w);
+        assert_eq!((o.patches, o.by_volume, o.flipped, o.ambiguous), (2, 0, 0, 0));
+        // Boxes that touch face to face are not isolated either: samples decide both.
+        let (mut p, mut t) = (Vec::new(), Vec::new());
+        push_box(&mut p, &mut t, Vec3::ZERO, Vec3::ONE, true);
+        push_box(&mut p, &mut t, Vec3::X, Vec3::new(2.0, 1.0, 1.0), false);
+        let w = WindingNumber::new(&p, &t);
+        let o = outward_orientation(&p, &t, &w);
+        assert_eq!((o.patches, o.by_volume), (2, 0));
+        assert_eq!(o.flip, (0..24).map(|f| f < 12).collect::<Vec<_>>());
     }
 
     #[test]
