@@ -9,16 +9,32 @@
 //!   pointer `SPHB_ERR_INVALID_ARGUMENT`; an output buffer shorter than needed
 //!   `SPHB_ERR_BUFFER_TOO_SMALL` (nothing is written then; where a `*_len_out` exists it holds the
 //!   required length). A NULL pointer with a length of 0 is an empty array.
+//! - No output may overlap an input or another output of the same call (as with `memcpy`): the
+//!   array arguments are checked, and an overlap gives `SPHB_ERR_INVALID_ARGUMENT` (an output's
+//!   range is its declared capacity). Memory the library hands out (`sphb_proxy_views` and the
+//!   like) is read-only.
+//! - Floating-point arguments are checked where a NaN or an infinity would give a silent wrong
+//!   answer (points, radii, angles, directions): `SPHB_ERR_INVALID_ARGUMENT`.
 //! - No panic crosses the boundary: each call runs under `catch_unwind`; a caught panic gives
 //!   `SPHB_ERR_INTERNAL`.
 //! - Ownership: `sphb_load` copies the bytes (the caller may free them right away) and returns a
 //!   proxy the caller frees with `sphb_proxy_free`. Pointers handed out by `sphb_proxy_views`,
 //!   `sphb_proxy_bone` and `sphb_proxy_metadata` point into the proxy and live until it is freed.
 //!   Every `*_new` object is freed by its `*_free`; freeing NULL does nothing.
+//! - Memory: the library allocates with the system allocator (no allocator hooks). Running out
+//!   of memory aborts the process, as Rust's global allocator does; `*_new` never returns NULL.
 //! - Thread safety: a proxy and the shadow / light contexts are immutable after creation: any
-//!   number of threads may use them at once. A cluster (`SphbShadowCluster`,
-//!   `SphbIndirectCluster`) or a `SphbSphereLights` is mutated by its build / query calls: one
-//!   thread at a time per object (use one per thread). No call keeps global state.
+//!   number of threads may use them at once. A `SphbShadowCluster` is mutated by its build (one
+//!   thread at a time); once built, its queries (`sphb_accumulate_log_visibility`,
+//!   `sphb_shade_point`) read it only and may run on many threads at once. A
+//!   `SphbIndirectCluster` (build and queries) and a `SphbSphereLights` are mutated by their
+//!   calls: one thread at a time per object (use one per thread). No call keeps global state.
+//! - A failed build leaves its cluster empty and not built: its queries then fail with
+//!   `SPHB_ERR_INVALID_ARGUMENT` ("not built") until a build succeeds, never answering from a
+//!   half-built cluster.
+//! - Arrays of pointers to const objects (`const SphbSphereLights *const *lights`): C does not
+//!   convert `SphbSphereLights **` to that type implicitly; declare the array
+//!   `const SphbSphereLights *lights[]` (C++ converts it implicitly).
 //! - Units and conventions are the runtime's: model space, right-handed, lengths in the units
 //!   of the `units` metadata (metres for glTF input), angles in radians, colours linear RGB, SH
 //!   real orthonormal with the Condon–Shortley phase and index `l(l+1)+m` (order n = n² coefficients),
@@ -64,7 +80,7 @@ pub const SPHB_EXP_HYB: i32 = 1;
 pub const SPHB_EXP_ACCURATE: i32 = 2;
 
 /// Default cut threshold θmax of the hierarchy, radians (25°; Ren 2006 eq. 36).
-pub const SPHB_DEFAULT_THETA_MAX_RAD: f32 = 0.436_332_3;
+pub const SPHB_DEFAULT_THETA_MAX_RAD: f32 = 0.436_332_3_f32;
 
 /// Bone index of an unused skin slot (its terms are 0).
 pub const SPHB_UNUSED_BONE: u32 = u32::MAX;
@@ -343,7 +359,8 @@ pub struct SphbShadowContext {
     ctx: ShadowContext,
 }
 
-/// The blockers of one receiver cluster (opaque; reusable buffers; one thread at a time).
+/// The blockers of one receiver cluster (opaque; reusable buffers). Built by one thread at a
+/// time; once built, its queries may run on many threads at once.
 pub struct SphbShadowCluster {
     cb: ClusterBlockers,
     cut: Vec<CutEntry>,
@@ -423,6 +440,28 @@ fn check_ptr<T>(ptr: *const T, what: &str) -> Res<()> {
     }
     if (ptr as usize) % align_of::<T>() != 0 {
         return Err(invalid(format!("{what} is not aligned to {} bytes", align_of::<T>())));
+    }
+    Ok(())
+}
+
+/// The byte range `[start, end)` of `len` values of `T` at `ptr` (empty for NULL or `len == 0`).
+fn span<T>(ptr: *const T, len: usize) -> (usize, usize) {
+    let start = ptr as usize;
+    if ptr.is_null() || len == 0 {
+        return (start, start);
+    }
+    (start, start.saturating_add(len.saturating_mul(size_of::<T>())))
+}
+
+/// `SPHB_ERR_INVALID_ARGUMENT` when the buffer `out` (an output, as declared: its capacity)
+/// overlaps one of `others` (the call's inputs and other outputs): the library may not read and
+/// write one buffer at once, and an overlap gave wrong values with `SPHB_OK`.
+fn disjoint(out: (&str, (usize, usize)), others: &[(&str, (usize, usize))]) -> Res<()> {
+    let (name, (a0, a1)) = out;
+    for &(other, (b0, b1)) in others {
+        if a0 < a1 && b0 < b1 && a0 < b1 && b0 < a1 {
+            return Err(invalid(format!("{name} overlaps {other}: outputs must not share memory with inputs")));
+        }
     }
     Ok(())
 }
@@ -631,6 +670,17 @@ fn count_u32(n: usize) -> u32 {
     u32::try_from(n).unwrap_or(u32::MAX)
 }
 
+/// Version of this ABI: raised whenever a function, struct or constant of this header changes
+/// incompatibly. Compare it with `sphb_abi_version()` at start-up: a library built from another
+/// header answers another number.
+pub const SPHB_ABI_VERSION: u32 = 1;
+
+/// The `SPHB_ABI_VERSION` the library was built with. Thread-safe.
+#[no_mangle]
+pub extern "C" fn sphb_abi_version() -> u32 {
+    SPHB_ABI_VERSION
+}
+
 /// Returns the library version as a NUL-terminated string (static; never NULL). Thread-safe.
 #[no_mangle]
 pub extern "C" fn sphb_version() -> *const c_char {
@@ -804,6 +854,7 @@ pub unsafe extern "C" fn sphb_pose(
 ) -> i32 {
     run(err, || {
         let p = unsafe { object(proxy, "proxy")? };
+        disjoint(("out", span(out, out_len)), &[("joints", span(joints, joint_count.saturating_mul(16)))])?;
         let m = unsafe { matrices_in(joints, joint_count, "joints")? };
         let o = unsafe { output(out, out_len, p.proxy.sphere_count(), "out")? };
         spherebake_runtime::pose(&p.proxy, m, spheres_of_mut(o)).map_err(invalid)
@@ -848,6 +899,7 @@ pub unsafe extern "C" fn sphb_refit(
     run(err, || {
         let p = unsafe { object(proxy, "proxy")? };
         let plan = plan_of(p)?;
+        disjoint(("nodes_out", span(nodes_out, node_len)), &[("leaves", span(leaves, leaf_count))])?;
         let l = unsafe { input(leaves, leaf_count, "leaves")? };
         let o = unsafe { output(nodes_out, node_len, plan.node_count(), "nodes_out")? };
         spherebake_runtime::refit(plan, spheres_of(l), spheres_of_mut(o)).map_err(invalid)
@@ -870,6 +922,9 @@ pub unsafe extern "C" fn sphb_pose_and_refit(
     run(err, || {
         let p = unsafe { object(proxy, "proxy")? };
         let plan = plan_of(p)?;
+        let joints_span = ("joints", span(joints, joint_count.saturating_mul(16)));
+        disjoint(("leaves_out", span(leaves_out, leaf_len)), &[joints_span])?;
+        disjoint(("nodes_out", span(nodes_out, node_len)), &[joints_span, ("leaves_out", span(leaves_out, leaf_len))])?;
         let m = unsafe { matrices_in(joints, joint_count, "joints")? };
         let l = unsafe { output(leaves_out, leaf_len, p.proxy.sphere_count(), "leaves_out")? };
         let o = unsafe { output(nodes_out, node_len, plan.node_count(), "nodes_out")? };
@@ -898,6 +953,9 @@ pub unsafe extern "C" fn sphb_cut(
     run(err, || {
         let p = unsafe { object(proxy, "proxy")? };
         let plan = plan_of(p)?;
+        let inputs = [("nodes", span(nodes, node_count)), ("receiver_center", span(receiver_center, 3))];
+        disjoint(("out", span(out, out_cap)), &inputs)?;
+        disjoint(("len_out", span(len_out, 1)), &[inputs[0], inputs[1], ("out", span(out, out_cap))])?;
         let n = unsafe { input(nodes, node_count, "nodes")? };
         let c = unsafe { vec3(receiver_center, "receiver_center")? };
         let len = unsafe { object_mut(len_out, "len_out")? };
@@ -1045,6 +1103,8 @@ pub unsafe extern "C" fn sphb_accumulate_log_visibility(
         if order == 0 {
             return Err(invalid("the cluster was not built"));
         }
+        let inputs = [("p", span(p, 3)), ("normal", span(normal, 3))];
+        disjoint(("log_inout", span(log_inout, log_len)), &inputs)?;
         let pt = unsafe { vec3(p, "p")? };
         let n = unsafe { opt_vec3(normal, "normal")? };
         let log = unsafe { output(log_inout, log_len, order * order, "log_inout")? };
@@ -1067,6 +1127,7 @@ pub unsafe extern "C" fn sphb_visibility(
     run(err, || {
         let c = unsafe { object(ctx, "ctx")? };
         let nc = c.ctx.order() * c.ctx.order();
+        disjoint(("out", span(out, out_len)), &[("log", span(log, log_len))])?;
         let l = unsafe { input_min(log, log_len, nc, "log")? };
         let o = unsafe { output(out, out_len, nc, "out")? };
         c.ctx.visibility(l, o).map_err(invalid)
@@ -1090,6 +1151,7 @@ pub unsafe extern "C" fn sphb_shading_vector(
     run(err, || {
         let c = unsafe { object(ctx, "ctx")? };
         let nc = c.ctx.order() * c.ctx.order();
+        disjoint(("out", span(out, out_len)), &[("light", span(light, light_len)), ("normal", span(normal, 3))])?;
         let l = unsafe { input_min(light, light_len, nc, "light")? };
         let nv = unsafe { input(normal, 3, "normal")? };
         let o = unsafe { output(out, out_len, nc, "out")? };
@@ -1127,6 +1189,9 @@ pub unsafe extern "C" fn sphb_shade_point(
     run(err, || {
         let c = unsafe { object(ctx, "ctx")? };
         let cl = unsafe { object(cluster, "cluster")? };
+        let inputs =
+            [("p", span(p, 3)), ("normal", span(normal, 3)), ("shading_vector", span(shading_vector, shading_len))];
+        disjoint(("out", span(out, 1)), &inputs)?;
         let pt = unsafe { vec3(p, "p")? };
         let n = unsafe { vec3(normal, "normal")? };
         let t = unsafe { input(shading_vector, shading_len, "shading_vector")? };
@@ -1162,6 +1227,7 @@ pub unsafe extern "C" fn sphb_lobe_light(
 ) -> i32 {
     run(err, || {
         let order = sh_order(order)?;
+        disjoint(("out", span(out, out_len)), &[("direction", span(direction, 3))])?;
         let d = unsafe { input(direction, 3, "direction")? };
         let o = unsafe { output(out, out_len, order * order, "out")? };
         spherebake_runtime::shadow::lobe_light(order, [d[0], d[1], d[2]], half_angle_rad, o).map_err(invalid)
@@ -1255,6 +1321,9 @@ pub unsafe extern "C" fn sphb_sphere_rotations(
 ) -> i32 {
     run(err, || {
         let p = unsafe { object(proxy, "proxy")? };
+        let floats = joint_count.saturating_mul(16);
+        let inputs = [("joints", span(joints, floats)), ("rest_joints", span(rest_joints, floats))];
+        disjoint(("out", span(out, out_len)), &inputs)?;
         let m = unsafe { matrices_in(joints, joint_count, "joints")? };
         let r = unsafe { matrices_in(rest_joints, joint_count, "rest_joints")? };
         let n = p.proxy.sphere_count();
@@ -1365,6 +1434,7 @@ pub unsafe extern "C" fn sphb_clip_below_horizon(
     run(err, || {
         let c = unsafe { object(ctx, "ctx")? };
         let nc = c.ctx.order() * c.ctx.order();
+        disjoint(("out", span(out, out_len)), &[("env", span(env, env_len)), ("up", span(up, 3))])?;
         let e = unsafe { input(env, env_len, "env")? };
         let u = unsafe { input(up, 3, "up")? };
         let o = unsafe { output(out, out_len, nc, "out")? };
@@ -1403,6 +1473,7 @@ pub unsafe extern "C" fn sphb_sphere_lights_sample_radiance(
     run(err, || {
         let l = unsafe { object(lights, "lights")? };
         let r = l.lights.sample_radiance();
+        disjoint(("len_out", span(len_out, 1)), &[("out", span(out, out_cap))])?;
         *unsafe { object_mut(len_out, "len_out")? } = r.len();
         unsafe { output(out, out_cap, r.len(), "out")? }.copy_from_slice(r);
         Ok(())
@@ -1540,6 +1611,7 @@ pub unsafe extern "C" fn sphb_indirect_irradiance(
     run(err, || {
         let cl = unsafe { object_mut(cluster, "cluster")? };
         let c = unsafe { object(ctx, "ctx")? };
+        disjoint(("out", span(out, 3)), &[("p", span(p, 3)), ("normal", span(normal, 3))])?;
         let srcs = unsafe { sources_of(sources, lights, source_count)? };
         let pt = unsafe { vec3(p, "p")? };
         let n = unsafe { vec3(normal, "normal")? };

@@ -25,3 +25,15 @@ fn committed_header_is_the_generated_one() {
          SPHEREBAKE_BLESS=1 cargo test -p spherebake-capi --test header"
     );
 }
+
+/// The float constant written by hand into the header (cbindgen.toml `after_includes`, for its `f`
+/// suffix) is the Rust one: its digits parse to the same f32.
+#[test]
+fn the_theta_define_is_the_rust_constant_as_a_float() {
+    let header = std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("../../include/spherebake.h"))
+        .expect("header");
+    let line = header.lines().find(|l| l.starts_with("#define SPHB_DEFAULT_THETA_MAX_RAD ")).expect("the define");
+    let literal = line.trim_start_matches("#define SPHB_DEFAULT_THETA_MAX_RAD ");
+    let digits = literal.strip_suffix('f').expect("an f suffix");
+    assert_eq!(digits.parse::<f32>().unwrap(), spherebake::SPHB_DEFAULT_THETA_MAX_RAD);
+}

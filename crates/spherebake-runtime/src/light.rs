@@ -1141,6 +1141,8 @@ pub struct IndirectCluster {
     cb: ClusterBlockers,
     lights: Vec<(usize, usize)>,
     stack: Vec<u32>,
+    /// Per source of the last build: (spheres, samples), which the queries check.
+    built_for: Vec<(usize, usize)>,
 }
 
 /// A receiver cluster of pass 2: receivers sharing one hierarchy cut (a tile of a ground grid, a patch of a
@@ -1229,8 +1231,30 @@ impl IndirectCluster {
     ///
     /// # Errors
     ///
-    /// The lights of a source were computed at another order or for another sphere count; slices that do not fit.
+    /// The lights of a source were computed at another order or for another sphere count; slices that do not fit;
+    /// the cluster ball or θmax out of range (as [`ClusterBlockers::build`]). After an error the cluster is empty
+    /// and not built (its queries return [`ShadowError::NotBuilt`]), never half-built.
     pub fn build(
+        &mut self,
+        ctx: &LightContext,
+        sources: &[LightSource<'_, '_>],
+        cluster: &ClusterSpec,
+    ) -> Result<(), LightError> {
+        let built = self.build_entries(ctx, sources, cluster);
+        self.built_for.clear();
+        match built {
+            Ok(()) => {
+                self.built_for.extend(sources.iter().map(|(p, _)| (p.leaves.len(), p.proxy.sample_points().len())))
+            }
+            Err(_) => {
+                self.order = 0;
+                self.entries.clear();
+            }
+        }
+        built
+    }
+
+    fn build_entries(
         &mut self,
         ctx: &LightContext,
         sources: &[LightSource<'_, '_>],
@@ -1319,7 +1343,9 @@ impl IndirectCluster {
     ///
     /// # Errors
     ///
-    /// The cluster was built at another order than `ctx`'s; `sources` is not the slice the cluster was built from.
+    /// The cluster was not built, or its last build failed; it was built at another order than `ctx`'s;
+    /// `sources` is not the slice the cluster was built from (checked by their number and each one's sphere and
+    /// sample counts); `p` or `normal` not finite.
     pub fn irradiance(
         &mut self,
         ctx: &LightContext,
@@ -1327,9 +1353,22 @@ impl IndirectCluster {
         p: [f32; 3],
         normal: [f32; 3],
     ) -> Result<[f64; 3], LightError> {
+        if self.order == 0 {
+            return Err(ShadowError::NotBuilt.into());
+        }
         if self.order != ctx.order() {
             return Err(LightError::Mismatch { what: "order" });
         }
+        if sources.len() != self.built_for.len()
+            || sources
+                .iter()
+                .zip(&self.built_for)
+                .any(|((s, _), &b)| (s.leaves.len(), s.proxy.sample_points().len()) != b)
+        {
+            return Err(LightError::Mismatch { what: "sources (not the ones the cluster was built from)" });
+        }
+        crate::shadow::check_point("p", p)?;
+        crate::shadow::check_point("normal", normal)?;
         let e = self.contribution(ctx, sources, Which::Entries, p, normal, |_| true)?;
         Ok(e.map(|v| v.max(0.0)))
     }

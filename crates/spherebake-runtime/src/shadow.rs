@@ -113,6 +113,15 @@ pub enum ShadowError {
         /// Given length.
         actual: usize,
     },
+    /// A scalar or point argument is outside its range (NaN or infinite included).
+    Argument {
+        /// Which argument.
+        argument: &'static str,
+        /// What it must be.
+        expected: &'static str,
+    },
+    /// The cluster has no blockers to query: it was never built, or its last build failed.
+    NotBuilt,
 }
 
 impl fmt::Display for ShadowError {
@@ -124,6 +133,8 @@ impl fmt::Display for ShadowError {
             ShadowError::SliceLength { argument, expected, actual } => {
                 write!(f, "{argument} has length {actual}, expected at least {expected}")
             }
+            ShadowError::Argument { argument, expected } => write!(f, "{argument} must be {expected}"),
+            ShadowError::NotBuilt => write!(f, "the cluster was not built (or its last build failed)"),
         }
     }
 }
@@ -264,7 +275,10 @@ impl ClusterBlockers {
     ///
     /// # Errors
     ///
-    /// Order outside 1..=8; `leaves` shorter than the plan's leaf bound; `nodes` not one per node.
+    /// Order outside 1..=8; `leaves` shorter than the plan's leaf bound; `nodes` not one per node;
+    /// a centre that is not finite, a radius that is not finite and ≥ 0, θmax outside [0, π]. After
+    /// an error the cluster is empty and not built ([`ShadowError::NotBuilt`] from its queries),
+    /// never half-built.
     pub fn build(
         &mut self,
         order: usize,
@@ -274,7 +288,29 @@ impl ClusterBlockers {
         receiver_radius: f32,
         theta_max_rad: f32,
     ) -> Result<(), ShadowError> {
+        let built = self.build_blockers(order, leaves, hierarchy, receiver_center, receiver_radius, theta_max_rad);
+        if built.is_err() {
+            self.order = 0;
+            self.blockers.clear();
+        }
+        built
+    }
+
+    fn build_blockers(
+        &mut self,
+        order: usize,
+        leaves: &[Sphere],
+        hierarchy: Option<(&HierarchyPlan, &[Sphere])>,
+        receiver_center: [f32; 3],
+        receiver_radius: f32,
+        theta_max_rad: f32,
+    ) -> Result<(), ShadowError> {
         check_order(order)?;
+        check_point("receiver_center", receiver_center)?;
+        if !(receiver_radius >= 0.0 && receiver_radius.is_finite()) {
+            return Err(ShadowError::Argument { argument: "receiver_radius", expected: "finite and ≥ 0" });
+        }
+        check_angle("theta_max_rad", f64::from(theta_max_rad))?;
         self.order = order;
         self.blockers.clear();
         let p_star = receiver_center.map(f64::from);
@@ -366,8 +402,16 @@ impl ClusterBlockers {
         normal: [f32; 3],
         directions: usize,
     ) -> Result<f32, ShadowError> {
+        if self.order == 0 {
+            return Err(ShadowError::NotBuilt);
+        }
         if self.order != ctx.order {
             return Err(ShadowError::Order { order: self.order });
+        }
+        check_point("p_star", p_star)?;
+        check_point("normal", normal)?;
+        if directions > MAX_OVERLAP_DIRECTIONS {
+            return Err(ShadowError::Argument { argument: "directions", expected: "at most 65536" });
         }
         let n = self.order;
         let nc = coeff_count(n);
@@ -674,9 +718,14 @@ impl ShadowContext {
         normal: [f32; 3],
         shading_vector: &[f64],
     ) -> Result<f64, ShadowError> {
+        if blockers.order == 0 {
+            return Err(ShadowError::NotBuilt);
+        }
         if blockers.order != self.order {
             return Err(ShadowError::Order { order: blockers.order });
         }
+        check_point("p", p)?;
+        check_point("normal", normal)?;
         let nc = coeff_count(self.order);
         check_len("shading_vector", nc, shading_vector.len())?;
         let mut log = [0.0f32; MAX_COEFFS];
@@ -684,6 +733,28 @@ impl ShadowContext {
         let mut g = [0.0f64; MAX_COEFFS];
         self.visibility(&log[..nc], &mut g[..nc])?;
         Ok(shade(&shading_vector[..nc], &g[..nc]))
+    }
+}
+
+/// Directions of [`ClusterBlockers::correct_overlap`] at most (its cost is directions × blockers).
+pub const MAX_OVERLAP_DIRECTIONS: usize = 65_536;
+
+/// `Err(Argument)` unless every coordinate of `p` is finite.
+pub(crate) fn check_point(argument: &'static str, p: [f32; 3]) -> Result<(), ShadowError> {
+    if p.iter().all(|x| x.is_finite()) {
+        Ok(())
+    } else {
+        Err(ShadowError::Argument { argument, expected: "finite" })
+    }
+}
+
+/// `Err(Argument)` unless 0 ≤ `a` ≤ π (radians).
+fn check_angle(argument: &'static str, a: f64) -> Result<(), ShadowError> {
+    // An f32 π rounds above the f64 one.
+    if (0.0..=core::f64::consts::PI + 1e-6).contains(&a) {
+        Ok(())
+    } else {
+        Err(ShadowError::Argument { argument, expected: "in [0, π] radians" })
     }
 }
 
@@ -709,6 +780,11 @@ pub fn uniform_light(order: usize, out: &mut [f64]) {
 pub fn lobe_light(order: usize, direction: [f64; 3], half_angle_rad: f64, out: &mut [f64]) -> Result<(), ShadowError> {
     check_order(order)?;
     check_len("out", coeff_count(order), out.len())?;
+    let len2 = direction.iter().map(|x| x * x).sum::<f64>();
+    if !(len2 > 0.0 && len2.is_finite()) {
+        return Err(ShadowError::Argument { argument: "direction", expected: "finite and not zero" });
+    }
+    check_angle("half_angle_rad", half_angle_rad)?;
     let mut g = [0.0; MAX_ORDER];
     let mut w = [0.0; MAX_ORDER];
     cap_zh(half_angle_rad, order, &mut g)?;

@@ -184,3 +184,56 @@ fn different_inputs_different_bits() {
     let b = run(&ctx, &moved, &mut SphereLights::new(), &mut IndirectCluster::new(), false);
     assert!(a.1 != b.1, "moving a sphere must change pass 2");
 }
+
+/// A failed build leaves the cluster not built, never half-built: its queries refuse instead of answering from the
+/// lights of the build before or from the part the failed one assembled; and a query with other sources than the
+/// build's is refused.
+#[test]
+fn a_failed_build_leaves_no_lights_and_queries_check_their_sources() {
+    use spherebake_runtime::light::LightError;
+    use spherebake_runtime::shadow::ShadowError;
+    let ctx = LightContext::new(4, ExpMethod::default()).unwrap();
+    let (a, b) = (proxy_n(8, true), proxy_n(4, false));
+    let env = sky(&ctx);
+    let (mut la, mut lb) = (SphereLights::new(), SphereLights::new());
+    let (pa, pb) = (PosedProxy::at_rest(&a), PosedProxy::at_rest(&b));
+    light_spheres(&ctx, &pa, &env, &[], &Pass1Settings::default(), &mut la).unwrap();
+    light_spheres(&ctx, &pb, &env, &[], &Pass1Settings::default(), &mut lb).unwrap();
+    let up = [0.0f32, 1.0, 0.0];
+    let spec = ClusterSpec::new([0.0, 0.0, 0.0], 1.5, Some(up));
+    let mut cl = IndirectCluster::new();
+    let not_built = |r: Result<[f64; 3], LightError>| matches!(r, Err(LightError::Shadow(ShadowError::NotBuilt)));
+    assert!(not_built(cl.irradiance(&ctx, &[(pa, &la)], [0.0; 3], up)));
+    cl.build(&ctx, &[(pa, &la)], &spec).unwrap();
+    let lit = cl.irradiance(&ctx, &[(pa, &la)], [0.0; 3], up).unwrap();
+    assert!(lit.iter().all(|&v| v > 0.0), "{lit:?}");
+    // Other sources than the build's: the other proxy, two sources, none.
+    for other in [&[(pb, &lb)][..], &[(pa, &la), (pb, &lb)][..], &[][..]] {
+        assert!(
+            matches!(cl.irradiance(&ctx, other, [0.0; 3], up), Err(LightError::Mismatch { .. })),
+            "{} sources",
+            other.len()
+        );
+    }
+    // The second source's lights are another proxy's: the build fails after the first source's lights went in.
+    assert!(cl.build(&ctx, &[(pa, &la), (pb, &la)], &spec).is_err());
+    assert_eq!(cl.light_count(), 0);
+    assert!(not_built(cl.irradiance(&ctx, &[(pa, &la)], [0.0; 3], up)));
+    assert!(not_built(cl.irradiance(&ctx, &[(pa, &la), (pb, &la)], [0.0; 3], up)));
+    // A radius or θmax out of range fails the build the same way.
+    for bad in [
+        ClusterSpec { radius: f32::NAN, ..spec },
+        ClusterSpec { radius: -1.0, ..spec },
+        ClusterSpec { theta_max_rad: f32::NAN, ..spec },
+        ClusterSpec { theta_max_rad: 4.0, ..spec },
+        ClusterSpec { center: [f32::INFINITY, 0.0, 0.0], ..spec },
+    ] {
+        cl.build(&ctx, &[(pa, &la)], &spec).unwrap();
+        assert!(cl.build(&ctx, &[(pa, &la)], &bad).is_err(), "{bad:?}");
+        assert!(not_built(cl.irradiance(&ctx, &[(pa, &la)], [0.0; 3], up)), "{bad:?}");
+    }
+    // Rebuilt, it answers as before; a receiver that is not finite is refused.
+    cl.build(&ctx, &[(pa, &la)], &spec).unwrap();
+    assert_eq!(cl.irradiance(&ctx, &[(pa, &la)], [0.0; 3], up).unwrap(), lit);
+    assert!(cl.irradiance(&ctx, &[(pa, &la)], [f32::NAN, 0.0, 0.0], up).is_err());
+}

@@ -4,8 +4,8 @@
 #![allow(clippy::needless_range_loop)] // band loops mirror the formulas
 
 use spherebake_runtime::shadow::{
-    accumulate_log_visibility, eval_sh_f64, self_shadow_sphere, shade, uniform_light, ClusterBlockers, ExpMethod,
-    ShadowContext, ShadowError, IMPLICIT_ROOT,
+    accumulate_log_visibility, eval_sh_f64, lobe_light, self_shadow_sphere, shade, uniform_light, ClusterBlockers,
+    ExpMethod, ShadowContext, ShadowError, IMPLICIT_ROOT, MAX_OVERLAP_DIRECTIONS,
 };
 use spherebake_runtime::{CutEntry, Hierarchy, HierarchyPlan, NodeLists, Sphere};
 use std::f64::consts::PI;
@@ -226,6 +226,41 @@ fn errors_not_panics() {
         Err(ShadowError::Order { .. })
     ));
     assert!(matches!(ctx.visibility(&[0.0; 4], &mut [0.0; 9]), Err(ShadowError::SliceLength { argument: "log", .. })));
+    // A failed build leaves the cluster not built: no blockers, and its queries refuse instead of reporting a
+    // receiver fully lit (before, the blockers of the build before were gone and the order kept).
+    let ctx4 = ShadowContext::new(4, ExpMethod::default()).unwrap();
+    let mut t = [0.0f64; 16];
+    let mut light = [0.0f64; 16];
+    uniform_light(4, &mut light);
+    ctx4.shading_vector(&light, [-1.0, 0.0, 0.0], &mut t).unwrap();
+    let (p, n) = ([3.0f32, 0.0, 0.0], [-1.0f32, 0.0, 0.0]);
+    for (radius, theta, centre) in [
+        (f32::NAN, 0.4, [5.0, 0.0, 0.0]),
+        (-1.0, 0.4, [5.0, 0.0, 0.0]),
+        (0.0, f32::NAN, [5.0, 0.0, 0.0]),
+        (0.0, -0.1, [5.0, 0.0, 0.0]),
+        (0.0, 3.2, [5.0, 0.0, 0.0]),
+        (0.0, 0.4, [f32::NAN, 0.0, 0.0]),
+    ] {
+        cb.build(4, &leaves, None, p, 0.0, 0.4).unwrap();
+        let shaded = ctx4.shade_point(&cb, p, n, &t).unwrap();
+        assert!(shaded < 0.9, "the sphere in front darkens: {shaded}");
+        assert!(matches!(cb.build(4, &leaves, None, centre, radius, theta), Err(ShadowError::Argument { .. })));
+        assert_eq!((cb.order(), cb.blockers().len()), (0, 0));
+        assert_eq!(ctx4.shade_point(&cb, p, n, &t), Err(ShadowError::NotBuilt));
+        assert!(matches!(cb.correct_overlap(&ctx4, p, n, 16), Err(ShadowError::NotBuilt)));
+    }
+    assert_eq!(ctx4.shade_point(&ClusterBlockers::new(), p, n, &t), Err(ShadowError::NotBuilt));
+    // θmax = π (as f32, above the f64 π) is in range; receivers and light directions must be finite.
+    cb.build(4, &leaves, None, p, 0.0, std::f32::consts::PI).unwrap();
+    assert!(matches!(ctx4.shade_point(&cb, [f32::NAN, 0.0, 0.0], n, &t), Err(ShadowError::Argument { .. })));
+    assert!(matches!(
+        cb.correct_overlap(&ctx4, p, n, MAX_OVERLAP_DIRECTIONS + 1),
+        Err(ShadowError::Argument { argument: "directions", .. })
+    ));
+    for (d, a) in [([0.0; 3], 0.5), ([f64::NAN, 0.0, 1.0], 0.5), ([0.0, 0.0, 1.0], f64::NAN), ([0.0, 0.0, 1.0], -0.5)] {
+        assert!(matches!(lobe_light(4, d, a, &mut light), Err(ShadowError::Argument { .. })), "{d:?} {a}");
+    }
     // Degenerate spheres and receivers at a centre: skipped, finite output.
     let odd = [
         Sphere { center: [0.0; 3], radius: 1.0 },
