@@ -119,8 +119,10 @@ pub struct FitSettings {
     /// Number of spheres (default 64, range 1..=4096). Octree may overshoot by up to 6.
     pub spheres: usize,
     /// Target mode: find the smallest sphere count (≤ `plan.target_max_spheres`) whose E is at
-    /// most this ratio (variational only; `spheres` is then ignored). Doubling from
-    /// `plan.target_start` stops early, with a warning naming the best E reached, when the last
+    /// most this ratio (variational only; `spheres` is then ignored): counts double from
+    /// `plan.target_start` until one meets it, then a bisection between the largest count that
+    /// missed (or none: down to one sphere) and it narrows to within 1/`plan.target_bisect_fraction`
+    /// of the count (to one sphere below 2 × that fraction). Doubling stops early, with a warning naming the best E reached, when the last
     /// doubling shows the target is out of reach (see `target_out_of_reach`). Default `None`.
     pub max_outside_ratio: Option<f64>,
     /// Cells along the longest bounding-box axis of the voxel solid / energy proxy
@@ -1679,7 +1681,10 @@ fn fit_part(
                     });
                 }
                 Some(hk) => {
-                    let mut lo_k = hk / 2;
+                    // Below: the largest count tried that missed the target, else none (0), so a
+                    // first count that already meets it is bisected down towards one sphere.
+                    let mut lo_k =
+                        tried.iter().filter(|(k, r)| *k < hk && e_of(r) > target).map(|(k, _)| *k).max().unwrap_or(0);
                     let mut hk = hk;
                     while hk - lo_k > 1.max(hk / plan.target_bisect_fraction) {
                         let mid = (lo_k + hk) / 2;

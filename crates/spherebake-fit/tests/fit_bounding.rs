@@ -426,6 +426,27 @@ fn target_mode_reaches_the_ratio() {
     assert_triangles_covered(&p, &t, &r.spheres);
 }
 
+/// A target the first count (8) already meets is bisected down: the count returned meets it and
+/// one sphere fewer, fitted alone with the same settings, does not (the bisection is exact
+/// below 32 spheres). Before, the search never went below half its first count.
+#[test]
+fn target_mode_searches_below_its_first_count() {
+    let (p, t) = voxel_union(&[[0, 0, 0], [1, 0, 0], [0, 1, 0]], 1.0, 2);
+    let plan = FitPlan { point_resolution: 16, descent_trials: 8, seam_rounds: 1, ..FitPlan::default() };
+    let base = FitSettings { voxel_resolution: 32, plan, ..Default::default() };
+    let at = |k: usize| fit(&p, &t, &FitSettings { spheres: k, ..base.clone() }, &|_| {}).unwrap();
+    let e8 = at(8).stats.outside_ratio_e;
+    // A target between what 8 spheres and 1 sphere reach.
+    let e1 = at(1).stats.outside_ratio_e;
+    assert!(e1 > e8, "{e1} {e8}");
+    let target = e8 + 0.5 * (e1 - e8);
+    let r = fit(&p, &t, &FitSettings { max_outside_ratio: Some(target), ..base.clone() }, &|_| {}).unwrap();
+    let k = r.spheres.len();
+    assert!(r.stats.outside_ratio_e <= target && k < 8, "k {k}, E {} target {target}", r.stats.outside_ratio_e);
+    assert!(k == 1 || at(k - 1).stats.outside_ratio_e > target, "{} spheres already meet {target}", k - 1);
+    assert_triangles_covered(&p, &t, &r.spheres);
+}
+
 #[test]
 fn small_holes_are_filled_large_ones_are_not() {
     let (p, t) = voxel_union(&[[0, 0, 0], [1, 0, 0], [0, 1, 0]], 1.0, 4);
