@@ -81,6 +81,10 @@ pub(crate) struct Prepared {
     pub undecodable_images: HashMap<usize, &'static str>,
     /// `EXT_mesh_gpu_instancing` per node: accessor of TRANSLATION, ROTATION, SCALE.
     pub instancing: HashMap<usize, [Option<usize>; 3]>,
+    /// Animation channels removed because their target names no node (glTF 2.0 allows it, e.g.
+    /// `KHR_animation_pointer` targets, which the importer does not read; the gltf crate refuses
+    /// such a file).
+    pub channels_without_node: usize,
 }
 
 fn as_index(v: &Value) -> Option<usize> {
@@ -108,6 +112,17 @@ pub(crate) fn prepare(path: &Path, root: &mut Value) -> Result<Prepared, IoError
                 return Err(IoError::UnsupportedExtension { path: path.to_path_buf(), extension: ext.to_owned() });
             }
             prep.required.push(ext.to_owned());
+        }
+    }
+    // Channels whose target has no node (optional in glTF 2.0) are removed before the gltf crate,
+    // which requires one, sees them.
+    if let Some(anims) = obj.get_mut("animations").and_then(Value::as_array_mut) {
+        for anim in anims {
+            if let Some(channels) = anim.get_mut("channels").and_then(Value::as_array_mut) {
+                let before = channels.len();
+                channels.retain(|c| c.pointer("/target/node").is_some());
+                prep.channels_without_node += before - channels.len();
+            }
         }
     }
     // Draco only listed in extensionsUsed (optional): a primitive that carries it and whose

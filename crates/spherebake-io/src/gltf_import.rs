@@ -322,6 +322,12 @@ pub(crate) fn import(ctx: &mut Ctx, bytes: &[u8], glb: bool) -> Result<(Mesh, Ve
             });
         }
     }
+    if prep.channels_without_node > 0 {
+        ctx.warn(format!(
+            "{} animation channel(s) without a target node skipped (e.g. KHR_animation_pointer, which is not read): the pose margin and `pose` do not see what they animate",
+            prep.channels_without_node
+        ));
+    }
     let texel_budget = TexelBudget::new(ctx.opts.max_texels);
     let decode_caps = (ctx.opts.max_decoded_pixels, ctx.opts.max_input_bytes);
     let mut src = Source {

@@ -1206,3 +1206,30 @@ fn images_with_one_source_decode_once_and_a_model_decodes_a_bounded_number_of_pi
     let two = imp.mesh.materials.iter().find(|m| m.name == "two").unwrap();
     assert!(two.alpha_mask_cutoff.is_some(), "the default budget reads the mask: {:?}", imp.warnings);
 }
+
+/// glTF 2.0 makes an animation channel's `target.node` optional (KHR_animation_pointer targets
+/// have none). Such a file was refused ("missing field `node`"); now those channels are skipped
+/// with a warning and the channels with a node are read as before.
+#[test]
+fn animation_channels_without_a_node_are_skipped_not_refused() {
+    let path = fixture("skinned-arm.gltf");
+    let text = std::fs::read_to_string(&path).unwrap();
+    let mut json: serde_json::Value = serde_json::from_str(&text).unwrap();
+    let before = load_mesh(&path).unwrap();
+    let channels = json["animations"][0]["channels"].as_array_mut().unwrap();
+    let kept = channels.len();
+    channels.push(serde_json::json!({
+        "sampler": 0,
+        "target": {"path": "pointer", "extensions": {"KHR_animation_pointer": {"pointer": "/nodes/2/rotation"}}}
+    }));
+    let bytes = serde_json::to_vec(&json).unwrap();
+    let r = load_mesh_from_bytes(&path, &bytes).expect("a channel without a node is valid glTF");
+    let w: Vec<&str> = r.warnings.iter().map(|w| w.0.as_str()).collect();
+    assert!(w.iter().any(|w| w.starts_with("1 animation channel(s) without a target node skipped")), "{w:?}");
+    let anims = |m: &spherebake_io::Imported| m.mesh.skin.as_ref().expect("skinned").skeleton.animations.clone();
+    let (a, b) = (anims(&r), anims(&before));
+    assert_eq!(a.len(), 1);
+    assert_eq!(a[0].channels.len(), kept);
+    assert_eq!(a, b);
+    assert_eq!(r.mesh.positions, before.mesh.positions);
+}
