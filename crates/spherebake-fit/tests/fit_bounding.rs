@@ -513,3 +513,28 @@ fn variational_beats_the_octree_on_the_unit_cube() {
         }
     }
 }
+
+/// The unit cube's E falls in steps: 8 → 16 spheres barely moves it, so the early stop, judged
+/// there, called a target that 64 spheres meet out of reach and returned 16 spheres far above
+/// it. It now judges from the default count (64) on.
+#[test]
+fn target_mode_does_not_stop_before_the_default_count() {
+    let (p, t) = voxel_union(&[[0, 0, 0]], 1.0, 1);
+    let plan = FitPlan { descent_trials: 8, seam_rounds: 1, ..FitPlan::default() };
+    let base = FitSettings { voxel_resolution: 32, plan, ..Default::default() };
+    let at =
+        |k: usize| fit(&p, &t, &FitSettings { spheres: k, ..base.clone() }, &|_| {}).unwrap().stats.outside_ratio_e;
+    let (e8, e16, e64) = (at(8), at(16), at(64));
+    // The target: what 64 spheres reach, while 8 → 16 fell by less than the rate that reaches it.
+    let target = e64;
+    assert!(e16 > target && e8 > target, "{e8} {e16} {e64}");
+    let r = fit(&p, &t, &FitSettings { max_outside_ratio: Some(target), ..base.clone() }, &|_| {}).unwrap();
+    assert!(
+        r.stats.outside_ratio_e <= target,
+        "E {} > {target} with {} spheres: {:?}",
+        r.stats.outside_ratio_e,
+        r.spheres.len(),
+        r.warnings
+    );
+    assert_triangles_covered(&p, &t, &r.spheres);
+}

@@ -77,7 +77,7 @@ pub struct BakeArgs {
     /// Albedo cube-map face size in texels [default: 32, range 4..=512]
     #[arg(long)]
     pub cubemap_size: Option<usize>,
-    /// Write the compact encoding (format 1.1): samples in 12 bytes (16-bit positions in a box per
+    /// Write the compact encoding (sections added in format 1.1; a bake's file is 1.2): samples in 12 bytes (16-bit positions in a box per
     /// sphere, octahedral 2x16-bit normals), albedo SH as f16; about half the size. Readers of
     /// format 1.0 load such a file without samples and albedo [default: lossless]
     #[arg(long)]
@@ -105,7 +105,8 @@ pub struct BakeArgs {
     /// Print nothing but errors
     #[arg(short, long, conflicts_with = "verbose")]
     pub quiet: bool,
-    /// Print warnings and per-stage times of every asset
+    /// Print more: one input adds the fit trace (proxy E after each stage); a batch adds each
+    /// asset's stage times, fit trace and warnings under its row
     #[arg(short, long)]
     pub verbose: bool,
 }
