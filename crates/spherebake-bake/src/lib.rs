@@ -74,7 +74,8 @@ pub struct BakeReport {
     pub vertices_welded: usize,
     pub closed: bool,
     pub sphere_count: usize,
-    /// Outside-volume ratio E = Σ V(S_i − T) / V(T) (Ren et al. 2006 eq. 35), when the fitter measured it.
+    /// Outside-volume ratio E = Σ V(S_i − T) / V(T) (Ren et al. 2006 eq. 35) of the spheres written
+    /// (after `--pose-margin auto` grew them), when measured.
     pub outside_ratio_e: Option<f64>,
     /// V(∪S − T) / V(T), when measured.
     pub union_outside_ratio: Option<f64>,
@@ -202,6 +203,36 @@ fn timed<T>(f: impl FnOnce() -> T) -> (T, f64) {
     (v, t.elapsed().as_secs_f64())
 }
 
+/// `triangles` with each one that `flip` marks turned over.
+fn turned(triangles: &[[u32; 3]], flip: &[bool]) -> Vec<[u32; 3]> {
+    triangles.iter().zip(flip).map(|(t, &f)| if f { [t[0], t[2], t[1]] } else { *t }).collect()
+}
+
+/// The welded triangles of `mesh`, each turned outward by the solid
+/// ([`spherebake_geom::orient::outward_orientation`]): what the bake hands to the fit. Cost: one
+/// winding-number build and the orientation.
+pub fn outward_triangles(mesh: &spherebake_geom::Mesh) -> Vec<[u32; 3]> {
+    let triangles = mesh.welded_triangles();
+    let winding = WindingNumber::new(&mesh.welded_positions, &triangles);
+    turned(&triangles, &outward_orientation(&mesh.welded_positions, &triangles, &winding).flip)
+}
+
+/// [`spherebake_fit::evaluate`] of `spheres` against `mesh` as a bake measures them: on its
+/// welded triangles turned outward ([`outward_triangles`]). The solid of an open mesh depends on
+/// the triangles' winding, so evaluating the triangles as stored gave another E than the bake
+/// printed when some faced inward (the Khronos sample BoxAnimated: 0.5409 against 0.4521).
+///
+/// # Errors
+///
+/// As [`spherebake_fit::evaluate`].
+pub fn evaluate_mesh(
+    mesh: &spherebake_geom::Mesh,
+    spheres: &[[f32; 4]],
+    settings: &spherebake_fit::EvalSettings,
+) -> Result<spherebake_fit::Evaluation, spherebake_fit::FitError> {
+    spherebake_fit::evaluate(&mesh.welded_positions, &outward_triangles(mesh), spheres, settings)
+}
+
 /// Bakes an already imported mesh (see [`bake_path`]).
 pub fn bake_imported(
     path: &Path,
@@ -239,10 +270,9 @@ pub fn bake_imported(
     // The fit sees the outward-oriented triangles: a mesh and its inside-out twin are the same
     // input to it (same solid, same spheres), and a mesh whose only defect was the winding of
     // some patches is closed again.
-    let oriented: Vec<[u32; 3]> =
-        triangles.iter().zip(&orientation.flip).map(|(t, &flip)| if flip { [t[0], t[2], t[1]] } else { *t }).collect();
+    let oriented = turned(&triangles, &orientation.flip);
     let t = Instant::now();
-    let fitted = fit_spheres(path, positions, &oriented, &bvh, settings, progress)?;
+    let mut fitted = fit_spheres(path, positions, &oriented, &bvh, settings, progress)?;
     timings.push(StageTime { stage: "fit", seconds: t.elapsed().as_secs_f64() });
     let fit_stages: Vec<StageTime> =
         fitted.stage_timings.iter().map(|(stage, seconds)| StageTime { stage, seconds: *seconds }).collect();
@@ -273,6 +303,26 @@ pub fn bake_imported(
                 ));
             }
             spheres.clone_from(&m.spheres);
+            if m.grown_count > 0 {
+                // E and the union ratio of the spheres written, not of the fit's.
+                let es = spherebake_fit::EvalSettings {
+                    voxel_resolution: settings.voxels,
+                    surface_samples: 1,
+                    ..Default::default()
+                };
+                if let Ok(ev) = spherebake_fit::evaluate(positions, &oriented, &spheres, &es) {
+                    if let (Some(target), Some(before)) = (settings.max_outside_ratio, fitted.outside_ratio_e) {
+                        if before <= target && ev.outside_ratio_e > target {
+                            warnings.push(format!(
+                                "the pose margin raised E from {before:.4} to {:.4}, above the target {target}",
+                                ev.outside_ratio_e
+                            ));
+                        }
+                    }
+                    fitted.outside_ratio_e = Some(ev.outside_ratio_e);
+                    fitted.union_outside_ratio = Some(ev.union_outside_ratio);
+                }
+            }
             margin = Some(m);
         }
     }

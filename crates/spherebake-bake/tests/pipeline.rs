@@ -128,3 +128,74 @@ fn duplicate_triangles_in_either_winding_bake_as_the_plain_mesh() {
     assert_eq!(a.file.spheres, b.file.spheres);
     assert_eq!(a.report.outside_ratio_e, b.report.outside_ratio_e);
 }
+
+/// `eval` measures what `bake` printed: an open mesh with some triangles facing inward has
+/// another solid as stored than turned outward (its winding number is not ±1 inside), and the
+/// bake fits the outward one. `evaluate_mesh` (what `eval` and the pose margin call) turns them
+/// outward too, so its E is the bake's; measured on the triangles as stored, E differs.
+#[test]
+fn evaluate_mesh_gives_the_e_the_bake_reported_for_a_partly_inward_open_mesh() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("partly_inward.obj");
+    // Every fifth face of the cut ellipsoid reversed.
+    let mut k = 0;
+    let text: String = cut_ellipsoid_obj(false)
+        .lines()
+        .map(|l| {
+            let mut l = l.to_string();
+            if let Some(rest) = l.strip_prefix("f ") {
+                k += 1;
+                if k % 5 == 0 {
+                    let v: Vec<&str> = rest.split(' ').collect();
+                    l = format!("f {} {} {}", v[0], v[2], v[1]);
+                }
+            }
+            l + "\n"
+        })
+        .collect();
+    std::fs::write(&path, text).unwrap();
+    let settings = BakeSettings { spheres: 16, voxels: 48, ..Default::default() };
+    let out = bake_path(&path, &settings, &|_| {}).unwrap();
+    assert!(out.report.warnings.iter().any(|w| w.contains("face inward")), "{:?}", out.report.warnings);
+    let mesh = spherebake_io::load_mesh(&path).unwrap().mesh;
+    let spheres: Vec<[f32; 4]> =
+        out.file.spheres.iter().map(|s| [s.center[0], s.center[1], s.center[2], s.radius]).collect();
+    let es = spherebake_fit::EvalSettings { voxel_resolution: 48, surface_samples: 1000, ..Default::default() };
+    let e = spherebake_bake::evaluate_mesh(&mesh, &spheres, &es).unwrap().outside_ratio_e;
+    let baked = out.report.outside_ratio_e.unwrap();
+    assert!((e - baked).abs() <= 1e-9 * baked, "eval {e}, bake {baked}");
+    let stored = spherebake_fit::evaluate(&mesh.welded_positions, &mesh.welded_triangles(), &spheres, &es)
+        .unwrap()
+        .outside_ratio_e;
+    assert!((stored - baked).abs() > 1e-3 * baked, "the stored winding gives the same E ({stored}): no case here");
+}
+
+/// With `--pose-margin auto` the report's E is that of the spheres written (grown by the
+/// margin), as `eval` measures the file; before, it was the fit's, below the file's. A target
+/// the fit met but the grown spheres miss gets a warning.
+#[test]
+fn the_reported_e_is_the_written_spheres_after_the_pose_margin() {
+    let path = fixture("skinned-arm.gltf");
+    let base = BakeSettings { spheres: 16, voxels: 48, ..Default::default() };
+    let plain = bake_path(&path, &base, &|_| {}).unwrap();
+    let auto = BakeSettings { pose_margin: spherebake_bake::PoseMargin::Auto, ..base.clone() };
+    let out = bake_path(&path, &auto, &|_| {}).unwrap();
+    let m = out.report.skin.as_ref().and_then(|s| s.pose_margin.as_ref()).expect("margin ran");
+    assert!(m.grown_count > 0, "the arm's animation needs a margin");
+    let mesh = spherebake_io::load_mesh(&path).unwrap().mesh;
+    let spheres: Vec<[f32; 4]> =
+        out.file.spheres.iter().map(|s| [s.center[0], s.center[1], s.center[2], s.radius]).collect();
+    let es = spherebake_fit::EvalSettings { voxel_resolution: 48, surface_samples: 1000, ..Default::default() };
+    let e = spherebake_bake::evaluate_mesh(&mesh, &spheres, &es).unwrap().outside_ratio_e;
+    let reported = out.report.outside_ratio_e.unwrap();
+    let fitted = plain.report.outside_ratio_e.unwrap();
+    assert!((e - reported).abs() <= 1e-9 * e, "file {e}, reported {reported}");
+    assert!(reported > fitted, "grown spheres add outside volume: {reported} vs {fitted}");
+    // A target between the fit's E and the grown spheres' E: met by the fit, missed by the file.
+    let target = 0.5 * (fitted + reported);
+    let t = bake_path(&path, &BakeSettings { max_outside_ratio: Some(target), ..auto.clone() }, &|_| {}).unwrap();
+    let te = t.report.outside_ratio_e.unwrap();
+    let warned = t.report.warnings.iter().any(|w| w.starts_with("the pose margin raised E"));
+    assert!(!t.report.warnings.iter().any(|w| w.contains("not reached")), "{:?}", t.report.warnings);
+    assert_eq!(warned, te > target, "E {te}, target {target}: {:?}", t.report.warnings);
+}

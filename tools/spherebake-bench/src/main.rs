@@ -188,12 +188,7 @@ fn child(model: &Path, spheres: usize, method: MethodArg, eval: bool, progress: 
         let mesh = &imported.mesh;
         let spheres: Vec<[f32; 4]> =
             out.file.spheres.iter().map(|s| [s.center[0], s.center[1], s.center[2], s.radius]).collect();
-        let ev = spherebake_fit::evaluate(
-            &mesh.welded_positions,
-            &mesh.welded_triangles(),
-            &spheres,
-            &spherebake_fit::EvalSettings::default(),
-        )?;
+        let ev = spherebake_bake::evaluate_mesh(mesh, &spheres, &spherebake_fit::EvalSettings::default())?;
         doc["eval"] = json!({
             "e": ev.outside_ratio_e,
             "coverage": ev.surface_coverage,

@@ -34,7 +34,7 @@ pub fn run(a: EvalArgs) -> Result<ExitCode> {
         surface_samples: a.surface_samples,
         ..Default::default()
     };
-    let e = spherebake_fit::evaluate(&mesh.welded_positions, &mesh.welded_triangles(), &spheres, &settings)
+    let e = spherebake_bake::evaluate_mesh(mesh, &spheres, &settings)
         .with_context(|| format!("{}: evaluating against {}", a.file.display(), a.model.display()))?;
     let solid = format!("{:?}", e.solid_source);
     // The file records the content hash of what it was baked from: say when this model differs
