@@ -74,6 +74,11 @@ pub struct BakeReport {
     pub vertices_welded: usize,
     pub closed: bool,
     pub sphere_count: usize,
+    /// Spheres the fit left empty (radius 0, stored as the smallest positive f32, a point): more
+    /// spheres would only have added outside volume (the capsule at 64 spheres uses 11 along its
+    /// axis; each sphere off it would stick out). They bound nothing and cost a reader little;
+    /// a smaller `--spheres` gives the same E.
+    pub empty_spheres: usize,
     /// Outside-volume ratio E = Σ V(S_i − T) / V(T) (Ren et al. 2006 eq. 35) of the spheres written
     /// (after `--pose-margin auto` grew them), when measured.
     pub outside_ratio_e: Option<f64>,
@@ -414,6 +419,7 @@ pub fn bake_imported(
         vertices_welded: topology.welded_vertex_count,
         closed: topology.closed,
         sphere_count: file.spheres.len(),
+        empty_spheres: file.spheres.iter().filter(|s| s.radius <= f32::MIN_POSITIVE).count(),
         outside_ratio_e: fitted.outside_ratio_e,
         union_outside_ratio: fitted.union_outside_ratio,
         skin: skin.as_ref().map(|(_, _, st)| SkinSummary {

@@ -584,12 +584,16 @@ fn print_single(output: &Path, r: &spherebake_bake::BakeReport, verbose: bool) {
         r.vertices_welded,
         if r.closed { "closed" } else { "not closed" }
     );
+    let count = match r.empty_spheres {
+        0 => r.sphere_count.to_string(),
+        k => format!("{} ({k} empty: more would only add outside volume)", r.sphere_count),
+    };
     match (r.outside_ratio_e, r.union_outside_ratio) {
         (Some(e), Some(u)) => {
-            println!("  spheres   {}  outside-volume ratio E = {e:.4}, union outside ratio = {u:.4}", r.sphere_count)
+            println!("  spheres   {count}  outside-volume ratio E = {e:.4}, union outside ratio = {u:.4}")
         }
-        (Some(e), None) => println!("  spheres   {}  outside-volume ratio E = {e:.4}", r.sphere_count),
-        _ => println!("  spheres   {}", r.sphere_count),
+        (Some(e), None) => println!("  spheres   {count}  outside-volume ratio E = {e:.4}"),
+        _ => println!("  spheres   {count}"),
     }
     let stages: Vec<String> = r.timings.iter().map(|t| format!("{} {:.3}", t.stage, t.seconds)).collect();
     println!("  time      {total:.3} s ({})", stages.join(", "));

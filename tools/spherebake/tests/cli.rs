@@ -96,6 +96,12 @@ fn readme_quick_start_bakes_the_fixture_and_prints_a_summary() {
     let bytes = std::fs::read(dir.path().join("capsule.sphb")).unwrap();
     let file = spherebake_format::read(&bytes).expect("the reader accepts what bake wrote");
     assert!(!file.spheres.is_empty());
+    // The capsule at 64 spheres leaves some empty (a sphere off its axis would stick out): the
+    // summary says how many, counted here from the file.
+    let empty = file.spheres.iter().filter(|s| s.radius <= f32::MIN_POSITIVE).count();
+    assert!(empty > 0 && empty < file.spheres.len(), "{empty}");
+    let line = format!("spheres   {} ({empty} empty: more would only add outside volume)", file.spheres.len());
+    assert!(out.contains(&line), "{out}");
 }
 
 #[test]
