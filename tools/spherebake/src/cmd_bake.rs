@@ -539,17 +539,21 @@ fn print_summary(results: &[AssetResult], verbose: bool, parallel: &JobPlan) {
         return;
     }
     let w = results.iter().map(|r| r.input.display().to_string().chars().count()).max().unwrap_or(0).max(5);
-    println!("{:<w$} {:>10} {:>8} {:>8} {:>9}  status", "asset", "triangles", "spheres", "E", "time (s)");
+    println!(
+        "{:<w$} {:>10} {:>8} {:>8} {:>9} {:>8}  status",
+        "asset", "triangles", "spheres", "E", "time (s)", "warnings"
+    );
     let opt = |v: Option<String>| v.unwrap_or_else(|| "-".into());
     for r in results {
         let name = r.input.display().to_string();
         println!(
-            "{:<w$} {:>10} {:>8} {:>8} {:>9.3}  {}",
+            "{:<w$} {:>10} {:>8} {:>8} {:>9.3} {:>8}  {}",
             name,
             opt(r.triangles.map(|t| t.to_string())),
             opt(r.spheres.map(|t| t.to_string())),
             opt(r.outside_ratio_e.map(|e| format!("{e:.4}"))),
             r.seconds,
+            opt(r.report.as_ref().map(|rep| rep.warnings.len().to_string())),
             // The cause was printed once, on stderr, as it happened.
             r.status
         );
@@ -565,6 +569,9 @@ fn print_summary(results: &[AssetResult], verbose: bool, parallel: &JobPlan) {
         }
     }
     let n = |s: &str| results.iter().filter(|r| r.status == s).count();
+    if !verbose && results.iter().any(|r| r.report.as_ref().is_some_and(|rep| !rep.warnings.is_empty())) {
+        println!("(-v lists each asset's warnings)");
+    }
     println!(
         "{} baked, {} up to date, {} failed ({} at a time: {})",
         n("baked"),

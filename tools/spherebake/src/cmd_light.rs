@@ -125,6 +125,16 @@ pub struct Stats {
     pub mean_reference_rgb: [f64; 3],
 }
 
+/// "rel RMSE … bias …", or the absolute RMSE where the reference's mean is 0 (a convex model
+/// reflects nothing onto itself) and the relative errors are not finite.
+fn errors(s: &Stats) -> String {
+    if s.rel_rmse.is_finite() && s.bias.is_finite() {
+        format!("rel RMSE {:.4}  bias {:+.4}", s.rel_rmse, s.bias)
+    } else {
+        format!("rel RMSE n/a (the reference is 0)  RMSE {:.4e}", s.rmse)
+    }
+}
+
 /// (receiver index, value) pairs of one cluster.
 type Values<T> = Vec<(usize, T)>;
 
@@ -278,18 +288,17 @@ pub fn run(a: LightArgs) -> Result<ExitCode> {
         r.model_reference.len(),
         r.model_clusters
     );
-    println!("  direct, ground         rel RMSE {:.4}  bias {:+.4}", direct.rel_rmse, direct.bias);
+    println!("  direct, ground         {}", errors(&direct));
     for (name, s) in [("indirect, ground", &ground), ("indirect, model ", &model)] {
-        println!("  {name}       rel RMSE {:.4}  bias {:+.4}", s.rel_rmse, s.bias);
+        println!("  {name}       {}", errors(s));
         println!("      mean proxy         {}", rgb(s.mean_proxy_rgb));
         println!("      mean reference     {}", rgb(s.mean_reference_rgb));
     }
     if !r.sample_proxy.is_empty() {
         println!(
-            "  pass 1, {} samples    exit radiance per unit albedo vs reference E_d/π: rel RMSE {:.4}  bias {:+.4}",
+            "  pass 1, {} samples    exit radiance per unit albedo vs reference E_d/π: {}",
             r.sample_proxy.len(),
-            samples.rel_rmse,
-            samples.bias
+            errors(&samples)
         );
     }
     println!(
@@ -983,6 +992,16 @@ fn glyph(c: char) -> [u8; 7] {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_zero_reference_prints_the_absolute_error() {
+        // A convex model reflects nothing onto itself: reference 0, proxy 0.02 in every channel.
+        let s = rgb_stats(&[[0.02; 3], [0.02; 3]], &[[0.0; 3], [0.0; 3]]);
+        assert!(!s.rel_rmse.is_finite());
+        assert_eq!(errors(&s), "rel RMSE n/a (the reference is 0)  RMSE 2.0000e-2");
+        let s = rgb_stats(&[[1.1; 3]], &[[1.0; 3]]);
+        assert_eq!(errors(&s), "rel RMSE 0.1000  bias +0.1000");
+    }
 
     #[test]
     fn stats_of_known_values() {

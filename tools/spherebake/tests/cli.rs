@@ -576,3 +576,39 @@ fn eval_warns_when_the_model_is_not_the_one_baked() {
     let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
     assert_eq!(v["input_hash_matches"], false);
 }
+
+/// A batch's table counts each asset's warnings (before, a batch without -v said nothing of
+/// them: skipped primitives, open meshes), and says -v lists them.
+#[test]
+fn the_batch_table_counts_each_assets_warnings() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    // A library that does not exist and a line element: two warnings; the capsule with its
+    // library: none.
+    std::fs::write(
+        d.join("warned.obj"),
+        "mtllib nowhere.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nl 1 2\nf 1 3 2\nf 1 2 4\nf 1 4 3\nf 2 3 4\n",
+    )
+    .unwrap();
+    std::fs::copy(repo().join("fixtures/capsule.obj"), d.join("capsule.obj")).unwrap();
+    std::fs::copy(repo().join("fixtures/capsule.mtl"), d.join("capsule.mtl")).unwrap();
+    let single = |name: &str| {
+        let o = run(&["bake", name, "-o", &format!("{name}.sphb"), "--spheres", "4", "--json", "--force"], d);
+        assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+        let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+        v["assets"][0]["report"]["warnings"].as_array().map_or(0, Vec::len)
+    };
+    let (w_warned, w_capsule) = (single("warned.obj"), single("capsule.obj"));
+    assert!(w_warned > 0 && w_capsule == 0, "{w_warned} {w_capsule}");
+    let o = run(&["bake", "warned.obj", "capsule.obj", "--out-dir", "out", "--spheres", "4"], d);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let out = String::from_utf8_lossy(&o.stdout);
+    let header = out.lines().next().unwrap();
+    let col = header.split_whitespace().position(|c| c == "warnings").expect("a warnings column");
+    for (name, want) in [("warned.obj", w_warned), ("capsule.obj", w_capsule)] {
+        let row = out.lines().find(|l| l.starts_with(name)).expect("a row");
+        // "time (s)" is two words in the header.
+        assert_eq!(row.split_whitespace().nth(col - 1), Some(want.to_string().as_str()), "{out}");
+    }
+    assert!(out.contains("(-v lists each asset's warnings)"), "{out}");
+}
