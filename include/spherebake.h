@@ -517,6 +517,10 @@ int32_t sphb_sphere_lights_leaf(const SphbSphereLights *lights,
 // polar(Σ b_j M⁰_j)ᵀ over its skin slots, from `joints` (pose) and `rest_joints` (the rest pose
 // of the file's model space), `joint_count` column-major 4×4 matrices each; into `out`
 // (9 floats per sphere, column-major 3×3, `out_len` floats). Thread-safe.
+// `rest_joints` are the joint matrices world(joint) × inverse bind of the glTF scene with no
+// animation applied (each node's own TRS), computed as the engine computes `joints`; they are
+// not the identity, which is the bind pose (CesiumMan's bind and rest poses differ by a
+// rotation). The file does not store them: compute them once per model from its glTF.
 int32_t sphb_sphere_rotations(const SphbProxy *proxy,
                               const float *joints,
                               const float *rest_joints,

@@ -1309,6 +1309,10 @@ unsafe fn posed_of<'a>(posed: &'a SphbPosed) -> Res<PosedProxy<'a>> {
 /// polar(Σ b_j M⁰_j)ᵀ over its skin slots, from `joints` (pose) and `rest_joints` (the rest pose
 /// of the file's model space), `joint_count` column-major 4×4 matrices each; into `out`
 /// (9 floats per sphere, column-major 3×3, `out_len` floats). Thread-safe.
+/// `rest_joints` are the joint matrices world(joint) × inverse bind of the glTF scene with no
+/// animation applied (each node's own TRS), computed as the engine computes `joints`; they are
+/// not the identity, which is the bind pose (CesiumMan's bind and rest poses differ by a
+/// rotation). The file does not store them: compute them once per model from its glTF.
 #[no_mangle]
 pub unsafe extern "C" fn sphb_sphere_rotations(
     proxy: *const SphbProxy,

@@ -1053,7 +1053,9 @@ fn cofactor(m: &[f64; 9]) -> [f64; 9] {
 /// Soft-deformation rotations (§7.1): for every sphere, R = polar(Σ_j b_j M_j) · polar(Σ_j b_j M⁰_j)ᵀ over its skin
 /// slots, M_j = `joint_matrices[bone]` (the pose) and M⁰_j = `rest_joint_matrices[bone]` (the rest pose the file's
 /// model space shows), glTF convention, column-major 4×4 (upper 3×3 used). Identity for a proxy without skin and
-/// where a weighted matrix is singular. `out[s]` is column-major 3×3.
+/// where a weighted matrix is singular. `out[s]` is column-major 3×3. The rest matrices are world(joint) × inverse
+/// bind of the glTF scene with no animation applied (each node's own TRS), not the identity (that is the bind
+/// pose); the file does not store them, so compute them once per model as the joint matrices are computed.
 ///
 /// # Errors
 ///
