@@ -1173,7 +1173,10 @@ impl Source<'_> {
                 bind_positions: std::mem::take(&mut b.bind),
             });
         } else if doc.animations().len() > 0 {
-            self.ctx.warn(format!("{} animation(s) ignored: no skinned mesh in the scene", doc.animations().len()));
+            self.ctx.warn(format!(
+                "{} animation(s) ignored: no skinned mesh in the scene (node and morph-weight animations are not baked; an engine moves a rigid proxy with its node)",
+                doc.animations().len()
+            ));
         }
         Ok((mesh, parts))
     }
