@@ -626,7 +626,8 @@ int32_t sphb_indirect_cluster_light_count(const SphbIndirectCluster *cluster,
 // **Pass 2, per receiver**: the indirect irradiance E (linear RGB, ∫ L_in cos dω; 3 doubles
 // into `out`) at receiver `p` (3 floats) with unit `normal` (3 floats) from the cluster's lights.
 // `sources` / `lights` must be the arrays the cluster was built from. Reuses the cluster's
-// buffers: one thread at a time per cluster. Each channel is at least 0 (SH lights can dip
+// buffers: one thread at a time per cluster; allocation-free once they have grown (up to 8
+// sources). Each channel is at least 0 (SH lights can dip
 // below 0; irradiance cannot).
 int32_t sphb_indirect_irradiance(SphbIndirectCluster *cluster,
                                  const SphbLightContext *ctx,

@@ -1105,6 +1105,7 @@ pub unsafe extern "C" fn sphb_accumulate_log_visibility(
         }
         let inputs = [("p", span(p, 3)), ("normal", span(normal, 3))];
         disjoint(("log_inout", span(log_inout, log_len)), &inputs)?;
+        disjoint(("used_out", span(used_out, 1)), &[inputs[0], inputs[1], ("log_inout", span(log_inout, log_len))])?;
         let pt = unsafe { vec3(p, "p")? };
         let n = unsafe { opt_vec3(normal, "normal")? };
         let log = unsafe { output(log_inout, log_len, order * order, "log_inout")? };
@@ -1557,9 +1558,12 @@ pub unsafe extern "C" fn sphb_indirect_cluster_build(
     run(err, || {
         let cl = unsafe { object_mut(cluster, "cluster")? };
         let c = unsafe { object(ctx, "ctx")? };
-        let srcs = unsafe { sources_of(sources, lights, source_count)? };
         let spec = cluster_spec_of(unsafe { object(spec, "spec")? })?;
-        cl.ic.build(&c.ctx, &srcs, &spec).map_err(|e| light_fail(&e))
+        unsafe {
+            with_sources(sources, lights, source_count, |srcs| {
+                cl.ic.build(&c.ctx, srcs, &spec).map_err(|e| light_fail(&e))
+            })
+        }
     })
 }
 
@@ -1578,27 +1582,46 @@ pub unsafe extern "C" fn sphb_indirect_cluster_light_count(
     })
 }
 
+/// Sources a pass-2 call holds on the stack (more go to a heap array): a query per receiver
+/// allocates nothing for up to this many.
+const STACK_SOURCES: usize = 8;
+
+/// Calls `f` with the `count` sources (`sources[i]` posed, lit by `lights[i]`), held on the
+/// stack up to [`STACK_SOURCES`].
+///
 /// # Safety
 /// Module conventions for the arrays.
-unsafe fn sources_of<'a>(
+unsafe fn with_sources<'a, R>(
     sources: *const SphbPosed,
     lights: *const *const SphbSphereLights,
     count: usize,
-) -> Res<Vec<(PosedProxy<'a>, &'a SphereLights)>> {
+    f: impl FnOnce(&[(PosedProxy<'a>, &'a SphereLights)]) -> Res<R>,
+) -> Res<R> {
     let s: &'a [SphbPosed] = unsafe { input(sources, count, "sources")? };
     let l: &'a [*const SphbSphereLights] = unsafe { input(lights, count, "lights")? };
-    let mut out = Vec::with_capacity(count);
-    for (pd, &lp) in s.iter().zip(l) {
-        let lights: &'a SphbSphereLights = unsafe { object(lp, "lights[i]")? };
-        out.push((unsafe { posed_of(pd)? }, &lights.lights));
+    let get = |i: usize| -> Res<(PosedProxy<'a>, &'a SphereLights)> {
+        let lights: &'a SphbSphereLights = unsafe { object(l[i], "lights[i]")? };
+        Ok((unsafe { posed_of(&s[i])? }, &lights.lights))
+    };
+    if count == 0 {
+        return f(&[]);
     }
-    Ok(out)
+    if count <= STACK_SOURCES {
+        let mut held = [get(0)?; STACK_SOURCES];
+        for (i, slot) in held.iter_mut().enumerate().take(count).skip(1) {
+            *slot = get(i)?;
+        }
+        return f(&held[..count]);
+    }
+    let all = (0..count).map(get).collect::<Res<Vec<_>>>()?;
+    f(&all)
 }
 
 /// **Pass 2, per receiver**: the indirect irradiance E (linear RGB, ∫ L_in cos dω; 3 doubles
 /// into `out`) at receiver `p` (3 floats) with unit `normal` (3 floats) from the cluster's lights.
 /// `sources` / `lights` must be the arrays the cluster was built from. Reuses the cluster's
-/// buffers: one thread at a time per cluster. Each channel is at least 0 (SH lights can dip
+/// buffers: one thread at a time per cluster; allocation-free once they have grown (up to 8
+/// sources). Each channel is at least 0 (SH lights can dip
 /// below 0; irradiance cannot).
 #[no_mangle]
 pub unsafe extern "C" fn sphb_indirect_irradiance(
@@ -1616,11 +1639,14 @@ pub unsafe extern "C" fn sphb_indirect_irradiance(
         let cl = unsafe { object_mut(cluster, "cluster")? };
         let c = unsafe { object(ctx, "ctx")? };
         disjoint(("out", span(out, 3)), &[("p", span(p, 3)), ("normal", span(normal, 3))])?;
-        let srcs = unsafe { sources_of(sources, lights, source_count)? };
         let pt = unsafe { vec3(p, "p")? };
         let n = unsafe { vec3(normal, "normal")? };
         let o = unsafe { output(out, 3, 3, "out")? };
-        let e = cl.ic.irradiance(&c.ctx, &srcs, pt, n).map_err(|e| light_fail(&e))?;
+        let e = unsafe {
+            with_sources(sources, lights, source_count, |srcs| {
+                cl.ic.irradiance(&c.ctx, srcs, pt, n).map_err(|e| light_fail(&e))
+            })?
+        };
         o.copy_from_slice(&e);
         Ok(())
     })

@@ -144,6 +144,23 @@ fn a_failed_shadow_build_leaves_the_cluster_not_built() {
         (s, out, message(&e))
     };
     assert!(shade().2.contains("not built"), "{}", shade().2);
+    // The count written over the log vector it accumulates into is refused (8-byte aligned, so
+    // only the overlap can refuse it).
+    assert_eq!(build(0.1, SPHB_DEFAULT_THETA_MAX_RAD).0, SPHB_OK);
+    let mut words = [0u64; 8];
+    let log = words.as_mut_ptr().cast::<f32>();
+    let mut e = new_err();
+    let status = unsafe {
+        sphb_accumulate_log_visibility(cl, pt.as_ptr(), up.as_ptr(), log, 16, words.as_mut_ptr().add(1).cast(), &mut e)
+    };
+    assert_eq!(status, SPHB_ERR_INVALID_ARGUMENT);
+    assert!(message(&e).contains("used_out overlaps log_inout"), "{}", message(&e));
+    let mut used = 0usize;
+    assert_eq!(
+        unsafe { sphb_accumulate_log_visibility(cl, pt.as_ptr(), up.as_ptr(), log, 16, &mut used, &mut e) },
+        SPHB_OK
+    );
+    assert!(used > 0);
     for (radius, theta) in [(f32::NAN, 0.4), (-1.0, 0.4), (0.1, f32::NAN), (0.1, 4.0), (f32::INFINITY, 0.4)] {
         let (s, msg) = build(0.1, SPHB_DEFAULT_THETA_MAX_RAD);
         assert_eq!(s, SPHB_OK, "{msg}");

@@ -37,11 +37,14 @@
 //!    at least three quarters of those agree. Otherwise the patch keeps the file's winding and
 //!    its triangles are counted in [`Orientation::ambiguous`].
 //!
-//!    *Isolated closed patches* skip the samples: a patch whose every edge is manifold and
-//!    consistent, and whose bounding box meets no other patch's box, bounds a region that no
-//!    other surface reaches into or encloses (a surface enclosing a point has the point in its
-//!    box), so its inside is the solid near it, and its root winding is outward exactly when its
-//!    signed volume is positive. This is the samples' answer without their cost: a field of
+//!    *Isolated closed patches* skip the samples when every patch of the mesh is closed (every
+//!    edge manifold) and consistent: a patch whose bounding box meets no other patch's box then
+//!    bounds a region that no other surface reaches into or encloses (a closed surface's winding
+//!    number is 0 outside its box, and one enclosing a point has the point in its box), so its
+//!    inside is the solid near it, and its root winding is outward exactly when its signed
+//!    volume is positive. An open patch's winding number reaches beyond its box (separate wall
+//!    quads can enclose a cavity whose box none of theirs meets), so one open patch sends every
+//!    patch to the samples. This is the samples' answer without their cost: a field of
 //!    20 000 separate cubes took 5 s of winding evaluations on one core. Patches counted in
 //!    [`Orientation::by_volume`].
 //!
@@ -203,9 +206,13 @@ pub fn outward_orientation(positions: &[Vec3], triangles: &[[u32; 3]], winding: 
     // patch does not corrupt the solid it is judged against.
     let rewound: Vec<[u32; 3]> =
         triangles.iter().zip(&against).map(|(t, &a)| if a { [t[0], t[2], t[1]] } else { *t }).collect();
-    // Isolated closed patches are decided by their signed volume, without samples.
+    // Isolated closed patches are decided by their signed volume, without samples, when every
+    // patch is closed and consistent: an open patch's winding number reaches beyond its box (open
+    // patches can enclose a region together while none of their boxes meets it).
     let closed = |m: &[u32]| m.iter().all(|&t| adj_start[t as usize + 1] - adj_start[t as usize] == 3);
-    let by_volume = isolated_closed_patches(positions, &rewound, &patches, |p| !conflicted[p] && closed(&patches[p]));
+    let all_closed = (0..patches.len()).all(|p| !conflicted[p] && closed(&patches[p]));
+    let by_volume =
+        if all_closed { isolated_closed_patches(positions, &rewound, &patches) } else { vec![None; patches.len()] };
     let rebuilt;
     let solid = if against.iter().any(|&a| a) && by_volume.iter().any(Option::is_none) {
         rebuilt = WindingNumber::new(positions, &rewound);
@@ -272,21 +279,16 @@ pub fn outward_orientation(positions: &[Vec3], triangles: &[[u32; 3]], winding: 
 /// patches not yet swept are left to the samples.
 const SWEEP_TESTS_PER_PATCH: usize = 1024;
 
-/// Per patch, `Some(root winding points outward)` when the patch is closed and consistent
-/// (`eligible`) and its bounding box meets no other patch's box, from the sign of its signed
+/// Per patch of a mesh whose patches are all closed and consistent, `Some(root winding points
+/// outward)` when its bounding box meets no other patch's box, from the sign of its signed
 /// volume; else `None` (decided by the samples). Such a patch bounds a region no other surface
-/// reaches into or encloses (a surface enclosing a point has it in its box), so the solid near
-/// it is its own inside, which lies behind its triangles exactly when its signed volume
+/// reaches into or encloses (a closed surface's winding number is 0 outside its box, and one
+/// enclosing a point has the point in its box), so the solid near it is its own inside, which lies behind its triangles exactly when its signed volume
 /// (rewound, about its first vertex) is positive. A volume within 10⁻⁹ of its box's volume (a
 /// flat or self-cancelling patch) is left to the samples. Cost: O(P log P) for the sweep over
 /// the patches' boxes along x, at most [`SWEEP_TESTS_PER_PATCH`] × P box tests, and O(T) for the
 /// volumes.
-fn isolated_closed_patches(
-    positions: &[Vec3],
-    rewound: &[[u32; 3]],
-    patches: &[Vec<u32>],
-    eligible: impl Fn(usize) -> bool,
-) -> Vec<Option<bool>> {
+fn isolated_closed_patches(positions: &[Vec3], rewound: &[[u32; 3]], patches: &[Vec<u32>]) -> Vec<Option<bool>> {
     let corner = |t: u32, k: usize| positions[rewound[t as usize][k] as usize];
     let boxes: Vec<(Vec3, Vec3)> = patches
         .iter()
@@ -317,7 +319,7 @@ fn isolated_closed_patches(
                 for &c in &order[i..] {
                     isolated[c] = false;
                 }
-                return decide(positions, rewound, patches, &isolated, &boxes, &eligible);
+                return decide(positions, rewound, patches, &isolated, &boxes);
             }
             budget -= 1;
             if blo.y <= ahi.y && alo.y <= bhi.y && blo.z <= ahi.z && alo.z <= bhi.z {
@@ -326,21 +328,20 @@ fn isolated_closed_patches(
             }
         }
     }
-    decide(positions, rewound, patches, &isolated, &boxes, &eligible)
+    decide(positions, rewound, patches, &isolated, &boxes)
 }
 
-/// The signed-volume decision of [`isolated_closed_patches`] for its isolated eligible patches.
+/// The signed-volume decision of [`isolated_closed_patches`] for its isolated patches.
 fn decide(
     positions: &[Vec3],
     rewound: &[[u32; 3]],
     patches: &[Vec<u32>],
     isolated: &[bool],
     boxes: &[(Vec3, Vec3)],
-    eligible: &impl Fn(usize) -> bool,
 ) -> Vec<Option<bool>> {
     (0..patches.len())
         .map(|p| {
-            if !isolated[p] || !eligible(p) {
+            if !isolated[p] {
                 return None;
             }
             let m = &patches[p];
@@ -519,6 +520,23 @@ mod tests {
         let w = WindingNumber::new(&p, &t);
         let o = outward_orientation(&p, &t, &w);
         assert_eq!((o.patches, o.by_volume, o.flipped, o.ambiguous), (2, 0, 0, 0));
+        // A cavity inside a shell of separate open patches (each face of the outer box its own
+        // quad, no edge shared): no box meets the cavity's, yet the quads enclose it. With an
+        // open patch in the mesh, samples decide every patch, and the inward cavity stays.
+        let (mut p, mut t) = (Vec::new(), Vec::new());
+        push_box(&mut p, &mut t, Vec3::ZERO, Vec3::splat(4.0), false);
+        let shell: Vec<[u32; 3]> = std::mem::take(&mut t);
+        for f in shell {
+            // Each triangle on its own vertices: twelve open patches.
+            let b = p.len() as u32;
+            p.extend(f.map(|i| p[i as usize]));
+            t.push([b, b + 1, b + 2]);
+        }
+        push_box(&mut p, &mut t, Vec3::ONE, Vec3::splat(3.0), true);
+        let w = WindingNumber::new(&p, &t);
+        let o = outward_orientation(&p, &t, &w);
+        assert_eq!((o.patches, o.by_volume), (13, 0));
+        assert!(o.flip[12..].iter().all(|&f| !f), "the cavity was turned outward and filled");
         // Boxes that touch face to face are not isolated either: samples decide both.
         let (mut p, mut t) = (Vec::new(), Vec::new());
         push_box(&mut p, &mut t, Vec3::ZERO, Vec3::ONE, true);

@@ -85,6 +85,16 @@ pub(crate) struct Prepared {
     /// `KHR_animation_pointer` targets, which the importer does not read; the gltf crate refuses
     /// such a file).
     pub channels_without_node: usize,
+    /// Per animation that lost channels: the file's index of each channel kept, so messages
+    /// name the channel as the file numbers it ([`Prepared::file_channel`]).
+    pub channel_numbers: HashMap<usize, Vec<usize>>,
+}
+
+impl Prepared {
+    /// The file's index of channel `ci` (as the gltf crate numbers it) of animation `ai`.
+    pub fn file_channel(numbers: &HashMap<usize, Vec<usize>>, ai: usize, ci: usize) -> usize {
+        numbers.get(&ai).and_then(|v| v.get(ci).copied()).unwrap_or(ci)
+    }
 }
 
 fn as_index(v: &Value) -> Option<usize> {
@@ -117,11 +127,15 @@ pub(crate) fn prepare(path: &Path, root: &mut Value) -> Result<Prepared, IoError
     // Channels whose target has no node (optional in glTF 2.0) are removed before the gltf crate,
     // which requires one, sees them.
     if let Some(anims) = obj.get_mut("animations").and_then(Value::as_array_mut) {
-        for anim in anims {
+        for (ai, anim) in anims.iter_mut().enumerate() {
             if let Some(channels) = anim.get_mut("channels").and_then(Value::as_array_mut) {
-                let before = channels.len();
-                channels.retain(|c| c.pointer("/target/node").is_some());
-                prep.channels_without_node += before - channels.len();
+                let kept: Vec<usize> =
+                    (0..channels.len()).filter(|&ci| channels[ci].pointer("/target/node").is_some()).collect();
+                if kept.len() < channels.len() {
+                    prep.channels_without_node += channels.len() - kept.len();
+                    channels.retain(|c| c.pointer("/target/node").is_some());
+                    prep.channel_numbers.insert(ai, kept);
+                }
             }
         }
     }

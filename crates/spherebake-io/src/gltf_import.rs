@@ -172,6 +172,8 @@ struct Source<'c> {
     undecodable_images: HashMap<usize, &'static str>,
     /// `EXT_mesh_gpu_instancing` accessors (TRANSLATION, ROTATION, SCALE) by node.
     instancing: HashMap<usize, [Option<usize>; 3]>,
+    /// The file's channel indices of animations that lost channels (`gltf_ext::Prepared`).
+    channel_numbers: HashMap<usize, Vec<usize>>,
     /// A referenced image that must not be read (outside the folder, not a regular file, over
     /// the input budget): the import fails with it.
     refused: Option<IoError>,
@@ -234,6 +236,7 @@ pub(crate) fn import(ctx: &mut Ctx, bytes: &[u8], glb: bool) -> Result<(Mesh, Ve
     // gltf-json does not validate animation channel targets; the gltf crate unwraps them.
     for (ai, anim) in root.animations.iter().enumerate() {
         for (ci, ch) in anim.channels.iter().enumerate() {
+            let ci = gltf_ext::Prepared::file_channel(&prep.channel_numbers, ai, ci);
             if ch.target.node.value() >= root.nodes.len() {
                 return Err(IoError::Animation {
                     path,
@@ -337,6 +340,7 @@ pub(crate) fn import(ctx: &mut Ctx, bytes: &[u8], glb: bool) -> Result<(Mesh, Ve
         decoded,
         undecodable_images: prep.undecodable_images,
         instancing: prep.instancing,
+        channel_numbers: prep.channel_numbers,
         refused: None,
         morph_values_read: 0,
         texel_budget,
@@ -1385,6 +1389,7 @@ impl Source<'_> {
             let ai = anim.index();
             let mut channels = Vec::new();
             for (ci, ch) in anim.channels().enumerate() {
+                let ci = gltf_ext::Prepared::file_channel(&self.channel_numbers, ai, ci);
                 let aerr =
                     |reason: String| IoError::Animation { path: self.path(), animation: ai, channel: ci, reason };
                 let (path, comps) = match ch.target().property() {

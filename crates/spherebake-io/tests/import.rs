@@ -1218,14 +1218,21 @@ fn animation_channels_without_a_node_are_skipped_not_refused() {
     let before = load_mesh(&path).unwrap();
     let channels = json["animations"][0]["channels"].as_array_mut().unwrap();
     let kept = channels.len();
-    channels.push(serde_json::json!({
-        "sampler": 0,
-        "target": {"path": "pointer", "extensions": {"KHR_animation_pointer": {"pointer": "/nodes/2/rotation"}}}
-    }));
+    // First a channel without a node, then a morph-weights one (skipped with a warning that
+    // must name it by its index in the file, 1), then the file's own.
+    channels.insert(0, serde_json::json!({"sampler": 0, "target": {"node": 2, "path": "weights"}}));
+    channels.insert(
+        0,
+        serde_json::json!({
+            "sampler": 0,
+            "target": {"path": "pointer", "extensions": {"KHR_animation_pointer": {"pointer": "/nodes/2/rotation"}}}
+        }),
+    );
     let bytes = serde_json::to_vec(&json).unwrap();
     let r = load_mesh_from_bytes(&path, &bytes).expect("a channel without a node is valid glTF");
     let w: Vec<&str> = r.warnings.iter().map(|w| w.0.as_str()).collect();
     assert!(w.iter().any(|w| w.starts_with("1 animation channel(s) without a target node skipped")), "{w:?}");
+    assert!(w.contains(&"animation 0 channel 1: morph target weights skipped"), "{w:?}");
     let anims = |m: &spherebake_io::Imported| m.mesh.skin.as_ref().expect("skinned").skeleton.animations.clone();
     let (a, b) = (anims(&r), anims(&before));
     assert_eq!(a.len(), 1);

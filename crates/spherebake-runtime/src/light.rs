@@ -1143,8 +1143,9 @@ pub struct IndirectCluster {
     cb: ClusterBlockers,
     lights: Vec<(usize, usize)>,
     stack: Vec<u32>,
-    /// Per source of the last build: (spheres, samples), which the queries check.
-    built_for: Vec<(usize, usize)>,
+    /// Per source of the last build: its spheres, samples, and its lights' spheres and order,
+    /// which the queries check.
+    built_for: Vec<[usize; 4]>,
 }
 
 /// A receiver cluster of pass 2: receivers sharing one hierarchy cut (a tile of a ground grid, a patch of a
@@ -1213,6 +1214,12 @@ fn ratio_probes(center: [f32; 3], radius: f32, n: [f32; 3]) -> ([[f32; 3]; 5], u
 /// The light sources of pass 2: each posed proxy with the lights pass 1 computed for it this frame.
 pub type LightSource<'a, 'b> = (PosedProxy<'a>, &'b SphereLights);
 
+/// What [`IndirectCluster::irradiance`] checks of each source against the build's: its spheres and samples, and
+/// its lights' spheres and order.
+fn source_key((posed, lights): &LightSource<'_, '_>) -> [usize; 4] {
+    [posed.leaves.len(), posed.proxy.sample_points().len(), lights.leaf_count(), lights.order]
+}
+
 impl IndirectCluster {
     /// Empty buffers.
     #[must_use]
@@ -1245,9 +1252,7 @@ impl IndirectCluster {
         let built = self.build_entries(ctx, sources, cluster);
         self.built_for.clear();
         match built {
-            Ok(()) => {
-                self.built_for.extend(sources.iter().map(|(p, _)| (p.leaves.len(), p.proxy.sample_points().len())))
-            }
+            Ok(()) => self.built_for.extend(sources.iter().map(source_key)),
             Err(_) => {
                 self.order = 0;
                 self.entries.clear();
@@ -1346,8 +1351,8 @@ impl IndirectCluster {
     /// # Errors
     ///
     /// The cluster was not built, or its last build failed; it was built at another order than `ctx`'s;
-    /// `sources` is not the slice the cluster was built from (checked by their number and each one's sphere and
-    /// sample counts); `p` or `normal` not finite.
+    /// `sources` is not the slice the cluster was built from (checked by their number, each one's sphere and sample
+    /// counts, and its lights' sphere count and order); `p` or `normal` not finite.
     pub fn irradiance(
         &mut self,
         ctx: &LightContext,
@@ -1362,10 +1367,7 @@ impl IndirectCluster {
             return Err(LightError::Mismatch { what: "order" });
         }
         if sources.len() != self.built_for.len()
-            || sources
-                .iter()
-                .zip(&self.built_for)
-                .any(|((s, _), &b)| (s.leaves.len(), s.proxy.sample_points().len()) != b)
+            || sources.iter().zip(&self.built_for).any(|(s, b)| source_key(s) != *b)
         {
             return Err(LightError::Mismatch { what: "sources (not the ones the cluster was built from)" });
         }

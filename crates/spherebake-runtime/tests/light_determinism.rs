@@ -208,7 +208,8 @@ fn a_failed_build_leaves_no_lights_and_queries_check_their_sources() {
     let lit = cl.irradiance(&ctx, &[(pa, &la)], [0.0; 3], up).unwrap();
     assert!(lit.iter().all(|&v| v > 0.0), "{lit:?}");
     // Other sources than the build's: the other proxy, two sources, none.
-    for other in [&[(pb, &lb)][..], &[(pa, &la), (pb, &lb)][..], &[][..]] {
+    // The build's proxy with another proxy's lights, too (as build refuses that pairing).
+    for other in [&[(pb, &lb)][..], &[(pa, &la), (pb, &lb)][..], &[][..], &[(pa, &lb)][..]] {
         assert!(
             matches!(cl.irradiance(&ctx, other, [0.0; 3], up), Err(LightError::Mismatch { .. })),
             "{} sources",

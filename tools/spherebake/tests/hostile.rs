@@ -960,7 +960,8 @@ fn an_unreachable_target_stops_early_and_says_what_was_reached() {
     let w = warnings.iter().find(|w| w.starts_with("target E ≤ 0.000000001 not reached")).expect("warning");
     assert!(w.contains("the best is E = ") && w.contains("stopped early"), "{w}");
     let n = v["spheres"].as_u64().unwrap();
-    assert!((8..=32).contains(&n), "{n} spheres: only the first doublings were tried");
+    // Judged from the default count (64) on, so 8, 16, 32, 64 and at most one doubling more.
+    assert!((8..=128).contains(&n), "{n} spheres: only the first doublings were tried");
     let e = v["outside_ratio_e"].as_f64().unwrap();
     assert!(w.contains(&format!("E = {e:.4} with {n} spheres")), "the message names the result kept: {w}");
     // Once: no second line repeating the result.
