@@ -5,16 +5,16 @@
 #[path = "../../spherebake-runtime/tests/counting_alloc/mod.rs"]
 mod counting_alloc;
 use counting_alloc::allocs;
+mod common;
+use common::{golden, new_err};
 
 use spherebake::*;
 use std::ptr::{null, null_mut};
 
 #[test]
 fn the_indirect_query_allocates_nothing_per_receiver() {
-    let bytes =
-        std::fs::read(std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../fixtures/golden/capsule-16.sphb"))
-            .unwrap();
-    let mut e = SphbError { code: 0, rule_id: 0, message: [0; SPHB_MESSAGE_CAPACITY] };
+    let bytes = golden("capsule-16.sphb");
+    let mut e = new_err();
     let mut p = null_mut();
     assert_eq!(unsafe { sphb_load(bytes.as_ptr(), bytes.len(), &mut p, &mut e) }, SPHB_OK);
     let mut c = SphbCounts::default();
@@ -43,7 +43,7 @@ fn the_indirect_query_allocates_nothing_per_receiver() {
     let mut out = [0.0f64; 3];
     let query = |x: f32, out: &mut [f64; 3]| {
         let pt = [x, -1.5, 0.0];
-        let mut e = SphbError { code: 0, rule_id: 0, message: [0; SPHB_MESSAGE_CAPACITY] };
+        let mut e = new_err();
         unsafe {
             sphb_indirect_irradiance(
                 cl,

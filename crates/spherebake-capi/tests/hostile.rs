@@ -5,18 +5,8 @@
 use spherebake::*;
 use std::ptr::{null, null_mut};
 
-fn golden(name: &str) -> Vec<u8> {
-    std::fs::read(std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../fixtures/golden").join(name)).unwrap()
-}
-
-fn new_err() -> SphbError {
-    SphbError { code: -1, rule_id: 7, message: [1; SPHB_MESSAGE_CAPACITY] }
-}
-
-fn message(e: &SphbError) -> String {
-    let bytes: Vec<u8> = e.message.iter().take_while(|&&c| c != 0).map(|&c| c as u8).collect();
-    String::from_utf8(bytes).unwrap()
-}
+mod common;
+use common::{golden, message, new_err};
 
 fn load_ok(bytes: &[u8]) -> *mut SphbProxy {
     let mut p = null_mut();

@@ -15,6 +15,18 @@ pub fn golden(name: &str) -> Vec<u8> {
     std::fs::read(repo().join("fixtures/golden").join(name)).unwrap()
 }
 
+/// An error record with every field set to a value no call leaves, so a test sees what the
+/// call wrote.
+pub fn new_err() -> spherebake::SphbError {
+    spherebake::SphbError { code: -1, rule_id: 7, message: [1; spherebake::SPHB_MESSAGE_CAPACITY] }
+}
+
+/// The NUL-terminated message of `e`.
+pub fn message(e: &spherebake::SphbError) -> String {
+    let bytes: Vec<u8> = e.message.iter().take_while(|&&c| c != 0).map(|&c| c as u8).collect();
+    String::from_utf8(bytes).unwrap()
+}
+
 /// `name` if it runs; otherwise fails with the Debian package to install (never a silent pass).
 pub fn compiler(name: &str, package: &str) -> String {
     let ok = Command::new(name).arg("--version").output().is_ok_and(|o| o.status.success());
