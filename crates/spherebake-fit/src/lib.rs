@@ -121,9 +121,11 @@ pub struct FitSettings {
     /// Target mode: find the smallest sphere count (≤ `plan.target_max_spheres`) whose E is at
     /// most this ratio (variational only; `spheres` is then ignored): counts double from
     /// `plan.target_start` until one meets it, then a bisection between the largest count that
-    /// missed (or none: down to one sphere) and it narrows to within 1/`plan.target_bisect_fraction`
-    /// of the count (to one sphere below 2 × that fraction). Doubling stops early, with a warning naming the best E reached, when the last
-    /// doubling shows the target is out of reach (see `target_out_of_reach`). Default `None`.
+    /// missed (or none: down to one sphere) and it narrows to within
+    /// 1/`plan.target_bisect_fraction` of the count (to one sphere below twice that fraction).
+    /// From 64 spheres on (`TARGET_REACH_FROM`), doubling stops early, with a warning naming the
+    /// best E reached, when the last doubling shows the target is out of reach (see
+    /// `target_out_of_reach`). Default `None`.
     pub max_outside_ratio: Option<f64>,
     /// Cells along the longest bounding-box axis of the voxel solid / energy proxy
     /// (default 128, range 16..=1024).
