@@ -68,8 +68,8 @@
 //! Cost: O(T log T) for sorting the edges, O(T) for the walk, O(P log P) and at most 1024 × P
 //! box tests for finding the isolated closed patches among P, one winding-number build when
 //! the file's winding is inconsistent (and some patch needs samples), and at most 64 × 4 fast
-//! winding evaluations per other patch (parallel with rayon). Every decision depends only on the input and the fixed sample choice,
-//! so the result is identical for any thread count.
+//! winding evaluations per other patch (parallel with rayon). Every decision depends only on
+//! the input and the fixed sample choice, so the result is identical for any thread count.
 
 use crate::winding::{solid_angle, WindingNumber};
 use glam::{DVec3, Vec3};
@@ -283,8 +283,9 @@ const SWEEP_TESTS_PER_PATCH: usize = 1024;
 /// outward)` when its bounding box meets no other patch's box, from the sign of its signed
 /// volume; else `None` (decided by the samples). Such a patch bounds a region no other surface
 /// reaches into or encloses (a closed surface's winding number is 0 outside its box, and one
-/// enclosing a point has the point in its box), so the solid near it is its own inside, which lies behind its triangles exactly when its signed volume
-/// (rewound, about its first vertex) is positive. A volume within 10⁻⁹ of its box's volume (a
+/// enclosing a point has the point in its box), so the solid near it is its own inside, which
+/// lies behind its triangles exactly when its signed volume (rewound, about its first vertex)
+/// is positive. A volume within 10⁻⁹ of its box's volume (a
 /// flat or self-cancelling patch) is left to the samples. Cost: O(P log P) for the sweep over
 /// the patches' boxes along x, at most [`SWEEP_TESTS_PER_PATCH`] × P box tests, and O(T) for the
 /// volumes.
