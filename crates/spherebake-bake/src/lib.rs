@@ -30,7 +30,7 @@ use serde::Serialize;
 use spherebake_fit::hierarchy::{build_hierarchy, hierarchy_stats, HierarchySettings};
 use spherebake_fit::{FitSettings, Method as FitMethod};
 use spherebake_format::{Metadata, SphbFile, Sphere};
-use spherebake_geom::orient::outward_orientation;
+use spherebake_geom::orient::{outward_orientation, turned};
 use spherebake_geom::winding::WindingNumber;
 use spherebake_geom::TopologyReport;
 use std::path::{Path, PathBuf};
@@ -206,11 +206,6 @@ fn timed<T>(f: impl FnOnce() -> T) -> (T, f64) {
     let t = Instant::now();
     let v = f();
     (v, t.elapsed().as_secs_f64())
-}
-
-/// `triangles` with each one that `flip` marks turned over.
-fn turned(triangles: &[[u32; 3]], flip: &[bool]) -> Vec<[u32; 3]> {
-    triangles.iter().zip(flip).map(|(t, &f)| if f { [t[0], t[2], t[1]] } else { *t }).collect()
 }
 
 /// The welded triangles of `mesh`, each turned outward by the solid

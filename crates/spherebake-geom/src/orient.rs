@@ -204,8 +204,7 @@ pub fn outward_orientation(positions: &[Vec3], triangles: &[[u32; 3]], winding: 
     // Step 2 looks at the patches wound consistently (like their roots): when the file
     // disagrees anywhere, the winding number is rebuilt over the rewound triangles, so a flipped
     // patch does not corrupt the solid it is judged against.
-    let rewound: Vec<[u32; 3]> =
-        triangles.iter().zip(&against).map(|(t, &a)| if a { [t[0], t[2], t[1]] } else { *t }).collect();
+    let rewound = turned(triangles, &against);
     // Isolated closed patches are decided by their signed volume, without samples, when every
     // patch is closed and consistent: an open patch's winding number reaches beyond its box (open
     // patches can enclose a region together while none of their boxes meets it).
@@ -273,6 +272,12 @@ pub fn outward_orientation(positions: &[Vec3], triangles: &[[u32; 3]], winding: 
         }
     }
     out
+}
+
+/// `triangles` with each one that `flip` marks turned over (its last two corners swapped): the
+/// rewound triangles here, the outward ones with [`Orientation::flip`].
+pub fn turned(triangles: &[[u32; 3]], flip: &[bool]) -> Vec<[u32; 3]> {
+    triangles.iter().zip(flip).map(|(t, &f)| if f { [t[0], t[2], t[1]] } else { *t }).collect()
 }
 
 /// Pair tests of the box sweep in [`isolated_closed_patches`] at most, per patch; past it the
