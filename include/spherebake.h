@@ -56,8 +56,13 @@
 // header answers another number.
 #define SPHB_ABI_VERSION 1
 
-// Pass 2's lights of one receiver cluster (opaque; one thread at a time).
+// Pass 2's lights of one receiver cluster (opaque; built by one thread at a time, then queried
+// by many with `sphb_indirect_irradiance_with`).
 typedef struct SphbIndirectCluster SphbIndirectCluster;
+
+// Per-thread working space of `sphb_indirect_irradiance_with` (opaque; one thread at a time;
+// holds nothing between calls, so one scratch serves every cluster).
+typedef struct SphbIndirectScratch SphbIndirectScratch;
 
 // Order, exponential and tables of the indirect-light passes (opaque, immutable).
 typedef struct SphbLightContext SphbLightContext;
@@ -597,6 +602,13 @@ SphbIndirectCluster *sphb_indirect_cluster_new(void);
 // Frees an indirect-light cluster; NULL does nothing.
 void sphb_indirect_cluster_free(SphbIndirectCluster *cluster);
 
+// A new, empty scratch for `sphb_indirect_irradiance_with` (one per querying thread). Free with
+// `sphb_indirect_scratch_free`.
+SphbIndirectScratch *sphb_indirect_scratch_new(void);
+
+// Frees a scratch; NULL does nothing.
+void sphb_indirect_scratch_free(SphbIndirectScratch *scratch);
+
 // A cluster spec with centre `center` (3 floats), `radius`, the receivers' mean unit `normal`
 // (3 floats, or NULL: none) and the defaults: θmax = `SPHB_DEFAULT_THETA_MAX_RAD`, reflection
 // ratios on, overlap correction off. Thread-safe.
@@ -626,9 +638,9 @@ int32_t sphb_indirect_cluster_light_count(const SphbIndirectCluster *cluster,
 // **Pass 2, per receiver**: the indirect irradiance E (linear RGB, ∫ L_in cos dω; 3 doubles
 // into `out`) at receiver `p` (3 floats) with unit `normal` (3 floats) from the cluster's lights.
 // `sources` / `lights` must be the arrays the cluster was built from. Reuses the cluster's
-// buffers: one thread at a time per cluster; allocation-free once they have grown (up to 8
-// sources). Each channel is at least 0 (SH lights can dip
-// below 0; irradiance cannot).
+// buffers: one thread at a time per cluster (to query one cluster from many threads, use
+// `sphb_indirect_irradiance_with`); allocation-free once they have grown (up to 8 sources).
+// Each channel is at least 0 (SH lights can dip below 0; irradiance cannot).
 int32_t sphb_indirect_irradiance(SphbIndirectCluster *cluster,
                                  const SphbLightContext *ctx,
                                  const SphbPosed *sources,
@@ -638,6 +650,23 @@ int32_t sphb_indirect_irradiance(SphbIndirectCluster *cluster,
                                  const float *normal,
                                  double *out,
                                  SphbError *err);
+
+// `sphb_indirect_irradiance` on a shared cluster: the same value, bit for bit, with the
+// per-query working data in `scratch` (from `sphb_indirect_scratch_new`) instead of the
+// cluster's buffers. The cluster is only read: any number of threads may query one built
+// cluster at once, each with its own scratch, while no thread builds it. One scratch serves
+// every cluster; allocation-free once it has grown to the largest cluster's lights (up to 8
+// sources). `out` must not overlap `p` or `normal`.
+int32_t sphb_indirect_irradiance_with(const SphbIndirectCluster *cluster,
+                                      SphbIndirectScratch *scratch,
+                                      const SphbLightContext *ctx,
+                                      const SphbPosed *sources,
+                                      const SphbSphereLights *const *lights,
+                                      size_t source_count,
+                                      const float *p,
+                                      const float *normal,
+                                      double *out,
+                                      SphbError *err);
 
 #ifdef __cplusplus
 }  // extern "C"

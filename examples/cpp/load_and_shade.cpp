@@ -4,8 +4,10 @@
 //   cargo build --release -p spherebake-capi
 //   c++ -std=c++17 -Iinclude -Iexamples/cpp examples/cpp/load_and_shade.cpp target/release/libspherebake.a -lm -lpthread -ldl -o load_and_shade
 #include <cstdio>
+#include <exception>
 #include <fstream>
 #include <iterator>
+#include <thread>
 #include <vector>
 
 #include "spherebake.hpp"
@@ -84,11 +86,29 @@ int main(int argc, char **argv) {
             SphbClusterSpec spec;
             sphb::check(sphb_cluster_spec_init(receiver, radius, up_f, &spec, &e), e);
             light.build(spec);
-            for (unsigned i = 0; i < 5; i++) {
-                const float p[3] = {receiver[0] + radius * 0.5f * (float(i) - 2.0f), receiver[1], receiver[2]};
-                std::array<double, 3> irr = light.irradiance(p, up_f);
-                std::printf("indirect %u %a %a %a\n", i, irr[0], irr[1], irr[2]);
-            }
+            // The built cluster is only read by the queries: receivers 0, 2, 4 on this thread, 1 and 3 on
+            // another at the same time, each thread with its own scratch.
+            std::array<std::array<double, 3>, 5> irr{};
+            const sphb::Light &shared = light;
+            auto gather = [&](unsigned first, sphb::Scratch &scratch) {
+                for (unsigned i = first; i < 5; i += 2) {
+                    const float p[3] = {receiver[0] + radius * 0.5f * (float(i) - 2.0f), receiver[1], receiver[2]};
+                    irr[i] = shared.irradiance(p, up_f, scratch);
+                }
+            };
+            sphb::Scratch mine, theirs;
+            std::exception_ptr failed;
+            std::thread other([&] {
+                try {
+                    gather(1, theirs);
+                } catch (...) {
+                    failed = std::current_exception();
+                }
+            });
+            gather(0, mine);
+            other.join();
+            if (failed) std::rethrow_exception(failed);
+            for (unsigned i = 0; i < 5; i++) std::printf("indirect %u %a %a %a\n", i, irr[i][0], irr[i][1], irr[i][2]);
         }
     } catch (const sphb::Error &e) {
         std::fprintf(stderr, "load_and_shade: %s: rule %u: %s\n", argv[1], unsigned(e.rule_id), e.what());

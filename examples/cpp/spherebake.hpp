@@ -141,6 +141,18 @@ private:
 
 // One-bounce indirect light of one proxy at one SH order: the context (shareable), the proxy's
 // sphere lights (pass 1) and one receiver cluster (pass 2); one thread at a time per object.
+// Per-thread working space of Light's const irradiance().
+class Scratch {
+public:
+    Scratch() : s_(sphb_indirect_scratch_new()) {
+        if (!s_.get()) throw std::bad_alloc();
+    }
+    SphbIndirectScratch *get() { return s_.get(); }
+
+private:
+    Handle<SphbIndirectScratch, sphb_indirect_scratch_free> s_;
+};
+
 class Light {
 public:
     explicit Light(uint32_t order, int32_t exp_method = SPHB_EXP_PS_STAR_4) : order_(order) {
@@ -177,6 +189,17 @@ public:
         std::array<double, 3> out{};
         const SphbSphereLights *l = lights_.get();
         check(sphb_indirect_irradiance(cluster_.get(), ctx_.get(), &posed_, &l, 1, p, n, out.data(), &e), e);
+        return out;
+    }
+    // The same value from a const Light: after build(), any number of threads may call this at once, each
+    // with its own Scratch.
+    std::array<double, 3> irradiance(const float p[3], const float n[3], Scratch &scratch) const {
+        SphbError e;
+        std::array<double, 3> out{};
+        const SphbSphereLights *l = lights_.get();
+        check(sphb_indirect_irradiance_with(cluster_.get(), scratch.get(), ctx_.get(), &posed_, &l, 1, p, n,
+                                            out.data(), &e),
+              e);
         return out;
     }
 

@@ -27,8 +27,11 @@
 //!   number of threads may use them at once. A `SphbShadowCluster` is mutated by its build (one
 //!   thread at a time); once built, its queries (`sphb_accumulate_log_visibility`,
 //!   `sphb_shade_point`) read it only and may run on many threads at once. A
-//!   `SphbIndirectCluster` (build and queries) and a `SphbSphereLights` are mutated by their
-//!   calls: one thread at a time per object (use one per thread). No call keeps global state.
+//!   `SphbIndirectCluster` is mutated by its build and by `sphb_indirect_irradiance` (its own
+//!   buffers): one thread at a time; once built, `sphb_indirect_irradiance_with` reads it only
+//!   and may run on many threads at once, each with its own `SphbIndirectScratch`. A
+//!   `SphbSphereLights` is mutated by its calls: one thread at a time per object. No call keeps
+//!   global state.
 //! - A failed build leaves its cluster empty and not built: its queries then fail with
 //!   `SPHB_ERR_INVALID_ARGUMENT` ("not built") until a build succeeds, never answering from a
 //!   half-built cluster.
@@ -49,7 +52,7 @@ use std::panic::{catch_unwind, AssertUnwindSafe};
 use spherebake_format::{HierarchyNode, SamplePoint, SkinEntry, Sphere, ValidationError};
 use spherebake_runtime::light::{
     clip_below_horizon, light_spheres, light_spheres_from_radiance, sphere_rotations, ClusterSpec, IndirectCluster,
-    LightContext, LightError, Pass1Settings, Pass1Stats, PosedProxy, SphereLights,
+    IndirectScratch, LightContext, LightError, Pass1Settings, Pass1Stats, PosedProxy, SphereLights,
 };
 use spherebake_runtime::shadow::{accumulate_log_visibility, shade, ClusterBlockers, ExpMethod, ShadowContext};
 use spherebake_runtime::{CutEntry, HierarchyPlan, Proxy};
@@ -376,9 +379,16 @@ pub struct SphbSphereLights {
     lights: SphereLights,
 }
 
-/// Pass 2's lights of one receiver cluster (opaque; one thread at a time).
+/// Pass 2's lights of one receiver cluster (opaque; built by one thread at a time, then queried
+/// by many with `sphb_indirect_irradiance_with`).
 pub struct SphbIndirectCluster {
     ic: IndirectCluster,
+}
+
+/// Per-thread working space of `sphb_indirect_irradiance_with` (opaque; one thread at a time;
+/// holds nothing between calls, so one scratch serves every cluster).
+pub struct SphbIndirectScratch {
+    scratch: IndirectScratch,
 }
 
 struct Fail {
@@ -1498,6 +1508,20 @@ pub unsafe extern "C" fn sphb_indirect_cluster_free(cluster: *mut SphbIndirectCl
     unsafe { free_object(cluster) }
 }
 
+/// A new, empty scratch for `sphb_indirect_irradiance_with` (one per querying thread). Free with
+/// `sphb_indirect_scratch_free`.
+#[no_mangle]
+pub extern "C" fn sphb_indirect_scratch_new() -> *mut SphbIndirectScratch {
+    new_object(|| SphbIndirectScratch { scratch: IndirectScratch::new() })
+}
+
+/// Frees a scratch; NULL does nothing.
+#[no_mangle]
+pub unsafe extern "C" fn sphb_indirect_scratch_free(scratch: *mut SphbIndirectScratch) {
+    // SAFETY: made by `sphb_indirect_scratch_new`, freed once (the caller's contract).
+    unsafe { free_object(scratch) }
+}
+
 /// A cluster spec with centre `center` (3 floats), `radius`, the receivers' mean unit `normal`
 /// (3 floats, or NULL: none) and the defaults: θmax = `SPHB_DEFAULT_THETA_MAX_RAD`, reflection
 /// ratios on, overlap correction off. Thread-safe.
@@ -1620,9 +1644,9 @@ unsafe fn with_sources<'a, R>(
 /// **Pass 2, per receiver**: the indirect irradiance E (linear RGB, ∫ L_in cos dω; 3 doubles
 /// into `out`) at receiver `p` (3 floats) with unit `normal` (3 floats) from the cluster's lights.
 /// `sources` / `lights` must be the arrays the cluster was built from. Reuses the cluster's
-/// buffers: one thread at a time per cluster; allocation-free once they have grown (up to 8
-/// sources). Each channel is at least 0 (SH lights can dip
-/// below 0; irradiance cannot).
+/// buffers: one thread at a time per cluster (to query one cluster from many threads, use
+/// `sphb_indirect_irradiance_with`); allocation-free once they have grown (up to 8 sources).
+/// Each channel is at least 0 (SH lights can dip below 0; irradiance cannot).
 #[no_mangle]
 pub unsafe extern "C" fn sphb_indirect_irradiance(
     cluster: *mut SphbIndirectCluster,
@@ -1645,6 +1669,43 @@ pub unsafe extern "C" fn sphb_indirect_irradiance(
         let e = unsafe {
             with_sources(sources, lights, source_count, |srcs| {
                 cl.ic.irradiance(&c.ctx, srcs, pt, n).map_err(|e| light_fail(&e))
+            })?
+        };
+        o.copy_from_slice(&e);
+        Ok(())
+    })
+}
+
+/// `sphb_indirect_irradiance` on a shared cluster: the same value, bit for bit, with the
+/// per-query working data in `scratch` (from `sphb_indirect_scratch_new`) instead of the
+/// cluster's buffers. The cluster is only read: any number of threads may query one built
+/// cluster at once, each with its own scratch, while no thread builds it. One scratch serves
+/// every cluster; allocation-free once it has grown to the largest cluster's lights (up to 8
+/// sources). `out` must not overlap `p` or `normal`.
+#[no_mangle]
+pub unsafe extern "C" fn sphb_indirect_irradiance_with(
+    cluster: *const SphbIndirectCluster,
+    scratch: *mut SphbIndirectScratch,
+    ctx: *const SphbLightContext,
+    sources: *const SphbPosed,
+    lights: *const *const SphbSphereLights,
+    source_count: usize,
+    p: *const f32,
+    normal: *const f32,
+    out: *mut f64,
+    err: *mut SphbError,
+) -> i32 {
+    run(err, || {
+        let cl = unsafe { object(cluster, "cluster")? };
+        let sc = unsafe { object_mut(scratch, "scratch")? };
+        let c = unsafe { object(ctx, "ctx")? };
+        disjoint(("out", span(out, 3)), &[("p", span(p, 3)), ("normal", span(normal, 3))])?;
+        let pt = unsafe { vec3(p, "p")? };
+        let n = unsafe { vec3(normal, "normal")? };
+        let o = unsafe { output(out, 3, 3, "out")? };
+        let e = unsafe {
+            with_sources(sources, lights, source_count, |srcs| {
+                cl.ic.irradiance_with(&mut sc.scratch, &c.ctx, srcs, pt, n).map_err(|e| light_fail(&e))
             })?
         };
         o.copy_from_slice(&e);

@@ -1,5 +1,5 @@
 //! The per-receiver query of pass 2 through the C ABI allocates nothing once the cluster's
-//! buffers have grown (before, the C layer built a heap array of the sources on every call).
+//! buffers (or the scratch of `sphb_indirect_irradiance_with`) have grown (before, the C layer built a heap array of the sources on every call).
 //! The counting allocator is the runtime tests' one (per thread).
 
 #[path = "../../spherebake-runtime/tests/counting_alloc/mod.rs"]
@@ -65,7 +65,39 @@ fn the_indirect_query_allocates_nothing_per_receiver() {
         assert!(out.iter().all(|v| v.is_finite()));
     }
     assert_eq!(allocs() - before, 0, "allocations in 32 queries");
+    // The shared-cluster query, with a scratch grown by its first call: the same values, no allocation.
+    let scratch = sphb_indirect_scratch_new();
+    let shared = |x: f32, out: &mut [f64; 3]| {
+        let pt = [x, -1.5, 0.0];
+        let mut e = new_err();
+        unsafe {
+            sphb_indirect_irradiance_with(
+                cl,
+                scratch,
+                ctx,
+                &posed,
+                lp.as_ptr(),
+                1,
+                pt.as_ptr(),
+                up.as_ptr(),
+                out.as_mut_ptr(),
+                &mut e,
+            )
+        }
+    };
+    assert_eq!(shared(0.0, &mut out), SPHB_OK);
+    let before = allocs();
+    let mut same = [0.0f64; 3];
+    for k in 0..32 {
+        let x = -0.8 + 0.05 * k as f32;
+        assert_eq!(shared(x, &mut same), SPHB_OK);
+        assert_eq!(query(x, &mut out), SPHB_OK);
+        assert_eq!(same.map(f64::to_bits), out.map(f64::to_bits), "receiver {k}");
+    }
+    assert_eq!(allocs() - before, 0, "allocations in 32 shared queries");
     unsafe {
+        sphb_indirect_scratch_free(scratch);
+        sphb_indirect_scratch_free(null_mut());
         sphb_indirect_cluster_free(cl);
         sphb_sphere_lights_free(lights);
         sphb_light_context_free(ctx);

@@ -439,7 +439,39 @@ fn drive_light(p: *mut SphbProxy, leaves: &[SphbSphere], joints: &[f32], lit: bo
         assert_eq!(irradiance(null(), &mut out), SPHB_ERR_NULL);
         assert_eq!(irradiance(up.as_ptr(), &mut out), SPHB_OK);
         assert!(out.iter().all(|v| v.is_finite() && *v >= 0.0), "{out:?}");
-        unsafe { sphb_indirect_cluster_free(ic) };
+        // The shared-cluster query: NULL cluster or scratch, a cluster never built, then the value above.
+        let scratch = sphb_indirect_scratch_new();
+        let unbuilt = sphb_indirect_cluster_new();
+        let shared = |cluster: *const SphbIndirectCluster,
+                      scratch: *mut SphbIndirectScratch,
+                      out: &mut [f64; 3],
+                      e: &mut SphbError| unsafe {
+            sphb_indirect_irradiance_with(
+                cluster,
+                scratch,
+                ctx,
+                srcs.as_ptr(),
+                lp.as_ptr(),
+                1,
+                c.as_ptr(),
+                up.as_ptr(),
+                out.as_mut_ptr(),
+                e,
+            )
+        };
+        let mut same = [0.0f64; 3];
+        let mut e2 = new_err();
+        assert_eq!(shared(null(), scratch, &mut same, &mut e2), SPHB_ERR_NULL);
+        assert_eq!(shared(ic, null_mut(), &mut same, &mut e2), SPHB_ERR_NULL);
+        assert_eq!(shared(unbuilt, scratch, &mut same, &mut e2), SPHB_ERR_INVALID_ARGUMENT);
+        assert!(message(&e2).contains("not built"), "{}", message(&e2));
+        assert_eq!(shared(ic, scratch, &mut same, &mut e2), SPHB_OK);
+        assert_eq!(same.map(f64::to_bits), out.map(f64::to_bits));
+        unsafe {
+            sphb_indirect_cluster_free(unbuilt);
+            sphb_indirect_scratch_free(scratch);
+            sphb_indirect_cluster_free(ic);
+        }
     } else {
         assert_eq!(status, SPHB_ERR_MISSING_DATA);
     }

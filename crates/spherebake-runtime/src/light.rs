@@ -1133,19 +1133,36 @@ struct Active {
 }
 
 /// The sphere lights of one receiver cluster: the hierarchy cut of every source, its ratio vectors (eq. 37) and
-/// reflection ratios (eq. 25); reusable buffers. Build once per cluster and frame, then query per receiver.
+/// reflection ratios (eq. 25); reusable buffers. Build once per cluster and frame, then query per receiver: with
+/// [`IndirectCluster::irradiance`] on one thread, or from many threads at once with
+/// [`IndirectCluster::irradiance_with`] and one [`IndirectScratch`] per thread.
 #[derive(Clone, Debug, Default)]
 pub struct IndirectCluster {
     order: usize,
     entries: Vec<LightEntry>,
     scratch_entries: Vec<LightEntry>,
-    active: Vec<Active>,
+    scratch: IndirectScratch,
     cb: ClusterBlockers,
     lights: Vec<(usize, usize)>,
     stack: Vec<u32>,
     /// Per source of the last build: its spheres, samples, and its lights' spheres and order,
     /// which the queries check.
     built_for: Vec<[usize; 4]>,
+}
+
+/// Per-query working data of [`IndirectCluster::irradiance_with`] (one per thread that queries; it holds nothing
+/// between queries, so one scratch serves every cluster).
+#[derive(Clone, Debug, Default)]
+pub struct IndirectScratch {
+    active: Vec<Active>,
+}
+
+impl IndirectScratch {
+    /// Empty buffers; they grow to the largest cluster queried.
+    #[must_use]
+    pub fn new() -> IndirectScratch {
+        IndirectScratch::default()
+    }
 }
 
 /// A receiver cluster of pass 2: receivers sharing one hierarchy cut (a tile of a ground grid, a patch of a
@@ -1301,7 +1318,7 @@ impl IndirectCluster {
             // Eq. 25 summed over the cluster's probe points (see `ratio_probes`).
             let mut den = [0.0f64; 3];
             for &q in &probes[..probe_count] {
-                let d = self.contribution(ctx, sources, Which::Entries, q, n, |k| k == e)?;
+                let d = contribution(order, &self.entries, &mut self.scratch.active, ctx, sources, q, n, |k| k == e)?;
                 (0..3).for_each(|c| den[c] += d[c]);
             }
             // The same cut with the node replaced by its leaves.
@@ -1328,7 +1345,10 @@ impl IndirectCluster {
             }
             let mut num = [0.0f64; 3];
             for &q in &probes[..probe_count] {
-                let d = self.contribution(ctx, sources, Which::Scratch, q, n, |k| k >= first_leaf)?;
+                let d =
+                    contribution(order, &self.scratch_entries, &mut self.scratch.active, ctx, sources, q, n, |k| {
+                        k >= first_leaf
+                    })?;
                 (0..3).for_each(|c| num[c] += d[c]);
             }
             let mut t = [1.0f32; 3];
@@ -1360,6 +1380,28 @@ impl IndirectCluster {
         p: [f32; 3],
         normal: [f32; 3],
     ) -> Result<[f64; 3], LightError> {
+        let mut scratch = core::mem::take(&mut self.scratch);
+        let e = self.irradiance_with(&mut scratch, ctx, sources, p, normal);
+        self.scratch = scratch;
+        e
+    }
+
+    /// [`IndirectCluster::irradiance`] on a shared cluster: the same value, bit for bit, with the per-query working
+    /// data in `scratch` instead of the cluster's own buffers. A built cluster is only read, so any number of threads
+    /// may query it at once, each with its own scratch (`IndirectCluster` is `Sync`); a build needs it exclusively.
+    /// One scratch serves any cluster; allocation-free once it has grown to the largest cluster's light count.
+    ///
+    /// # Errors
+    ///
+    /// As [`IndirectCluster::irradiance`].
+    pub fn irradiance_with(
+        &self,
+        scratch: &mut IndirectScratch,
+        ctx: &LightContext,
+        sources: &[LightSource<'_, '_>],
+        p: [f32; 3],
+        normal: [f32; 3],
+    ) -> Result<[f64; 3], LightError> {
         if self.order == 0 {
             return Err(ShadowError::NotBuilt.into());
         }
@@ -1373,212 +1415,210 @@ impl IndirectCluster {
         }
         crate::shadow::check_point("p", p)?;
         crate::shadow::check_point("normal", normal)?;
-        let e = self.contribution(ctx, sources, Which::Entries, p, normal, |_| true)?;
+        let e = contribution(self.order, &self.entries, &mut scratch.active, ctx, sources, p, normal, |_| true)?;
         Ok(e.map(|v| v.max(0.0)))
     }
+}
 
-    /// Σ over the entries with `include(k)` of π L̃ Ṽ t, the blockers being all entries of the chosen list.
-    fn contribution(
-        &mut self,
-        ctx: &LightContext,
-        sources: &[LightSource<'_, '_>],
-        which: Which,
-        p: [f32; 3],
-        normal: [f32; 3],
-        include: impl Fn(usize) -> bool,
-    ) -> Result<[f64; 3], LightError> {
-        let order = self.order;
-        let nc = coeff_count(order);
-        let entries = match which {
-            Which::Entries => &self.entries,
-            Which::Scratch => &self.scratch_entries,
+/// Σ over the entries with `include(k)` of π L̃ Ṽ t at receiver `p`, the blockers being all of `entries` (a
+/// cluster's lights at SH order `order`); `active` is per-query working space (cleared first).
+#[allow(clippy::too_many_arguments)]
+fn contribution(
+    order: usize,
+    entries: &[LightEntry],
+    active: &mut Vec<Active>,
+    ctx: &LightContext,
+    sources: &[LightSource<'_, '_>],
+    p: [f32; 3],
+    normal: [f32; 3],
+    include: impl Fn(usize) -> bool,
+) -> Result<[f64; 3], LightError> {
+    let nc = coeff_count(order);
+    // Per entry: the adjusted sphere, its log vector and power.
+    active.clear();
+    for (k, e) in entries.iter().enumerate() {
+        let Some((c, r)) = self_shadow_sphere(e.blocker.center, e.blocker.radius, p, normal) else { continue };
+        let d = [c[0] - p[0], c[1] - p[1], c[2] - p[2]];
+        let d2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
+        if !(d2.is_finite() && d2 > 0.0) {
+            continue;
+        }
+        let inv = rsqrt_f32(d2);
+        let theta = asin_f32(r * inv);
+        let s = [d[0] * inv, d[1] * inv, d[2] * inv];
+        let mut a = Active {
+            entry: k as u32,
+            power: d2 - r * r,
+            theta,
+            sin_theta: (r * inv).min(1.0),
+            adjusted: {
+                let o = [e.blocker.center[0] - p[0], e.blocker.center[1] - p[1], e.blocker.center[2] - p[2]];
+                o[0] * o[0] + o[1] * o[1] + o[2] * o[2] < e.blocker.radius * e.blocker.radius
+            },
+            axis: [-s[0], -s[1], -s[2]],
+            log: [0.0; MAX_COEFFS],
         };
-        // Per entry: the adjusted sphere, its log vector and power.
-        self.active.clear();
-        for (k, e) in entries.iter().enumerate() {
-            let Some((c, r)) = self_shadow_sphere(e.blocker.center, e.blocker.radius, p, normal) else { continue };
-            let d = [c[0] - p[0], c[1] - p[1], c[2] - p[2]];
-            let d2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
-            if !(d2.is_finite() && d2 > 0.0) {
-                continue;
-            }
-            let inv = rsqrt_f32(d2);
-            let theta = asin_f32(r * inv);
-            let s = [d[0] * inv, d[1] * inv, d[2] * inv];
-            let mut a = Active {
-                entry: k as u32,
-                power: d2 - r * r,
-                theta,
-                sin_theta: (r * inv).min(1.0),
-                adjusted: {
-                    let o = [e.blocker.center[0] - p[0], e.blocker.center[1] - p[1], e.blocker.center[2] - p[2]];
-                    o[0] * o[0] + o[1] * o[1] + o[2] * o[2] < e.blocker.radius * e.blocker.radius
-                },
-                axis: [-s[0], -s[1], -s[2]],
-                log: [0.0; MAX_COEFFS],
-            };
-            accumulate_log_visibility_f32(theta, s, &e.blocker.band_weights[..order], &mut a.log[..nc])?;
-            self.active.push(a);
-        }
-        // Nearest first by power (insertion sort: stable, allocation-free, K is small).
-        for i in 1..self.active.len() {
-            let mut j = i;
-            while j > 0 && self.active[j - 1].power > self.active[j].power {
-                self.active.swap(j - 1, j);
-                j -= 1;
-            }
-        }
-        // Contact (module docs): the leaf that contains the receiver and whose facing tiles cover most of its view
-        // hides the other lights by that share.
-        let mut contact = (0.0f64, usize::MAX);
-        for ai in &self.active {
-            let k = ai.entry as usize;
-            let e = &entries[k];
-            let CutEntry::Leaf(leaf) = e.blocker.source else { continue };
-            let d = [e.blocker.center[0] - p[0], e.blocker.center[1] - p[1], e.blocker.center[2] - p[2]];
-            if d[0] * d[0] + d[1] * d[1] + d[2] * d[2] > e.blocker.radius * e.blocker.radius {
-                continue;
-            }
-            let Some((posed_src, _)) = sources.get(e.source as usize) else { continue };
-            let c = tile_coverage(&ctx.cells, posed_src, leaf as usize, p, normal);
-            if c > contact.0 {
-                contact = (c, k);
-            }
-        }
-        let mut h = [0.0f64; MAX_COEFFS];
-        ctx.cosine_lobe([f64::from(normal[0]), f64::from(normal[1]), f64::from(normal[2])], &mut h);
-        let mut total = [0.0f64; 3];
-        let mut adjusted = [0.0f64; 3];
-        let mut adjusted_share = 0.0f64;
-        for i in 0..self.active.len() {
-            let ai = &self.active[i];
-            let k = ai.entry as usize;
-            if !include(k) {
-                continue;
-            }
-            let e = &entries[k];
-            let Some((posed_src, lights)) = sources.get(e.source as usize) else {
-                return Err(LightError::Mismatch { what: "sources" });
-            };
-            let (coeffs, _) = lights.light_of(e.blocker.source);
-            if coeffs.len() < nc {
-                continue;
-            }
-            // Cosine-weighted average radiance Φ / Ṽ₀ (spherebake_sh light module), in the light's rest frame.
-            let axis = rotate_transposed(&e.rotation, ai.axis);
-            let n_local = rotate_transposed(&e.rotation, normal);
-            let phi = cosine_weighted_radiance_rgb_f32(ai.theta, axis, n_local, coeffs, order)?;
-            let ns = -(ai.axis[0] * normal[0] + ai.axis[1] * normal[1] + ai.axis[2] * normal[2]);
-            let st = ai.sin_theta;
-            let v0 = ns * st * st;
-            if v0.partial_cmp(&1e-12) != Some(core::cmp::Ordering::Greater) || phi.iter().all(|&v| v.abs() <= 0.0) {
-                continue;
-            }
-            let mut lt = phi.map(|v| v / v0);
-            // Splat weight: seen from close, the leaf's own samples as small emitters (module docs).
-            let mut splat_t = 0.0f32;
-            let mut splat = [0.0f64; 3];
-            if let CutEntry::Leaf(leaf) = e.blocker.source {
-                let (lo, hi) = (SPLAT_THETA_START, SPLAT_THETA_FULL);
-                let d = [e.blocker.center[0] - p[0], e.blocker.center[1] - p[1], e.blocker.center[2] - p[2]];
-                let d2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
-                let r = e.blocker.radius;
-                let theta_raw = if d2 <= r * r { core::f32::consts::FRAC_PI_2 } else { asin_f32(r * rsqrt_f32(d2)) };
-                if theta_raw > lo {
-                    let fill = f64::from(lights.leaf_fill.get(leaf as usize).copied().unwrap_or(1.0));
-                    let fw = splat_weight(fill, posed_src.proxy.samples_of(leaf as usize).len()) as f32;
-                    splat_t = fw * ((theta_raw - lo) / (hi - lo)).clamp(0.0, 1.0);
-                    if splat_t > 0.0 {
-                        splat = splat_irradiance(&ctx.cells, posed_src, lights, leaf as usize, p, normal);
-                    }
-                }
-            }
-            // Seen from very close (wide caps: the receiver is inside or under the light), the weights concentrate
-            // near the axis, where the order-n smearing of the light's empty directions (rule 2) and of its sharp
-            // light/dark edges would glow: blend towards a local fit of the Voronoi function itself.
-            if let (CutEntry::Leaf(leaf), true) = (e.blocker.source, ai.theta > CLOSE_THETA_START) {
-                let range = leaf as usize * GEODESIC_DIRECTION_COUNT..(leaf as usize + 1) * GEODESIC_DIRECTION_COUNT;
-                if let Some(fit) = lights.leaf_cells.get(range).and_then(|cells| close_fit(cells, axis, ai.theta)) {
-                    let phi_fit = cosine_weighted_radiance_rgb_f32(ai.theta, axis, n_local, &fit, 2)?;
-                    let t = ((ai.theta - CLOSE_THETA_START) / (CLOSE_THETA_FULL - CLOSE_THETA_START)).clamp(0.0, 1.0);
-                    for c in 0..3 {
-                        lt[c] = (1.0 - t) * lt[c] + t * (phi_fit[c] / v0).max(0.0);
-                    }
-                }
-            }
-            // A = Σ of the logs of the nearer lights that do not intersect this one (same source).
-            let mut acc = [0.0f32; MAX_COEFFS];
-            let mut any = false;
-            let cos_i = crate::shadow::sqrt_f32((1.0 - ai.sin_theta * ai.sin_theta).max(0.0));
-            for aj in &self.active[..i] {
-                let ej = &entries[aj.entry as usize];
-                if ej.source == e.source && intersect(&ej.blocker, &e.blocker) {
-                    continue;
-                }
-                // A nearer light whose cone misses this one's blocks nothing of it; its band-limited log would
-                // still darken it (SH leakage), so it is left out: the cones overlap iff the angle between their
-                // axes is below θ_i + θ_j, i.e. cos∠ > cos θ_i cos θ_j − sin θ_i sin θ_j.
-                let cos_j = crate::shadow::sqrt_f32((1.0 - aj.sin_theta * aj.sin_theta).max(0.0));
-                let dot_axes = ai.axis[0] * aj.axis[0] + ai.axis[1] * aj.axis[1] + ai.axis[2] * aj.axis[2];
-                if dot_axes <= cos_i * cos_j - ai.sin_theta * aj.sin_theta {
-                    continue;
-                }
-                any = true;
-                for c in 0..nc {
-                    acc[c] += aj.log[c];
-                }
-            }
-            // Ṽ = Ṽ₀ · (visible share of the light's cap): the share from eq. 23 as
-            // (exp*(A) − exp*(A + G)) · H / ((1 − exp*(G)) · H), Ṽ₀ = (n·s) sin²θ exact. Without a nearer
-            // blocker the share is 1 and no exponential is needed.
-            let v = if any {
-                let mut g = [0.0f64; MAX_COEFFS];
-                ctx.shadow.visibility(&acc[..nc], &mut g[..nc])?;
-                let v_near = dot(&g[..nc], &h[..nc]);
-                for c in 0..nc {
-                    acc[c] += ai.log[c];
-                }
-                ctx.shadow.visibility(&acc[..nc], &mut g[..nc])?;
-                let v_far = dot(&g[..nc], &h[..nc]);
-                ctx.shadow.visibility(&ai.log[..nc], &mut g[..nc])?;
-                let own = 1.0 - dot(&g[..nc], &h[..nc]);
-                let share = if own > 1e-4 { ((v_near - v_far) / own).clamp(0.0, 1.0) } else { 1.0 };
-                f64::from(v0) * share
-            } else {
-                f64::from(v0)
-            };
-            let v = if contact.1 != usize::MAX && contact.1 != k { v * (1.0 - contact.0) } else { v };
-            let keep = 1.0 - f64::from(splat_t);
-            if splat_t > 0.0 {
-                let vis = if v0 > 0.0 { v / f64::from(v0) } else { 0.0 };
-                for c in 0..3 {
-                    total[c] += f64::from(splat_t) * splat[c] * vis * f64::from(e.ratio[c]);
-                }
-            }
-            let (sum, share) = if ai.adjusted { (&mut adjusted, &mut adjusted_share) } else { (&mut total, &mut 0.0) };
-            *share += v * keep;
-            for c in 0..3 {
-                sum[c] += keep * core::f64::consts::PI * f64::from(lt[c]) * v * f64::from(e.ratio[c]);
-            }
-        }
-        // One radiance per direction: the lights the self-shadowing rules moved next to the receiver (it was
-        // inside or under them) all touch its tangent plane and intersect, so none blocks another; their
-        // cosine-weighted shares cannot add up to more than the union of their caps covers.
-        if adjusted_share > 0.0 {
-            let union = union_of_adjusted(&self.active, &include, normal);
-            if adjusted_share > union {
-                let s = union / adjusted_share;
-                for c in 0..3 {
-                    total[c] += adjusted[c] * s;
-                }
-            } else {
-                for c in 0..3 {
-                    total[c] += adjusted[c];
-                }
-            }
-        }
-        Ok(total)
+        accumulate_log_visibility_f32(theta, s, &e.blocker.band_weights[..order], &mut a.log[..nc])?;
+        active.push(a);
     }
+    // Nearest first by power (insertion sort: stable, allocation-free, K is small).
+    for i in 1..active.len() {
+        let mut j = i;
+        while j > 0 && active[j - 1].power > active[j].power {
+            active.swap(j - 1, j);
+            j -= 1;
+        }
+    }
+    // Contact (module docs): the leaf that contains the receiver and whose facing tiles cover most of its view
+    // hides the other lights by that share.
+    let mut contact = (0.0f64, usize::MAX);
+    for ai in active.iter() {
+        let k = ai.entry as usize;
+        let e = &entries[k];
+        let CutEntry::Leaf(leaf) = e.blocker.source else { continue };
+        let d = [e.blocker.center[0] - p[0], e.blocker.center[1] - p[1], e.blocker.center[2] - p[2]];
+        if d[0] * d[0] + d[1] * d[1] + d[2] * d[2] > e.blocker.radius * e.blocker.radius {
+            continue;
+        }
+        let Some((posed_src, _)) = sources.get(e.source as usize) else { continue };
+        let c = tile_coverage(&ctx.cells, posed_src, leaf as usize, p, normal);
+        if c > contact.0 {
+            contact = (c, k);
+        }
+    }
+    let mut h = [0.0f64; MAX_COEFFS];
+    ctx.cosine_lobe([f64::from(normal[0]), f64::from(normal[1]), f64::from(normal[2])], &mut h);
+    let mut total = [0.0f64; 3];
+    let mut adjusted = [0.0f64; 3];
+    let mut adjusted_share = 0.0f64;
+    for i in 0..active.len() {
+        let ai = &active[i];
+        let k = ai.entry as usize;
+        if !include(k) {
+            continue;
+        }
+        let e = &entries[k];
+        let Some((posed_src, lights)) = sources.get(e.source as usize) else {
+            return Err(LightError::Mismatch { what: "sources" });
+        };
+        let (coeffs, _) = lights.light_of(e.blocker.source);
+        if coeffs.len() < nc {
+            continue;
+        }
+        // Cosine-weighted average radiance Φ / Ṽ₀ (spherebake_sh light module), in the light's rest frame.
+        let axis = rotate_transposed(&e.rotation, ai.axis);
+        let n_local = rotate_transposed(&e.rotation, normal);
+        let phi = cosine_weighted_radiance_rgb_f32(ai.theta, axis, n_local, coeffs, order)?;
+        let ns = -(ai.axis[0] * normal[0] + ai.axis[1] * normal[1] + ai.axis[2] * normal[2]);
+        let st = ai.sin_theta;
+        let v0 = ns * st * st;
+        if v0.partial_cmp(&1e-12) != Some(core::cmp::Ordering::Greater) || phi.iter().all(|&v| v.abs() <= 0.0) {
+            continue;
+        }
+        let mut lt = phi.map(|v| v / v0);
+        // Splat weight: seen from close, the leaf's own samples as small emitters (module docs).
+        let mut splat_t = 0.0f32;
+        let mut splat = [0.0f64; 3];
+        if let CutEntry::Leaf(leaf) = e.blocker.source {
+            let (lo, hi) = (SPLAT_THETA_START, SPLAT_THETA_FULL);
+            let d = [e.blocker.center[0] - p[0], e.blocker.center[1] - p[1], e.blocker.center[2] - p[2]];
+            let d2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
+            let r = e.blocker.radius;
+            let theta_raw = if d2 <= r * r { core::f32::consts::FRAC_PI_2 } else { asin_f32(r * rsqrt_f32(d2)) };
+            if theta_raw > lo {
+                let fill = f64::from(lights.leaf_fill.get(leaf as usize).copied().unwrap_or(1.0));
+                let fw = splat_weight(fill, posed_src.proxy.samples_of(leaf as usize).len()) as f32;
+                splat_t = fw * ((theta_raw - lo) / (hi - lo)).clamp(0.0, 1.0);
+                if splat_t > 0.0 {
+                    splat = splat_irradiance(&ctx.cells, posed_src, lights, leaf as usize, p, normal);
+                }
+            }
+        }
+        // Seen from very close (wide caps: the receiver is inside or under the light), the weights concentrate
+        // near the axis, where the order-n smearing of the light's empty directions (rule 2) and of its sharp
+        // light/dark edges would glow: blend towards a local fit of the Voronoi function itself.
+        if let (CutEntry::Leaf(leaf), true) = (e.blocker.source, ai.theta > CLOSE_THETA_START) {
+            let range = leaf as usize * GEODESIC_DIRECTION_COUNT..(leaf as usize + 1) * GEODESIC_DIRECTION_COUNT;
+            if let Some(fit) = lights.leaf_cells.get(range).and_then(|cells| close_fit(cells, axis, ai.theta)) {
+                let phi_fit = cosine_weighted_radiance_rgb_f32(ai.theta, axis, n_local, &fit, 2)?;
+                let t = ((ai.theta - CLOSE_THETA_START) / (CLOSE_THETA_FULL - CLOSE_THETA_START)).clamp(0.0, 1.0);
+                for c in 0..3 {
+                    lt[c] = (1.0 - t) * lt[c] + t * (phi_fit[c] / v0).max(0.0);
+                }
+            }
+        }
+        // A = Σ of the logs of the nearer lights that do not intersect this one (same source).
+        let mut acc = [0.0f32; MAX_COEFFS];
+        let mut any = false;
+        let cos_i = crate::shadow::sqrt_f32((1.0 - ai.sin_theta * ai.sin_theta).max(0.0));
+        for aj in &active[..i] {
+            let ej = &entries[aj.entry as usize];
+            if ej.source == e.source && intersect(&ej.blocker, &e.blocker) {
+                continue;
+            }
+            // A nearer light whose cone misses this one's blocks nothing of it; its band-limited log would
+            // still darken it (SH leakage), so it is left out: the cones overlap iff the angle between their
+            // axes is below θ_i + θ_j, i.e. cos∠ > cos θ_i cos θ_j − sin θ_i sin θ_j.
+            let cos_j = crate::shadow::sqrt_f32((1.0 - aj.sin_theta * aj.sin_theta).max(0.0));
+            let dot_axes = ai.axis[0] * aj.axis[0] + ai.axis[1] * aj.axis[1] + ai.axis[2] * aj.axis[2];
+            if dot_axes <= cos_i * cos_j - ai.sin_theta * aj.sin_theta {
+                continue;
+            }
+            any = true;
+            for c in 0..nc {
+                acc[c] += aj.log[c];
+            }
+        }
+        // Ṽ = Ṽ₀ · (visible share of the light's cap): the share from eq. 23 as
+        // (exp*(A) − exp*(A + G)) · H / ((1 − exp*(G)) · H), Ṽ₀ = (n·s) sin²θ exact. Without a nearer
+        // blocker the share is 1 and no exponential is needed.
+        let v = if any {
+            let mut g = [0.0f64; MAX_COEFFS];
+            ctx.shadow.visibility(&acc[..nc], &mut g[..nc])?;
+            let v_near = dot(&g[..nc], &h[..nc]);
+            for c in 0..nc {
+                acc[c] += ai.log[c];
+            }
+            ctx.shadow.visibility(&acc[..nc], &mut g[..nc])?;
+            let v_far = dot(&g[..nc], &h[..nc]);
+            ctx.shadow.visibility(&ai.log[..nc], &mut g[..nc])?;
+            let own = 1.0 - dot(&g[..nc], &h[..nc]);
+            let share = if own > 1e-4 { ((v_near - v_far) / own).clamp(0.0, 1.0) } else { 1.0 };
+            f64::from(v0) * share
+        } else {
+            f64::from(v0)
+        };
+        let v = if contact.1 != usize::MAX && contact.1 != k { v * (1.0 - contact.0) } else { v };
+        let keep = 1.0 - f64::from(splat_t);
+        if splat_t > 0.0 {
+            let vis = if v0 > 0.0 { v / f64::from(v0) } else { 0.0 };
+            for c in 0..3 {
+                total[c] += f64::from(splat_t) * splat[c] * vis * f64::from(e.ratio[c]);
+            }
+        }
+        let (sum, share) = if ai.adjusted { (&mut adjusted, &mut adjusted_share) } else { (&mut total, &mut 0.0) };
+        *share += v * keep;
+        for c in 0..3 {
+            sum[c] += keep * core::f64::consts::PI * f64::from(lt[c]) * v * f64::from(e.ratio[c]);
+        }
+    }
+    // One radiance per direction: the lights the self-shadowing rules moved next to the receiver (it was
+    // inside or under them) all touch its tangent plane and intersect, so none blocks another; their
+    // cosine-weighted shares cannot add up to more than the union of their caps covers.
+    if adjusted_share > 0.0 {
+        let union = union_of_adjusted(active, &include, normal);
+        if adjusted_share > union {
+            let s = union / adjusted_share;
+            for c in 0..3 {
+                total[c] += adjusted[c] * s;
+            }
+        } else {
+            for c in 0..3 {
+                total[c] += adjusted[c];
+            }
+        }
+    }
+    Ok(total)
 }
 
 /// Angular radius (radians) from which pass 2 starts blending a leaf light's SH towards its Voronoi function (40°).
@@ -1790,12 +1830,6 @@ const CAP_TRIG: [(f32, f32); CAP_AZIMUTHS] = [
     (-1.0, 0.0),
     (-core::f32::consts::FRAC_1_SQRT_2, core::f32::consts::FRAC_1_SQRT_2),
 ];
-
-#[derive(Clone, Copy)]
-enum Which {
-    Entries,
-    Scratch,
-}
 
 fn dot(a: &[f64], b: &[f64]) -> f64 {
     a.iter().zip(b).map(|(x, y)| x * y).sum()

@@ -1,5 +1,5 @@
 //! The light passes do not allocate per receiver: a counting global allocator around many
-//! `IndirectCluster::irradiance` calls (after a first call has grown the buffers) for a proxy of 40 spheres with and
+//! `IndirectCluster::irradiance` and `irradiance_with` calls (after a first call has grown the buffers) for a proxy of 40 spheres with and
 //! without a hierarchy, around a second `light_spheres` frame of the same size, and around the rebuild of a cluster
 //! of the same size. The counter (`counting_alloc`) is per thread, so the parallel tests do not see each other's allocations.
 
@@ -7,7 +7,7 @@ mod common;
 use common::uniform_sky as sky;
 
 use spherebake_runtime::light::{
-    light_spheres, ClusterSpec, IndirectCluster, LightContext, Pass1Settings, PosedProxy, SphereLights,
+    light_spheres, ClusterSpec, IndirectCluster, IndirectScratch, LightContext, Pass1Settings, PosedProxy, SphereLights,
 };
 use spherebake_runtime::shadow::ExpMethod;
 use spherebake_runtime::{
@@ -107,6 +107,14 @@ fn check_irradiance_is_allocation_free(hierarchy: bool) {
             xs.len()
         );
         assert_eq!(after, before, "irradiance allocated (hierarchy {hierarchy}, tile ({x0}, {z0}))");
+        // The shared-cluster query, with a scratch grown by its first call.
+        let mut scratch = IndirectScratch::new();
+        cl.irradiance_with(&mut scratch, &ctx, &sources, xs[0], up).unwrap();
+        let before = allocs();
+        for &x in &xs {
+            cl.irradiance_with(&mut scratch, &ctx, &sources, x, up).unwrap();
+        }
+        assert_eq!(allocs(), before, "irradiance_with allocated (hierarchy {hierarchy}, tile ({x0}, {z0}))");
         assert!(first.iter().all(|v| v.is_finite()) && sum.iter().all(|&v| v > 0.0), "{sum:?}");
     }
 }

@@ -6,7 +6,7 @@ mod common;
 use common::uniform_sky as sky;
 
 use spherebake_runtime::light::{
-    light_spheres, ClusterSpec, IndirectCluster, LightContext, Pass1Settings, PosedProxy, SphereLights,
+    light_spheres, ClusterSpec, IndirectCluster, IndirectScratch, LightContext, Pass1Settings, PosedProxy, SphereLights,
 };
 use spherebake_runtime::shadow::ExpMethod;
 use spherebake_runtime::{
@@ -170,6 +170,86 @@ fn same_inputs_same_bits_without_hierarchy() {
 #[test]
 fn same_inputs_same_bits_with_hierarchy() {
     check(true);
+}
+
+/// A built cluster is shared by several threads, each querying its own receivers with its own scratch: every value
+/// equals, bit for bit, the one the single-threaded `irradiance` gives, and one scratch carries nothing from a
+/// cluster of other lights (or another proxy) to the next query.
+#[test]
+fn a_shared_cluster_answers_several_threads_as_one() {
+    fn shared<T: Sync>(_: &T) {}
+    let ctx = LightContext::new(4, ExpMethod::default()).unwrap();
+    let up = [0.0f32, 1.0, 0.0];
+    for hierarchy in [false, true] {
+        let proxy = proxy_n(8, hierarchy);
+        let mut lights = SphereLights::new();
+        let mut cl = IndirectCluster::new();
+        // The single-threaded values, tile after tile (pass 1 included; the posed proxy is rebuilt below as `run`
+        // builds it).
+        let (_, serial) = run(&ctx, &proxy, &mut lights, &mut cl, false);
+        let plan = proxy.hierarchy_plan();
+        let nodes = proxy.hierarchy().map(rest_node_spheres);
+        let rotations: Vec<[f32; 9]> = (0..proxy.sphere_count()).map(|i| rot_y(0.05 * i as f32)).collect();
+        let posed = PosedProxy {
+            nodes: plan.as_ref().zip(nodes.as_deref()),
+            rotations: Some(&rotations),
+            ..PosedProxy::at_rest(&proxy)
+        };
+        let sources = [(posed, &lights)];
+        // One scratch per thread, first used on another proxy's cluster (other lights, another count).
+        let other = proxy_n(12, !hierarchy);
+        let mut other_lights = SphereLights::new();
+        let mut other_cl = IndirectCluster::new();
+        run(&ctx, &other, &mut other_lights, &mut other_cl, false);
+        let other_sources = [(PosedProxy::at_rest(&other), &other_lights)];
+        let mut scratches = [IndirectScratch::new(), IndirectScratch::new(), IndirectScratch::new()];
+        other_cl.build(&ctx, &other_sources, &ClusterSpec::new([1.0, 0.0, 0.5], 1.5, Some(up))).unwrap();
+        assert!(other_cl.light_count() > 0);
+        for s in &mut scratches {
+            other_cl.irradiance_with(s, &ctx, &other_sources, [0.3, 0.0, 0.2], up).unwrap();
+        }
+        let mut parallel = Vec::new();
+        for (x0, z0, theta) in TILES {
+            let spec = ClusterSpec { theta_max_rad: theta, ..ClusterSpec::new([x0, 0.0, z0], 1.5, Some(up)) };
+            cl.build(&ctx, &sources, &spec).unwrap();
+            let xs = receivers(x0, z0);
+            let (cl, ctx, sources) = (&cl, &ctx, &sources);
+            shared(cl);
+            // Thread t takes receivers t, t + 3, …; all run at once on the one cluster.
+            let parts: Vec<Vec<(usize, [u64; 3])>> = std::thread::scope(|scope| {
+                let handles: Vec<_> = scratches
+                    .iter_mut()
+                    .enumerate()
+                    .map(|(t, scratch)| {
+                        let xs = &xs;
+                        scope.spawn(move || {
+                            (t..xs.len())
+                                .step_by(3)
+                                .map(|i| {
+                                    let e = cl.irradiance_with(scratch, ctx, sources, xs[i], up).unwrap();
+                                    (i, e.map(f64::to_bits))
+                                })
+                                .collect()
+                        })
+                    })
+                    .collect();
+                handles.into_iter().map(|h| h.join().unwrap()).collect()
+            });
+            let mut vals = vec![[0u64; 3]; xs.len()];
+            for (i, v) in parts.into_iter().flatten() {
+                vals[i] = v;
+            }
+            parallel.extend(vals.into_iter().flatten());
+        }
+        assert_eq!(parallel.len(), serial.len());
+        let differ = parallel.iter().zip(&serial).filter(|(a, b)| a != b).count();
+        assert_eq!(
+            differ,
+            0,
+            "{differ} of {} values differ from the single-threaded ones (hierarchy {hierarchy})",
+            serial.len()
+        );
+    }
 }
 
 #[test]
