@@ -41,6 +41,32 @@ pub(crate) const SUPPORTED_REQUIRED: &[&str] = &[
     "EXT_texture_avif",
 ];
 
+/// Extensions that `extensionsUsed` may list without a warning besides [`SUPPORTED_REQUIRED`]:
+/// read elsewhere (Draco is refused where no uncompressed data remains; pointer animation channels
+/// get their own warning), or known to change neither the geometry nor the base colour (with every
+/// `KHR_materials_*` but `KHR_materials_variants`, which picks other materials per variant).
+const KNOWN_USED: &[&str] = &[
+    "KHR_draco_mesh_compression",
+    "KHR_animation_pointer",
+    "KHR_xmp",
+    "KHR_xmp_json_ld",
+    "KHR_techniques_webgl",
+    "EXT_lights_image_based",
+    "MSFT_lod",
+    "MSFT_texture_dds",
+    "EXT_mesh_features",
+    "EXT_structural_metadata",
+    "EXT_instance_features",
+    "CESIUM_primitive_outline",
+];
+
+/// Whether the importer reads `extension` or knows it leaves geometry and base colour alone.
+fn known_used(extension: &str) -> bool {
+    SUPPORTED_REQUIRED.contains(&extension)
+        || KNOWN_USED.contains(&extension)
+        || (extension.starts_with("KHR_materials_") && extension != "KHR_materials_variants")
+}
+
 const MESHOPT: [&str; 2] = ["EXT_meshopt_compression", "KHR_meshopt_compression"];
 /// In order of preference: the first one the texture offers is its image (WebP, which decodes,
 /// before the two that do not).
@@ -73,6 +99,9 @@ pub(crate) struct CompressedView {
 pub(crate) struct Prepared {
     /// `extensionsRequired` as written in the file (removed from the JSON).
     pub required: Vec<String>,
+    /// Names in `extensionsUsed` that the importer neither reads nor knows to be harmless (file
+    /// order, each once): the import warns that it reads the file as if they were absent.
+    pub unknown_used: Vec<String>,
     pub compressed: Vec<CompressedView>,
     /// Per buffer: marked `fallback` by a meshopt extension (never loaded; no view may read it
     /// except through its compressed data).
@@ -122,6 +151,13 @@ pub(crate) fn prepare(path: &Path, root: &mut Value) -> Result<Prepared, IoError
                 return Err(IoError::UnsupportedExtension { path: path.to_path_buf(), extension: ext.to_owned() });
             }
             prep.required.push(ext.to_owned());
+        }
+    }
+    if let Some(used) = obj.get("extensionsUsed").and_then(Value::as_array) {
+        for ext in used.iter().filter_map(Value::as_str) {
+            if !known_used(ext) && !prep.unknown_used.iter().any(|u| u == ext) {
+                prep.unknown_used.push(ext.to_owned());
+            }
         }
     }
     // Channels whose target has no node (optional in glTF 2.0) are removed before the gltf crate,

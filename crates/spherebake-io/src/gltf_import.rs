@@ -325,6 +325,12 @@ pub(crate) fn import(ctx: &mut Ctx, bytes: &[u8], glb: bool) -> Result<(Mesh, Ve
             });
         }
     }
+    if !prep.unknown_used.is_empty() {
+        ctx.warn(format!(
+            "extension(s) used by the file but not read: {} (the bake reads it as if they were absent; e.g. nodes hidden by KHR_node_visibility are baked, KHR_materials_variants keeps the default materials)",
+            prep.unknown_used.join(", ")
+        ));
+    }
     if prep.channels_without_node > 0 {
         ctx.warn(format!(
             "{} animation channel(s) without a target node skipped (e.g. KHR_animation_pointer, which is not read): the pose margin and `pose` do not see what they animate",

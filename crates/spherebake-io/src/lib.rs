@@ -25,7 +25,9 @@
 //! | other `KHR_materials_*`, `KHR_lights_punctual` | ignored (no effect on geometry or base colour) |
 //!
 //! Any other extension in `extensionsRequired` (for example `KHR_draco_mesh_compression`) is an
-//! [`IoError::UnsupportedExtension`] naming it. A malformed compressed view is an
+//! [`IoError::UnsupportedExtension`] naming it. One listed only in `extensionsUsed` that the
+//! importer neither reads nor knows to leave geometry and base colour alone (for example
+//! `KHR_node_visibility`, `KHR_materials_variants`, a vendor's) is named in one warning. A malformed compressed view is an
 //! [`IoError::CompressedView`] naming the buffer view, the extension and what is wrong.
 
 mod error;

@@ -202,6 +202,33 @@ fn texture_transform_texcoord_override_and_missing_set_warns() {
     assert!(imp.warnings.iter().any(|w| w.0.contains("TEXCOORD_1")), "{:?}", imp.warnings);
 }
 
+/// Extensions listed in `extensionsUsed` that the importer does not read and that may change what
+/// it should bake (hidden nodes, material variants, a vendor's unknown one) get one warning naming
+/// each; implemented or harmless ones (material appearance, lights) none.
+#[test]
+fn unknown_used_extensions_are_named_in_one_warning() {
+    let path = fixture("textured-cube/textured-cube.gltf");
+    let with_used = |list: &str| {
+        let json = read(&path).replacen(r#""asset": {"#, &format!(r#""extensionsUsed": [{list}], "asset": {{"#), 1);
+        assert!(json.contains("extensionsUsed"), "fixture layout changed");
+        load_mesh_from_bytes(&path.with_file_name("used.gltf"), json.as_bytes()).unwrap()
+    };
+    let named = |imp: &spherebake_io::Imported| -> Vec<String> {
+        imp.warnings.iter().filter(|w| w.0.contains("not read:")).map(|w| w.0.clone()).collect()
+    };
+    let imp = with_used(
+        r#""KHR_materials_emissive_strength", "KHR_node_visibility", "KHR_lights_punctual",
+            "KHR_materials_variants", "VENDOR_thing", "KHR_node_visibility", "KHR_texture_transform""#,
+    );
+    let w = named(&imp);
+    assert_eq!(w.len(), 1, "{:?}", imp.warnings);
+    assert!(w[0].contains("not read: KHR_node_visibility, KHR_materials_variants, VENDOR_thing ("), "{}", w[0]);
+    let imp = with_used(r#""KHR_materials_emissive_strength", "KHR_lights_punctual", "KHR_texture_transform""#);
+    assert!(named(&imp).is_empty(), "{:?}", imp.warnings);
+    // The same mesh either way: the warning is all that changes.
+    assert_eq!(with_used(r#""VENDOR_thing""#).mesh.triangles, imp.mesh.triangles);
+}
+
 #[test]
 fn normalized_u8_vertex_colours_are_read_as_linear_values() {
     // COLOR_0 as normalized unsigned bytes, VEC4: 255 → 1.0, 51 → 0.2 (glTF: c / 255, no sRGB).
