@@ -148,7 +148,7 @@ static int read_areas(const Section *s, const Section *smp, const SphbFileSphere
             memcpy(&bits, s->data + 16 + 2 * (uint64_t)k, sizeof bits);
             r = i < sphere_count ? (double)sphere[i].radius : 0.0;
             a = (float)((double)half_to_float(bits) * r * r);
-            ok = (bits & 0x8000u) == 0 && (bits & 0x7C00u) != 0x7C00u;
+            ok = ((bits & 0x8000u) == 0 || bits == 0x8000u) && (bits & 0x7C00u) != 0x7C00u; /* -0 is 0 */
         }
         if (!ok) return reject(5014, "sample area");
         if (k < 4) printf(" %a", a);

@@ -622,7 +622,8 @@ fn read_sample_areas(s: &Sec<'_>, samples: Option<Samples>, spheres: &[Sphere]) 
                 let bits = s.u16(rel)?;
                 let h = f32_from_f16(bits);
                 // Decoding (§7.2): in double, (h · r) · r, rounded once to f32.
-                ((f64::from(h) * r * r) as f32, f16_is_finite(bits) && bits & 0x8000 == 0)
+                // ≥ 0 as for f32 areas: −0 (0x8000) is 0, every other negative is refused.
+                ((f64::from(h) * r * r) as f32, f16_is_finite(bits) && (bits & 0x8000 == 0 || bits == 0x8000))
             };
             if !ok {
                 return Err(s.err(Rule::SampleArea, rel, Detail::Text("finite and >= 0"), Detail::Float(a)));

@@ -461,6 +461,36 @@ fn cases() -> Vec<(Rule, Vec<u8>, Option<u64>)> {
     c
 }
 
+/// Rule 5014 reads "finite and ≥ 0" the same way in both encodings: −0 is 0 (valid), the
+/// smallest negative value of each is refused.
+#[test]
+fn minus_zero_areas_are_valid_in_both_encodings() {
+    let mut f = full_file();
+    f.samples.as_mut().unwrap().areas = Some(vec![0.01, 0.02, 0.03]);
+    let lossless = write(&f);
+    let compact = write_compact(&f).unwrap();
+    let (lo, co) = (section_offset(&lossless, K::SampleAreas), section_offset(&compact, K::SampleAreas));
+    assert_eq!((lossless[lo + 4], compact[co + 4]), (0, 1), "f32 and f16 encodings");
+    let patched = |bytes: &[u8], patch: &dyn Fn(&mut Vec<u8>)| {
+        let mut b = bytes.to_vec();
+        patch(&mut b);
+        repair_checksums(&mut b);
+        read(&b)
+    };
+    let zero_f32 = patched(&lossless, &|b| put_f32(b, lo + 16 + 4, -0.0)).expect("f32 -0 is 0");
+    let zero_f16 = patched(&compact, &|b| put_u16(b, co + 16 + 2, 0x8000)).expect("f16 -0 is 0");
+    for file in [zero_f32, zero_f16] {
+        assert_eq!(file.samples.unwrap().areas.unwrap()[1], 0.0);
+    }
+    for (bytes, patch) in [
+        (&lossless, &(|b: &mut Vec<u8>| put_f32(b, lo + 16 + 4, -f32::from_bits(1))) as &dyn Fn(&mut Vec<u8>)),
+        (&compact, &|b: &mut Vec<u8>| put_u16(b, co + 16 + 2, 0x8001)),
+    ] {
+        let e = patched(bytes, patch).expect_err("a negative area");
+        assert_eq!(e.rule, Rule::SampleArea);
+    }
+}
+
 #[test]
 fn every_case_reports_its_rule() {
     for (i, (rule, bytes, offset)) in cases().into_iter().enumerate() {

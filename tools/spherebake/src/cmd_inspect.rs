@@ -90,6 +90,31 @@ fn inspect_sphb(path: &Path, as_json: bool) -> Result<ExitCode> {
     if let Value::Object(o) = &mut doc {
         o.insert("file".into(), json!(path.display().to_string()));
         o.insert("format_version".into(), json!(format!("{}.{}", header.major, header.minor)));
+        o.insert(
+            "header".into(),
+            json!({
+                "major": header.major,
+                "minor": header.minor,
+                "header_size": header.header_size,
+                "flags": header.flags,
+                "section_count": header.section_count,
+                "table_offset": header.table_offset,
+                "file_size": header.file_size,
+                "table_crc32": format!("{:08x}", header.table_crc32),
+                "header_crc32": format!("{:08x}", header.header_crc32),
+            }),
+        );
+        // Encoding byte of the sample_areas section (spec §7.2): 0 f32 model units², 1 f16 per r².
+        let areas = table.iter().find(|s| s.known_kind() == Some(spherebake_format::SectionKind::SampleAreas));
+        let encoding = areas.and_then(|s| usize::try_from(s.offset).ok()).and_then(|at| bytes.get(at + 4));
+        o.insert(
+            "sample_areas_encoding".into(),
+            match encoding {
+                Some(0) => json!("f32 (model units squared)"),
+                Some(1) => json!("f16 (units of the sphere's radius squared)"),
+                _ => Value::Null,
+            },
+        );
         o.insert("file_bytes".into(), json!(bytes.len()));
         o.insert("sections".into(), Value::Array(sections));
     }

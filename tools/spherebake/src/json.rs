@@ -1,6 +1,7 @@
 //! JSON views of files and reports. The key names of `inspect --json` are a contract:
-//! `format_version`, `sections`, `spheres`, `hierarchy`, `samples`, `albedo_sh`, `skin`, `bones`,
-//! `metadata`. Keep them stable.
+//! `format_version`, `header`, `sections`, `spheres`, `hierarchy`, `hierarchy_root`, `samples`,
+//! `sample_areas_encoding`, `albedo_sh`, `albedo_sh_format`, `skin`, `bones_per_sphere`, `bones`,
+//! `metadata`. Keep them stable (keys may be added, never renamed or removed).
 
 use serde_json::{json, Value};
 use spherebake_format::SphbFile;
@@ -76,12 +77,25 @@ pub fn sphb_to_json(file: &SphbFile) -> Value {
         }
         Value::Object(o)
     });
+    // The albedo's conventions as codes and names (spec §8: both have one value in version 1).
+    let albedo_sh_format = file.albedo_sh.as_ref().map(|a| {
+        json!({
+            "order": a.order,
+            "colour_space": a.colour_space.code(),
+            "colour_space_name": "linear RGB (Rec. 709 primaries)",
+            "basis": a.basis.code(),
+            "basis_name": "real orthonormal SH, Condon-Shortley phase, index l(l+1)+m",
+        })
+    });
     json!({
         "spheres": spheres,
         "hierarchy": hierarchy,
+        "hierarchy_root": file.hierarchy.as_ref().map(|h| h.root),
         "samples": samples,
         "albedo_sh": albedo_sh,
+        "albedo_sh_format": albedo_sh_format,
         "skin": skin,
+        "bones_per_sphere": file.skin.as_ref().map(|k| k.bones_per_sphere),
         "bones": bones,
         "metadata": metadata,
     })

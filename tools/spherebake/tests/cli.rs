@@ -112,10 +112,25 @@ fn inspect_json_has_the_contract_keys() {
     let o = run(&["inspect", "c.sphb", "--json"], dir.path());
     assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
     let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
-    for k in ["format_version", "spheres", "hierarchy", "samples", "albedo_sh", "skin", "bones", "metadata", "sections"]
-    {
+    for k in [
+        "format_version",
+        "header",
+        "spheres",
+        "hierarchy",
+        "hierarchy_root",
+        "samples",
+        "sample_areas_encoding",
+        "albedo_sh",
+        "albedo_sh_format",
+        "skin",
+        "bones_per_sphere",
+        "bones",
+        "metadata",
+        "sections",
+    ] {
         assert!(v.get(k).is_some(), "missing key {k}");
     }
+    assert_eq!(v["sample_areas_encoding"], "f32 (model units squared)", "a lossless bake");
     let s = &v["spheres"][0];
     assert_eq!(s["center"].as_array().unwrap().len(), 3);
     assert!(s["radius"].as_f64().unwrap() > 0.0);

@@ -76,6 +76,26 @@ fn compact_bake_of_the_capsule_is_deterministic_and_keeps_everything_but_samples
     for (a, b) in ls.areas.as_ref().unwrap().iter().zip(cs.areas.as_ref().unwrap()) {
         assert!((a - b).abs() <= a * 2f32.powi(-10) + 1e-9, "{a} vs {b}");
     }
+    // The header, the hierarchy's root, the albedo's format and the areas' encoding, read here from
+    // the raw bytes at the spec's offsets (§3, §6, §7.2, §8).
+    let u16_at = |b: &[u8], at: usize| u64::from(u16::from_le_bytes([b[at], b[at + 1]]));
+    let u32_at = |b: &[u8], at: usize| u64::from(u32::from_le_bytes(b[at..at + 4].try_into().unwrap()));
+    let u64_at = |b: &[u8], at: usize| u64::from_le_bytes(b[at..at + 8].try_into().unwrap());
+    let h = &j["header"];
+    assert_eq!((h["major"].as_u64(), h["minor"].as_u64()), (Some(u16_at(&compact, 8)), Some(u16_at(&compact, 10))));
+    assert_eq!(h["header_size"].as_u64(), Some(u32_at(&compact, 12)));
+    assert_eq!(h["section_count"].as_u64(), Some(u32_at(&compact, 20)));
+    assert_eq!(h["table_offset"].as_u64(), Some(u64_at(&compact, 24)));
+    assert_eq!(h["file_size"].as_u64(), Some(compact.len() as u64));
+    assert_eq!(h["header_crc32"], format!("{:08x}", u32_at(&compact, 44)));
+    let section = |i: usize| j["sections"][i]["offset"].as_u64().unwrap() as usize;
+    assert_eq!(j["hierarchy_root"].as_u64(), Some(u32_at(&compact, section(1) + 4)));
+    let sh = &j["albedo_sh_format"];
+    assert_eq!(sh["order"].as_u64(), Some(u64::from(compact[section(4) + 4])));
+    assert_eq!((sh["colour_space"].as_u64(), sh["basis"].as_u64()), (Some(0), Some(0)));
+    assert_eq!(compact[section(5) + 4], 1);
+    assert!(j["sample_areas_encoding"].as_str().unwrap().starts_with("f16"), "{}", j["sample_areas_encoding"]);
+    assert!(j["bones_per_sphere"].is_null(), "the capsule has no skin");
     // Same input and settings: the same bytes again.
     ok(&run(&["bake", model.to_str().unwrap(), "-o", "again.sphb", "-q", "--compact", "--spheres", "16"], d));
     assert!(std::fs::read(d.join("again.sphb")).unwrap() == compact);
