@@ -142,6 +142,9 @@ pub struct SkinSummary {
     pub linear_residual_max_relative: f64,
     /// Largest |b| weight share dropped by keeping `bones_per_sphere` bones.
     pub dropped_weight_max: f64,
+    /// Spheres none of whose kept bones has an invertible rest joint matrix: their terms do not
+    /// sum to the rest centre (Σ b ≠ 1; warned). 0 in every other case.
+    pub remainder_dropped: usize,
     /// What `--pose-margin auto` did ([`MarginResult`]).
     pub pose_margin: Option<MarginResult>,
 }
@@ -292,6 +295,14 @@ pub fn bake_imported(
     let stage_err = |stage: &'static str, e: String| BakeError::Stage { path: path.to_path_buf(), stage, message: e };
     let skin = bake_skin(mesh, &spheres, &skin_settings).map_err(|e| stage_err("skin", e.to_string()))?;
     let mut margin = None;
+    if let Some((_, _, st)) = &skin {
+        if st.remainder_dropped > 0 {
+            warnings.push(format!(
+                "skin: {} sphere(s) keep no bone with an invertible rest joint matrix, so their terms do not reproduce the rest centre (Σ b ≠ 1 there)",
+                st.remainder_dropped
+            ));
+        }
+    }
     if let Some((terms, _, _)) = &skin {
         if settings.pose_margin == PoseMargin::Auto {
             let m = grow_for_animations(mesh, &spheres, terms, &skin_settings)
@@ -422,6 +433,7 @@ pub fn bake_imported(
             bones_per_sphere: st.bones_per_sphere,
             linear_residual_max_relative: st.linear_residual_max_relative,
             dropped_weight_max: st.dropped_weight_max,
+            remainder_dropped: st.remainder_dropped,
             pose_margin: margin,
         }),
         hierarchy: HierarchySummary {
