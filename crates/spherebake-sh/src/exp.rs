@@ -29,6 +29,7 @@
 
 use crate::basis::{MAX_COEFFS, MAX_ORDER};
 use crate::tables_data::{OL_2, OL_3, OL_4, OL_5, OL_6, OL_7, OL_8, OL_MAX_NORM};
+use crate::triple::SMALL;
 use crate::{check_len, check_order, coeff_count, ShError, TripleProduct};
 use core::f64::consts::PI;
 
@@ -127,6 +128,15 @@ fn square_p(tp: &TripleProduct, r: &mut [f64; MAX_COEFFS], p: i32) -> Result<(),
     Ok(())
 }
 
+/// `p` SH squarings of `r` on arrays of `N` coefficients ([`TripleProduct::square_array`]).
+fn square_p_array<const N: usize>(tp: &TripleProduct, r: &mut [f64; N], p: i32) {
+    let mut tmp = [0.0; N];
+    for _ in 0..p {
+        tp.square_array(r, &mut tmp);
+        *r = tmp;
+    }
+}
+
 /// Ren's PS*-`degree` SH exponential (f64, the tensor's order), allocation-free: DC isolation (eq. 20), scaling by 2ᵖ
 /// with p = max(0, ⌊log₂‖f̂‖ + 3⌋) (eq. 21), the degree-`degree` series factored into even and odd powers (eq. 22;
 /// f̂²* = f̂∗f̂, f̂⁴* = f̂²*∗f̂²*, f̂⁶* = f̂⁴*∗f̂²*, …), then p SH squarings.
@@ -139,30 +149,47 @@ pub fn sh_exp_ps_star(tp: &TripleProduct, f: &[f64], degree: usize, out: &mut [f
     if nc == 0 {
         return Ok(());
     }
+    // Work arrays of 16 coefficients up to order 4 (the runtime's default), else 64: the same arithmetic either way.
+    if nc <= SMALL {
+        ps_star_array::<SMALL>(tp, f, nc, degree, out);
+    } else {
+        ps_star_array::<MAX_COEFFS>(tp, f, nc, degree, out);
+    }
+    Ok(())
+}
+
+/// [`sh_exp_ps_star`] on arrays of `N` ≥ `nc` coefficients (checked arguments).
+fn ps_star_array<const N: usize>(tp: &TripleProduct, f: &[f64], nc: usize, degree: usize, out: &mut [f64]) {
     let degree = degree.clamp(1, 20);
-    let mut x = [0.0; MAX_COEFFS];
-    let (scale, norm) = dc_isolate(f, nc, &mut x);
+    let mut x = [0.0; N];
+    x[..nc].copy_from_slice(&f[..nc]);
+    x[0] = 0.0;
+    let (scale, norm) = (libm::exp(f[0] / SQRT_4PI), libm::sqrt(x[1..nc].iter().map(|v| v * v).sum()));
     let p = if norm > 0.0 { (libm::floor(libm::log2(norm) + 3.0) as i32).clamp(0, MAX_SQUARINGS) } else { 0 };
     let s = libm::ldexp(1.0, -p);
     for xi in &mut x[..nc] {
         *xi *= s;
     }
     // even = Σ_{k even ≤ d} x^k*/k!, odd = Σ_{k odd ≤ d} x^(k−1)*/k!, result = even + x ∗ odd (eq. 22).
-    let mut even = [0.0; MAX_COEFFS];
-    let mut odd = [0.0; MAX_COEFFS];
+    let mut even = [0.0; N];
+    let mut odd = [0.0; N];
     even[0] = SQRT_4PI;
     odd[0] = SQRT_4PI;
-    let mut x2 = [0.0; MAX_COEFFS];
-    let mut pow = [0.0; MAX_COEFFS]; // x^(2j)*
-    let mut tmp = [0.0; MAX_COEFFS];
+    let mut x2 = [0.0; N];
+    let mut pow = [0.0; N]; // x^(2j)*
+    let mut tmp = [0.0; N];
     let mut fact = 1.0; // (2j)!
     let mut j = 1;
     while 2 * j <= degree {
         if j == 1 {
-            tp.product(&x, &x, &mut x2)?;
+            tp.square_array(&x, &mut x2);
             pow = x2;
+        } else if j == 2 {
+            // pow = x², so x⁴* is a square.
+            tp.square_array(&x2, &mut tmp);
+            pow = tmp;
         } else {
-            tp.product(&pow, &x2, &mut tmp)?;
+            tp.product_array(&pow, &x2, &mut tmp);
             pow = tmp;
         }
         fact *= (2 * j - 1) as f64 * (2 * j) as f64;
@@ -173,16 +200,15 @@ pub fn sh_exp_ps_star(tp: &TripleProduct, f: &[f64], degree: usize, out: &mut [f
         }
         j += 1;
     }
-    tp.product(&x, &odd, &mut tmp)?;
+    tp.product_array(&x, &odd, &mut tmp);
     let mut r = even;
     for i in 0..nc {
         r[i] += tmp[i];
     }
-    square_p(tp, &mut r, p)?;
+    square_p_array(tp, &mut r, p);
     for i in 0..nc {
         out[i] = scale * r[i];
     }
-    Ok(())
 }
 
 /// OL rows and the largest tabulated ‖f̂‖ of an order 2..=8.

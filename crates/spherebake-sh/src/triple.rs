@@ -76,6 +76,9 @@ pub struct TripleProductEntry {
     pub value: f64,
 }
 
+/// Coefficients of the small work arrays (orders up to 4).
+pub(crate) const SMALL: usize = 16;
+
 /// Sparse SH triple-product tensor Γ_ijk = ∫ y_i y_j y_k ds of one order: all ordered triples with |Γ| > 1e-10, sorted by (i, j, k).
 ///
 /// Counts per order 1..8: 1, 10, 83, 353, 1158, 2907, 6460, 12868 entries. Computed once by exact quadrature (§3).
@@ -85,6 +88,9 @@ pub struct TripleProduct {
     entries: Vec<TripleProductEntry>,
     /// Entries of output row i are `entries[row_start[i]..row_start[i + 1]]` (entries are sorted by i).
     row_start: [u32; MAX_COEFFS + 1],
+    /// For squares f ∗ f: the entries with j ≤ k, 2Γ_ijk where j < k (Γ_ijk = Γ_ikj), rows as `row_start`.
+    square_entries: Vec<TripleProductEntry>,
+    square_row_start: [u32; MAX_COEFFS + 1],
 }
 
 impl TripleProduct {
@@ -119,14 +125,23 @@ impl TripleProduct {
                 }
             }
         }
-        let mut row_start = [0u32; MAX_COEFFS + 1];
-        for e in &entries {
-            row_start[e.i as usize + 1] += 1;
-        }
-        for i in 0..MAX_COEFFS {
-            row_start[i + 1] += row_start[i];
-        }
-        Ok(TripleProduct { order, entries, row_start })
+        let rows = |entries: &[TripleProductEntry]| {
+            let mut row_start = [0u32; MAX_COEFFS + 1];
+            for e in entries {
+                row_start[e.i as usize + 1] += 1;
+            }
+            for i in 0..MAX_COEFFS {
+                row_start[i + 1] += row_start[i];
+            }
+            row_start
+        };
+        let square_entries: Vec<TripleProductEntry> = entries
+            .iter()
+            .filter(|e| e.j <= e.k)
+            .map(|e| TripleProductEntry { value: if e.j < e.k { 2.0 * e.value } else { e.value }, ..*e })
+            .collect();
+        let (row_start, square_row_start) = (rows(&entries), rows(&square_entries));
+        Ok(TripleProduct { order, entries, row_start, square_entries, square_row_start })
     }
 
     /// SH order (bands 0..order−1) of the tensor.
@@ -149,18 +164,56 @@ impl TripleProduct {
         check_len("f", nc, f.len())?;
         check_len("g", nc, g.len())?;
         check_len("out", nc, out.len())?;
-        // Fixed-size copies and masked indices (all < 64) let the hot loop run without bounds checks; each output row
-        // is summed with four independent partial sums (entries sorted by i), so the loop is not latency-bound.
-        let mut fa = [0.0; MAX_COEFFS];
-        let mut ga = [0.0; MAX_COEFFS];
-        fa[..nc].copy_from_slice(&f[..nc]);
-        ga[..nc].copy_from_slice(&g[..nc]);
-        let term = |e: &TripleProductEntry| {
-            e.value * fa[e.j as usize & (MAX_COEFFS - 1)] * ga[e.k as usize & (MAX_COEFFS - 1)]
-        };
-        let mut acc = [0.0; MAX_COEFFS];
-        for (i, a) in acc.iter_mut().enumerate().take(nc) {
-            let row = &self.entries[self.row_start[i] as usize..self.row_start[i + 1] as usize];
+        // Fixed-size copies let the hot loop run without bounds checks (`product_array`); arrays of 16 up to order 4,
+        // so a low order does not pay for clearing and copying 64 coefficients.
+        if nc <= SMALL {
+            let (mut fa, mut ga) = ([0.0; SMALL], [0.0; SMALL]);
+            fa[..nc].copy_from_slice(&f[..nc]);
+            ga[..nc].copy_from_slice(&g[..nc]);
+            let mut acc = [0.0; SMALL];
+            self.product_array(&fa, &ga, &mut acc);
+            out[..nc].copy_from_slice(&acc[..nc]);
+        } else {
+            let (mut fa, mut ga) = ([0.0; MAX_COEFFS], [0.0; MAX_COEFFS]);
+            fa[..nc].copy_from_slice(&f[..nc]);
+            ga[..nc].copy_from_slice(&g[..nc]);
+            let mut acc = [0.0; MAX_COEFFS];
+            self.product_array(&fa, &ga, &mut acc);
+            out[..nc].copy_from_slice(&acc[..nc]);
+        }
+        Ok(())
+    }
+
+    /// [`TripleProduct::product`] on fixed-size arrays of `N` ≥ order² coefficients (`N` a power of two: indices are
+    /// masked by `N − 1`, so the loop has no bounds checks); writes `out[..order²]` and leaves the rest. Each output
+    /// row is summed with four independent partial sums (entries sorted by i), so the loop is not latency-bound; the
+    /// sums run in the same order for every `N`, so every `N` gives the same bits.
+    #[inline]
+    pub(crate) fn product_array<const N: usize>(&self, f: &[f64; N], g: &[f64; N], out: &mut [f64; N]) {
+        Self::rows_array(&self.entries, &self.row_start, coeff_count(self.order), f, g, out);
+    }
+
+    /// The square f ∗ f on fixed-size arrays, as [`TripleProduct::product_array`]`(f, f)` with about half the
+    /// terms (Γ_ijk = Γ_ikj: each pair j < k once, doubled); equal to rounding, not bit for bit.
+    #[inline]
+    pub(crate) fn square_array<const N: usize>(&self, f: &[f64; N], out: &mut [f64; N]) {
+        Self::rows_array(&self.square_entries, &self.square_row_start, coeff_count(self.order), f, f, out);
+    }
+
+    #[inline(always)]
+    fn rows_array<const N: usize>(
+        entries: &[TripleProductEntry],
+        row_start: &[u32; MAX_COEFFS + 1],
+        nc: usize,
+        f: &[f64; N],
+        g: &[f64; N],
+        out: &mut [f64; N],
+    ) {
+        debug_assert!(N.is_power_of_two() && nc <= N);
+        let nc = nc.min(N);
+        let term = |e: &TripleProductEntry| e.value * f[e.j as usize & (N - 1)] * g[e.k as usize & (N - 1)];
+        for (i, a) in out.iter_mut().enumerate().take(nc) {
+            let row = &entries[row_start[i] as usize..row_start[i + 1] as usize];
             let mut s = [0.0; 4];
             let mut chunks = row.chunks_exact(4);
             for c in &mut chunks {
@@ -174,8 +227,6 @@ impl TripleProduct {
             }
             *a = (s[0] + s[1]) + (s[2] + s[3]);
         }
-        out[..nc].copy_from_slice(&acc[..nc]);
-        Ok(())
     }
 
     /// Product matrix (M_f)_ij = Σ_k Γ_ijk f_k, row-major order²×order² into `out` (so f ∗ g = M_f g, M_1 = I). Allocation-free.
@@ -215,6 +266,51 @@ mod tests {
         a.sort_unstable();
         let negatives = [m1, m2, m3].iter().filter(|&&m| m < 0).count();
         a[2] == a[0] + a[1] && negatives % 2 == 0
+    }
+
+    /// The square path (pairs j < k once, doubled) equals the general product of f with itself to rounding, on every
+    /// order, and the small (16) and full (64) work arrays give the same bits.
+    #[test]
+    fn square_equals_product_with_itself() {
+        let mut state = 0x9e37_79b9_7f4a_7c15u64;
+        let mut next = || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            (state >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
+        };
+        for order in 1..=MAX_ORDER {
+            let tp = TripleProduct::new(order).unwrap();
+            let nc = coeff_count(order);
+            for _ in 0..20 {
+                let mut f = [0.0; MAX_COEFFS];
+                for v in &mut f[..nc] {
+                    *v = 3.0 * next();
+                }
+                let (mut full, mut square) = ([0.0; MAX_COEFFS], [0.0; MAX_COEFFS]);
+                tp.product_array(&f, &f, &mut full);
+                tp.square_array(&f, &mut square);
+                let scale: f64 = full[..nc].iter().map(|v| v.abs()).fold(1.0, f64::max);
+                for i in 0..nc {
+                    assert!(
+                        (full[i] - square[i]).abs() <= 1e-13 * scale,
+                        "order {order}, i {i}: {} vs {}",
+                        full[i],
+                        square[i]
+                    );
+                }
+                assert!(full[nc..].iter().chain(&square[nc..]).all(|&v| v == 0.0), "only order² outputs written");
+                if nc <= SMALL {
+                    let mut small = [0.0; SMALL];
+                    small.copy_from_slice(&f[..SMALL]);
+                    let (mut a, mut b) = ([0.0; SMALL], [0.0; SMALL]);
+                    tp.product_array(&small, &small, &mut a);
+                    tp.square_array(&small, &mut b);
+                    assert_eq!(a.map(f64::to_bits)[..nc], full.map(f64::to_bits)[..nc]);
+                    assert_eq!(b.map(f64::to_bits)[..nc], square.map(f64::to_bits)[..nc]);
+                }
+            }
+        }
     }
 
     #[test]
