@@ -64,9 +64,11 @@ pub struct StageTime {
 /// What a bake did and measured.
 #[derive(Clone, Debug, Serialize)]
 pub struct BakeReport {
-    /// The model file.
+    /// The model file (in JSON as text; a name that is not UTF-8 shows U+FFFD where its bytes are not).
+    #[serde(serialize_with = "json_path::path")]
     pub input: PathBuf,
-    /// Every file read (model, buffers, .mtl, textures), for depfiles.
+    /// Every file read (model, buffers, .mtl, textures), for depfiles (in JSON as [`BakeReport::input`]).
+    #[serde(serialize_with = "json_path::paths")]
     pub inputs: Vec<PathBuf>,
     /// FNV-1a 64 of every input byte, hex.
     pub input_hash: String,
@@ -537,4 +539,21 @@ fn units_of(path: &Path) -> &'static str {
 
 fn file_name(path: &Path) -> String {
     path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default()
+}
+
+/// Paths in JSON reports: as text, lossily. serde's own `Path` serializer fails on a name that is
+/// not UTF-8 (possible on Unix), which would turn a finished bake into a failed report.
+pub mod json_path {
+    use serde::Serializer;
+    use std::path::{Path, PathBuf};
+
+    /// One path, as `Path::to_string_lossy`.
+    pub fn path<S: Serializer>(p: &Path, s: S) -> Result<S::Ok, S::Error> {
+        s.serialize_str(&p.to_string_lossy())
+    }
+
+    /// A list of paths, each as [`path`].
+    pub fn paths<S: Serializer>(v: &[PathBuf], s: S) -> Result<S::Ok, S::Error> {
+        s.collect_seq(v.iter().map(|p| p.to_string_lossy()))
+    }
 }

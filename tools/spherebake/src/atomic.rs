@@ -221,6 +221,18 @@ fn unregister(tmp: &Path) {
 }
 
 fn prepare(path: &Path, bytes: &[u8]) -> Result<Prepared> {
+    // A device, FIFO or pipe reached through any links, magic ones included (`/dev/stdout` is
+    // `/proc/self/fd/1`, a link to `pipe:[N]` when stdout is a pipe): written in place.
+    if let Ok(m) = std::fs::metadata(path) {
+        if !m.is_file() && !m.is_dir() {
+            let mut f = std::fs::OpenOptions::new()
+                .write(true)
+                .open(path)
+                .with_context(|| format!("{}: opening for writing", path.display()))?;
+            f.write_all(bytes).and_then(|_| f.flush()).with_context(|| format!("{}: writing", path.display()))?;
+            return Ok(Prepared::Streamed);
+        }
+    }
     let target = resolve_symlinks(path)?;
     let existing = std::fs::metadata(&target).ok();
     if let Some(m) = &existing {

@@ -119,7 +119,9 @@ struct Job {
 
 #[derive(Serialize)]
 struct AssetResult {
+    #[serde(serialize_with = "spherebake_bake::json_path::path")]
     input: PathBuf,
+    #[serde(serialize_with = "spherebake_bake::json_path::path")]
     output: PathBuf,
     /// "baked", "up-to-date" or "failed".
     status: &'static str,
@@ -136,7 +138,7 @@ pub fn run(a: BakeArgs) -> Result<ExitCode> {
     let jobs = match plan(&a) {
         Ok(j) => j,
         Err(Usage(msg)) => {
-            eprintln!("spherebake: error: {msg}");
+            eline!("spherebake: error: {msg}");
             return Ok(ExitCode::from(2));
         }
     };
@@ -173,6 +175,9 @@ pub fn run(a: BakeArgs) -> Result<ExitCode> {
         slots.into_iter().filter_map(|m| m.into_inner().unwrap_or_else(|p| p.into_inner())).collect();
 
     let failed = results.iter().filter(|r| r.status == "failed").count();
+    if failed > 0 {
+        crate::output::note_failure();
+    }
     if a.json {
         let doc = serde_json::json!({
             "assets": results,
@@ -302,12 +307,16 @@ fn to_settings(o: &Overrides) -> std::result::Result<BakeSettings, String> {
     Ok(s)
 }
 
+/// The model files under `dir`, recursively. Symbolic links to directories are not followed (as
+/// `find` without `-L`): a link back up the tree would otherwise make the walk endless; a linked
+/// model file is taken.
 fn collect_meshes(dir: &Path, out: &mut Vec<PathBuf>) -> std::io::Result<()> {
     for e in std::fs::read_dir(dir)? {
-        let p = e?.path();
-        if p.is_dir() {
+        let e = e?;
+        let p = e.path();
+        if e.file_type()?.is_dir() {
             collect_meshes(&p, out)?;
-        } else if crate::cmd_inspect::is_mesh(&p) {
+        } else if crate::cmd_inspect::is_mesh(&p) && !p.is_dir() {
             out.push(p);
         }
     }
@@ -334,10 +343,20 @@ fn run_job(job: &Job, a: &BakeArgs, bar: &ProgressBar) -> AssetResult {
     // Refused before the (long) bake; checked again against every file the model references.
     let early = std::slice::from_ref(&job.input);
     let refused = crate::atomic::refuse_input_as_output(&job.output, early)
-        .and_then(|_| crate::atomic::refuse_input_as_output(&depfile_path(&job.output), early));
+        .and_then(|_| crate::atomic::refuse_input_as_output(&depfile_path(&job.output), early))
+        .and_then(|_| {
+            // A depfile sits beside a file: `-o /dev/null --depfile` would create `/dev/null.d`.
+            match std::fs::metadata(&job.output) {
+                Ok(m) if a.depfile && !m.is_file() => anyhow::bail!(
+                    "{}: --depfile needs a regular output file (this is a device, FIFO or directory)",
+                    job.output.display()
+                ),
+                _ => Ok(()),
+            }
+        });
     if let Err(e) = refused {
         let msg = format!("{e:#}");
-        eprintln!("spherebake: error: {msg}");
+        eline!("spherebake: error: {msg}");
         r.error = Some(msg);
         return r;
     }
@@ -350,7 +369,7 @@ fn run_job(job: &Job, a: &BakeArgs, bar: &ProgressBar) -> AssetResult {
                 .map_or(Ok(()), |inputs| {
                     let text = depfile_text(&job.output, &inputs);
                     let path = depfile_path(&job.output);
-                    crate::atomic::write_atomic(&path, text.as_bytes(), &inputs)
+                    crate::atomic::write_atomic(&path, &text, &inputs)
                         .with_context(|| format!("{}: writing depfile", path.display()))
                 });
         }
@@ -359,7 +378,7 @@ fn run_job(job: &Job, a: &BakeArgs, bar: &ProgressBar) -> AssetResult {
             Ok(()) => r.status = "up-to-date",
             Err(e) => {
                 let msg = format!("{e:#}");
-                eprintln!("spherebake: error: {msg}");
+                eline!("spherebake: error: {msg}");
                 r.error = Some(msg);
             }
         }
@@ -374,7 +393,7 @@ fn run_job(job: &Job, a: &BakeArgs, bar: &ProgressBar) -> AssetResult {
             // written leaves no new output behind (else the next run would call it up to date).
             let text = depfile_text(&job.output, inputs);
             let dep = depfile_path(&job.output);
-            crate::atomic::write_together(&[(&job.output, &out.bytes), (&dep, text.as_bytes())], inputs)
+            crate::atomic::write_together(&[(&job.output, &out.bytes), (&dep, &text)], inputs)
                 .with_context(|| format!("{}: writing its output", job.input.display()))?;
         } else {
             crate::atomic::write_atomic(&job.output, &out.bytes, inputs)
@@ -395,7 +414,7 @@ fn run_job(job: &Job, a: &BakeArgs, bar: &ProgressBar) -> AssetResult {
             let msg = format!("{e:#}");
             // Printed once, as it happens, so a long batch shows failures early; the table
             // says only "failed" (the JSON report carries it as `error`).
-            eprintln!("spherebake: error: {msg}");
+            eline!("spherebake: error: {msg}");
             r.error = Some(msg);
         }
     }
@@ -408,29 +427,31 @@ fn depfile_path(output: &Path) -> PathBuf {
     PathBuf::from(s)
 }
 
-/// Make syntax: `target: dep dep ...`, spaces and `#` escaped with a backslash, `$` doubled.
-fn make_escape(p: &Path) -> String {
-    let mut s = String::new();
-    for c in p.to_string_lossy().chars() {
-        match c {
-            ' ' | '#' | '\\' => {
-                s.push('\\');
-                s.push(c);
-            }
-            '$' => s.push_str("$$"),
-            _ => s.push(c),
+/// Make syntax: `target: dep dep ...`, spaces and `#` escaped with a backslash, `$` doubled. The
+/// path's own bytes (on Unix a name need not be UTF-8, and Make reads bytes), appended to `out`.
+fn make_escape(p: &Path, out: &mut Vec<u8>) {
+    #[cfg(unix)]
+    let bytes = std::os::unix::ffi::OsStrExt::as_bytes(p.as_os_str()).to_vec();
+    #[cfg(not(unix))]
+    let bytes = p.to_string_lossy().into_owned().into_bytes();
+    for b in bytes {
+        match b {
+            b' ' | b'#' | b'\\' => out.extend([b'\\', b]),
+            b'$' => out.extend(b"$$"),
+            _ => out.push(b),
         }
     }
-    s
 }
 
-fn depfile_text(output: &Path, inputs: &[PathBuf]) -> String {
-    let mut text = format!("{}:", make_escape(output));
+fn depfile_text(output: &Path, inputs: &[PathBuf]) -> Vec<u8> {
+    let mut text = Vec::new();
+    make_escape(output, &mut text);
+    text.push(b':');
     for i in inputs {
-        text.push_str(" \\\n  ");
-        text.push_str(&make_escape(i));
+        text.extend(b" \\\n  ");
+        make_escape(i, &mut text);
     }
-    text.push('\n');
+    text.push(b'\n');
     text
 }
 

@@ -42,7 +42,7 @@ pub fn run(a: EvalArgs) -> Result<ExitCode> {
     let model_hash = format!("{:016x}", imported.content_hash);
     let hash_matches = proxy.metadata().map(|m| m.input_hash == model_hash);
     if hash_matches == Some(false) {
-        eprintln!(
+        eline!(
             "spherebake: warning: {} was baked from another input (input hash {}); {} hashes to {}",
             a.file.display(),
             proxy.metadata().map(|m| m.input_hash.as_str()).unwrap_or(""),

@@ -703,7 +703,7 @@ pub fn compute(a: &LightArgs, proxy: &Proxy, mesh: &spherebake_geom::Mesh) -> Re
             }
         }
         if missed > 0 {
-            eprintln!(
+            eline!(
                 "splat oracle: {missed} of {} samples found no surface under them and emit nothing",
                 missed + em.len()
             );

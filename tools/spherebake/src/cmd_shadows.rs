@@ -77,7 +77,7 @@ pub struct ShadowsArgs {
     /// Receivers per ground edge [range 2..=2048]
     #[arg(long, default_value_t = 128)]
     pub resolution: usize,
-    /// Monte Carlo rays per receiver over the whole sphere (rounded up to a square; half are cast) [range 4..]
+    /// Monte Carlo rays per receiver over the whole sphere (rounded up to a square; half are cast) [range 4..=1048576]
     #[arg(long, default_value_t = 1024)]
     pub rays: usize,
     /// Receiver cluster tile edge, in receivers [range 1..]
@@ -135,8 +135,8 @@ pub fn run(a: ShadowsArgs) -> Result<ExitCode> {
     if !(2..=2048).contains(&a.resolution) {
         bail!("--resolution {} is outside 2..=2048", a.resolution);
     }
-    if a.rays < 4 {
-        bail!("--rays {} is below 4", a.rays);
+    if !(4..=1 << 20).contains(&a.rays) {
+        bail!("--rays {} is outside 4..=1048576", a.rays);
     }
     if a.cluster == 0 {
         bail!("--cluster must be at least 1");

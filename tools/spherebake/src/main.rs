@@ -3,6 +3,15 @@
 //! Exit codes: 0 success, 1 an input failed (bad or unsupported input, failed validation, IO),
 //! 2 usage error. Errors print once as `spherebake: error: <file>: <what>`.
 
+/// `eprintln!` that never panics: a closed or broken standard error (`2>&-`, `2>&1 | true`) loses the
+/// line but not the command's work or its exit status.
+macro_rules! eline {
+    ($($t:tt)*) => {{
+        use std::io::Write as _;
+        let _ = writeln!(std::io::stderr(), $($t)*);
+    }};
+}
+
 mod atomic;
 mod cmd_bake;
 mod cmd_eval;
@@ -84,9 +93,9 @@ fn main() -> ExitCode {
         Ok(code) => output::flush(code),
         Err(e) => {
             if is_broken_pipe(&e) {
-                return ExitCode::SUCCESS;
+                return output::closed_pipe_status();
             }
-            eprintln!("spherebake: error: {e:#}");
+            eline!("spherebake: error: {e:#}");
             ExitCode::from(1)
         }
     }

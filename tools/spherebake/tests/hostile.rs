@@ -341,6 +341,44 @@ fn a_closed_pipe_ends_the_output_quietly() {
     }
 }
 
+/// A closed pipe does not hide a failure: a batch with a failed asset exits 1 whether its stdout or
+/// its stderr is gone (before, 0 and 101: the error's own print panicked); `-o /dev/stdout` into
+/// a pipe writes the file there; `--depfile` beside a device is refused instead of creating
+/// `/dev/null.d`.
+#[test]
+fn closed_pipes_keep_the_exit_status_and_dev_stdout_is_written_through_a_pipe() {
+    let d = tempdir();
+    bake_cube(d.path());
+    std::fs::write(d.path().join("bad.obj"), "v 0 0 0\n").unwrap();
+    let batch = ["bake", "cube.obj", "bad.obj", "--out-dir", "o", "--spheres", "4", "--method", "kmeans", "--force"];
+    for close_stdout in [true, false] {
+        let mut child =
+            bin().args(batch).current_dir(d.path()).stdout(Stdio::piped()).stderr(Stdio::piped()).spawn().unwrap();
+        if close_stdout {
+            drop(child.stdout.take());
+        } else {
+            drop(child.stderr.take());
+        }
+        let o = child.wait_with_output().unwrap();
+        assert_eq!(o.status.code(), Some(1), "stdout closed {close_stdout}: {}", stderr(&o));
+    }
+    // The same batch without the bad asset still exits 0 with stdout closed.
+    let mut child =
+        bin().args(&batch[..2]).args(&batch[3..]).current_dir(d.path()).stdout(Stdio::piped()).spawn().unwrap();
+    drop(child.stdout.take());
+    assert_eq!(child.wait().unwrap().code(), Some(0));
+
+    let args = ["bake", "cube.obj", "-o", "/dev/stdout", "--spheres", "4", "--method", "kmeans", "--force", "-q"];
+    let o = bin().args(args).current_dir(d.path()).stdout(Stdio::piped()).output().unwrap();
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let file = spherebake_format::read(&o.stdout).expect("a valid .sphb on stdout");
+    assert_eq!(file.spheres.len(), 4);
+
+    let o = run(&["bake", "cube.obj", "-o", "/dev/null", "--depfile", "--spheres", "4", "--force"], d.path());
+    assert_one_line_error(&o, "/dev/null", "regular output file");
+    assert!(!Path::new("/dev/null.d").exists());
+}
+
 #[test]
 fn a_full_disk_on_stdout_is_a_one_line_io_error() {
     let d = tempdir();
@@ -967,4 +1005,62 @@ fn an_unreachable_target_stops_early_and_says_what_was_reached() {
     // Once: no second line repeating the result.
     assert_eq!(warnings.iter().filter(|w| w.contains(&format!("E = {e:.4}"))).count(), 1, "{warnings:?}");
     assert_eq!(inspect_json(d.path(), "out.sphb")["spheres"].as_array().map(|a| a.len() as u64), Some(n));
+}
+
+/// A model whose file name is not UTF-8 (Latin-1 names from old zip archives): `--json` reports it
+/// (U+FFFD for the bad byte) instead of panicking after the output was written, and the depfile
+/// names the file by its real bytes, so Make finds it.
+#[cfg(unix)]
+#[test]
+fn a_file_name_that_is_not_utf8_bakes_with_json_and_a_depfile() {
+    use std::os::unix::ffi::OsStrExt;
+    let dir = tempdir();
+    let name = std::ffi::OsStr::from_bytes(b"caf\xe9.obj");
+    std::fs::write(dir.path().join(name), CUBE_OBJ).unwrap();
+    let o = bin()
+        .arg("bake")
+        .arg(name)
+        .args(["-o", "c.sphb", "--spheres", "4", "--voxels", "16", "--json", "--depfile"])
+        .current_dir(dir.path())
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).expect("a JSON report");
+    assert_eq!(v["assets"][0]["input"], "caf\u{fffd}.obj");
+    assert_eq!(v["assets"][0]["status"], "baked");
+    let dep = std::fs::read(dir.path().join("c.sphb.d")).unwrap();
+    assert!(dep.windows(8).any(|w| w == b"caf\xe9.obj"), "{}", String::from_utf8_lossy(&dep));
+}
+
+/// A directory input whose tree links back to itself (`sub/up -> ..`): the walk does not follow
+/// linked directories (as `find` without `-L`), so it ends and finds each model once.
+#[cfg(unix)]
+#[test]
+fn a_directory_walk_does_not_follow_symlinked_directories() {
+    let dir = tempdir();
+    let d = dir.path();
+    std::fs::create_dir_all(d.join("in/sub")).unwrap();
+    std::fs::write(d.join("in/a.obj"), CUBE_OBJ).unwrap();
+    std::fs::write(d.join("in/sub/b.obj"), CUBE_OBJ).unwrap();
+    std::os::unix::fs::symlink("..", d.join("in/sub/up")).unwrap();
+    std::os::unix::fs::symlink("..", d.join("in/sub/up2")).unwrap();
+    let o = run_within(&["bake", "in", "--out-dir", "out", "--spheres", "4", "--voxels", "16", "--json"], d, 60);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    let inputs: Vec<&str> = v["assets"].as_array().unwrap().iter().map(|a| a["input"].as_str().unwrap()).collect();
+    assert_eq!(inputs, ["in/a.obj", "in/sub/b.obj"]);
+}
+
+/// `shadows --rays` is bounded like `light --rays`: a huge count (its square overflowed and the run
+/// never ended) is refused at once with the range.
+#[test]
+fn shadows_refuses_a_ray_count_beyond_its_range() {
+    let d = tempdir();
+    bake_cube(d.path());
+    for rays in ["18446744073709551615", "4294967297", "1048577"] {
+        let args = ["shadows", "cube.sphb", "--model", "cube.obj", "--rays", rays, "--resolution", "2"];
+        let o = run_within(&args, d.path(), 20);
+        assert_eq!(o.status.code(), Some(1), "--rays {rays}: {}", stderr(&o));
+        assert!(stderr(&o).contains("outside 4..=1048576"), "{}", stderr(&o));
+    }
 }
