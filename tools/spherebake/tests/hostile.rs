@@ -1064,3 +1064,24 @@ fn shadows_refuses_a_ray_count_beyond_its_range() {
         assert!(stderr(&o).contains("outside 4..=1048576"), "{}", stderr(&o));
     }
 }
+
+/// `--config` reads only a regular file of bounded size (`/dev/zero` ran out of memory, a FIFO
+/// blocked forever), and a TOML error is one line with its position.
+#[test]
+fn config_files_are_bounded_and_their_errors_are_one_line() {
+    let d = tempdir();
+    bake_cube(d.path());
+    let bake =
+        |cfg: &str| run_within(&["bake", "cube.obj", "-o", "c.sphb", "--spheres", "4", "--config", cfg], d.path(), 20);
+    let o = bake("/dev/zero");
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(stderr(&o).contains("/dev/zero: reading config: not a regular file"), "{}", stderr(&o));
+    std::fs::write(d.path().join("big.toml"), vec![b'#'; (1 << 20) + 1]).unwrap();
+    assert!(stderr(&bake("big.toml")).contains("larger than 1048576 bytes"));
+    std::fs::write(d.path().join("bad.toml"), "[defaults]\nspheres = [\n").unwrap();
+    let o = bake("bad.toml");
+    assert_eq!(o.status.code(), Some(2));
+    let err = stderr(&o);
+    assert_eq!(err.trim_end().lines().count(), 1, "{err}");
+    assert!(err.contains("bad.toml: invalid config at line 2, column 12: "), "{err}");
+}
