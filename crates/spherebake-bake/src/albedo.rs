@@ -118,6 +118,9 @@ pub struct AlbedoSettings {
     /// When set, [`bake_albedo`] writes each sphere's cube map and its SH reconstruction as PNG
     /// crosses into this directory (see [`write_debug_cubemaps`]).
     pub debug_dir: Option<PathBuf>,
+    /// Files the debug images must never replace (the model's inputs: a texture named
+    /// `sphere_0000.png` in the debug directory is refused, not overwritten).
+    pub debug_protect: Vec<PathBuf>,
     /// Texture level-of-detail choice. Default [`TextureLod::Footprint`].
     pub texture_lod: TextureLod,
     /// Texels where the sphere has no surface (rule 2, or nothing at all) take the solid-angle-weighted mean colour
@@ -131,6 +134,7 @@ impl Default for AlbedoSettings {
             sh_order: 4,
             cubemap_size: 32,
             debug_dir: None,
+            debug_protect: Vec::new(),
             texture_lod: TextureLod::Footprint,
             fill_uncovered: true,
         }
@@ -254,7 +258,7 @@ pub fn bake_albedo(
         coefficients,
     };
     if let Some(dir) = &settings.debug_dir {
-        stats.debug_files = write_debug_cubemaps(dir, &maps, &sh)
+        stats.debug_files = write_debug_cubemaps(dir, &maps, &sh, &settings.debug_protect)
             .map_err(|source| AlbedoError::DebugWrite { path: dir.clone(), source })?;
     }
     Ok((sh, stats))
@@ -1312,9 +1316,25 @@ impl Projector {
 /// 64 texels are enlarged by an integer factor. Returns the files written.
 ///
 /// # Errors
-/// Directory creation or PNG encoding/writing failures.
-pub fn write_debug_cubemaps(dir: &Path, maps: &[CubeMap], sh: &AlbedoSh) -> std::io::Result<Vec<PathBuf>> {
+/// Directory creation or PNG encoding/writing failures; an image whose path is one of `protect`
+/// (by canonical path: the model's inputs), checked for every image before any is written.
+pub fn write_debug_cubemaps(
+    dir: &Path,
+    maps: &[CubeMap],
+    sh: &AlbedoSh,
+    protect: &[PathBuf],
+) -> std::io::Result<Vec<PathBuf>> {
     std::fs::create_dir_all(dir)?;
+    let protected: Vec<PathBuf> = protect.iter().filter_map(|p| std::fs::canonicalize(p).ok()).collect();
+    for s in 0..maps.len() {
+        let path = dir.join(format!("sphere_{s:04}.png"));
+        if std::fs::canonicalize(&path).is_ok_and(|c| protected.contains(&c)) {
+            return Err(std::io::Error::other(format!(
+                "{} is a file the model reads; not overwritten",
+                path.display()
+            )));
+        }
+    }
     let order = usize::from(sh.order);
     let nc = order * order;
     let mut files = Vec::with_capacity(maps.len());

@@ -360,6 +360,7 @@ pub fn bake_imported(
         sh_order: settings.sh_order,
         cubemap_size: settings.cubemap_size,
         debug_dir: settings.debug_cubemaps.clone(),
+        debug_protect: imported.inputs.clone(),
         ..Default::default()
     };
     let (albedo_sh, albedo_stats) = bake_albedo(mesh, &orientation.flip, spheres, &albedo_settings)

@@ -1085,3 +1085,29 @@ fn config_files_are_bounded_and_their_errors_are_one_line() {
     assert_eq!(err.trim_end().lines().count(), 1, "{err}");
     assert!(err.contains("bad.toml: invalid config at line 2, column 12: "), "{err}");
 }
+
+/// `--debug-cubemaps DIR` writes `sphere_NNNN.png` there; a texture of the model with such a name
+/// in that folder is refused (exit 1, the file untouched), not overwritten.
+#[test]
+fn debug_cubemaps_never_overwrite_a_texture_the_model_reads() {
+    let d = tempdir();
+    write_textured_gltf(d.path());
+    let json = std::fs::read_to_string(d.path().join("cube.gltf")).unwrap().replace("tex.png", "sphere_0000.png");
+    std::fs::write(d.path().join("cube.gltf"), json).unwrap();
+    std::fs::rename(d.path().join("tex.png"), d.path().join("sphere_0000.png")).unwrap();
+    let before = std::fs::read(d.path().join("sphere_0000.png")).unwrap();
+    let o = run(
+        &["bake", "cube.gltf", "-o", "c.sphb", "--spheres", "2", "--voxels", "16", "--debug-cubemaps", "."],
+        d.path(),
+    );
+    assert_one_line_error(&o, "sphere_0000.png", "the model reads");
+    assert_eq!(std::fs::read(d.path().join("sphere_0000.png")).unwrap(), before);
+    assert!(!d.path().join("c.sphb").exists());
+    // Elsewhere the images are written.
+    let o = run(
+        &["bake", "cube.gltf", "-o", "c.sphb", "--spheres", "2", "--voxels", "16", "--debug-cubemaps", "dbg"],
+        d.path(),
+    );
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    assert!(d.path().join("dbg/sphere_0000.png").is_file());
+}
