@@ -257,6 +257,12 @@ fn import_bytes(
     if let Some(v) = mesh.positions.iter().flat_map(|p| p.to_array()).find(|c| c.abs() > MAX_COORDINATE) {
         return Err(IoError::CoordinateRange { path: path.to_path_buf(), value: v, limit: MAX_COORDINATE });
     }
+    let (materials, vertices) = clamp_colours(&mut mesh);
+    if materials + vertices > 0 {
+        ctx.warn(format!(
+            "colours outside [0, 1] clamped: {materials} material colour(s) (base colour factor, OBJ Kd / d), {vertices} vertex colour(s); an albedo above 1 would reflect more light than it receives, a NaN is read as 0"
+        ));
+    }
     Ok(Imported { mesh, warnings: ctx.warnings, inputs: ctx.inputs, content_hash: ctx.hash.finish(), parts })
 }
 
@@ -470,6 +476,22 @@ pub fn read_limited(path: &Path, max: u64) -> Result<Vec<u8>, IoError> {
 /// [`read_limited`] for the up-to-date check: `None` on any failure.
 pub fn read_input_file(path: &Path, max: u64) -> Option<Vec<u8>> {
     read_limited(path, max).ok()
+}
+
+/// Clamps every material base colour factor and vertex colour component (RGBA, linear) into
+/// [0, 1], NaN to 0 (glTF bounds `baseColorFactor` to [0, 1]; OBJ `Kd` and float `COLOR_0` are not
+/// checked by their readers). Returns how many material and vertex colours changed.
+fn clamp_colours(mesh: &mut Mesh) -> (usize, usize) {
+    fn clamp(c: &mut [f32; 4]) -> bool {
+        let before = *c;
+        for v in c.iter_mut() {
+            *v = if v.is_nan() { 0.0 } else { v.clamp(0.0, 1.0) };
+        }
+        before.map(f32::to_bits) != c.map(f32::to_bits)
+    }
+    let materials = mesh.materials.iter_mut().map(|m| clamp(&mut m.base_color_factor_linear)).filter(|&b| b).count();
+    let vertices = mesh.colors_linear.iter_mut().map(clamp).filter(|&b| b).count();
+    (materials, vertices)
 }
 
 #[cfg(test)]

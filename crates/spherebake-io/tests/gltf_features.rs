@@ -229,6 +229,32 @@ fn unknown_used_extensions_are_named_in_one_warning() {
     assert_eq!(with_used(r#""VENDOR_thing""#).mesh.triangles, imp.mesh.triangles);
 }
 
+/// Colours outside [0, 1] (an albedo above 1 reflects more than it receives; glTF bounds
+/// `baseColorFactor` to [0, 1], OBJ `Kd` is unchecked) are clamped with one warning: glTF
+/// [5, −1, 1e30, 1] → [1, 0, 1, 1]; OBJ `Kd -5 1e30 nan` → [0, 1, 0]; in-range colours unchanged.
+#[test]
+fn out_of_range_colours_are_clamped_with_a_warning() {
+    let path = fixture("textured-cube/textured-cube.gltf");
+    let json = read(&path);
+    let at = json.find(r#""baseColorFactor": ["#).expect("fixture has a base colour factor");
+    let end = at + json[at..].find(']').unwrap() + 1;
+    let patched = format!(r#"{}"baseColorFactor": [5, -1, 1e30, 1]{}"#, &json[..at], &json[end..]);
+    let imp = load_mesh_from_bytes(&path.with_file_name("bcf.gltf"), patched.as_bytes()).unwrap();
+    assert_eq!(imp.mesh.materials[0].base_color_factor_linear, [1.0, 0.0, 1.0, 1.0]);
+    let clamped = |w: &[spherebake_io::Warning]| w.iter().filter(|w| w.0.contains("outside [0, 1] clamped")).count();
+    assert_eq!(clamped(&imp.warnings), 1, "{:?}", imp.warnings);
+    let plain = load_mesh_from_bytes(&path, json.as_bytes()).unwrap();
+    assert_eq!(clamped(&plain.warnings), 0, "{:?}", plain.warnings);
+
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("k.mtl"), "newmtl m\nKd -5 1e30 nan\n").unwrap();
+    let obj = "mtllib k.mtl\nusemtl m\nv 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 1 3 2\nf 1 2 4\nf 1 4 3\nf 2 3 4\n";
+    std::fs::write(dir.path().join("t.obj"), obj).unwrap();
+    let imp = load_mesh(&dir.path().join("t.obj")).unwrap();
+    assert_eq!(imp.mesh.materials[0].base_color_factor_linear[..3], [0.0, 1.0, 0.0]);
+    assert_eq!(clamped(&imp.warnings), 1, "{:?}", imp.warnings);
+}
+
 #[test]
 fn normalized_u8_vertex_colours_are_read_as_linear_values() {
     // COLOR_0 as normalized unsigned bytes, VEC4: 255 → 1.0, 51 → 0.2 (glTF: c / 255, no sRGB).
