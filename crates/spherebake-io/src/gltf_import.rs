@@ -84,6 +84,9 @@ pub(crate) fn parse_glb<'b>(path: &Path, bytes: &'b [u8]) -> Result<(&'b [u8], O
         offset = start + chunk_len;
     }
     let json = json.ok_or(IoError::BadChunk { path: p(), offset: 12, reason: "no JSON chunk" })?;
+    // The chunk is padded to 4 bytes with spaces (glTF 2.0 §4.4.3.2); some writers pad with NULs,
+    // which cgltf and gltfpack accept: trailing NULs are dropped before parsing.
+    let json = &json[..json.iter().rposition(|&b| b != 0).map_or(0, |i| i + 1)];
     Ok((json, bin))
 }
 
@@ -506,6 +509,12 @@ impl Source<'_> {
     }
 
     fn read_accessor(&self, acc: &gltf::Accessor) -> Result<AccessorData, IoError> {
+        self.read_accessor_as(acc, acc.normalized())
+    }
+
+    /// [`Self::read_accessor`] with the `normalized` flag given (indices ignore it, as cgltf does:
+    /// a flagged index accessor would otherwise read every index as a fraction, i.e. 0).
+    fn read_accessor_as(&self, acc: &gltf::Accessor, norm: bool) -> Result<AccessorData, IoError> {
         let ai = acc.index();
         let t = acc.data_type();
         let csize = data_type_size(t);
@@ -519,7 +528,6 @@ impl Source<'_> {
         }
         let elem = csize * comps;
         let count = acc.count();
-        let norm = acc.normalized();
         let mut values = Vec::new();
         match acc.view() {
             Some(view) => {
@@ -869,7 +877,14 @@ impl Source<'_> {
                 }
                 let indices: Vec<u32> = match prim.indices() {
                     Some(acc) => {
-                        let d = self.read_vec(&acc, &[1], "indices")?;
+                        let d = self.read_accessor_as(&acc, false)?;
+                        if d.comps != 1 {
+                            return Err(IoError::Accessor {
+                                path,
+                                accessor: acc.index(),
+                                reason: format!("indices has {} components, expected [1]", d.comps),
+                            });
+                        }
                         if acc.data_type() == DataType::F32
                             || acc.data_type() == DataType::I8
                             || acc.data_type() == DataType::I16

@@ -227,6 +227,13 @@ fn import_bytes(
     let mut ctx = Ctx::new(path, *opts);
     ctx.resolver = resolver;
     ctx.record(path, bytes);
+    // A glTF file is read by its content, as cgltf does: the GLB magic means binary whatever the
+    // extension (a `.gltf` holding GLB bytes, a `.glb` holding JSON text).
+    let kind = match kind {
+        Kind::Gltf | Kind::Glb if bytes.starts_with(b"glTF") => Kind::Glb,
+        Kind::Glb if bytes.iter().find(|b| !b.is_ascii_whitespace()) == Some(&b'{') => Kind::Gltf,
+        k => k,
+    };
     let (mut mesh, mut parts) = match kind {
         Kind::Gltf => gltf_import::import(&mut ctx, bytes, false)?,
         Kind::Glb => gltf_import::import(&mut ctx, bytes, true)?,

@@ -60,6 +60,53 @@ fn quad_json(mode: u32, indices: &[u16]) -> String {
     )
 }
 
+/// A GLB holding `json` as its only chunk, padded to 4 bytes with `pad`.
+fn glb(json: &[u8], pad: u8) -> Vec<u8> {
+    let mut chunk = json.to_vec();
+    while chunk.len() % 4 != 0 {
+        chunk.push(pad);
+    }
+    let mut out = b"glTF".to_vec();
+    out.extend(2u32.to_le_bytes());
+    out.extend(((12 + 8 + chunk.len()) as u32).to_le_bytes());
+    out.extend((chunk.len() as u32).to_le_bytes());
+    out.extend(0x4E4F_534Au32.to_le_bytes());
+    out.extend(chunk);
+    out
+}
+
+/// What cgltf and gltfpack accept, read the same: a GLB whose JSON chunk is padded with NULs
+/// (the spec says spaces), GLB bytes in a `.gltf` file and JSON text in a `.glb` file (read by
+/// content), and an index accessor flagged `normalized` (the flag is ignored for indices).
+#[test]
+fn lenient_containers_and_normalized_indices_read_like_cgltf() {
+    let json = quad_json(4, &[0, 1, 2, 2, 1, 3]);
+    let plain = load_mesh_from_bytes(Path::new("mem/q.gltf"), json.as_bytes()).unwrap().mesh.triangles;
+    assert_eq!(plain.len(), 2);
+    // 3 bytes of padding at least: the JSON's length is made ≡ 1 (mod 4).
+    let mut odd = json.clone();
+    while odd.len() % 4 != 1 {
+        odd.push(' ');
+    }
+    for pad in [b' ', 0u8] {
+        let bytes = glb(odd.as_bytes(), pad);
+        for name in ["mem/q.glb", "mem/q.gltf"] {
+            let imp =
+                load_mesh_from_bytes(Path::new(name), &bytes).unwrap_or_else(|e| panic!("{name}, pad {pad}: {e}"));
+            assert_eq!(imp.mesh.triangles, plain, "{name}");
+        }
+    }
+    let imp = load_mesh_from_bytes(Path::new("mem/q.glb"), json.as_bytes()).expect("JSON in a .glb");
+    assert_eq!(imp.mesh.triangles, plain);
+    let flagged = json.replace(
+        r#""componentType":5123,"count":6,"type":"SCALAR""#,
+        r#""componentType":5123,"normalized":true,"count":6,"type":"SCALAR""#,
+    );
+    assert!(flagged.contains("normalized"), "quad_json layout changed");
+    let imp = load_mesh_from_bytes(Path::new("mem/q.gltf"), flagged.as_bytes()).unwrap();
+    assert_eq!(imp.mesh.triangles, plain);
+}
+
 #[test]
 fn strips_and_fans_become_ccw_triangles() {
     // Strip 0,1,2,3 and fan 0,1,3,2 both cover the quad with two +Z-facing triangles.
