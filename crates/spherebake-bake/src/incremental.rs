@@ -21,6 +21,22 @@ pub fn recorded_inputs(output_bytes: &[u8], model: &Path) -> Option<Vec<PathBuf>
     Some(list.lines().map(|l| if l.is_empty() { model.to_path_buf() } else { dir.join(l) }).collect())
 }
 
+/// Metadata key of the referenced files that did not exist at bake time (same format as
+/// [`INPUTS_KEY`]; absent when none was missing).
+pub const MISSING_INPUTS_KEY: &str = "missing_inputs";
+
+/// The files recorded under [`MISSING_INPUTS_KEY`] (empty when the key is absent).
+pub fn recorded_missing(output_bytes: &[u8], model: &Path) -> Vec<PathBuf> {
+    let Ok(file) = spherebake_format::read(output_bytes) else { return Vec::new() };
+    let Some(meta) = file.metadata else { return Vec::new() };
+    let dir = model.parent().unwrap_or(Path::new(""));
+    meta.extra
+        .iter()
+        .find(|(k, _)| k == MISSING_INPUTS_KEY)
+        .map(|(_, v)| v.lines().filter(|l| !l.is_empty()).map(|l| dir.join(l)).collect())
+        .unwrap_or_default()
+}
+
 /// The value stored under [`INPUTS_KEY`]: paths relative to `model`'s directory, one per line.
 pub fn inputs_value(model: &Path, inputs: &[PathBuf]) -> String {
     let dir = model.parent().unwrap_or(Path::new(""));
@@ -43,6 +59,10 @@ pub fn is_up_to_date(output: &Path, model: &Path, settings: &BakeSettings) -> bo
     }
     let Some(inputs) = recorded_inputs(&bytes, model) else { return false };
     if inputs.first().map(PathBuf::as_path) != Some(model) {
+        return false;
+    }
+    // A texture that was missing and now exists changes the bake.
+    if recorded_missing(&bytes, model).iter().any(|p| p.exists()) {
         return false;
     }
     let mut h = Fnv1a64::new();

@@ -21,7 +21,7 @@ pub use albedo::{
     bake_albedo, project_cubemaps, render_albedo_cubemaps, segment_triangles, write_debug_cubemaps, AlbedoError,
     AlbedoSettings, AlbedoStats, CubeMap, SurfaceAlbedo, TextureLod, MAX_HOLES_PER_RAY,
 };
-pub use incremental::{inputs_value, is_up_to_date, recorded_inputs, INPUTS_KEY};
+pub use incremental::{inputs_value, is_up_to_date, recorded_inputs, recorded_missing, INPUTS_KEY, MISSING_INPUTS_KEY};
 
 pub use settings::{BakeSettings, Method, Preset};
 pub use skin::{bake_skin, grow_for_animations, MarginResult, PoseMargin, SkinError, SkinSettings, SkinStats};
@@ -70,6 +70,9 @@ pub struct BakeReport {
     /// Every file read (model, buffers, .mtl, textures), for depfiles (in JSON as [`BakeReport::input`]).
     #[serde(serialize_with = "json_path::paths")]
     pub inputs: Vec<PathBuf>,
+    /// Referenced files that did not exist (warned): depfiles list them too, so adding one re-bakes.
+    #[serde(serialize_with = "json_path::paths")]
+    pub missing: Vec<PathBuf>,
     /// FNV-1a 64 of every input byte, hex.
     pub input_hash: String,
     pub triangles: usize,
@@ -387,10 +390,16 @@ pub fn bake_imported(
             settings: settings.to_json(),
             input_hash: input_hash.clone(),
             units: units_of(path).to_string(),
-            extra: vec![
-                ("input_name".to_string(), file_name(path)),
-                (INPUTS_KEY.to_string(), inputs_value(path, &imported.inputs)),
-            ],
+            extra: {
+                let mut extra = vec![
+                    ("input_name".to_string(), file_name(path)),
+                    (INPUTS_KEY.to_string(), inputs_value(path, &imported.inputs)),
+                ];
+                if !imported.missing.is_empty() {
+                    extra.push((MISSING_INPUTS_KEY.to_string(), inputs_value(path, &imported.missing)));
+                }
+                extra
+            },
         }),
     };
     let t = Instant::now();
@@ -423,6 +432,7 @@ pub fn bake_imported(
     let report = BakeReport {
         input: path.to_path_buf(),
         inputs: imported.inputs.clone(),
+        missing: imported.missing.clone(),
         input_hash,
         triangles: mesh.triangles.len(),
         vertices_welded: topology.welded_vertex_count,

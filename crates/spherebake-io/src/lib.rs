@@ -77,6 +77,10 @@ pub struct Imported {
     /// Every file read, in read order: the model, then `.bin` / `.mtl` / image files (for
     /// depfiles). Data URIs and GLB chunks are not files and are not listed.
     pub inputs: Vec<PathBuf>,
+    /// Referenced files that did not exist (a missing texture the import warned about): not
+    /// inputs, but a bake depends on them appearing (depfiles list them, and the up-to-date check
+    /// re-bakes once one exists). In reference order, each once.
+    pub missing: Vec<PathBuf>,
     /// FNV-1a 64 of all input bytes in read order (model bytes first, then each referenced file).
     pub content_hash: u64,
     /// One entry per imported primitive instance / OBJ model, in import order.
@@ -270,7 +274,14 @@ fn import_bytes(
             "colours outside [0, 1] clamped: {materials} material colour(s) (base colour factor, OBJ Kd / d), {vertices} vertex colour(s); an albedo above 1 would reflect more light than it receives, a NaN is read as 0"
         ));
     }
-    Ok(Imported { mesh, warnings: ctx.warnings, inputs: ctx.inputs, content_hash: ctx.hash.finish(), parts })
+    Ok(Imported {
+        mesh,
+        warnings: ctx.warnings,
+        inputs: ctx.inputs,
+        missing: ctx.missing,
+        content_hash: ctx.hash.finish(),
+        parts,
+    })
 }
 
 /// Import state shared by the format importers: the model path, inputs read, hash, warnings.
@@ -278,6 +289,8 @@ pub(crate) struct Ctx {
     pub path: PathBuf,
     pub dir: PathBuf,
     pub inputs: Vec<PathBuf>,
+    /// Referenced files not found ([`Imported::missing`]).
+    pub missing: Vec<PathBuf>,
     pub hash: Fnv1a64,
     pub warnings: Vec<Warning>,
     pub opts: ImportOptions,
@@ -304,6 +317,7 @@ impl Ctx {
             path: path.to_path_buf(),
             dir: path.parent().map(Path::to_path_buf).unwrap_or_default(),
             inputs: Vec::new(),
+            missing: Vec::new(),
             hash: Fnv1a64::new(),
             warnings: Vec::new(),
             opts,
@@ -328,7 +342,11 @@ impl Ctx {
     pub fn read_referenced(&mut self, uri: &str, path: &Path, limit: ReadLimit) -> Result<Vec<u8>, IoError> {
         let budget = self.opts.max_input_bytes.saturating_sub(self.read_total);
         let r = self.resolver.as_deref();
-        let bytes = read_confined(&self.path, &self.dir, &self.opts, uri, path, budget, limit, r)?;
+        let bytes = read_confined(&self.path, &self.dir, &self.opts, uri, path, budget, limit, r).inspect_err(|e| {
+            if matches!(e, IoError::ReferenceNotFound { .. }) && !self.missing.iter().any(|m| m == path) {
+                self.missing.push(path.to_path_buf());
+            }
+        })?;
         self.record(path, &bytes);
         Ok(bytes)
     }

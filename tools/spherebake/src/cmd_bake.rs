@@ -365,9 +365,12 @@ fn run_job(job: &Job, a: &BakeArgs, bar: &ProgressBar) -> AssetResult {
         if a.depfile && !depfile_path(&job.output).exists() {
             // Keep the depfile promise even when nothing is baked; a failure fails the asset.
             kept = spherebake_io::read_input_file(&job.output, spherebake_io::default_options().max_input_bytes)
-                .and_then(|bytes| spherebake_bake::recorded_inputs(&bytes, &job.input))
-                .map_or(Ok(()), |inputs| {
-                    let text = depfile_text(&job.output, &inputs);
+                .and_then(|bytes| {
+                    let missing = spherebake_bake::recorded_missing(&bytes, &job.input);
+                    spherebake_bake::recorded_inputs(&bytes, &job.input).map(|inputs| (inputs, missing))
+                })
+                .map_or(Ok(()), |(inputs, missing)| {
+                    let text = depfile_text(&job.output, &inputs, &missing);
                     let path = depfile_path(&job.output);
                     crate::atomic::write_atomic(&path, &text, &inputs)
                         .with_context(|| format!("{}: writing depfile", path.display()))
@@ -391,7 +394,7 @@ fn run_job(job: &Job, a: &BakeArgs, bar: &ProgressBar) -> AssetResult {
         if a.depfile {
             // The output and its depfile succeed or fail together: a depfile that cannot be
             // written leaves no new output behind (else the next run would call it up to date).
-            let text = depfile_text(&job.output, inputs);
+            let text = depfile_text(&job.output, inputs, &out.report.missing);
             let dep = depfile_path(&job.output);
             crate::atomic::write_together(&[(&job.output, &out.bytes), (&dep, &text)], inputs)
                 .with_context(|| format!("{}: writing its output", job.input.display()))?;
@@ -443,15 +446,23 @@ fn make_escape(p: &Path, out: &mut Vec<u8>) {
     }
 }
 
-fn depfile_text(output: &Path, inputs: &[PathBuf]) -> Vec<u8> {
+/// `output: inputs... missing...`, then an empty rule per missing file (as `gcc -MP` writes for
+/// headers): Make then rebuilds while the file is absent instead of stopping with "no rule to
+/// make", and once it appears its time stamp counts like any input's.
+fn depfile_text(output: &Path, inputs: &[PathBuf], missing: &[PathBuf]) -> Vec<u8> {
     let mut text = Vec::new();
     make_escape(output, &mut text);
     text.push(b':');
-    for i in inputs {
+    for i in inputs.iter().chain(missing) {
         text.extend(b" \\\n  ");
         make_escape(i, &mut text);
     }
     text.push(b'\n');
+    for m in missing {
+        text.push(b'\n');
+        make_escape(m, &mut text);
+        text.extend(b":\n");
+    }
     text
 }
 

@@ -107,3 +107,60 @@ fn ninja_builds_incrementally_from_depfiles_and_keeps_going() {
         .collect();
     assert!(left.is_empty(), "{left:?}");
 }
+
+/// A texture the model names but that does not exist yet (a warning at bake time) is still a
+/// dependency: the depfile lists it with an empty rule (as `gcc -MP` does for headers), so once
+/// it appears Ninja rebuilds the output, and the tool's own up-to-date check re-bakes too.
+#[test]
+fn a_missing_texture_that_appears_rebuilds_the_output() {
+    let d = tempfile::tempdir().unwrap();
+    let d = d.path();
+    std::fs::create_dir_all(d.join("assets")).unwrap();
+    let mut tex = String::from("mtllib late.mtl\nusemtl m\nvt 0 0\nvt 1 0\nvt 1 1\n");
+    tex += &CUBE_OBJ.replace("\nf ", "\n#f ");
+    for line in CUBE_OBJ.lines().filter(|l| l.starts_with("f ")) {
+        let v: Vec<&str> = line[2..].split(' ').collect();
+        tex += &format!("f {}/1 {}/2 {}/3\n", v[0], v[1], v[2]);
+    }
+    std::fs::write(d.join("assets/late.obj"), tex).unwrap();
+    std::fs::write(d.join("assets/late.mtl"), "newmtl m\nKd 1 1 1\nmap_Kd late.png\n").unwrap();
+    let exe = env!("CARGO_BIN_EXE_spherebake");
+    let build = format!(
+        "rule sphb\n  command = {exe} bake $in -o $out --depfile -q --spheres 4 --method kmeans\n  \
+         depfile = $out.d\n  deps = gcc\nbuild out/late.sphb: sphb assets/late.obj\n"
+    );
+    std::fs::write(d.join("build.ninja"), build).unwrap();
+    let o = ninja(d, &[]);
+    assert!(o.status.success(), "{}", text(&o));
+    let deps = ninja(d, &["-t", "deps", "out/late.sphb"]);
+    assert!(text(&deps).contains("assets/late.png"), "the missing texture is a dependency: {}", text(&deps));
+    let dc = |d: &Path| {
+        let f = spherebake_format::read(&std::fs::read(d.join("out/late.sphb")).unwrap()).unwrap();
+        f.albedo_sh.unwrap().coefficients[0]
+    };
+    let white = dc(d);
+    // The texture appears (red): Ninja rebuilds, the albedo turns red, then nothing is left to do.
+    std::thread::sleep(std::time::Duration::from_millis(20));
+    image::RgbImage::from_pixel(4, 4, image::Rgb([220, 20, 20])).save(d.join("assets/late.png")).unwrap();
+    let o = ninja(d, &[]);
+    assert!(o.status.success() && text(&o).contains("out/late.sphb"), "rebuilt: {}", text(&o));
+    let red = dc(d);
+    assert!(red[0] > 2.0 * red[1] && white[0] == white[1], "white {white:?} -> red {red:?}");
+    let o = ninja(d, &[]);
+    assert!(text(&o).contains("no work to do"), "{}", text(&o));
+
+    // Without a build system: the tool's up-to-date check sees the texture appear too.
+    std::fs::remove_file(d.join("assets/late.png")).unwrap();
+    let run = |args: &[&str]| Command::new(exe).args(args).current_dir(d).output().unwrap();
+    let o = run(&["bake", "assets/late.obj", "-o", "plain.sphb", "--spheres", "4", "--method", "kmeans"]);
+    assert!(o.status.success());
+    let o = run(&["bake", "assets/late.obj", "-o", "plain.sphb", "--spheres", "4", "--method", "kmeans", "--json"]);
+    assert_eq!(serde_json::from_slice::<serde_json::Value>(&o.stdout).unwrap()["up_to_date"], 1);
+    image::RgbImage::from_pixel(4, 4, image::Rgb([220, 20, 20])).save(d.join("assets/late.png")).unwrap();
+    let o = run(&["bake", "assets/late.obj", "-o", "plain.sphb", "--spheres", "4", "--method", "kmeans", "--json"]);
+    assert_eq!(
+        serde_json::from_slice::<serde_json::Value>(&o.stdout).unwrap()["baked"],
+        1,
+        "re-baked once the texture exists"
+    );
+}
