@@ -52,7 +52,7 @@ use std::panic::{catch_unwind, AssertUnwindSafe};
 use spherebake_format::{HierarchyNode, SamplePoint, SkinEntry, Sphere, ValidationError};
 use spherebake_runtime::light::{
     clip_below_horizon, light_spheres, light_spheres_from_radiance, sphere_rotations, ClusterSpec, IndirectCluster,
-    IndirectScratch, LightContext, LightError, Pass1Settings, Pass1Stats, PosedProxy, SphereLights,
+    IndirectScratch, LightContext, LightError, LightSource, Pass1Settings, Pass1Stats, PosedProxy, SphereLights,
 };
 use spherebake_runtime::shadow::{accumulate_log_visibility, shade, ClusterBlockers, ExpMethod, ShadowContext};
 use spherebake_runtime::{CutEntry, HierarchyPlan, Proxy};
@@ -1661,19 +1661,40 @@ pub unsafe extern "C" fn sphb_indirect_irradiance(
 ) -> i32 {
     run(err, || {
         let cl = unsafe { object_mut(cluster, "cluster")? };
-        let c = unsafe { object(ctx, "ctx")? };
-        disjoint(("out", span(out, 3)), &[("p", span(p, 3)), ("normal", span(normal, 3))])?;
-        let pt = unsafe { vec3(p, "p")? };
-        let n = unsafe { vec3(normal, "normal")? };
-        let o = unsafe { output(out, 3, 3, "out")? };
-        let e = unsafe {
-            with_sources(sources, lights, source_count, |srcs| {
-                cl.ic.irradiance(&c.ctx, srcs, pt, n).map_err(|e| light_fail(&e))
-            })?
-        };
-        o.copy_from_slice(&e);
-        Ok(())
+        unsafe {
+            irradiance_call(ctx, sources, lights, source_count, p, normal, out, |c, srcs, pt, n| {
+                cl.ic.irradiance(c, srcs, pt, n)
+            })
+        }
     })
+}
+
+/// The shared part of the two per-receiver queries: checks and reads `ctx`, the sources, `p`,
+/// `normal` and `out` (disjoint from both), runs `query` and writes its value to `out`.
+///
+/// # Safety
+/// Module conventions for every pointer.
+#[allow(clippy::too_many_arguments)]
+unsafe fn irradiance_call(
+    ctx: *const SphbLightContext,
+    sources: *const SphbPosed,
+    lights: *const *const SphbSphereLights,
+    source_count: usize,
+    p: *const f32,
+    normal: *const f32,
+    out: *mut f64,
+    query: impl FnOnce(&LightContext, &[LightSource<'_, '_>], [f32; 3], [f32; 3]) -> Result<[f64; 3], LightError>,
+) -> Res<()> {
+    let c = unsafe { object(ctx, "ctx")? };
+    disjoint(("out", span(out, 3)), &[("p", span(p, 3)), ("normal", span(normal, 3))])?;
+    let pt = unsafe { vec3(p, "p")? };
+    let n = unsafe { vec3(normal, "normal")? };
+    let o = unsafe { output(out, 3, 3, "out")? };
+    let e = unsafe {
+        with_sources(sources, lights, source_count, |srcs| query(&c.ctx, srcs, pt, n).map_err(|e| light_fail(&e)))?
+    };
+    o.copy_from_slice(&e);
+    Ok(())
 }
 
 /// `sphb_indirect_irradiance` on a shared cluster: the same value, bit for bit, with the
@@ -1698,17 +1719,10 @@ pub unsafe extern "C" fn sphb_indirect_irradiance_with(
     run(err, || {
         let cl = unsafe { object(cluster, "cluster")? };
         let sc = unsafe { object_mut(scratch, "scratch")? };
-        let c = unsafe { object(ctx, "ctx")? };
-        disjoint(("out", span(out, 3)), &[("p", span(p, 3)), ("normal", span(normal, 3))])?;
-        let pt = unsafe { vec3(p, "p")? };
-        let n = unsafe { vec3(normal, "normal")? };
-        let o = unsafe { output(out, 3, 3, "out")? };
-        let e = unsafe {
-            with_sources(sources, lights, source_count, |srcs| {
-                cl.ic.irradiance_with(&mut sc.scratch, &c.ctx, srcs, pt, n).map_err(|e| light_fail(&e))
-            })?
-        };
-        o.copy_from_slice(&e);
-        Ok(())
+        unsafe {
+            irradiance_call(ctx, sources, lights, source_count, p, normal, out, |c, srcs, pt, n| {
+                cl.ic.irradiance_with(&mut sc.scratch, c, srcs, pt, n)
+            })
+        }
     })
 }
