@@ -776,6 +776,8 @@ pub fn exclusive_descent(solid: &Solid, pts: &[DVec3], spheres: &mut [(DVec3, f6
         // deletion grows; the second shares no sphere with the first. Both are tried at once
         // (two cores) and the better improvement is kept.
         let mut ranked: Vec<(f64, usize, usize)> = Vec::new();
+        // Once per trial: the total is a sum over all spheres, and the pairs below are k².
+        let threshold = TRIAL_THRESHOLD * cov.total();
         for (j, d) in dels.iter().enumerate() {
             let Some((dj, grown)) = d else { continue };
             if tabu_del[j] >= 2 {
@@ -786,15 +788,22 @@ pub fn exclusive_descent(solid: &Solid, pts: &[DVec3], spheres: &mut [(DVec3, f6
                 if i == j || grown.iter().any(|g| g.0 == i) || tabu.contains(&(j, i)) {
                     continue;
                 }
-                if dj + di <= TRIAL_THRESHOLD * cov.total() {
+                if dj + di <= threshold {
                     ranked.push((dj + di, j, i));
                 }
             }
         }
-        ranked.sort_unstable_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)).then(a.2.cmp(&b.2)));
-        let Some(&first) = ranked.first() else { break };
-        let second =
-            ranked.iter().copied().find(|c| c.1 != first.1 && c.1 != first.2 && c.2 != first.1 && c.2 != first.2);
+        // The first and second of `ranked` in (gain, j, i) order, by two scans instead of sorting
+        // the k² pairs (a total order, so the same two pairs a sort would put first).
+        let order = |a: &(f64, usize, usize), b: &(f64, usize, usize)| {
+            a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)).then(a.2.cmp(&b.2))
+        };
+        let Some(first) = ranked.iter().copied().min_by(order) else { break };
+        let second = ranked
+            .iter()
+            .copied()
+            .filter(|c| c.1 != first.1 && c.1 != first.2 && c.2 != first.1 && c.2 != first.2)
+            .min_by(order);
         let attempt = |(_, j, i): (f64, usize, usize)| -> Option<(f64, Cover<'_>)> {
             let (Some((_, grown)), Some((_, Some((_, ba, bb))))) = (&dels[j], &splits[i]) else { return None };
             let mut c = cov.clone();

@@ -971,7 +971,8 @@ fn many_spheres_on_a_12_triangle_cube_finish_in_bounded_time() {
     let d = tempdir();
     std::fs::write(d.path().join("cube.obj"), CUBE_OBJ).unwrap();
     // bake_json kills the bake after 300 s (a hang fails the test); the release timings are in
-    // docs/benchmarks.md (about 11 s CPU at 1024 spheres, 21 s at 4096, was 38 s and > 11 min).
+    // docs/benchmarks.md (about 26 s CPU at 1024 spheres since the trials' pair ranking stopped
+    // summing all k spheres for each of the k² pairs: 150 s before, > 11 min long before).
     let v = bake_json(d.path(), "cube.obj", &["--spheres", "1024"]);
     let n = v["spheres"].as_u64().unwrap();
     let warnings: Vec<String> =
