@@ -29,6 +29,17 @@
 //! importer neither reads nor knows to leave geometry and base colour alone (for example
 //! `KHR_node_visibility`, `KHR_materials_variants`, a vendor's) is named in one warning. A malformed compressed view is an
 //! [`IoError::CompressedView`] naming the buffer view, the extension and what is wrong.
+//!
+//! # OBJ
+//!
+//! OBJ + MTL files are read with `tobj`, after a check of every line that names the line of an
+//! error. A face of four or more corners (a polygon) is triangulated in the plane of its Newell
+//! normal, keeping its winding (each triangle faces the way the polygon does): a polygon that
+//! the fan from its first corner covers exactly, every convex one among them, gets that fan
+//! (the triangles tobj gave every face before); any other (concave: an L, a star) is
+//! ear-clipped, deterministically and in O(n²) for n corners, so no triangle covers area outside
+//! the face. A concave polygon of more than 256 corners, or one where no ear is found
+//! (self-intersecting or degenerate), gets the fan, and one warning for the file counts them.
 
 mod error;
 mod gltf_ext;
@@ -36,6 +47,7 @@ mod gltf_import;
 mod hash;
 pub mod meshopt;
 mod obj_import;
+mod polygon;
 mod texture;
 
 use std::ops::Range;

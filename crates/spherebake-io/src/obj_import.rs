@@ -1,5 +1,5 @@
-//! Wavefront OBJ + MTL import via `tobj` (faces triangulated, one vertex per distinct
-//! position / UV / normal corner).
+//! Wavefront OBJ + MTL import via `tobj` (one vertex per distinct position / UV / normal
+//! corner; polygons triangulated by [`crate::polygon`]).
 
 use std::cell::RefCell;
 use std::collections::HashMap;
@@ -8,6 +8,7 @@ use std::path::{Path, PathBuf};
 use glam::Vec3;
 use spherebake_geom::{Material, Mesh, TextureRef, UvTransform};
 
+use crate::polygon::{How, Triangulator, MAX_EAR_CLIP_CORNERS};
 use crate::texture::{
     decode_mask, decode_srgb_texture, DecodeBudget, Mask, MaskChannel, TexelBudget, OVER_DECODE_BUDGET,
 };
@@ -467,11 +468,28 @@ fn tobj_text<'a>(text: &'a str, rewrite: &Rewrite) -> std::borrow::Cow<'a, str> 
     std::borrow::Cow::Owned(out)
 }
 
-/// How tobj loads: faces triangulated, one vertex per distinct position / UV / normal corner;
-/// line and point elements are not surfaces ([`tobj_text`] has removed the `l` lines too:
-/// tobj reads one of three or more vertices as a face).
+/// How tobj loads: faces as they are (polygons are triangulated here, [`crate::polygon`]: tobj
+/// fans them, covering area outside a concave one), one vertex per distinct position / UV /
+/// normal corner; line and point elements are not surfaces ([`tobj_text`] has removed the `l`
+/// lines too: tobj reads one of three or more vertices as a face).
 fn tobj_options() -> tobj::LoadOptions {
-    tobj::LoadOptions { triangulate: true, single_index: true, ignore_lines: true, ignore_points: true }
+    tobj::LoadOptions { triangulate: false, single_index: true, ignore_lines: true, ignore_points: true }
+}
+
+/// The faces of a tobj mesh loaded with [`tobj_options`]: each face's corners (indices into its
+/// vertices). `face_arities` is empty when every face is a triangle.
+fn faces(m: &tobj::Mesh) -> impl Iterator<Item = &[u32]> {
+    let mut rest = m.indices.as_slice();
+    let mut arities = m.face_arities.iter();
+    std::iter::from_fn(move || {
+        let k = if m.face_arities.is_empty() { 3 } else { *arities.next()? as usize };
+        if rest.len() < k || k == 0 {
+            return None;
+        }
+        let (face, after) = rest.split_at(k);
+        rest = after;
+        Some(face)
+    })
 }
 
 /// `String::from_utf8_lossy`, with the common case (valid UTF-8) checked by the faster
@@ -630,6 +648,8 @@ pub(crate) fn import(ctx: &mut Ctx, bytes: &[u8]) -> Result<(Mesh, Vec<ImportedP
     let mut has_uv = false;
     let mut uvs = Vec::new();
     let mut mixed_vt: Vec<&str> = Vec::new();
+    let mut triangulator = Triangulator::default();
+    let mut fanned = Fanned::default();
     for (mi, model) in models.iter().enumerate() {
         let m = &model.mesh;
         let n = m.positions.len() / 3;
@@ -644,21 +664,28 @@ pub(crate) fn import(ctx: &mut Ctx, bytes: &[u8]) -> Result<(Mesh, Vec<ImportedP
                 value: p.to_array(),
             });
         }
-        let mut tris = Vec::with_capacity(m.indices.len() / 3);
-        for (k, c) in m.indices.chunks_exact(3).enumerate() {
-            for (j, &i) in c.iter().enumerate() {
-                if i as usize >= n {
-                    return Err(IoError::IndexOutOfRange {
-                        path,
-                        mesh: mi,
-                        primitive: 0,
-                        position: k * 3 + j,
-                        index: u64::from(i),
-                        vertex_count: n,
-                    });
-                }
+        if let Some((position, &i)) = m.indices.iter().enumerate().find(|(_, &i)| i as usize >= n) {
+            return Err(IoError::IndexOutOfRange {
+                path,
+                mesh: mi,
+                primitive: 0,
+                position,
+                index: u64::from(i),
+                vertex_count: n,
+            });
+        }
+        // n − 2 triangles per face of n corners.
+        let faces_n = if m.face_arities.is_empty() { m.indices.len() / 3 } else { m.face_arities.len() };
+        let mut tris = Vec::with_capacity(m.indices.len().saturating_sub(2 * faces_n));
+        for face in faces(m) {
+            match triangulator.polygon(&positions, face, &mut tris) {
+                How::Fan | How::EarClipped => {}
+                How::FanOverCap => fanned.over_cap += 1,
+                How::FanNoEar => fanned.no_ear += 1,
             }
-            tris.push([c[0], c[1], c[2]]);
+            if fanned.first.is_none() && fanned.over_cap + fanned.no_ear > 0 {
+                fanned.first = Some(model.name.as_str());
+            }
         }
         let normals: Vec<Vec3> = if m.normals.len() == 3 * n && n > 0 {
             m.normals.chunks_exact(3).map(|c| Vec3::new(c[0], c[1], c[2]).try_normalize().unwrap_or(Vec3::Z)).collect()
@@ -719,6 +746,16 @@ pub(crate) fn import(ctx: &mut Ctx, bytes: &[u8]) -> Result<(Mesh, Vec<ImportedP
             "object {first:?}{more}: some faces have texture coordinates (vt) and some not; the group's UVs are dropped"
         ));
     }
+    if let Some(first) = fanned.first {
+        ctx.warn(format!(
+            "{} concave polygon(s) triangulated as a fan from the first corner, which may cover area outside them \
+             (the first in object {first:?}; {} with more than {MAX_EAR_CLIP_CORNERS} corners, {} self-intersecting \
+             or degenerate: no ear to clip)",
+            fanned.over_cap + fanned.no_ear,
+            fanned.over_cap,
+            fanned.no_ear
+        ));
+    }
     if let Some(w) = texture_map.decode.warning() {
         ctx.warn(w);
     }
@@ -733,6 +770,15 @@ pub(crate) fn import(ctx: &mut Ctx, bytes: &[u8]) -> Result<(Mesh, Vec<ImportedP
     }
     mesh.rebuild_weld();
     Ok((mesh, parts))
+}
+
+/// The concave polygons of a file that got the fan ([`crate::polygon`]): more than
+/// [`MAX_EAR_CLIP_CORNERS`] corners, no ear found, and the object of the first.
+#[derive(Default)]
+struct Fanned<'a> {
+    over_cap: usize,
+    no_ear: usize,
+    first: Option<&'a str>,
 }
 
 /// A texture statement's `-o` and `-s` as written (offset, scale).
@@ -1382,7 +1428,7 @@ mod tests {
                             Err(tobj::LoadError::OpenFileFailed)
                         })
                         .unwrap_or_else(|e| panic!("seed {seed}: tobj: {e}"));
-                    let got: usize = models.iter().map(|m| m.mesh.indices.len() / 3).sum();
+                    let got: usize = models.iter().flat_map(|m| faces(&m.mesh)).map(|f| f.len() - 2).sum();
                     assert_eq!(got, triangles, "seed {seed}: triangles");
                     assert_eq!(fed.lines().count(), text.lines().count(), "seed {seed}: line count");
                 }

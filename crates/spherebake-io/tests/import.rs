@@ -1240,3 +1240,173 @@ fn animation_channels_without_a_node_are_skipped_not_refused() {
     assert_eq!(a, b);
     assert_eq!(r.mesh.positions, before.mesh.positions);
 }
+
+/// The faces of an OBJ text as written (`v` positions, `f` corners: 1-based position indices,
+/// the first number of each corner), read here apart from the importer.
+fn obj_faces(obj: &str) -> Vec<Vec<[f64; 3]>> {
+    let mut v: Vec<[f64; 3]> = Vec::new();
+    let mut faces = Vec::new();
+    for line in obj.lines() {
+        let mut t = line.split_whitespace();
+        match t.next() {
+            Some("v") => v.push([0, 1, 2].map(|_| t.next().unwrap().parse().unwrap())),
+            Some("f") => faces.push(
+                t.map(|c| {
+                    let i: i64 = c.split('/').next().unwrap().parse().unwrap();
+                    v[if i < 0 { v.len() as i64 + i } else { i - 1 } as usize]
+                })
+                .collect::<Vec<_>>(),
+            ),
+            _ => {}
+        }
+    }
+    faces
+}
+
+/// Newell's normal of a polygon: twice its vector area.
+fn newell(p: &[[f64; 3]]) -> [f64; 3] {
+    let mut n = [0.0; 3];
+    for (i, a) in p.iter().enumerate() {
+        let b = p[(i + 1) % p.len()];
+        n[0] += (a[1] - b[1]) * (a[2] + b[2]);
+        n[1] += (a[2] - b[2]) * (a[0] + b[0]);
+        n[2] += (a[0] - b[0]) * (a[1] + b[1]);
+    }
+    n
+}
+
+fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
+}
+
+fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
+}
+
+fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+
+/// Whether point q (in the plane of the axis-aligned polygon p, whose normal is along `axis`)
+/// is strictly inside p, by the crossing rule in the other two coordinates.
+fn inside(p: &[[f64; 3]], q: [f64; 3], axis: usize) -> bool {
+    let (x, y) = ((axis + 1) % 3, (axis + 2) % 3);
+    let mut odd = false;
+    for (i, a) in p.iter().enumerate() {
+        let b = p[(i + 1) % p.len()];
+        if (a[y] > q[y]) != (b[y] > q[y]) && q[x] < a[x] + (q[y] - a[y]) / (b[y] - a[y]) * (b[x] - a[x]) {
+            odd = !odd;
+        }
+    }
+    odd
+}
+
+/// An OBJ face of four or more corners is triangulated in its own plane without covering area
+/// outside it: each concave face (an L, a star, a dart) is split into triangles that face the
+/// way its Newell normal does, lie inside it and add up to its area; a convex one gets the fan
+/// from its first corner, as before. The expected values are the polygons' own (the L prism's
+/// surface is 2 · 3 + 8 = 14, its volume 3), not the importer's.
+#[test]
+fn obj_polygons_are_triangulated_inside_their_outline() {
+    // The L prism, its caps listed from a corner next to the notch ((2, 1)): the fan from there
+    // covered the notch (area 16).
+    let l_prism = "v 2 1 0\nv 1 1 0\nv 1 2 0\nv 0 2 0\nv 0 0 0\nv 2 0 0\n\
+                   v 2 1 1\nv 1 1 1\nv 1 2 1\nv 0 2 1\nv 0 0 1\nv 2 0 1\n\
+                   f 6 5 4 3 2 1\nf 7 8 9 10 11 12\nf 1 2 8 7\nf 2 3 9 8\nf 3 4 10 9\nf 4 5 11 10\nf 5 6 12 11\nf 6 1 7 12\n";
+    // A five-pointed star (10 corners, in the plane x = 3), a dart whose reflex corner is the
+    // second (its fan's first diagonal runs outside), a convex pentagon and a square.
+    let mut star = String::new();
+    for k in 0..10 {
+        let a = std::f64::consts::FRAC_PI_2 + f64::from(k) * std::f64::consts::PI / 5.0 + 0.3;
+        let r = if k % 2 == 0 { 1.0 } else { 0.4 };
+        star.push_str(&format!("v 3 {} {}\n", r * a.cos(), r * a.sin()));
+    }
+    let others = format!(
+        "{star}f -9 -8 -7 -6 -5 -4 -3 -2 -1 -10\n\
+         v 0 0 5\nv 2 1 5\nv 4 0 5\nv 2 3 5\nf -4 -3 -2 -1\n\
+         v 0 0 7\nv 2 -1 7\nv 3 1 7\nv 1 3 7\nv -1 1 7\nf -5 -4 -3 -2 -1\n\
+         v 0 0 9\nv 1 0 9\nv 1 1 9\nv 0 1 9\nf -4 -3 -2 -1\n"
+    );
+    for (name, obj) in [("L prism", l_prism.to_string()), ("star, dart, pentagon, square", others)] {
+        let imp = load_mesh_from_bytes(Path::new("mem/poly.obj"), obj.as_bytes()).unwrap();
+        assert!(imp.warnings.is_empty(), "{name}: {:?}", imp.warnings);
+        let m = &imp.mesh;
+        let p = |i: u32| m.positions[i as usize].as_dvec3().to_array();
+        let faces = obj_faces(&obj);
+        assert_eq!(m.triangles.len(), faces.iter().map(|f| f.len() - 2).sum::<usize>(), "{name}");
+        // Each face's triangles, in file order.
+        let mut next = m.triangles.iter();
+        for (k, face) in faces.iter().enumerate() {
+            let normal = newell(face);
+            let axis = (0..3).max_by(|&a, &b| normal[a].abs().total_cmp(&normal[b].abs())).unwrap();
+            let want_area = dot(normal, normal).sqrt() / 2.0;
+            let mut area = 0.0;
+            let tris: Vec<[[f64; 3]; 3]> = next.by_ref().take(face.len() - 2).map(|t| t.map(p)).collect();
+            for t in &tris {
+                let x = cross(sub(t[1], t[0]), sub(t[2], t[0]));
+                assert!(dot(x, normal) > 0.0, "{name}: face {k}: triangle {t:?} faces away from {normal:?}");
+                area += dot(x, x).sqrt() / 2.0;
+                let c = [0, 1, 2].map(|i| (t[0][i] + t[1][i] + t[2][i]) / 3.0);
+                assert!(inside(face, c, axis), "{name}: face {k}: triangle {t:?} is outside the face");
+            }
+            assert!((area - want_area).abs() < 1e-6, "{name}: face {k}: area {area}, the polygon's {want_area}");
+            // Convex faces: the fan from the first corner, corner for corner.
+            let convex = (0..face.len()).all(|i| {
+                let (a, b, c) = (face[i], face[(i + 1) % face.len()], face[(i + 2) % face.len()]);
+                dot(cross(sub(b, a), sub(c, b)), normal) > 0.0
+            });
+            if convex {
+                let fan: Vec<_> = (1..face.len() - 1).map(|i| [face[0], face[i], face[i + 1]]).collect();
+                let got: Vec<_> = tris.iter().map(|t| t.map(|q| q.map(|x| x as f32 as f64))).collect();
+                assert_eq!(got, fan, "{name}: face {k} is convex");
+            }
+        }
+    }
+    let imp = load_mesh_from_bytes(Path::new("mem/l.obj"), l_prism.as_bytes()).unwrap();
+    let r = TopologyReport::compute(&imp.mesh);
+    assert!(r.closed && r.consistently_oriented, "{r:?}");
+    assert!((r.surface_area - 14.0).abs() < 1e-9, "{}", r.surface_area);
+    assert!((r.signed_volume - 3.0).abs() < 1e-9, "{}", r.signed_volume);
+}
+
+/// Concave polygons the importer does not ear-clip (more corners than it clips, or none of
+/// their corners an ear: self-intersecting) get the fan from their first corner, as before,
+/// and one warning for the file says how many.
+#[test]
+fn obj_polygons_that_are_not_ear_clipped_get_the_fan_and_one_warning() {
+    // A comb of 400 corners (concave) and a self-intersecting hexagon, twice each (in other
+    // planes: copies of a face would be duplicate triangles), and a triangle.
+    let mut obj = String::new();
+    let n = 400;
+    let comb = |z: u32| {
+        let mut s = String::new();
+        for k in 0..n {
+            let a = f64::from(k) / f64::from(n) * std::f64::consts::TAU;
+            let r = if k % 2 == 0 { 1.0 } else { 0.5 };
+            s.push_str(&format!("v {} {} {z}\n", r * a.cos(), r * a.sin()));
+        }
+        let corners: Vec<String> = (1..=n).map(|i| format!("-{}", n + 1 - i)).collect();
+        s + &format!("f {}\n", corners.join(" "))
+    };
+    let knot =
+        |z: u32| format!("v 0 4 {z}\nv 4 1 {z}\nv 2 4 {z}\nv 2 0 {z}\nv 1 2 {z}\nv 6 3 {z}\nf -6 -5 -4 -3 -2 -1\n");
+    obj.push_str(&format!("o comb\n{}o knot\n{}", comb(0), knot(1)));
+    obj.push_str(&format!("v 0 0 2\nv 0 1 2\nv 1 0 2\nf -3 -2 -1\n{}{}", comb(3), knot(4)));
+    let imp = load_mesh_from_bytes(Path::new("mem/hostile.obj"), obj.as_bytes()).unwrap();
+    // The fans: every face's triangles, from its first corner.
+    assert_eq!(imp.mesh.triangles.len(), 2 * (n as usize - 2) + 2 * 4 + 1);
+    let w: Vec<&str> = imp.warnings.iter().map(|w| w.0.as_str()).collect();
+    let fanned: Vec<&&str> = w.iter().filter(|w| w.contains("triangulated as a fan")).collect();
+    assert_eq!(fanned.len(), 1, "{w:?}");
+    assert!(fanned[0].starts_with("4 concave polygon(s) triangulated as a fan from the first corner"), "{w:?}");
+    assert!(fanned[0].contains("(the first in object \"comb\"; 2 with more than 256 corners, 2 self-int"), "{w:?}");
+    let first = imp.mesh.triangles[0].map(|i| imp.mesh.positions[i as usize]);
+    assert_eq!(
+        first,
+        [0, 1, 2].map(|k| {
+            let a = f64::from(k) / f64::from(n) * std::f64::consts::TAU;
+            let r = if k % 2 == 0 { 1.0 } else { 0.5 };
+            Vec3::new((r * a.cos()) as f32, (r * a.sin()) as f32, 0.0)
+        })
+    );
+}
