@@ -40,6 +40,11 @@
 //! ear-clipped, deterministically and in O(n²) for n corners, so no triangle covers area outside
 //! the face. A concave polygon of more than 256 corners, or one where no ear is found
 //! (self-intersecting or degenerate), gets the fan, and one warning for the file counts them.
+//!
+//! `mtllib` paths are relative to the OBJ's folder, and a material's texture paths (`map_Kd`,
+//! `map_d`) to the folder of the MTL file that defines it (`mtllib t1/a.mtl` then
+//! `mtllib t2/b.mtl`: a `map_Kd tex.png` of a.mtl is t1/tex.png), all confined to the model's
+//! folder tree as [`ImportOptions`] says.
 
 mod error;
 mod gltf_ext;
@@ -192,7 +197,8 @@ pub fn load_mesh_with(path: &Path, opts: &ImportOptions) -> Result<Imported, IoE
 }
 
 /// Imports model `bytes` as if read from `path`: the extension of `path` picks the format, and
-/// external buffers, images and `.mtl` files are resolved (and read) relative to its directory.
+/// external buffers, images and `.mtl` files are resolved (and read) relative to its directory
+/// (an MTL file's textures relative to the MTL file's).
 /// `path` is listed first in [`Imported::inputs`] and `bytes` start the content hash.
 pub fn load_mesh_from_bytes(path: &Path, bytes: &[u8]) -> Result<Imported, IoError> {
     load_mesh_from_bytes_with(path, bytes, &default_options())

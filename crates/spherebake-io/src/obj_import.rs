@@ -14,7 +14,6 @@ use crate::texture::{
 };
 use crate::{Ctx, ImportedPart, IoError, ReadLimit, MAX_IMAGE_BYTES, MAX_MTL_BYTES};
 
-/// An MTL file tobj asked for: resolved path and its bytes (or why it could not be read).
 /// An MTL file tobj asked for: (resolved path, bytes or the read error, the parse error).
 type MtlRead = (PathBuf, Result<Vec<u8>, IoError>, Option<String>);
 
@@ -551,6 +550,9 @@ pub(crate) fn import(ctx: &mut Ctx, bytes: &[u8]) -> Result<(Mesh, Vec<ImportedP
     let opts = tobj_options();
     // MTL files read by tobj's callback: (resolved path, bytes or the read error).
     let mtl_reads: RefCell<Vec<MtlRead>> = RefCell::new(Vec::new());
+    // The folder of each library tobj appends materials from, with their count, in order: a
+    // material's texture paths are relative to the library that defines it.
+    let libraries: RefCell<Vec<(PathBuf, usize)>> = RefCell::new(Vec::new());
     let dir = ctx.dir.clone();
     let (model, opts_in, resolver) = (ctx.path.clone(), ctx.opts, ctx.resolver.clone());
     let budget = RefCell::new(opts_in.max_input_bytes.saturating_sub(ctx.read_total));
@@ -577,17 +579,18 @@ pub(crate) fn import(ctx: &mut Ctx, bytes: &[u8]) -> Result<(Mesh, Vec<ImportedP
             (Ok(_), Err(e)) => Some(e.to_string()),
             _ => None,
         };
+        if let Ok((m, _)) = &result {
+            libraries.borrow_mut().push((full.parent().map(Path::to_path_buf).unwrap_or_default(), m.len()));
+        }
         mtl_reads.borrow_mut().push((full, read, parse_error));
         result
     })
     .map_err(|e| IoError::Obj { path: path.clone(), message: e.to_string() })?;
-    let mut mtl_dir = dir.clone();
     let mut library_failed = materials.is_err();
     for (p, read, parse_error) in mtl_reads.into_inner() {
         match read {
             Ok(b) => {
                 ctx.record(&p, &b);
-                mtl_dir = p.parent().map(Path::to_path_buf).unwrap_or_default();
                 // When another library was read, tobj drops this one's error: said here (when
                 // none was, tobj's error is, below).
                 if let (Some(e), Ok(_)) = (parse_error, &materials) {
@@ -614,6 +617,15 @@ pub(crate) fn import(ctx: &mut Ctx, bytes: &[u8]) -> Result<(Mesh, Vec<ImportedP
             Vec::new()
         }
     };
+    // Material i's library folder: tobj appends each library's materials in the order read, so
+    // it is that of the first library whose materials end past i.
+    let mut libraries = libraries.into_inner();
+    let mut end = 0;
+    for (_, k) in &mut libraries {
+        end += *k;
+        *k = end;
+    }
+    let mtl_dir_of = |i: usize| libraries.get(libraries.partition_point(|(_, end)| *end <= i)).map(|(d, _)| d);
     // A `usemtl` name that no library defines (a typo, another case, a library not shipped,
     // or named before its `mtllib` line) gets the default material: said once, naming the
     // first in the file, unless a library could not be read at all (warned about above).
@@ -712,7 +724,10 @@ pub(crate) fn import(ctx: &mut Ctx, bytes: &[u8]) -> Result<(Mesh, Vec<ImportedP
             Some(&id) => id,
             None => {
                 let mat = match key {
-                    Some(i) => obj_material(ctx, &materials[i], &mtl_dir, &mut mesh, &mut texture_map),
+                    Some(i) => {
+                        let mtl_dir = mtl_dir_of(i).unwrap_or(&dir);
+                        obj_material(ctx, &materials[i], mtl_dir, &mut mesh, &mut texture_map)
+                    }
                     None => Material { name: "default".into(), ..Default::default() },
                 };
                 mesh.materials.push(mat);

@@ -1410,3 +1410,71 @@ fn obj_polygons_that_are_not_ear_clipped_get_the_fan_and_one_warning() {
         })
     );
 }
+
+/// A 2×2 PNG of one colour (grey when `rgb` has one channel).
+fn flat_png(rgb: &[u8]) -> Vec<u8> {
+    let mut out = std::io::Cursor::new(Vec::new());
+    let image: image::DynamicImage = match *rgb {
+        [g] => image::GrayImage::from_pixel(2, 2, image::Luma([g])).into(),
+        [r, g, b] => image::RgbImage::from_pixel(2, 2, image::Rgb([r, g, b])).into(),
+        _ => unreachable!(),
+    };
+    image.write_to(&mut out, image::ImageFormat::Png).unwrap();
+    out.into_inner()
+}
+
+/// Each material's texture paths (`map_Kd`, `map_d`) are relative to the folder of the MTL
+/// file that defines it, whatever library is read last (`map_Kd tex.png` of t1/a.mtl read
+/// t2/tex.png when t2/b.mtl came after), and still confined to the model's folder.
+#[test]
+fn obj_textures_resolve_against_the_folder_of_their_library() {
+    let files = std::collections::BTreeMap::from([
+        (PathBuf::from("mem/t1/a.mtl"), b"newmtl ma\nKd 1 1 1\nmap_Kd tex.png\nmap_d mask.png\n".to_vec()),
+        (PathBuf::from("mem/t2/b.mtl"), b"newmtl mb\nKd 1 1 1\nmap_Kd tex.png\n".to_vec()),
+        (PathBuf::from("mem/t1/tex.png"), flat_png(&[255, 0, 0])),
+        (PathBuf::from("mem/t2/tex.png"), flat_png(&[0, 255, 0])),
+        // Masks are data: grey 51 is 0.2, 204 is 0.8.
+        (PathBuf::from("mem/t1/mask.png"), flat_png(&[51])),
+        (PathBuf::from("mem/t2/mask.png"), flat_png(&[204])),
+        (PathBuf::from("mem/tex.png"), flat_png(&[0, 0, 255])),
+        (PathBuf::from("mem/mask.png"), flat_png(&[0])),
+    ]);
+    let geometry = "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nvt 0 0\nvt 1 0\nvt 0 1\n";
+    let faces = "usemtl ma\nf 1/1 2/2 3/3\nusemtl mb\nf 1/1 4/2 2/3\n";
+    // ma: t1's red with t1's mask 0.2 as alpha; mb: t2's green, opaque.
+    let want = [("ma", [1.0, 0.0, 0.0, 0.2]), ("mb", [0.0, 1.0, 0.0, 1.0])];
+    for libs in ["mtllib t1/a.mtl\nmtllib t2/b.mtl\n", "mtllib t2/b.mtl\nmtllib t1/a.mtl\n"] {
+        let obj = format!("{libs}{geometry}{faces}");
+        let imp =
+            load_mesh_from_memory(Path::new("mem/x.obj"), obj.as_bytes(), files.clone(), &ImportOptions::default())
+                .unwrap();
+        assert!(imp.warnings.is_empty(), "{libs:?}: {:?}", imp.warnings);
+        for (name, texel) in want {
+            let m = imp.mesh.materials.iter().find(|m| m.name == name).unwrap();
+            let t = &imp.mesh.textures[m.base_color_texture.as_ref().expect("a texture").texture];
+            for got in &t.texels_linear {
+                assert!(got.iter().zip(texel).all(|(g, w)| (g - w).abs() < 1e-6), "{libs:?}: {name}: {got:?}");
+            }
+        }
+        let mut read: Vec<_> = imp.inputs.iter().map(|p| p.to_str().unwrap()).collect();
+        read.sort_unstable();
+        assert_eq!(
+            read,
+            ["mem/t1/a.mtl", "mem/t1/mask.png", "mem/t1/tex.png", "mem/t2/b.mtl", "mem/t2/tex.png", "mem/x.obj"]
+        );
+    }
+    // `..` from a library's folder: inside the model's folder it is read, past it refused.
+    let mut files = files;
+    files.insert(PathBuf::from("mem/t1/a.mtl"), b"newmtl ma\nmap_Kd ../tex.png\n".to_vec());
+    let obj = format!("mtllib t2/b.mtl\nmtllib t1/a.mtl\n{geometry}{faces}");
+    let imp = load_mesh_from_memory(Path::new("mem/x.obj"), obj.as_bytes(), files.clone(), &ImportOptions::default())
+        .unwrap();
+    let m = imp.mesh.materials.iter().find(|m| m.name == "ma").unwrap();
+    let t = &imp.mesh.textures[m.base_color_texture.as_ref().unwrap().texture];
+    assert_eq!(t.texels_linear[0], [0.0, 0.0, 1.0, 1.0]);
+    files.insert(PathBuf::from("mem/t1/a.mtl"), b"newmtl ma\nmap_Kd ../../tex.png\n".to_vec());
+    files.insert(PathBuf::from("tex.png"), flat_png(&[0, 0, 255]));
+    let e =
+        load_mesh_from_memory(Path::new("mem/x.obj"), obj.as_bytes(), files, &ImportOptions::default()).unwrap_err();
+    assert!(matches!(e, IoError::OutsideAsset { ref uri, .. } if uri == "../../tex.png"), "{e}");
+}
