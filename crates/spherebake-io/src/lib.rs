@@ -41,8 +41,11 @@
 //! the face. A concave polygon of more than 256 corners, or one where no ear is found
 //! (self-intersecting or degenerate), gets the fan, and one warning for the file counts them.
 //!
-//! `mtllib` paths are relative to the OBJ's folder, and a material's texture paths (`map_Kd`,
-//! `map_d`) to the folder of the MTL file that defines it (`mtllib t1/a.mtl` then
+//! One `mtllib` statement may name several libraries (`mtllib a.mtl b.mtl`: each is read, a
+//! later library's definition of a material name winning, as with two `mtllib` lines); a name
+//! with spaces is one library when such a file exists (`mtllib my lib.mtl`), else one library
+//! per word. `mtllib` paths are relative to the OBJ's folder, and a material's texture paths
+//! (`map_Kd`, `map_d`) to the folder of the MTL file that defines it (`mtllib t1/a.mtl` then
 //! `mtllib t2/b.mtl`: a `map_Kd tex.png` of a.mtl is t1/tex.png), all confined to the model's
 //! folder tree as [`ImportOptions`] says.
 

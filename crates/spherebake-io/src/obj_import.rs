@@ -557,16 +557,20 @@ pub(crate) fn import(ctx: &mut Ctx, bytes: &[u8]) -> Result<(Mesh, Vec<ImportedP
     let (model, opts_in, resolver) = (ctx.path.clone(), ctx.opts, ctx.resolver.clone());
     let budget = RefCell::new(opts_in.max_input_bytes.saturating_sub(ctx.read_total));
     let text = tobj_text(&text, &rewrite);
-    let (models, materials) = tobj::load_obj_buf(&mut std::io::Cursor::new(text.as_bytes()), &opts, |p: &Path| {
-        let full = dir.join(p);
-        let uri = p.to_string_lossy();
+    // Reads the library `name` (relative to the model's folder): its path and bytes.
+    let read = |name: &str| {
+        let full = dir.join(name);
         let limit = ReadLimit::AtMost(MAX_MTL_BYTES);
         let read =
-            crate::read_confined(&model, &dir, &opts_in, &uri, &full, *budget.borrow(), limit, resolver.as_deref());
+            crate::read_confined(&model, &dir, &opts_in, name, &full, *budget.borrow(), limit, resolver.as_deref());
         if let Ok(b) = &read {
             let mut left = budget.borrow_mut();
             *left = left.saturating_sub(b.len() as u64);
         }
+        (full, read)
+    };
+    // Parses a library read, noting it in `mtl_reads` (and `libraries`).
+    let parse = |(full, read): (PathBuf, Result<Vec<u8>, IoError>)| {
         let result = match &read {
             // tobj 4.0.5 panics on `Kd` (Ka, Ks, Ke) with fewer than three numbers (found by the
             // obj fuzz target): such a library is a parse error here instead.
@@ -584,6 +588,34 @@ pub(crate) fn import(ctx: &mut Ctx, bytes: &[u8]) -> Result<(Mesh, Vec<ImportedP
         }
         mtl_reads.borrow_mut().push((full, read, parse_error));
         result
+    };
+    let (models, materials) = tobj::load_obj_buf(&mut std::io::Cursor::new(text.as_bytes()), &opts, |p: &Path| {
+        // tobj gives the `mtllib` line's text after the keyword ([`tobj_text`]). One statement may
+        // name several libraries (`mtllib a.mtl b.mtl`), but a file whose name has spaces
+        // (`mtllib my lib.mtl`) is read whole when there is one.
+        let name = p.to_string_lossy();
+        let whole = read(&name);
+        let several = name.split_whitespace().nth(1).is_some();
+        if !several || !matches!(whole.1, Err(IoError::ReferenceNotFound { .. })) {
+            return parse(whole);
+        }
+        // Each library's materials after the last's, as tobj merges those of `mtllib` lines: a
+        // name defined twice is the later one; the error of the last library that failed when
+        // none read.
+        let mut merged: Option<(Vec<tobj::Material>, HashMap<String, usize>)> = None;
+        let mut error = tobj::LoadError::OpenFileFailed;
+        for one in name.split_whitespace() {
+            match parse(read(one)) {
+                Ok((mut materials, names)) => {
+                    let (all, index) = merged.get_or_insert_with(Default::default);
+                    let offset = all.len();
+                    all.append(&mut materials);
+                    index.extend(names.into_iter().map(|(k, i)| (k, i + offset)));
+                }
+                Err(e) => error = e,
+            }
+        }
+        merged.ok_or(error)
     })
     .map_err(|e| IoError::Obj { path: path.clone(), message: e.to_string() })?;
     let mut library_failed = materials.is_err();

@@ -1478,3 +1478,78 @@ fn obj_textures_resolve_against_the_folder_of_their_library() {
         load_mesh_from_memory(Path::new("mem/x.obj"), obj.as_bytes(), files, &ImportOptions::default()).unwrap_err();
     assert!(matches!(e, IoError::OutsideAsset { ref uri, .. } if uri == "../../tex.png"), "{e}");
 }
+
+/// One `mtllib` statement may name several libraries (`mtllib a.mtl b.mtl`, as the OBJ format
+/// allows): each is read (it was looked up as one file "a.mtl b.mtl" and every material was
+/// the default); a file whose name has spaces is still read whole when it exists, before any
+/// library its words would name, and each name is still confined to the model's folder.
+#[test]
+fn obj_mtllib_names_several_libraries_or_one_with_spaces() {
+    let kd = |name: &str, rgb: &str| format!("newmtl {name}\nKd {rgb}\n").into_bytes();
+    let files = std::collections::BTreeMap::from([
+        (PathBuf::from("mem/a.mtl"), kd("ma", "1 0 0")),
+        (PathBuf::from("mem/b.mtl"), [kd("mb", "0 1 0"), kd("mc", "0 1 1")].concat()),
+        (PathBuf::from("mem/c.mtl"), kd("mc", "0 0 1")),
+        (PathBuf::from("mem/my lib.mtl"), kd("ma", "0.5 0.5 0.5")),
+        (PathBuf::from("mem/my"), kd("ma", "0 0 0")),
+        (PathBuf::from("mem/lib.mtl"), kd("ma", "0.25 0 0")),
+    ]);
+    let faces = "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nusemtl ma\nf 1 2 3\nusemtl mb\nf 1 4 2\nusemtl mc\nf 1 3 4\n";
+    let load = |head: &str, files: &std::collections::BTreeMap<PathBuf, Vec<u8>>| {
+        let obj = format!("{head}\n{faces}");
+        load_mesh_from_memory(Path::new("mem/x.obj"), obj.as_bytes(), files.clone(), &ImportOptions::default())
+    };
+    // (mtllib line, Kd of ma, mb, mc (None: the default material), libraries read, warnings)
+    let d: Option<[f32; 3]> = None;
+    let cases = [
+        ("mtllib a.mtl b.mtl", [Some([1.0, 0.0, 0.0]), Some([0.0, 1.0, 0.0]), Some([0.0, 1.0, 1.0])], "a b", 0),
+        // A later library's definition of a name wins, as with two mtllib lines; tabs separate.
+        (
+            "mtllib a.mtl\tb.mtl  c.mtl",
+            [Some([1.0, 0.0, 0.0]), Some([0.0, 1.0, 0.0]), Some([0.0, 0.0, 1.0])],
+            "a b c",
+            0,
+        ),
+        // The file named with a space, not "my" and "lib.mtl".
+        ("mtllib my lib.mtl", [Some([0.5, 0.5, 0.5]), d, d], "my lib", 1),
+        (
+            "mtllib b.mtl my lib.mtl",
+            [Some([0.25, 0.0, 0.0]), Some([0.0, 1.0, 0.0]), Some([0.0, 1.0, 1.0])],
+            "b my lib",
+            0,
+        ),
+        // A library that is missing is said; the others' materials are read.
+        ("mtllib a.mtl none.mtl", [Some([1.0, 0.0, 0.0]), d, d], "a", 1),
+    ];
+    for (head, want, libs, warnings) in cases {
+        let imp = load(head, &files).unwrap_or_else(|e| panic!("{head:?}: {e}"));
+        // Triangle k is face k, of ma, mb, mc.
+        for (k, (name, want)) in ["ma", "mb", "mc"].into_iter().zip(want).enumerate() {
+            let m = &imp.mesh.materials[imp.mesh.triangle_materials[k] as usize];
+            match want {
+                Some(rgb) => {
+                    assert_eq!((m.name.as_str(), &m.base_color_factor_linear[..3]), (name, &rgb[..]), "{head:?}")
+                }
+                None => assert_eq!(m.name, "default", "{head:?}: {name}"),
+            }
+        }
+        let read: Vec<String> = imp.inputs[1..]
+            .iter()
+            .map(|p| p.file_name().unwrap().to_str().unwrap().trim_end_matches(".mtl").to_string())
+            .collect();
+        assert_eq!(read.join(" "), libs, "{head:?}");
+        assert_eq!(imp.warnings.len(), warnings, "{head:?}: {:?}", imp.warnings);
+    }
+    let imp = load("mtllib a.mtl none.mtl", &files).unwrap();
+    assert!(imp.warnings[0].0.contains("\"none.mtl\" not found"), "{:?}", imp.warnings);
+    // Each name is confined to the model's folder.
+    let e = load("mtllib a.mtl ../b.mtl", &files).unwrap_err();
+    assert!(matches!(e, IoError::OutsideAsset { ref uri, .. } if uri == "../b.mtl"), "{e}");
+    // On disk, as the README promises: a library named with spaces.
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("my lib.mtl"), kd("ma", "0.5 0.5 0.5")).unwrap();
+    std::fs::write(dir.path().join("m.obj"), format!("mtllib my lib.mtl\n{faces}")).unwrap();
+    let imp = load_mesh(&dir.path().join("m.obj")).unwrap();
+    assert_eq!(imp.mesh.materials[0].base_color_factor_linear, [0.5, 0.5, 0.5, 1.0]);
+    assert_eq!(imp.inputs[1], dir.path().join("my lib.mtl"));
+}
