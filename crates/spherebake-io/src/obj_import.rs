@@ -636,6 +636,10 @@ pub(crate) fn import(ctx: &mut Ctx, bytes: &[u8]) -> Result<(Mesh, Vec<ImportedP
             Err(e) if e.is_refusal() => return Err(e),
             Err(e) => {
                 library_failed = true;
+                // A library that does not exist yet is still a dependency (`Imported::missing`).
+                if matches!(e, IoError::ReferenceNotFound { .. }) && !ctx.missing.contains(&p) {
+                    ctx.missing.push(p.clone());
+                }
                 ctx.warn(format!("material library: {e}; using default materials"))
             }
         }

@@ -164,3 +164,27 @@ fn a_missing_texture_that_appears_rebuilds_the_output() {
         "re-baked once the texture exists"
     );
 }
+
+/// A material library the OBJ names but that does not exist yet is recorded like a missing
+/// texture: the depfile lists it, and the up-to-date check re-bakes once it appears.
+#[test]
+fn a_missing_material_library_that_appears_rebakes() {
+    let d = tempfile::tempdir().unwrap();
+    let d = d.path();
+    std::fs::write(d.join("m.obj"), format!("mtllib later.mtl\nusemtl red\n{CUBE_OBJ}")).unwrap();
+    let exe = env!("CARGO_BIN_EXE_spherebake");
+    let run = |extra: &[&str]| {
+        let mut args = vec!["bake", "m.obj", "-o", "m.sphb", "--spheres", "4", "--method", "kmeans", "--json"];
+        args.extend_from_slice(extra);
+        let o = Command::new(exe).args(&args).current_dir(d).output().unwrap();
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        serde_json::from_slice::<serde_json::Value>(&o.stdout).unwrap()
+    };
+    let v = run(&["--depfile"]);
+    assert_eq!(v["baked"], 1);
+    let dep = std::fs::read_to_string(d.join("m.sphb.d")).unwrap();
+    assert!(dep.contains("later.mtl") && dep.contains("\nlater.mtl:\n"), "{dep}");
+    assert_eq!(run(&[])["up_to_date"], 1);
+    std::fs::write(d.join("later.mtl"), "newmtl red\nKd 1 0 0\n").unwrap();
+    assert_eq!(run(&[])["baked"], 1, "re-baked once the library exists");
+}
