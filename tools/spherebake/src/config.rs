@@ -96,8 +96,9 @@ impl Config {
         let text =
             String::from_utf8(bytes).map_err(|_| anyhow::anyhow!("{}: invalid config: not UTF-8", path.display()))?;
         let config: Config = toml::from_str(&text).map_err(|e| {
-            let at = e.span().map(|r| {
-                let before = &text[..r.start.min(text.len())];
+            // `get`, not indexing: a span that were not on a character boundary gives no
+            // position rather than a panic.
+            let at = e.span().and_then(|r| text.get(..r.start)).map(|before| {
                 let line = before.matches('\n').count() + 1;
                 let column = before.rsplit('\n').next().map_or(0, |l| l.chars().count()) + 1;
                 format!(" at line {line}, column {column}")
