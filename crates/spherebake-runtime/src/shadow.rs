@@ -288,95 +288,86 @@ impl ClusterBlockers {
         receiver_radius: f32,
         theta_max_rad: f32,
     ) -> Result<(), ShadowError> {
-        let built = self.build_blockers(order, leaves, hierarchy, receiver_center, receiver_radius, theta_max_rad);
+        // One pass in a closure, so a failure anywhere empties the cluster below.
+        let built = (|| -> Result<(), ShadowError> {
+            check_order(order)?;
+            check_point("receiver_center", receiver_center)?;
+            if !(receiver_radius >= 0.0 && receiver_radius.is_finite()) {
+                return Err(ShadowError::Argument { argument: "receiver_radius", expected: "finite and ≥ 0" });
+            }
+            check_angle("theta_max_rad", f64::from(theta_max_rad))?;
+            self.order = order;
+            self.blockers.clear();
+            let p_star = receiver_center.map(f64::from);
+            let ones = {
+                let mut w = [0.0f32; MAX_ORDER];
+                w[..order].fill(1.0);
+                w
+            };
+            let Some((plan, nodes)) = hierarchy else {
+                let root = implicit_root(leaves);
+                if let Some(root) = root.filter(|r| cut_accepts(r, receiver_center, receiver_radius, theta_max_rad)) {
+                    let w = ratio_weights(order, &root, leaves.iter(), p_star)?;
+                    self.blockers.push(Blocker {
+                        center: root.center,
+                        radius: root.radius,
+                        band_weights: w,
+                        source: CutEntry::Node(IMPLICIT_ROOT),
+                    });
+                } else {
+                    self.blockers.extend(leaves.iter().enumerate().map(|(i, s)| Blocker {
+                        center: s.center,
+                        radius: s.radius,
+                        band_weights: ones,
+                        source: CutEntry::Leaf(i as u32),
+                    }));
+                }
+                return Ok(());
+            };
+            check_len("leaves", plan.leaf_bound(), leaves.len())?;
+            cut(plan, nodes, receiver_center, receiver_radius, theta_max_rad, &mut self.cut)?;
+            for &entry in &self.cut {
+                match entry {
+                    CutEntry::Leaf(l) => {
+                        let s = &leaves[l as usize]; // l < leaf_bound ≤ leaves.len()
+                        self.blockers.push(Blocker {
+                            center: s.center,
+                            radius: s.radius,
+                            band_weights: ones,
+                            source: entry,
+                        });
+                    }
+                    CutEntry::Node(n) => {
+                        let node = nodes[n as usize]; // checked by `cut`
+                                                      // Leaves below n, depth-first.
+                        self.stack.clear();
+                        self.stack.push(n);
+                        let mut f_d = [0.0; MAX_COEFFS];
+                        while let Some(k) = self.stack.pop() {
+                            for c in plan.refs_of(k) {
+                                match c {
+                                    ChildRef::Node(c) => self.stack.push(c),
+                                    ChildRef::Leaf(l) => add_log_f64(order, &leaves[l as usize], p_star, 1.0, &mut f_d),
+                                }
+                            }
+                        }
+                        let w = weights_from(order, &node, &f_d, p_star)?;
+                        self.blockers.push(Blocker {
+                            center: node.center,
+                            radius: node.radius,
+                            band_weights: w,
+                            source: entry,
+                        });
+                    }
+                }
+            }
+            Ok(())
+        })();
         if built.is_err() {
             self.order = 0;
             self.blockers.clear();
         }
         built
-    }
-
-    fn build_blockers(
-        &mut self,
-        order: usize,
-        leaves: &[Sphere],
-        hierarchy: Option<(&HierarchyPlan, &[Sphere])>,
-        receiver_center: [f32; 3],
-        receiver_radius: f32,
-        theta_max_rad: f32,
-    ) -> Result<(), ShadowError> {
-        check_order(order)?;
-        check_point("receiver_center", receiver_center)?;
-        if !(receiver_radius >= 0.0 && receiver_radius.is_finite()) {
-            return Err(ShadowError::Argument { argument: "receiver_radius", expected: "finite and ≥ 0" });
-        }
-        check_angle("theta_max_rad", f64::from(theta_max_rad))?;
-        self.order = order;
-        self.blockers.clear();
-        let p_star = receiver_center.map(f64::from);
-        let ones = {
-            let mut w = [0.0f32; MAX_ORDER];
-            w[..order].fill(1.0);
-            w
-        };
-        let Some((plan, nodes)) = hierarchy else {
-            let root = implicit_root(leaves);
-            if let Some(root) = root.filter(|r| cut_accepts(r, receiver_center, receiver_radius, theta_max_rad)) {
-                let w = ratio_weights(order, &root, leaves.iter(), p_star)?;
-                self.blockers.push(Blocker {
-                    center: root.center,
-                    radius: root.radius,
-                    band_weights: w,
-                    source: CutEntry::Node(IMPLICIT_ROOT),
-                });
-            } else {
-                self.blockers.extend(leaves.iter().enumerate().map(|(i, s)| Blocker {
-                    center: s.center,
-                    radius: s.radius,
-                    band_weights: ones,
-                    source: CutEntry::Leaf(i as u32),
-                }));
-            }
-            return Ok(());
-        };
-        check_len("leaves", plan.leaf_bound(), leaves.len())?;
-        cut(plan, nodes, receiver_center, receiver_radius, theta_max_rad, &mut self.cut)?;
-        for &entry in &self.cut {
-            match entry {
-                CutEntry::Leaf(l) => {
-                    let s = &leaves[l as usize]; // l < leaf_bound ≤ leaves.len()
-                    self.blockers.push(Blocker {
-                        center: s.center,
-                        radius: s.radius,
-                        band_weights: ones,
-                        source: entry,
-                    });
-                }
-                CutEntry::Node(n) => {
-                    let node = nodes[n as usize]; // checked by `cut`
-                                                  // Leaves below n, depth-first.
-                    self.stack.clear();
-                    self.stack.push(n);
-                    let mut f_d = [0.0; MAX_COEFFS];
-                    while let Some(k) = self.stack.pop() {
-                        for c in plan.refs_of(k) {
-                            match c {
-                                ChildRef::Node(c) => self.stack.push(c),
-                                ChildRef::Leaf(l) => add_log_f64(order, &leaves[l as usize], p_star, 1.0, &mut f_d),
-                            }
-                        }
-                    }
-                    let w = weights_from(order, &node, &f_d, p_star)?;
-                    self.blockers.push(Blocker {
-                        center: node.center,
-                        radius: node.radius,
-                        band_weights: w,
-                        source: entry,
-                    });
-                }
-            }
-        }
-        Ok(())
     }
 }
 

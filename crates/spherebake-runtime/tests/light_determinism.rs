@@ -67,6 +67,32 @@ fn rot_y(a: f32) -> [f32; 9] {
     [c, 0.0, -s, 0.0, 1.0, 0.0, s, 0.0, c]
 }
 
+/// The pose `run` lights a proxy in: the rest node spheres of its hierarchy and a rotation about +Y of 0.05 i
+/// radians for sphere i.
+struct Pose {
+    plan: Option<HierarchyPlan>,
+    nodes: Option<Vec<Sphere>>,
+    rotations: Vec<[f32; 9]>,
+}
+
+impl Pose {
+    fn of(proxy: &Proxy) -> Pose {
+        Pose {
+            plan: proxy.hierarchy_plan(),
+            nodes: proxy.hierarchy().map(rest_node_spheres),
+            rotations: (0..proxy.sphere_count()).map(|i| rot_y(0.05 * i as f32)).collect(),
+        }
+    }
+
+    fn posed<'a>(&'a self, proxy: &'a Proxy) -> PosedProxy<'a> {
+        PosedProxy {
+            nodes: self.plan.as_ref().zip(self.nodes.as_deref()),
+            rotations: Some(&self.rotations),
+            ..PosedProxy::at_rest(proxy)
+        }
+    }
+}
+
 /// Everything pass 1 produces, as bits: sample radiance, leaf and node lights.
 fn pass1_bits(lights: &SphereLights, leaves: usize, nodes: usize) -> Vec<u32> {
     let mut out: Vec<u32> = lights.sample_radiance().iter().map(|v| v.to_bits()).collect();
@@ -95,14 +121,9 @@ fn run(
     cl: &mut IndirectCluster,
     reversed: bool,
 ) -> (Vec<u32>, Vec<u64>) {
-    let plan = proxy.hierarchy_plan();
-    let nodes = proxy.hierarchy().map(rest_node_spheres);
-    let rotations: Vec<[f32; 9]> = (0..proxy.sphere_count()).map(|i| rot_y(0.05 * i as f32)).collect();
-    let posed = PosedProxy {
-        nodes: plan.as_ref().zip(nodes.as_deref()),
-        rotations: Some(&rotations),
-        ..PosedProxy::at_rest(proxy)
-    };
+    let pose = Pose::of(proxy);
+    let plan = &pose.plan;
+    let posed = pose.posed(proxy);
     let env = sky(ctx);
     light_spheres(ctx, &posed, &env, &[], &Pass1Settings::default(), lights).unwrap();
     let p1 = pass1_bits(lights, proxy.sphere_count(), plan.as_ref().map_or(0, HierarchyPlan::node_count));
@@ -187,15 +208,8 @@ fn a_shared_cluster_answers_several_threads_as_one() {
         // The single-threaded values, tile after tile (pass 1 included; the posed proxy is rebuilt below as `run`
         // builds it).
         let (_, serial) = run(&ctx, &proxy, &mut lights, &mut cl, false);
-        let plan = proxy.hierarchy_plan();
-        let nodes = proxy.hierarchy().map(rest_node_spheres);
-        let rotations: Vec<[f32; 9]> = (0..proxy.sphere_count()).map(|i| rot_y(0.05 * i as f32)).collect();
-        let posed = PosedProxy {
-            nodes: plan.as_ref().zip(nodes.as_deref()),
-            rotations: Some(&rotations),
-            ..PosedProxy::at_rest(&proxy)
-        };
-        let sources = [(posed, &lights)];
+        let pose = Pose::of(&proxy);
+        let sources = [(pose.posed(&proxy), &lights)];
         // One scratch per thread, first used on another proxy's cluster (other lights, another count).
         let other = proxy_n(12, !hierarchy);
         let mut other_lights = SphereLights::new();

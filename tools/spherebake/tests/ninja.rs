@@ -27,18 +27,23 @@ fn mtime(p: &Path) -> std::time::SystemTime {
     std::fs::metadata(p).unwrap().modified().unwrap()
 }
 
-/// `textured.obj` + `textured.mtl` + `tex.png`, `plain.obj`, `other.obj`, and the build file.
-fn write_project(d: &Path) {
-    std::fs::create_dir_all(d.join("assets")).unwrap();
-    std::fs::write(d.join("assets/plain.obj"), CUBE_OBJ).unwrap();
-    std::fs::write(d.join("assets/other.obj"), CUBE_OBJ.replace("v 1 1 1", "v 1.5 1.5 1.5")).unwrap();
-    let mut tex = String::from("mtllib textured.mtl\nusemtl m\nvt 0 0\nvt 1 0\nvt 1 1\n");
+/// The cube with texture coordinates on every face and material `m` of library `mtllib`.
+fn textured_cube(mtllib: &str) -> String {
+    let mut tex = format!("mtllib {mtllib}\nusemtl m\nvt 0 0\nvt 1 0\nvt 1 1\n");
     tex += &CUBE_OBJ.replace("\nf ", "\n#f ");
     for line in CUBE_OBJ.lines().filter(|l| l.starts_with("f ")) {
         let v: Vec<&str> = line[2..].split(' ').collect();
         tex += &format!("f {}/1 {}/2 {}/3\n", v[0], v[1], v[2]);
     }
-    std::fs::write(d.join("assets/textured.obj"), tex).unwrap();
+    tex
+}
+
+/// `textured.obj` + `textured.mtl` + `tex.png`, `plain.obj`, `other.obj`, and the build file.
+fn write_project(d: &Path) {
+    std::fs::create_dir_all(d.join("assets")).unwrap();
+    std::fs::write(d.join("assets/plain.obj"), CUBE_OBJ).unwrap();
+    std::fs::write(d.join("assets/other.obj"), CUBE_OBJ.replace("v 1 1 1", "v 1.5 1.5 1.5")).unwrap();
+    std::fs::write(d.join("assets/textured.obj"), textured_cube("textured.mtl")).unwrap();
     std::fs::write(d.join("assets/textured.mtl"), "newmtl m\nKd 1 1 1\nmap_Kd tex.png\n").unwrap();
     image::RgbImage::from_pixel(4, 4, image::Rgb([200, 30, 30])).save(d.join("assets/tex.png")).unwrap();
     let exe = env!("CARGO_BIN_EXE_spherebake");
@@ -116,13 +121,7 @@ fn a_missing_texture_that_appears_rebuilds_the_output() {
     let d = tempfile::tempdir().unwrap();
     let d = d.path();
     std::fs::create_dir_all(d.join("assets")).unwrap();
-    let mut tex = String::from("mtllib late.mtl\nusemtl m\nvt 0 0\nvt 1 0\nvt 1 1\n");
-    tex += &CUBE_OBJ.replace("\nf ", "\n#f ");
-    for line in CUBE_OBJ.lines().filter(|l| l.starts_with("f ")) {
-        let v: Vec<&str> = line[2..].split(' ').collect();
-        tex += &format!("f {}/1 {}/2 {}/3\n", v[0], v[1], v[2]);
-    }
-    std::fs::write(d.join("assets/late.obj"), tex).unwrap();
+    std::fs::write(d.join("assets/late.obj"), textured_cube("late.mtl")).unwrap();
     std::fs::write(d.join("assets/late.mtl"), "newmtl m\nKd 1 1 1\nmap_Kd late.png\n").unwrap();
     let exe = env!("CARGO_BIN_EXE_spherebake");
     let build = format!(
