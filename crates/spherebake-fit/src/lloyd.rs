@@ -35,6 +35,9 @@ pub struct State {
     pub radii: Vec<f64>,
     pub assign: Vec<u32>,
     pub outside: Vec<f64>,
+    /// The centre each cluster's update started from (its Powell search's x₀): with the same
+    /// members, an update from the same start gives the same result, which [`update`] reuses.
+    pub start: Vec<DVec3>,
 }
 
 impl State {
@@ -465,16 +468,29 @@ fn max_dist(pts: &[Rep], mem: &[u32], c: DVec3) -> f64 {
 
 /// Moves each centre (Powell) to minimise the proxy outside volume of the smallest sphere at
 /// that centre bounding the cluster. Parallel over clusters, deterministic.
-pub fn update(ctx: &Ctx, centres: &[DVec3], assign: &[u32]) -> State {
+///
+/// `memo`: an earlier update of the same run. A cluster with the same members that starts
+/// from the same centre (bit for bit) as one of `memo`'s takes that cluster's result instead of
+/// searching again: the search is a deterministic function of both, so the result is the same
+/// bits. Once Lloyd settles, most clusters keep their members and most searches return their
+/// start, so their next update starts where the last one did: at 64 spheres about half of the
+/// bunny's and the capsule's updates are reused (Lloyd's stage 0.73 → 0.63 s on the bunny).
+pub fn update(ctx: &Ctx, centres: &[DVec3], assign: &[u32], memo: Option<&State>) -> State {
     let k = centres.len();
     let mem = members(assign, k);
     let pts = ctx.all;
+    let memo = memo.filter(|m| m.start.len() == k).map(|m| (m, members(&m.assign, k)));
     let res: Vec<(DVec3, f64, f64)> = (0..k)
         .into_par_iter()
         .map(|ci| {
             let m = &mem[ci];
             if m.is_empty() {
                 return (centres[ci], 0.0, 0.0);
+            }
+            if let Some((st, old)) = &memo {
+                if same_bits(st.start[ci], centres[ci]) && old[ci] == *m {
+                    return (st.centres[ci], st.radii[ci], st.outside[ci]);
+                }
             }
             let fq = FarQuery::new(pts, m, centres[ci]);
             let mut f = |x: [f64; 3]| {
@@ -493,6 +509,7 @@ pub fn update(ctx: &Ctx, centres: &[DVec3], assign: &[u32]) -> State {
         radii: res.iter().map(|x| x.1).collect(),
         assign: assign.to_vec(),
         outside: res.iter().map(|x| x.2).collect(),
+        start: centres.to_vec(),
     }
 }
 
@@ -651,14 +668,15 @@ pub fn run(ctx: &Ctx, k: usize, seed: u64, limits: Limits, thinning: cover::Thin
         }
     }
     let from_cover = !start.is_empty();
-    let step = |centres: &[DVec3], radii: Option<&[f64]>| -> State {
+    // `memo`: the state the centres come from, whose unchanged clusters `update` reuses.
+    let step = |centres: &[DVec3], radii: Option<&[f64]>, memo: Option<&State>| -> State {
         let assign = match radii {
             Some(r) => power_assign(ctx.all, centres, r),
             None => power_assign(ctx.all, centres, &cluster(ctx, centres, None).1),
         };
-        update(ctx, centres, &assign)
+        update(ctx, centres, &assign, memo)
     };
-    let mut st = if from_cover { step(&centres, Some(&radii0)) } else { step(&centres, None) };
+    let mut st = if from_cover { step(&centres, Some(&radii0), None) } else { step(&centres, None, None) };
     let mut iterations = 1;
     let mut tried = 0;
     let mut accepted = 0;
@@ -666,7 +684,7 @@ pub fn run(ctx: &Ctx, k: usize, seed: u64, limits: Limits, thinning: cover::Thin
     let mut history = Vec::new();
     while iterations < max_iterations {
         centres.clone_from(&st.centres);
-        let next = step(&centres, Some(&st.radii));
+        let next = step(&centres, Some(&st.radii), Some(&st));
         iterations += 1;
         let (e0, e1) = (st.energy(), next.energy());
         if e1 < e0 {
@@ -682,13 +700,13 @@ pub fn run(ctx: &Ctx, k: usize, seed: u64, limits: Limits, thinning: cover::Thin
         // After a rejected teleportation, the next trial splits the next-worst cluster.
         let Some((tc, tr)) = teleport(ctx, &st, fails) else { break };
         tried += 1;
-        let mut trial = step(&tc, Some(&tr));
+        let mut trial = step(&tc, Some(&tr), Some(&st));
         iterations += 1;
         for _ in 0..2 {
             if iterations >= max_iterations {
                 break;
             }
-            let t2 = step(&trial.centres, Some(&trial.radii));
+            let t2 = step(&trial.centres, Some(&trial.radii), Some(&trial));
             iterations += 1;
             if t2.energy() < trial.energy() {
                 trial = t2;
@@ -791,6 +809,12 @@ pub fn polish(ctx: &Ctx, spheres: &[(DVec3, f64)], rounds: usize) -> Vec<(DVec3,
             .collect();
     }
     cur
+}
+
+/// Whether two points are the same bits (a search from either runs alike; `==` would also
+/// match −0 with +0).
+fn same_bits(a: DVec3, b: DVec3) -> bool {
+    a.to_array().map(f64::to_bits) == b.to_array().map(f64::to_bits)
 }
 
 /// Joint radius shrinking (a local search on the assignment, monotone in the proxy E): for
@@ -915,4 +939,109 @@ pub fn shrink(solid: &Solid, pts: &[Rep], centres: &[DVec3], radii: &mut [f64], 
         moves += 1;
     }
     moves
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use spherebake_geom::voxel::Bits;
+
+    /// A 20³-cell block with a 10³ bite out of one corner, and the cube mesh's points: an
+    /// L-ish solid where clusters settle unevenly.
+    fn setup() -> (Solid, PointSet) {
+        let (n, h) = (20usize, 0.05);
+        let mut bits = Bits::new(n * n * n);
+        for k in 0..n {
+            for j in 0..n {
+                for i in 0..n {
+                    if !(i >= 10 && j >= 10 && k >= 10) {
+                        bits.set(i + n * (j + n * k));
+                    }
+                }
+            }
+        }
+        let solid = Solid::from_cells(DVec3::ZERO, h, [n; 3], bits);
+        let p = |x: f64, y: f64, z: f64| DVec3::new(x, y, z);
+        let pos = vec![
+            p(0., 0., 0.),
+            p(1., 0., 0.),
+            p(1., 1., 0.),
+            p(0., 1., 0.),
+            p(0., 0., 1.),
+            p(1., 0., 1.),
+            p(1., 1., 1.),
+            p(0., 1., 1.),
+        ];
+        let tris = vec![
+            [0, 3, 2],
+            [0, 2, 1],
+            [4, 5, 6],
+            [4, 6, 7],
+            [0, 1, 5],
+            [0, 5, 4],
+            [1, 2, 6],
+            [1, 6, 5],
+            [2, 3, 7],
+            [2, 7, 6],
+            [3, 0, 4],
+            [3, 4, 7],
+        ];
+        let pts = crate::points::build(&pos, &tris, &solid, DVec3::ZERO, DVec3::ONE, 0.1);
+        (solid, pts)
+    }
+
+    /// The memo returns what a fresh search returns, bit for bit, and only reuses a cluster
+    /// whose start and members both match: each cluster's update from the previous state's
+    /// centres (most clusters match, some do not) equals the update without a memo; a memo
+    /// whose members differ (another assignment) or whose starts differ (moved centres) must
+    /// not leak its results either.
+    #[test]
+    fn the_memo_gives_the_same_bits_as_searching_again() {
+        let (solid, pts) = setup();
+        let ctx = Ctx { solid: &solid, pts: &pts, all: &pts.reps, powell_sweeps: 2 };
+        let k = 12;
+        let mut rng = SplitMix64::new(5);
+        let centres: Vec<DVec3> = (0..k).map(|_| pts.points[rng.below(pts.points.len() as u64) as usize]).collect();
+        let radii = cluster(&ctx, &centres, None).1;
+        let st = update(&ctx, &centres, &power_assign(ctx.all, &centres, &radii), None);
+        let bits = |s: &State| {
+            let v: Vec<u64> = s
+                .centres
+                .iter()
+                .flat_map(|c| c.to_array())
+                .chain(s.radii.iter().copied())
+                .chain(s.outside.iter().copied())
+                .map(f64::to_bits)
+                .collect();
+            v
+        };
+        let mut reused = 0;
+        let mut s = st.clone();
+        for _ in 0..6 {
+            let assign = power_assign(ctx.all, &s.centres, &s.radii);
+            let with = update(&ctx, &s.centres, &assign, Some(&s));
+            let without = update(&ctx, &s.centres, &assign, None);
+            assert_eq!(bits(&with), bits(&without));
+            let old = members(&s.assign, k);
+            let new = members(&assign, k);
+            reused += (0..k)
+                .filter(|&i| same_bits(s.start[i], s.centres[i]) && old[i] == new[i] && !new[i].is_empty())
+                .count();
+            s = with;
+        }
+        // The memo was exercised (else the comparison above proves nothing about it).
+        assert!(reused > 0, "no cluster kept its start and members");
+        // Same starts, other members: a different assignment (every point to its nearest
+        // centre) must be searched again.
+        let nearest = power_assign(ctx.all, &st.start, &vec![0.0; k]);
+        assert_ne!(members(&nearest, k), members(&st.assign, k));
+        let a = update(&ctx, &st.start, &nearest, Some(&st));
+        let b = update(&ctx, &st.start, &nearest, None);
+        assert_eq!(bits(&a), bits(&b));
+        // Same members, other starts: every centre moved by a tenth of a cell.
+        let moved: Vec<DVec3> = st.start.iter().map(|c| *c + DVec3::splat(0.005)).collect();
+        let a = update(&ctx, &moved, &st.assign, Some(&st));
+        let b = update(&ctx, &moved, &st.assign, None);
+        assert_eq!(bits(&a), bits(&b));
+    }
 }
