@@ -173,6 +173,7 @@ impl Expansions {
             return 0.0;
         }
         let mut sum = 0.0;
+        let mut near = crate::volume::SolidAngleSum::default();
         let mut stack: Vec<u32> = Vec::with_capacity(64);
         stack.push(0);
         while let Some(i) = stack.pop() {
@@ -186,14 +187,15 @@ impl Expansions {
             let n = bvh.nodes[i as usize];
             if n.is_leaf() {
                 for &t in &bvh.prims[n.first as usize..(n.first + n.count) as usize] {
-                    sum += solid_angle(&bvh.tris[t as usize], p);
+                    let t = &bvh.tris[t as usize];
+                    near.add(t[0] - p, t[1] - p, t[2] - p);
                 }
             } else {
                 stack.push(n.first);
                 stack.push(n.first + 1);
             }
         }
-        sum / (4.0 * PI)
+        (sum + near.total()) / (4.0 * PI)
     }
 }
 
