@@ -1590,6 +1590,20 @@ pub fn fit_reusing(
     Ok(FitResult { spheres, stats, warnings })
 }
 
+/// Why target mode's count stopped at `k_max` (= `k_cap` or the clustering points, whichever is
+/// fewer; `k_cap` = `target_max_spheres` or 4096 / parts): the words of the "not reached"
+/// warning. Only the points are a property of the mesh; the other two are limits of target mode
+/// (a fixed `spheres` count goes up to 4096).
+fn target_limit_reason(k_max: usize, points: usize, k_cap: usize, target_max_spheres: usize) -> &'static str {
+    if k_max < k_cap && k_max >= points {
+        "one per clustering point of this mesh, the most that can help"
+    } else if k_cap >= target_max_spheres {
+        "target mode's most; a fixed sphere count may be up to 4096"
+    } else {
+        "the format's 4096 shared among the mesh's parts"
+    }
+}
+
 /// Fits part `part` (its prepared solid) with `spheres` spheres, or in target mode with at
 /// most `k_cap`; the part's warnings go to `warnings`, its stage times are added to
 /// `timings` and the trace entries of every run (every count tried in target mode) to
@@ -1684,7 +1698,8 @@ fn fit_part(
                             "target E ≤ {target} not reached: the best is E = {be:.4} with {bk} spheres; {why}, so the search stopped early"
                         ),
                         None => format!(
-                            "target E ≤ {target} not reached with {k_max} spheres (the most for this mesh): the best is E = {be:.4} with {bk} spheres"
+                            "target E ≤ {target} not reached with {k_max} spheres ({}): the best is E = {be:.4} with {bk} spheres",
+                            target_limit_reason(k_max, pts.points.len(), k_cap, plan.target_max_spheres)
                         ),
                     });
                 }
@@ -2149,6 +2164,31 @@ mod target_tests {
         // No progress: stop whatever the target.
         let flat = target_out_of_reach((8, 0.4), (16, 0.3999), 0.39, 1024, d).expect("flat");
         assert!(flat.contains("no lower than"), "{flat}");
+    }
+
+    /// The "not reached" warning names target mode's own limit as such, not as a property of
+    /// the mesh (a sheet, woody.obj, at target 1: "1024 spheres (the most for this mesh)" while
+    /// `--spheres` takes up to 4096).
+    #[test]
+    fn target_mode_names_which_limit_ended_the_search() {
+        assert_eq!(
+            target_limit_reason(1024, 50_000, 1024, 1024),
+            "target mode's most; a fixed sphere count may be up to 4096"
+        );
+        assert_eq!(
+            target_limit_reason(300, 300, 1024, 1024),
+            "one per clustering point of this mesh, the most that can help"
+        );
+        assert_eq!(target_limit_reason(682, 50_000, 682, 1024), "the format's 4096 shared among the mesh's parts");
+        let (p, t) = tests_support::uv_sphere(8, 1.0);
+        let p: Vec<Vec3> = p.iter().map(|q| q.as_vec3()).collect();
+        // Two counts (1, then 2) and no early stop below the default count: the cap ends it.
+        let plan = FitPlan { descent_trials: 2, target_start: 1, target_max_spheres: 2, ..FitPlan::default() };
+        let s = FitSettings { max_outside_ratio: Some(1e-9), plan, ..FitSettings::default() };
+        let r = fit(&p, &t, &s, &|_| {}).expect("fits");
+        let w = r.warnings.iter().find(|w| w.starts_with("target E ≤ 0.000000001 not reached")).expect("warning");
+        assert!(w.contains("not reached with 2 spheres (target mode's most;"), "{w}");
+        assert!(!w.contains("for this mesh"), "{w}");
     }
 
     #[test]
