@@ -71,6 +71,16 @@ fn inspect_mesh(path: &Path, as_json: bool) -> Result<ExitCode> {
 
 fn inspect_sphb(path: &Path, as_json: bool) -> Result<ExitCode> {
     let bytes = spherebake_io::read_limited(path, spherebake_io::default_options().max_input_bytes)?;
+    // A file that is neither a mesh by its extension nor a .sphb by its magic (a .ply, a .stl):
+    // name its type, as `bake` does, instead of reporting a malformed .sphb header.
+    let extension = path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase);
+    if !bytes.starts_with(&spherebake_format::MAGIC) && extension.as_deref().is_some_and(|e| e != "sphb") {
+        anyhow::bail!(
+            "{}: unknown file type {:?} (expected .gltf, .glb, .obj or .sphb)",
+            path.display(),
+            extension.unwrap_or_default()
+        );
+    }
     let (header, table) = spherebake_format::read_header_and_table(&bytes)
         .with_context(|| format!("{}: not a valid .sphb file", path.display()))?;
     let file =

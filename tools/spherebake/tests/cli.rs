@@ -627,3 +627,23 @@ fn the_batch_table_counts_each_assets_warnings() {
     }
     assert!(out.contains("(-v lists each asset's warnings)"), "{out}");
 }
+
+/// `inspect` on a file that is neither a mesh (by extension) nor a `.sphb` (by magic) names its
+/// type, as `bake` does, instead of reporting a malformed `.sphb` header; a `.sphb` under
+/// another extension is still read.
+#[test]
+fn inspect_names_an_unknown_file_type() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    std::fs::write(d.join("horse.ply"), "ply\nformat ascii 1.0\nelement vertex 0\nend_header\n").unwrap();
+    let o = run(&["inspect", "horse.ply"], d);
+    let err = stderr(&o);
+    assert_eq!(o.status.code(), Some(1), "{err}");
+    assert_eq!(err.trim_end().lines().count(), 1, "one line expected: {err}");
+    assert!(err.contains("horse.ply") && err.contains("unknown file type \"ply\""), "{err}");
+    let input = repo().join("fixtures/capsule.obj");
+    assert_eq!(run(&["bake", input.to_str().unwrap(), "-o", "c.sphb"], d).status.code(), Some(0));
+    std::fs::copy(d.join("c.sphb"), d.join("c.bin")).unwrap();
+    let o = run(&["inspect", "c.bin"], d);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+}
