@@ -74,8 +74,8 @@ fn pow2_near_inverse(m: f64) -> f64 {
 /// that), so the sum of the angles is the argument of the product of those complex numbers
 /// plus 2π for every time the product's argument passes ±π. Each factor turns the product by
 /// less than π either way, so a pass shows as the product leaving the upper half-plane
-/// (argument in (0, π]) while turning positively, or the lower one (argument in (−π, 0))
-/// while turning negatively, with half-planes read as `atan2` reads them; the count
+/// (argument in (0, π]) while turning positively, or the lower one (argument in [−π, 0))
+/// while turning negatively, with half-planes read as `atan2` reads signed zeros; the count
 /// follows the rounded product, so its final argument plus the passes is the sum to rounding
 /// (about one ulp per factor). Factors on the real axis (det = ±0: angle ±0 or ±π) are added
 /// as `atan2` gives them, and the product is rescaled by powers of two (exact) so it cannot
@@ -117,11 +117,11 @@ impl SolidAngleSum {
             let s = pow2_near_inverse(f);
             (x, y) = (x * s, y * s);
         }
-        // atan2's reading of the half-planes: argument in (0, π] / [−π, 0). The product's
-        // imaginary part is never −0 (the start's is +0; later its two terms are nonzero, and
-        // a zero sum rounds to +0), so the negative real axis is π, in the upper one.
-        let upper = |re: f64, im: f64| im > 0.0 || (im == 0.0 && re < 0.0);
-        let lower = |_: f64, im: f64| im < 0.0;
+        // atan2's reading of the half-planes, signed zeros included: argument in (0, π] /
+        // [−π, 0). (A product lands on the negative real axis with +0, argument π, when its two
+        // terms cancel; with −0, argument −π, when both are −0: (+0, −2) times (+0, −1).)
+        let upper = |re: f64, im: f64| im > 0.0 || (im == 0.0 && im.is_sign_positive() && re.is_sign_negative());
+        let lower = |re: f64, im: f64| im < 0.0 || (im == 0.0 && im.is_sign_negative() && re.is_sign_negative());
         let (re, im) = (self.re * x - self.im * y, self.re * y + self.im * x);
         if y > 0.0 && upper(self.re, self.im) && !upper(re, im) {
             self.turns += 1;
@@ -378,11 +378,14 @@ mod tests {
         // Products that land exactly on the negative real axis (+0 imaginary part: argument π),
         // then stay or leave it either way.
         let q = std::f64::consts::FRAC_PI_4;
-        let cases: [&[(f64, f64)]; 4] = [
+        // (y, x) pairs; the last two pass (+0, −2) and land on (−2, −0), argument −π.
+        let cases: [&[(f64, f64)]; 6] = [
             &[(1.0, -1.0), (1.0, 1.0)],
             &[(1.0, -1.0), (1.0, 1.0), (1.0, 1.0)],
             &[(-1.0, -1.0), (-1.0, 1.0)],
             &[(-1.0, -1.0), (-1.0, 1.0), (-1.0, 1.0)],
+            &[(-1.0, 1.0), (-1.0, 1.0), (-1.0, 0.0)],
+            &[(-1.0, 1.0), (-1.0, 1.0), (-1.0, 0.0), (1.0, 1.0)],
         ];
         for factors in cases {
             let mut s = SolidAngleSum::default();
