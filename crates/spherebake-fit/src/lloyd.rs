@@ -961,31 +961,8 @@ mod tests {
             }
         }
         let solid = Solid::from_cells(DVec3::ZERO, h, [n; 3], bits);
-        let p = |x: f64, y: f64, z: f64| DVec3::new(x, y, z);
-        let pos = vec![
-            p(0., 0., 0.),
-            p(1., 0., 0.),
-            p(1., 1., 0.),
-            p(0., 1., 0.),
-            p(0., 0., 1.),
-            p(1., 0., 1.),
-            p(1., 1., 1.),
-            p(0., 1., 1.),
-        ];
-        let tris = vec![
-            [0, 3, 2],
-            [0, 2, 1],
-            [4, 5, 6],
-            [4, 6, 7],
-            [0, 1, 5],
-            [0, 5, 4],
-            [1, 2, 6],
-            [1, 6, 5],
-            [2, 3, 7],
-            [2, 7, 6],
-            [3, 0, 4],
-            [3, 4, 7],
-        ];
+        let (p, tris) = spherebake_testkit::mesh::unit_cube();
+        let pos: Vec<DVec3> = p.iter().map(|c| DVec3::from_array(*c)).collect();
         let pts = crate::points::build(&pos, &tris, &solid, DVec3::ZERO, DVec3::ONE, 0.1);
         (solid, pts)
     }
