@@ -30,6 +30,7 @@ use serde::Serialize;
 use spherebake_fit::hierarchy::{build_hierarchy, hierarchy_stats, HierarchySettings};
 use spherebake_fit::{FitSettings, Method as FitMethod};
 use spherebake_format::{Metadata, SphbFile, Sphere};
+use spherebake_geom::bvh::TriangleBvh;
 use spherebake_geom::orient::{outward_orientation, turned};
 use spherebake_geom::winding::WindingNumber;
 use spherebake_geom::TopologyReport;
@@ -218,13 +219,32 @@ fn timed<T>(f: impl FnOnce() -> T) -> (T, f64) {
     (v, t.elapsed().as_secs_f64())
 }
 
-/// The welded triangles of `mesh`, each turned outward by the solid
-/// ([`spherebake_geom::orient::outward_orientation`]): what the bake hands to the fit. Cost: one
-/// winding-number build and the orientation.
-pub fn outward_triangles(mesh: &spherebake_geom::Mesh) -> Vec<[u32; 3]> {
-    let triangles = mesh.welded_triangles();
+/// The welded triangles of `mesh` split into those that bound the solid and its
+/// [`surface_only`](spherebake_geom::Mesh::surface_only) ones, each list in mesh order. When
+/// the mesh has none, the first list is all of them.
+pub fn solid_and_surface_only(mesh: &spherebake_geom::Mesh) -> (Vec<[u32; 3]>, Vec<[u32; 3]>) {
+    let all = mesh.welded_triangles();
+    if mesh.surface_only.is_empty() {
+        return (all, Vec::new());
+    }
+    let mut only = vec![false; all.len()];
+    for &t in &mesh.surface_only {
+        if let Some(o) = only.get_mut(t as usize) {
+            *o = true;
+        }
+    }
+    let (surface, solid): (Vec<_>, Vec<_>) = all.iter().zip(&only).partition(|(_, &o)| o);
+    (solid.into_iter().map(|(t, _)| *t).collect(), surface.into_iter().map(|(t, _)| *t).collect())
+}
+
+/// The welded triangles of `mesh` that bound its solid, each turned outward by the solid
+/// ([`spherebake_geom::orient::outward_orientation`]), and its surface-only triangles
+/// ([`solid_and_surface_only`]): what the bake hands to the fit. Cost: one winding-number
+/// build and the orientation.
+pub fn outward_triangles(mesh: &spherebake_geom::Mesh) -> (Vec<[u32; 3]>, Vec<[u32; 3]>) {
+    let (triangles, surface_only) = solid_and_surface_only(mesh);
     let winding = WindingNumber::new(&mesh.welded_positions, &triangles);
-    turned(&triangles, &outward_orientation(&mesh.welded_positions, &triangles, &winding).flip)
+    (turned(&triangles, &outward_orientation(&mesh.welded_positions, &triangles, &winding).flip), surface_only)
 }
 
 /// [`spherebake_fit::evaluate`] of `spheres` against `mesh` as a bake measures them: on its
@@ -240,7 +260,8 @@ pub fn evaluate_mesh(
     spheres: &[[f32; 4]],
     settings: &spherebake_fit::EvalSettings,
 ) -> Result<spherebake_fit::Evaluation, spherebake_fit::FitError> {
-    spherebake_fit::evaluate(&mesh.welded_positions, &outward_triangles(mesh), spheres, settings)
+    let (solid, surface_only) = outward_triangles(mesh);
+    spherebake_fit::evaluate_with_surface(&mesh.welded_positions, &solid, &surface_only, spheres, settings)
 }
 
 /// Bakes an already imported mesh (see [`bake_path`]).
@@ -258,20 +279,42 @@ pub fn bake_imported(
         return Err(BakeError::EmptyMesh { path: path.to_path_buf() });
     }
     let positions = &mesh.welded_positions;
-    let triangles = mesh.welded_triangles();
+    // The surface-only triangles (`Mesh::surface_only`: double-sided faces, enclosing nothing)
+    // are left out of the closed check, the orientation and the solid, and handed to the fit
+    // beside the others to be covered.
+    let (triangles, surface_only) = solid_and_surface_only(mesh);
     // Outward orientation by the solid (real meshes are not always consistently oriented),
     // shared by the fit, the sample points and the albedo. On the welded mesh, so UV/normal
     // seams do not split orientation patches; triangle indices are the same as in
-    // `mesh.triangles`, so the flips apply there too. The topology report (serial) is
-    // computed while the winding number's tree (serial) is built: neither reads the other.
+    // `mesh.triangles` (but for the surface-only ones), so the flips apply there too. The
+    // topology report (serial) is computed while the winding number's tree (serial) is built:
+    // neither reads the other.
     let ((topology, topology_s), (winding, winding_s)) =
         rayon::join(|| timed(|| TopologyReport::compute(mesh)), || timed(|| WindingNumber::new(positions, &triangles)));
     timings.push(StageTime { stage: "topology", seconds: topology_s });
     let t = Instant::now();
-    let orientation = outward_orientation(positions, &triangles, &winding);
+    let mut orientation = outward_orientation(positions, &triangles, &winding);
     // Its tree is the sample points' BVH too: the welded triangles are `mesh.triangles` in the
     // same order with the same corners (the weld joins bit-identical positions, −0.0 as 0.0).
+    // With surface-only triangles the samples get a tree over all of them, and the flips are
+    // spread to mesh order (a surface-only face is not flipped: it faces both ways).
     let bvh = winding.into_bvh();
+    let all_bvh = (!surface_only.is_empty()).then(|| TriangleBvh::new(positions, &mesh.welded_triangles()));
+    let solid_flip = orientation.flip.clone();
+    if !surface_only.is_empty() {
+        let mut solid_flips = solid_flip.iter();
+        let mut only = mesh.surface_only.iter().peekable();
+        orientation.flip = (0..mesh.triangles.len() as u32)
+            .map(|t| {
+                if only.peek() == Some(&&t) {
+                    only.next();
+                    false
+                } else {
+                    solid_flips.next().copied().unwrap_or(false)
+                }
+            })
+            .collect();
+    }
     if orientation.flipped > 0 {
         warnings.push(format!("{} triangles face inward; oriented outward by the solid", orientation.flipped));
     }
@@ -280,9 +323,9 @@ pub fn bake_imported(
     // The fit sees the outward-oriented triangles: a mesh and its inside-out twin are the same
     // input to it (same solid, same spheres), and a mesh whose only defect was the winding of
     // some patches is closed again.
-    let oriented = turned(&triangles, &orientation.flip);
+    let oriented = turned(&triangles, &solid_flip);
     let t = Instant::now();
-    let mut fitted = fit_spheres(path, positions, &oriented, &bvh, settings, progress)?;
+    let mut fitted = fit_spheres(path, positions, &oriented, &surface_only, &bvh, settings, progress)?;
     timings.push(StageTime { stage: "fit", seconds: t.elapsed().as_secs_f64() });
     let fit_stages: Vec<StageTime> =
         fitted.stage_timings.iter().map(|(stage, seconds)| StageTime { stage, seconds: *seconds }).collect();
@@ -328,7 +371,9 @@ pub fn bake_imported(
                     surface_samples: 1,
                     ..Default::default()
                 };
-                if let Ok(ev) = spherebake_fit::evaluate(positions, &oriented, &spheres, &es) {
+                if let Ok(ev) =
+                    spherebake_fit::evaluate_with_surface(positions, &oriented, &surface_only, &spheres, &es)
+                {
                     if let (Some(target), Some(before)) = (settings.max_outside_ratio, fitted.outside_ratio_e) {
                         if before <= target && ev.outside_ratio_e > target {
                             warnings.push(format!(
@@ -356,7 +401,8 @@ pub fn bake_imported(
     progress(0.85);
 
     let t = Instant::now();
-    let (samples, sample_stats) = samples::place_samples(mesh, &bvh, &orientation.flip, spheres);
+    let (samples, sample_stats) =
+        samples::place_samples(mesh, all_bvh.as_ref().unwrap_or(&bvh), &orientation.flip, spheres);
     timings.push(StageTime { stage: "samples", seconds: t.elapsed().as_secs_f64() });
     progress(0.9);
 
@@ -490,6 +536,7 @@ fn fit_spheres(
     path: &Path,
     positions: &[glam::Vec3],
     triangles: &[[u32; 3]],
+    surface_only: &[[u32; 3]],
     tree: &spherebake_geom::bvh::TriangleBvh,
     settings: &BakeSettings,
     progress: &(dyn Fn(f32) + Sync),
@@ -507,8 +554,9 @@ fn fit_spheres(
         plan: settings.preset.plan(),
     };
     let fit_progress = |f: f32| progress(0.8 * f);
-    let r = spherebake_fit::fit_reusing(positions, triangles, Some(tree), &fit_settings, &fit_progress)
-        .map_err(|e| BakeError::Stage { path: path.to_path_buf(), stage: "fit", message: e.to_string() })?;
+    let r =
+        spherebake_fit::fit_with_surface(positions, triangles, surface_only, Some(tree), &fit_settings, &fit_progress)
+            .map_err(|e| BakeError::Stage { path: path.to_path_buf(), stage: "fit", message: e.to_string() })?;
     // Target mode's result is among the fit's warnings once ("target mode: k spheres give E =
     // ..." when the target is reached, else "target E ≤ ... not reached: the best is E = ...").
     let warnings = r.warnings;

@@ -199,3 +199,56 @@ fn the_reported_e_is_the_written_spheres_after_the_pose_margin() {
     assert!(!t.report.warnings.iter().any(|w| w.contains("not reached")), "{:?}", t.report.warnings);
     assert_eq!(warned, te > target, "E {te}, target {target}: {:?}", t.report.warnings);
 }
+
+/// A face given once in each winding (a zero-thickness double-sided fin) encloses nothing: on
+/// a closed box, a fin sticking out of one of its edges leaves the box closed, so the bake
+/// takes the exact closed-mesh solid, while the fin is still covered by the spheres. Before,
+/// import kept one copy of the fin as an ordinary face: two boundary edges and a box edge with
+/// three faces made the mesh "not closed" and the solid the voxel solid.
+#[test]
+fn a_double_sided_fin_on_a_closed_box_is_covered_but_leaves_the_box_closed() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut obj = String::new();
+    for i in 0..8 {
+        obj += &format!("v {} {} {}\n", i & 1, (i >> 1) & 1, (i >> 2) & 1);
+    }
+    obj += "v 1.6 0 0.5\n"; // the fin's tip, vertex 9
+    for q in [[1, 3, 4, 2], [5, 6, 8, 7], [1, 2, 6, 5], [3, 7, 8, 4], [1, 5, 7, 3], [2, 4, 8, 6]] {
+        obj += &format!("f {} {} {}\nf {} {} {}\n", q[0], q[1], q[2], q[0], q[2], q[3]);
+    }
+    // The fin on the box edge from (1, 0, 0) to (1, 0, 1), in the plane y = 0, both windings.
+    obj += "f 2 9 6\nf 6 9 2\n";
+    let path = dir.path().join("fin.obj");
+    std::fs::write(&path, &obj).unwrap();
+    let imported = spherebake_io::load_mesh(&path).unwrap();
+    assert_eq!(imported.mesh.triangles.len(), 13);
+    assert_eq!(imported.mesh.surface_only, vec![12]);
+    assert!(spherebake_geom::TopologyReport::compute(&imported.mesh).closed);
+    let mesh = imported.mesh.clone();
+    let out = bake_path(&path, &BakeSettings { spheres: 8, voxels: 48, ..Default::default() }, &|_| {}).unwrap();
+    let w = &out.report.warnings;
+    assert!(out.report.closed, "{w:?}");
+    assert!(!w.iter().any(|x| x.contains("not closed") || x.contains("voxel solid")), "{w:?}");
+    assert!(w.iter().any(|x| x.starts_with("1 duplicate triangles") && x.contains("1 face(s)")), "{w:?}");
+    // E against the box's unit volume, and every point of the fin inside a stored sphere.
+    let spheres: Vec<[f32; 4]> =
+        out.file.spheres.iter().map(|s| [s.center[0], s.center[1], s.center[2], s.radius]).collect();
+    let es = spherebake_fit::EvalSettings { voxel_resolution: 48, surface_samples: 20000, ..Default::default() };
+    let ev = spherebake_bake::evaluate_mesh(&mesh, &spheres, &es).unwrap();
+    assert_eq!(ev.solid_source, spherebake_fit::SolidSource::ClosedMesh);
+    assert!((ev.object_volume - 1.0).abs() < 1e-9, "{}", ev.object_volume);
+    assert_eq!(Some(ev.outside_ratio_e), out.report.outside_ratio_e);
+    assert_eq!(ev.surface_coverage, 1.0);
+    let [a, b, c] = [glam::DVec3::new(1.0, 0.0, 0.0), glam::DVec3::new(1.6, 0.0, 0.5), glam::DVec3::new(1.0, 0.0, 1.0)];
+    let n = 60;
+    for i in 0..=n {
+        for j in 0..=n - i {
+            let (u, v) = (i as f64 / n as f64, j as f64 / n as f64);
+            let p = a + (b - a) * u + (c - a) * v;
+            let inside = spheres.iter().any(|s| {
+                p.distance(glam::DVec3::new(s[0] as f64, s[1] as f64, s[2] as f64)) <= s[3] as f64 * (1.0 + 1e-6)
+            });
+            assert!(inside, "fin point {p} outside every sphere");
+        }
+    }
+}

@@ -62,7 +62,9 @@
 //! twin; cells the surface passes through count by their centre only), at `voxel_resolution`
 //! cells along the longest axis; E uses its closed boundary mesh, and bounding covers the
 //! original triangles plus the points inside by the same rule ([`voxel::VoxelGrid::contains`]).
-//! A mesh that encloses nothing (a sheet) takes the cells its surface passes through. Every
+//! A mesh that encloses nothing (a sheet) takes the cells its surface passes through.
+//! Surface-only triangles ([`fit_with_surface`]: double-sided fins, which enclose nothing) are
+//! left out of all of the above and only covered. Every
 //! part's voxel grid, closed or not, comes from that module (on the BVH the exact E of a closed
 //! mesh reuses); [`solid::Solid`] is the optimiser's fast lookup built from it. Accuracy of V(T)
 //! and E for open meshes is then set by the voxel size (≈ surface area × cell size relative
@@ -226,7 +228,11 @@ enum ExactT {
 #[derive(Clone)]
 struct Prepared {
     pos: Vec<DVec3>,
+    /// The surface to cover: the solid's triangles (`tris[..solid_tris]`, hole fans included),
+    /// then the surface-only ones (see [`fit_with_surface`]).
     tris: Vec<[u32; 3]>,
+    /// How many of `tris` bound the solid.
+    solid_tris: usize,
     solid: Solid,
     lo: DVec3,
     hi: DVec3,
@@ -312,18 +318,26 @@ fn directed_edge_pairing(tris: &[[u32; 3]]) -> (bool, Vec<(u32, u32)>) {
 }
 
 /// `tree`: a caller's tree over `positions` and `triangles` to reuse ([`TriangleBvh::reuse`]).
+/// `surface_only`: triangles covered but left out of the solid (none is `triangles` alone; when
+/// `triangles` is empty they are the solid, as one copy of a double-sided part).
 fn prepare(
     positions: &[Vec3],
     triangles: &[[u32; 3]],
+    surface_only: &[[u32; 3]],
     voxel_resolution: u32,
     tree: Option<&TriangleBvh>,
 ) -> Result<Prepared, FitError> {
+    let (triangles, surface_only) =
+        if triangles.is_empty() { (surface_only, &[][..]) } else { (triangles, surface_only) };
     check_mesh(positions, triangles)?;
+    if !surface_only.is_empty() {
+        check_mesh(positions, surface_only)?;
+    }
     let mut pos: Vec<DVec3> = positions.iter().map(|p| p.as_dvec3()).collect();
     let mut tris = triangles.to_vec();
     let mut warnings = Vec::new();
     let (mut lo, mut hi) = (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY));
-    for t in &tris {
+    for t in tris.iter().chain(surface_only) {
         for &v in t {
             lo = lo.min(pos[v as usize]);
             hi = hi.max(pos[v as usize]);
@@ -396,7 +410,9 @@ fn prepare(
         let v = solid.volume();
         (SolidSource::VoxelSolid, ExactT::Voxel { pos: p, tris: t, cells }, v)
     };
-    Ok(Prepared { pos, tris, solid, lo, hi, object_volume, source, exact, warnings })
+    let solid_tris = tris.len();
+    tris.extend_from_slice(surface_only);
+    Ok(Prepared { pos, tris, solid_tris, solid, lo, hi, object_volume, source, exact, warnings })
 }
 
 /// [`fill_small_holes`] closes holes only while their fans add at most this share of the
@@ -637,7 +653,7 @@ fn exact_winding(prep: &Prepared, p: DVec3) -> f64 {
         ExactT::Closed { bvh, .. } => Some(bvh),
         ExactT::Voxel { .. } => None,
     };
-    winding_exact(closed_tree, &prep.pos, &prep.tris, p)
+    winding_exact(closed_tree, &prep.pos, &prep.tris[..prep.solid_tris], p)
 }
 
 /// The exact winding number of `tris` at `p`: given the tree of a closed mesh, the integer of
@@ -754,10 +770,10 @@ fn run_once(prep: &Prepared, pts: &points::PointSet, settings: &FitSettings, k: 
     // A closed mesh of few triangles: every stage's ball volume exact (`solid::exact_is_cheaper`).
     let mut exact_prep;
     let prep = if prep.source == SolidSource::ClosedMesh
-        && solid::exact_is_cheaper(prep.tris.len(), prep.solid.solid_count, k)
+        && solid::exact_is_cheaper(prep.solid_tris, prep.solid.solid_count, k)
     {
         exact_prep = prep.clone();
-        exact_prep.solid.set_exact_mesh(&prep.pos, &prep.tris);
+        exact_prep.solid.set_exact_mesh(&prep.pos, &prep.tris[..prep.solid_tris]);
         &exact_prep
     } else {
         prep
@@ -1304,17 +1320,38 @@ pub struct PartStats {
 fn prepare_parts(
     positions: &[Vec3],
     triangles: &[[u32; 3]],
+    surface_only: &[[u32; 3]],
     voxel_resolution: u32,
     max_parts: usize,
     tree: Option<&TriangleBvh>,
 ) -> Result<(Vec<parts::Part>, Vec<Prepared>), FitError> {
     check_mesh(positions, triangles)?;
-    if let Some(split) = parts::split(positions, triangles, max_parts) {
-        if let Ok(preps) = split.iter().map(|p| prepare(&p.positions, &p.triangles, voxel_resolution, None)).collect() {
+    // The parts of the whole surface; each part's surface-only triangles are those from
+    // `surface_only` (source index past `triangles`).
+    let all;
+    let surface = if surface_only.is_empty() {
+        triangles
+    } else {
+        all = [triangles, surface_only].concat();
+        &all[..]
+    };
+    if let Some(split) = parts::split(positions, surface, max_parts) {
+        let n = triangles.len();
+        let prepare_part = |p: &parts::Part| {
+            let pick = |own: bool| -> Vec<[u32; 3]> {
+                p.triangles.iter().zip(&p.source_triangles).filter(|(_, &s)| (s < n) == own).map(|(t, _)| *t).collect()
+            };
+            if surface_only.is_empty() {
+                prepare(&p.positions, &p.triangles, &[], voxel_resolution, None)
+            } else {
+                prepare(&p.positions, &pick(true), &pick(false), voxel_resolution, None)
+            }
+        };
+        if let Ok(preps) = split.iter().map(prepare_part).collect() {
             return Ok((split, preps));
         }
     }
-    Ok((Vec::new(), vec![prepare(positions, triangles, voxel_resolution, tree)?]))
+    Ok((Vec::new(), vec![prepare(positions, triangles, surface_only, voxel_resolution, tree)?]))
 }
 
 /// The parts' grid boxes (origin to origin + dims·h), for culling spheres against parts.
@@ -1430,6 +1467,26 @@ pub fn fit_reusing(
     settings: &FitSettings,
     progress: &(dyn Fn(f32) + Sync),
 ) -> Result<FitResult, FitError> {
+    fit_with_surface(positions, triangles, &[], tree, settings, progress)
+}
+
+/// [`fit_reusing`] with surface-only triangles besides `triangles`: the spheres cover them
+/// (surface points, the bounding pass) but the solid, its closed check and hole filling, and E
+/// are those of `triangles` alone (a double-sided fin encloses nothing: `Mesh::surface_only`).
+/// `tree`, when given, is over `triangles`. A part of the mesh made only of surface-only
+/// triangles has them as its solid. With `surface_only` empty it is [`fit_reusing`].
+///
+/// # Errors
+///
+/// As [`fit`].
+pub fn fit_with_surface(
+    positions: &[Vec3],
+    triangles: &[[u32; 3]],
+    surface_only: &[[u32; 3]],
+    tree: Option<&TriangleBvh>,
+    settings: &FitSettings,
+    progress: &(dyn Fn(f32) + Sync),
+) -> Result<FitResult, FitError> {
     check_range("spheres", settings.spheres, 1, 4096, "1..=4096")?;
     check_range("voxel_resolution", settings.voxel_resolution, 16, 1024, "16..=1024")?;
     settings.plan.validate()?;
@@ -1450,6 +1507,7 @@ pub fn fit_reusing(
     let (split, preps) = prepare_parts(
         positions,
         triangles,
+        surface_only,
         settings.voxel_resolution,
         if target_mode { parts::MAX_PARTS } else { settings.spheres },
         tree,
@@ -1507,7 +1565,7 @@ pub fn fit_reusing(
         .zip(&runs)
         .enumerate()
         .map(|(p, (prep, r))| PartStats {
-            triangle_count: split.get(p).map_or(triangles.len(), |s| s.triangles.len()),
+            triangle_count: split.get(p).map_or(triangles.len() + surface_only.len(), |s| s.triangles.len()),
             sphere_count: r.spheres.len(),
             outside_ratio_e: r.outside_total() / prep.object_volume,
             object_volume: prep.object_volume,
@@ -1897,6 +1955,22 @@ pub fn evaluate(
     spheres: &[Sphere32],
     settings: &EvalSettings,
 ) -> Result<Evaluation, FitError> {
+    evaluate_with_surface(positions, triangles, &[], spheres, settings)
+}
+
+/// [`evaluate`] with surface-only triangles besides `triangles`: covered (the coverage samples
+/// include them) but not part of the solid E is measured against ([`fit_with_surface`]).
+///
+/// # Errors
+///
+/// As [`evaluate`].
+pub fn evaluate_with_surface(
+    positions: &[Vec3],
+    triangles: &[[u32; 3]],
+    surface_only: &[[u32; 3]],
+    spheres: &[Sphere32],
+    settings: &EvalSettings,
+) -> Result<Evaluation, FitError> {
     check_range("voxel_resolution", settings.voxel_resolution, 16, 1024, "16..=1024")?;
     for (i, s) in spheres.iter().enumerate() {
         if !s.iter().all(|x| x.is_finite()) || s[3] < 0.0 {
@@ -1904,7 +1978,8 @@ pub fn evaluate(
         }
     }
     // The same parts as the fit: it split only when every part got a sphere.
-    let (_, preps) = prepare_parts(positions, triangles, settings.voxel_resolution, spheres.len().max(1), None)?;
+    let (_, preps) =
+        prepare_parts(positions, triangles, surface_only, settings.voxel_resolution, spheres.len().max(1), None)?;
     let object_volume: f64 = preps.iter().map(|p| p.object_volume).sum();
     let outside = exact_outside_parts(&preps, spheres, None);
     let e = outside.iter().sum::<f64>() / object_volume;

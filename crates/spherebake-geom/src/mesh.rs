@@ -233,6 +233,14 @@ pub struct Mesh {
     /// Welded positions, indexed by weld id.
     pub welded_positions: Vec<Vec3>,
     pub skin: Option<Skin>,
+    /// Surface-only triangles, ascending indices into `triangles`: the copy kept of a face
+    /// the input held as often in one winding as in the other (a zero-thickness double-sided
+    /// fin). Their solid angles cancel, so they enclose nothing: the solid, the closed check and
+    /// the orientation leave them out, while the surface the spheres must cover (samples,
+    /// bounding pass, coverage, albedo) includes them. Empty for most meshes, and when every
+    /// triangle is such a face (a mesh exported double-sided: its kept copies are its solid).
+    /// Set by [`Mesh::remove_duplicate_triangles`].
+    pub surface_only: Vec<u32>,
 }
 
 impl Mesh {
@@ -287,17 +295,42 @@ impl Mesh {
     /// bake. A closed mesh exported double-sided (each face once per winding) has winding
     /// number 0 everywhere, and encloses its solid again once each face is left once.
     ///
+    /// A face kept that the input held as often in one winding as in the other (a double-sided
+    /// fin on an otherwise single-sided mesh) encloses nothing: it becomes
+    /// [`Mesh::surface_only`], so the solid is the mesh without it (closed again when the fin
+    /// was its only defect) while its surface is still covered. When every face kept is such a
+    /// face (the whole mesh exported double-sided), none is: the kept copies are the solid.
+    ///
     /// On a skinned mesh two corners are the same only when their influences and bind
     /// positions are too: layers that coincide at rest but move apart when animated are kept.
     ///
     /// Cost: O(T log T) (a sort of the corner triples, parallel), and O(T) to rebuild only
     /// when some triangle is removed.
     pub fn remove_duplicate_triangles(&mut self) -> usize {
-        let removed = self.duplicate_triangles();
+        let (removed, balanced) = self.duplicate_triangles_balanced();
+        self.set_surface_only(&removed, &balanced);
         self.remove_triangles(&removed)
     }
 
+    /// Sets [`Mesh::surface_only`] to the triangles marked in `balanced` and those it held
+    /// (indices before the triangles marked in `removed` are removed: [`Mesh::remove_triangles`]
+    /// renumbers them), unless every triangle kept is one (the whole mesh double-sided), then to
+    /// none. Returns how many were set.
+    pub fn set_surface_only(&mut self, removed: &[bool], balanced: &[bool]) -> usize {
+        let kept = (0..self.triangles.len()).filter(|&i| !removed.get(i).copied().unwrap_or(false));
+        let held = std::mem::take(&mut self.surface_only);
+        let is_balanced =
+            |i: &usize| balanced.get(*i).copied().unwrap_or(false) || held.binary_search(&(*i as u32)).is_ok();
+        self.surface_only = if kept.clone().all(|i| is_balanced(&i)) {
+            Vec::new()
+        } else {
+            kept.filter(is_balanced).map(|i| i as u32).collect()
+        };
+        self.surface_only.len()
+    }
+
     /// Removes triangle i (and its material entry) where `removed[i]`; returns how many.
+    /// [`Mesh::surface_only`] is renumbered (a removed triangle leaves it).
     pub fn remove_triangles(&mut self, removed: &[bool]) -> usize {
         let count = removed.iter().filter(|&&r| r).count();
         if count > 0 {
@@ -305,34 +338,62 @@ impl Mesh {
             self.triangles = (0..self.triangles.len()).filter(keep).map(|i| self.triangles[i]).collect();
             self.triangle_materials =
                 (0..self.triangle_materials.len()).filter(keep).map(|i| self.triangle_materials[i]).collect();
+            if !self.surface_only.is_empty() {
+                let mut kept_before = Vec::with_capacity(removed.len());
+                let mut n = 0u32;
+                for i in 0..removed.len() {
+                    kept_before.push(n);
+                    n += u32::from(keep(&i));
+                }
+                let at = |i: u32| kept_before.get(i as usize).copied().unwrap_or(i - (removed.len() as u32 - n));
+                self.surface_only =
+                    self.surface_only.iter().filter(|&&i| keep(&(i as usize))).map(|&i| at(i)).collect();
+            }
         }
         count
     }
 
     /// Per triangle: whether [`Mesh::remove_duplicate_triangles`] removes it.
     pub fn duplicate_triangles(&self) -> Vec<bool> {
+        self.duplicate_triangles_balanced().0
+    }
+
+    /// Per triangle: whether [`Mesh::remove_duplicate_triangles`] removes it, and whether it is
+    /// the copy kept of a balanced face: three distinct corners present as often in one
+    /// winding as in the other (a face exported once per side), whose solid angles cancel.
+    /// Stacked copies of one winding, or an unequal count of each, are not balanced.
+    pub fn duplicate_triangles_balanced(&self) -> (Vec<bool>, Vec<bool>) {
         use rayon::prelude::*;
         let ids = self.corner_ids();
         let id = |v: u32| ids.get(v as usize).copied().unwrap_or(u32::MAX);
-        let mut keys: Vec<([u32; 3], u32)> = self
+        // (sorted corners, index, counter-clockwise in the sorted order).
+        let mut keys: Vec<([u32; 3], u32, bool)> = self
             .triangles
             .par_iter()
             .enumerate()
             .map(|(i, t)| {
-                let mut k = [id(t[0]), id(t[1]), id(t[2])];
+                let c = [id(t[0]), id(t[1]), id(t[2])];
+                let even = u8::from(c[0] < c[1]) + u8::from(c[1] < c[2]) + u8::from(c[2] < c[0]) == 2;
+                let mut k = c;
                 k.sort_unstable();
-                (k, i as u32)
+                (k, i as u32, even)
             })
             .collect();
         keys.par_sort_unstable();
         let mut removed = vec![false; self.triangles.len()];
-        for w in keys.windows(2) {
+        let mut balanced = vec![false; self.triangles.len()];
+        for group in keys.chunk_by(|a, b| a.0 == b.0) {
             // Sorted by (corners, index): the first of a run of equal corners is kept.
-            if w[0].0 == w[1].0 {
-                removed[w[1].1 as usize] = true;
+            for k in &group[1..] {
+                removed[k.1 as usize] = true;
+            }
+            let k = group[0].0;
+            let even = group.iter().filter(|g| g.2).count();
+            if k[0] != k[1] && k[1] != k[2] && 2 * even == group.len() {
+                balanced[group[0].1 as usize] = true;
             }
         }
-        removed
+        (removed, balanced)
     }
 
     /// Per vertex: an id shared by the vertices that are one corner for
@@ -525,6 +586,55 @@ mod tests {
         assert_eq!(skinned(0, Vec3::ZERO), 1);
         assert_eq!(skinned(1, Vec3::ZERO), 0, "another joint");
         assert_eq!(skinned(0, Vec3::Z), 0, "another bind position");
+    }
+
+    /// A face present as often in each winding is kept once as surface only, unless every face
+    /// kept is one (a mesh exported double-sided keeps its copies as the solid); stacked copies
+    /// of one winding, or unequal counts, stay ordinary faces; the indices follow the removal.
+    #[test]
+    fn balanced_faces_are_kept_once_as_surface_only() {
+        let mesh = |tris: Vec<[u32; 3]>| {
+            let mut m = Mesh {
+                positions: vec![Vec3::ZERO, Vec3::X, Vec3::Y, Vec3::Z, Vec3::ONE, Vec3::X],
+                triangles: tris,
+                ..Default::default()
+            };
+            m.triangle_materials = (0..m.triangles.len() as u32).collect();
+            m.rebuild_weld();
+            m
+        };
+        // 0: plain; 1 and 3: one face each way (vertex 5 is vertex 1 welded); 2: plain;
+        // 4 and 5: stacked one way; 6, 7, 8: two one way, one the other.
+        let mut m = mesh(vec![
+            [0, 1, 2],
+            [0, 1, 3],
+            [1, 2, 3],
+            [3, 5, 0],
+            [0, 2, 3],
+            [2, 3, 0],
+            [1, 2, 4],
+            [4, 1, 2],
+            [2, 1, 4],
+        ]);
+        assert_eq!(m.remove_duplicate_triangles(), 4);
+        assert_eq!(m.triangles, vec![[0, 1, 2], [0, 1, 3], [1, 2, 3], [0, 2, 3], [1, 2, 4]]);
+        assert_eq!(m.triangle_materials, vec![0, 1, 2, 4, 6]);
+        assert_eq!(m.surface_only, vec![1]);
+        // Two each way is balanced too; a second pass keeps the surface-only face.
+        let mut m = mesh(vec![[0, 1, 2], [0, 1, 3], [1, 0, 3], [3, 0, 1], [3, 1, 0]]);
+        assert_eq!(m.remove_duplicate_triangles(), 3);
+        assert_eq!(m.surface_only, vec![1]);
+        assert_eq!(m.remove_duplicate_triangles(), 0);
+        assert_eq!(m.surface_only, vec![1]);
+        // Every face kept balanced: a double-sided export, no surface-only face.
+        let mut m = mesh(vec![[0, 1, 2], [0, 1, 3], [2, 1, 0], [1, 0, 3]]);
+        assert_eq!(m.remove_duplicate_triangles(), 2);
+        assert!(m.surface_only.is_empty());
+        // Renumbering: a removed triangle before a surface-only one shifts it.
+        let mut m = mesh(vec![[0, 1, 2], [0, 1, 3]]);
+        m.surface_only = vec![1];
+        assert_eq!(m.remove_triangles(&[true, false]), 1);
+        assert_eq!(m.surface_only, vec![0]);
     }
 
     #[test]

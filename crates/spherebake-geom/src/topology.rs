@@ -18,7 +18,10 @@ pub struct TopologyReport {
     pub welded_vertex_count: usize,
     /// Min / max over the corners of all triangles, model space; `None` without triangles.
     pub aabb: Option<(Vec3, Vec3)>,
-    /// Undirected welded edges of non-degenerate triangles.
+    /// Undirected welded edges of non-degenerate triangles. The edges, `closed`,
+    /// `consistently_oriented` and `signed_volume` leave out [`Mesh::surface_only`] triangles
+    /// (double-sided faces, which enclose nothing); the counts, bounds, area and components
+    /// include them.
     pub edge_count: usize,
     /// Undirected welded edges used by exactly one non-degenerate triangle.
     pub boundary_edge_count: usize,
@@ -75,7 +78,10 @@ impl TopologyReport {
         let mut lo = Vec3::splat(f32::INFINITY);
         let mut hi = Vec3::splat(f32::NEG_INFINITY);
         let (mut vol, mut area) = (0.0f64, 0.0f64);
-        for t in &mesh.triangles {
+        // Surface-only triangles (`Mesh::surface_only`: double-sided faces, enclosing nothing)
+        // count as surface (area, bounds, components) but not toward the edges or the volume.
+        let only = |i: usize| !mesh.surface_only.is_empty() && mesh.surface_only.binary_search(&(i as u32)).is_ok();
+        for (ti, t) in mesh.triangles.iter().enumerate() {
             if t.iter().any(|&v| v as usize >= n) {
                 r.degenerate_triangle_count += 1;
                 continue;
@@ -86,7 +92,9 @@ impl TopologyReport {
                 hi = hi.max(q);
             }
             let [a, b, c] = p.map(|q| q.as_dvec3());
-            vol += a.dot(b.cross(c)) / 6.0;
+            if !only(ti) {
+                vol += a.dot(b.cross(c)) / 6.0;
+            }
             let cr: DVec3 = (b - a).cross(c - a);
             area += cr.length() / 2.0;
             let w = t.map(|v| weld[v as usize]);
@@ -98,6 +106,9 @@ impl TopologyReport {
             parent[rc as usize] = ra;
             if w[0] == w[1] || w[1] == w[2] || w[0] == w[2] || cr == DVec3::ZERO {
                 r.degenerate_triangle_count += 1;
+                continue;
+            }
+            if only(ti) {
                 continue;
             }
             for k in 0..3 {

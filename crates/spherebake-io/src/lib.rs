@@ -269,8 +269,11 @@ fn import_bytes(
     }
     // Stacked copies of a face are one surface (`Mesh::remove_duplicate_triangles`): removed
     // here, so every command (bake, eval, inspect, the light checks) reads the same mesh.
-    let removed = mesh.duplicate_triangles();
+    // A face kept that was there as often in one winding as in the other encloses nothing:
+    // surface only (`Mesh::surface_only`), left out of the solid but covered.
+    let (removed, balanced) = mesh.duplicate_triangles_balanced();
     if removed.contains(&true) {
+        let surface_only = mesh.set_surface_only(&removed, &balanced);
         // Each part's triangle range, in the triangles kept.
         let mut kept_before = Vec::with_capacity(removed.len() + 1);
         kept_before.push(0u32);
@@ -283,7 +286,12 @@ fn import_bytes(
         }
         let count = mesh.remove_triangles(&removed);
         ctx.warn(format!(
-            "{count} duplicate triangles (the same three vertices as an earlier one, in either orientation) removed"
+            "{count} duplicate triangles (the same three vertices as an earlier one, in either orientation) removed{}",
+            if surface_only > 0 {
+                format!("; {surface_only} face(s) kept were there as often in each winding (double-sided, enclosing nothing): surface only, covered by the spheres but left out of the solid and the closed check")
+            } else {
+                String::new()
+            }
         ));
     }
     if let Some(v) = mesh.positions.iter().flat_map(|p| p.to_array()).find(|c| c.abs() > MAX_COORDINATE) {

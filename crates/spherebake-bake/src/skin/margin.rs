@@ -730,10 +730,12 @@ pub fn grow_for_animations(
     let out: Vec<[f32; 4]> = spheres.iter().zip(&cover.radii).map(|(s, &r)| [s[0], s[1], s[2], r]).collect();
     let max_growth = out.iter().zip(spheres).map(|(a, b)| f64::from(a[3]) - f64::from(b[3])).fold(0.0, f64::max);
     // Measured as the bake measures its E: on the triangles turned outward.
-    let outward = crate::outward_triangles(mesh);
+    let (outward, surface_only) = crate::outward_triangles(mesh);
     let eval = |set: &[[f32; 4]]| {
         let es = spherebake_fit::EvalSettings { surface_samples: 2000, ..Default::default() };
-        spherebake_fit::evaluate(&mesh.welded_positions, &outward, set, &es).ok().map(|e| e.outside_ratio_e)
+        spherebake_fit::evaluate_with_surface(&mesh.welded_positions, &outward, &surface_only, set, &es)
+            .ok()
+            .map(|e| e.outside_ratio_e)
     };
     let grown_count = cover.grown.iter().filter(|&&g| g).count();
     let outside_ratio_before = eval(spheres);
