@@ -314,19 +314,76 @@ impl Mesh {
 
     /// Sets [`Mesh::surface_only`] to the triangles marked in `balanced` and those it held
     /// (indices before the triangles marked in `removed` are removed: [`Mesh::remove_triangles`]
-    /// renumbers them), unless every triangle kept is one (the whole mesh double-sided), then to
-    /// none. Returns how many were set.
+    /// renumbers them), except those on closed surfaces of such triangles (a part exported
+    /// double-sided: [`Mesh::closed_groups`]), and none when that would be every triangle kept
+    /// (the whole mesh double-sided). Returns how many were set.
     pub fn set_surface_only(&mut self, removed: &[bool], balanced: &[bool]) -> usize {
         let kept = (0..self.triangles.len()).filter(|&i| !removed.get(i).copied().unwrap_or(false));
         let held = std::mem::take(&mut self.surface_only);
         let is_balanced =
             |i: &usize| balanced.get(*i).copied().unwrap_or(false) || held.binary_search(&(*i as u32)).is_ok();
-        self.surface_only = if kept.clone().all(|i| is_balanced(&i)) {
-            Vec::new()
-        } else {
-            kept.filter(is_balanced).map(|i| i as u32).collect()
-        };
+        let candidates: Vec<usize> = kept.clone().filter(is_balanced).collect();
+        let enclosing = self.closed_groups(&candidates);
+        self.surface_only = candidates.iter().zip(&enclosing).filter(|(_, &e)| !e).map(|(&i, _)| i as u32).collect();
+        if self.surface_only.len() == kept.count() {
+            self.surface_only.clear();
+        }
         self.surface_only.len()
+    }
+
+    /// Per triangle of `tris` (indices into `triangles`): whether it is left after peeling,
+    /// from `tris`, every triangle with an edge (welded corners, windings aside) that no other
+    /// remaining triangle of `tris` shares, until none has one. What is left has every edge in
+    /// two or more triangles: closed surfaces, such as a part exported double-sided beside
+    /// single-sided ones (a closed box given once per winding), whose kept copies enclose its
+    /// solid, so they are not surface only. Fins and open double-sided sheets peel away, also
+    /// where they meet a closed part along an edge. Cost O(n log n) in `tris`.
+    fn closed_groups(&self, tris: &[usize]) -> Vec<bool> {
+        let w = |v: u32| self.weld.get(v as usize).copied().unwrap_or(v);
+        // (undirected edge, position in `tris`), sorted: an edge's triangles are adjacent.
+        let mut edges: Vec<([u32; 2], u32)> = Vec::with_capacity(3 * tris.len());
+        for (n, &t) in tris.iter().enumerate() {
+            let c = self.triangles[t].map(w);
+            for e in 0..3 {
+                let (a, b) = (c[e], c[(e + 1) % 3]);
+                edges.push(([a.min(b), a.max(b)], n as u32));
+            }
+        }
+        edges.sort_unstable();
+        // Per edge run: its triangles (`edges[run]`) and how many remain; per triangle its runs.
+        let runs: Vec<std::ops::Range<usize>> = {
+            let mut v = Vec::new();
+            let mut at = 0;
+            for r in edges.chunk_by(|a, b| a.0 == b.0) {
+                v.push(at..at + r.len());
+                at += r.len();
+            }
+            v
+        };
+        let mut left: Vec<usize> = runs.iter().map(|r| r.len()).collect();
+        let mut of_tri: Vec<Vec<u32>> = vec![Vec::with_capacity(3); tris.len()];
+        for (ri, r) in runs.iter().enumerate() {
+            for &(_, n) in &edges[r.clone()] {
+                of_tri[n as usize].push(ri as u32);
+            }
+        }
+        let mut kept = vec![true; tris.len()];
+        let mut queue: Vec<u32> =
+            (0..tris.len() as u32).filter(|&n| of_tri[n as usize].iter().any(|&r| left[r as usize] == 1)).collect();
+        // Each triangle is peeled at most once, so the loop ends after at most n removals.
+        while let Some(n) = queue.pop() {
+            if !kept[n as usize] {
+                continue;
+            }
+            kept[n as usize] = false;
+            for &r in &of_tri[n as usize] {
+                left[r as usize] -= 1;
+                if left[r as usize] == 1 {
+                    queue.extend(edges[runs[r as usize].clone()].iter().map(|e| e.1).filter(|&m| kept[m as usize]));
+                }
+            }
+        }
+        kept
     }
 
     /// Removes triangle i (and its material entry) where `removed[i]`; returns how many.
@@ -630,6 +687,20 @@ mod tests {
         let mut m = mesh(vec![[0, 1, 2], [0, 1, 3], [2, 1, 0], [1, 0, 3]]);
         assert_eq!(m.remove_duplicate_triangles(), 2);
         assert!(m.surface_only.is_empty());
+        // A closed tetrahedron (0, 1, 2, 3) given once per winding beside a single-sided face
+        // (1, 2, 4): its kept copies are closed on their own, so they stay solid; a fin (0, 1, 4)
+        // given both ways beside them is surface only.
+        let tet = [[0, 2, 1], [0, 1, 3], [1, 2, 3], [0, 3, 2]];
+        let mut tris: Vec<[u32; 3]> = tet.to_vec();
+        tris.extend(tet.iter().map(|t| [t[0], t[2], t[1]]));
+        tris.push([1, 2, 4]);
+        let mut m = mesh(tris.clone());
+        assert_eq!(m.remove_duplicate_triangles(), 4);
+        assert!(m.surface_only.is_empty(), "{:?}", m.surface_only);
+        tris.extend([[0, 1, 4], [0, 4, 1]]);
+        let mut m = mesh(tris);
+        assert_eq!(m.remove_duplicate_triangles(), 5);
+        assert_eq!(m.surface_only, vec![5]);
         // Renumbering: a removed triangle before a surface-only one shifts it.
         let mut m = mesh(vec![[0, 1, 2], [0, 1, 3]]);
         m.surface_only = vec![1];
