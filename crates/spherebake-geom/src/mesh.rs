@@ -402,7 +402,10 @@ impl Mesh {
                     kept_before.push(n);
                     n += u32::from(keep(&i));
                 }
-                let at = |i: u32| kept_before.get(i as usize).copied().unwrap_or(i - (removed.len() as u32 - n));
+                // Past `removed`, every removed triangle is before i (lazily: i < the count
+                // removed would underflow).
+                let at =
+                    |i: u32| kept_before.get(i as usize).copied().unwrap_or_else(|| i - (removed.len() as u32 - n));
                 self.surface_only =
                     self.surface_only.iter().filter(|&&i| keep(&(i as usize))).map(|&i| at(i)).collect();
             }
