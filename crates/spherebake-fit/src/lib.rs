@@ -285,11 +285,11 @@ fn check_mesh(positions: &[Vec3], triangles: &[[u32; 3]]) -> Result<(), FitError
 
 /// Closed and oriented means every directed edge has exactly one reverse partner. Returns
 /// (some directed edge occurs twice, the directed edges without a reverse partner in ascending
-/// order, a repeated one as often as it occurs). An edge from a vertex to itself is its own
-/// reverse, never a boundary edge. The edges are sorted once by their undirected key (in
+/// order, a repeated one as often as it occurs, the undirected edge classes). An edge from a
+/// vertex to itself is its own reverse, never a boundary edge. The edges are sorted once by their undirected key (in
 /// parallel; a sorted list is the same whatever the thread count) and read group by group: a
 /// sort and a linear scan, where a binary search per edge cost the 1.1 M-triangle bunny 0.45 s (the whole check).
-fn directed_edge_pairing(tris: &[[u32; 3]]) -> (bool, Vec<(u32, u32)>) {
+fn directed_edge_pairing(tris: &[[u32; 3]]) -> (bool, Vec<(u32, u32)>, EdgeClasses) {
     // (undirected key, whether the edge runs from the larger index to the smaller).
     let mut edges: Vec<(u64, bool)> = tris
         .par_iter()
@@ -299,6 +299,7 @@ fn directed_edge_pairing(tris: &[[u32; 3]]) -> (bool, Vec<(u32, u32)>) {
     edges.par_sort_unstable();
     let mut dup = false;
     let mut boundary = Vec::new();
+    let mut classes = EdgeClasses::default();
     for group in edges.chunk_by(|x, y| x.0 == y.0) {
         let backward = group.iter().filter(|e| e.1).count();
         let forward = group.len() - backward;
@@ -307,6 +308,12 @@ fn directed_edge_pairing(tris: &[[u32; 3]]) -> (bool, Vec<(u32, u32)>) {
         if lo == hi {
             continue;
         }
+        match group.len() {
+            1 => classes.boundary += 1,
+            2 if forward != 1 => classes.inconsistent += 1,
+            2 => {}
+            _ => classes.non_manifold += 1,
+        }
         match (forward, backward) {
             (f, 0) => boundary.extend(std::iter::repeat_n((lo, hi), f)),
             (0, b) => boundary.extend(std::iter::repeat_n((hi, lo), b)),
@@ -314,7 +321,33 @@ fn directed_edge_pairing(tris: &[[u32; 3]]) -> (bool, Vec<(u32, u32)>) {
         }
     }
     boundary.sort_unstable();
-    (dup, boundary)
+    (dup, boundary, classes)
+}
+
+/// Undirected edges (an edge from a vertex to itself aside) by how many triangles use them, as
+/// `spherebake_geom::topology` counts them, so `bake` and `inspect` name the same numbers:
+/// used once (boundary), twice in the same direction (inconsistently oriented), three or more
+/// times (non-manifold).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+struct EdgeClasses {
+    boundary: usize,
+    inconsistent: usize,
+    non_manifold: usize,
+}
+
+impl EdgeClasses {
+    /// "296 boundary edges, 47 non-manifold, 3 inconsistently oriented" (classes of 0 left out;
+    /// boundary edges always named).
+    fn describe(&self) -> String {
+        let mut s = format!("{} boundary edges", self.boundary);
+        if self.non_manifold > 0 {
+            s += &format!(", {} non-manifold", self.non_manifold);
+        }
+        if self.inconsistent > 0 {
+            s += &format!(", {} inconsistently oriented", self.inconsistent);
+        }
+        s
+    }
 }
 
 /// `tree`: a caller's tree over `positions` and `triangles` to reuse ([`TriangleBvh::reuse`]).
@@ -344,7 +377,7 @@ fn prepare(
         }
     }
     let degenerate = tris.iter().any(|t| t[0] == t[1] || t[1] == t[2] || t[2] == t[0]);
-    let (dup, boundary_edges) = directed_edge_pairing(&tris);
+    let (dup, boundary_edges, classes) = directed_edge_pairing(&tris);
     let boundary = boundary_edges.len();
     let mut filled = 0;
     if !degenerate && !dup && boundary > 0 {
@@ -371,8 +404,8 @@ fn prepare(
     }
     if !closed {
         warnings.push(format!(
-            "mesh not closed ({boundary} boundary edges{}): the solid is the voxel solid at resolution {voxel_resolution}",
-            if dup { ", non-manifold or inconsistently oriented edges" } else { "" }
+            "mesh not closed ({}): the solid is the voxel solid at resolution {voxel_resolution}",
+            classes.describe()
         ));
     }
     // The one solid (`spherebake_geom::voxel`: cells whose centre has |w| ≥ ½), over a BVH that
@@ -2107,15 +2140,39 @@ mod tests {
             let mut want: Vec<(u32, u32)> = edges.iter().copied().filter(|&(a, b)| !edges.contains(&(b, a))).collect();
             want.sort_unstable();
             let want_dup = edges.iter().enumerate().any(|(i, e)| edges[..i].contains(e));
-            assert_eq!(directed_edge_pairing(&tris), (want_dup, want), "case {case}: {tris:?}");
+            // The classes, undirected edge by edge: how many directed edges join a and b.
+            let mut classes = EdgeClasses::default();
+            for a in 0..nv {
+                for b in a + 1..nv {
+                    let (f, r) = (
+                        edges.iter().filter(|&&e| e == (a, b)).count(),
+                        edges.iter().filter(|&&e| e == (b, a)).count(),
+                    );
+                    match (f + r, f) {
+                        (0, _) | (2, 1) => {}
+                        (1, _) => classes.boundary += 1,
+                        (2, _) => classes.inconsistent += 1,
+                        _ => classes.non_manifold += 1,
+                    }
+                }
+            }
+            assert_eq!(directed_edge_pairing(&tris), (want_dup, want, classes), "case {case}: {tris:?}");
         }
         // A closed tetrahedron has neither; removing a face leaves its three edges reversed.
         let tet = [[0, 2, 1], [0, 1, 3], [1, 2, 3], [0, 3, 2]];
-        assert_eq!(directed_edge_pairing(&tet), (false, vec![]));
-        assert_eq!(directed_edge_pairing(&tet[1..]), (false, vec![(0, 1), (1, 2), (2, 0)]));
+        let none = EdgeClasses::default();
+        assert_eq!(directed_edge_pairing(&tet), (false, vec![], none));
+        let open = EdgeClasses { boundary: 3, ..none };
+        assert_eq!(directed_edge_pairing(&tet[1..]), (false, vec![(0, 1), (1, 2), (2, 0)], open));
+        // One face turned: its three edges run the same way as their neighbours'.
+        let turned = [[0, 1, 2], [0, 1, 3], [1, 2, 3], [0, 3, 2]];
+        assert_eq!(directed_edge_pairing(&turned).2, EdgeClasses { inconsistent: 3, ..none });
+        assert_eq!(open.describe(), "3 boundary edges");
+        let all = EdgeClasses { boundary: 296, non_manifold: 47, inconsistent: 3 };
+        assert_eq!(all.describe(), "296 boundary edges, 47 non-manifold, 3 inconsistently oriented");
         // Indices above 2³¹ keep their order in the key.
         let big = u32::MAX;
-        assert_eq!(directed_edge_pairing(&[[big, 0, 1]]), (false, vec![(0, 1), (1, big), (big, 0)]));
+        assert_eq!(directed_edge_pairing(&[[big, 0, 1]]), (false, vec![(0, 1), (1, big), (big, 0)], open));
     }
 
     #[test]

@@ -649,3 +649,36 @@ fn inspect_names_an_unknown_file_type() {
     let o = run(&["inspect", "c.bin"], d);
     assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
 }
+
+/// `bake` and `inspect` name the same edge counts for an open, non-manifold mesh: a cube
+/// missing one face (4 boundary edges) with a fin on one of its edges (that edge used three
+/// times; the fin's two other edges are boundary edges), counted by hand: 6 and 1.
+#[test]
+fn bake_and_inspect_count_problem_edges_alike() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let mut obj = String::new();
+    for v in ["0 0 0", "1 0 0", "1 1 0", "0 1 0", "0 0 1", "1 0 1", "1 1 1", "0 1 1", "0.5 -1 -1"] {
+        obj += &format!("v {v}\n");
+    }
+    // The cube's faces but the top (y = 1) pair, then the fin on edge 1–2.
+    for f in ["1 3 2", "1 4 3", "5 6 7", "5 7 8", "1 2 6", "1 6 5", "2 3 7", "2 7 6", "4 1 5", "4 5 8", "1 2 9"] {
+        obj += &format!("f {f}\n");
+    }
+    std::fs::write(d.join("fin.obj"), obj).unwrap();
+    let o = run(&["inspect", "fin.obj", "--json"], d);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(
+        (v["topology"]["boundary_edges"].as_u64(), v["topology"]["non_manifold_edges"].as_u64()),
+        (Some(6), Some(1))
+    );
+    let o = run(&["bake", "fin.obj", "-o", "fin.sphb", "--spheres", "4", "--voxels", "32", "--json"], d);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    let warnings = v["assets"][0]["report"]["warnings"].as_array().unwrap();
+    assert!(
+        warnings.iter().any(|w| w.as_str().unwrap().starts_with("mesh not closed (6 boundary edges, 1 non-manifold)")),
+        "{warnings:?}"
+    );
+}
