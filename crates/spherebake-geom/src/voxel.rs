@@ -81,6 +81,20 @@
 //! 1.65 M undecided cells, 16–17 → 7–7.6 s on one thread; where the surface and the solid fill the
 //! grid (10 000 denser cards, large random triangles) it saves little.
 //!
+//! **Blocks.** The flood asks whole regions of an open soup, and a cell's winding number costs
+//! most where large triangles are near (every leaf the cell is not far from is summed exactly:
+//! Khronos' 254-triangle BoxAnimated evaluated 1.45 M cells at about 5 µs each). So a cell is
+//! first looked up in blocks of 8, 4 and 2 cells a side, each decided at most once from the
+//! winding number at its centre ([`Blocks`]): away from the triangles ∇w is the Biot–Savart field
+//! of the soup's unpaired edges (paired edges cancel), so on a block that meets no triangle
+//! |w − w(centre)| ≤ (1/4π) Σ_e |m_e| len_e / d_e² · R, and a block whose centre is farther than
+//! that (plus a margin of 0.02, five times the fast evaluation's largest measured error) from
+//! ½ is inside or outside whole. The rest (blocks meeting the surface or near a hole's edge)
+//! fall to the next level and at last to the cell's own evaluation. BoxAnimated: 356 000 cells
+//! evaluated instead of 1.45 M, its voxelization 7.7 → 4.0 s on one thread; every shared model
+//! gives the same solid. Cost per decided block: one tree query, one winding number and one
+//! term per unpaired edge (not used above 16 384 unpaired edges).
+//!
 //! Cost model (T triangles, n cells per axis, N = n³ cells): O(T + crossings) per axis of rows; N
 //! votes (one incremental walk per x row, two binary searches per cell for open soups); the winding
 //! expansions O(T log T) plus O(log T)-ish per evaluated undecided cell (bunny, open, res 128: 0.3
@@ -100,6 +114,9 @@ use crate::winding::Expansions;
 use glam::{DVec3, Vec3};
 use rayon::prelude::*;
 use std::collections::HashMap;
+#[cfg(test)]
+use std::sync::atomic::AtomicUsize;
+use std::sync::atomic::{AtomicU8, Ordering};
 
 /// A point is inside when |w| is at least this (see the module docs).
 pub const INSIDE_WINDING: f64 = 0.5;
@@ -592,6 +609,9 @@ enum Undecided {
     /// [`Undecided::FromSurface`] with the surface test by tree queries whatever the counts.
     #[cfg(test)]
     FromSurfaceByTree,
+    /// [`Undecided::FromSurface`] without [`Blocks`]: every cell the flood reaches evaluated.
+    #[cfg(test)]
+    FromSurfacePerCell,
 }
 
 fn voxelize_cells(bvh: &TriangleBvh, closed: bool, settings: &VoxelSettings, undecided: Undecided) -> VoxelGrid {
@@ -686,8 +706,18 @@ fn voxelize_cells(bvh: &TriangleBvh, closed: bool, settings: &VoxelSettings, und
         let [i, j, k] = cell_coords(c, dims);
         inside(winding.eval(bvh, DVec3::new(centre(0, i), centre(1, j), centre(2, k))))
     };
+    // An open soup's flood asks whole regions: blocks of cells decided from one winding number
+    // each where they can be (module docs, "Blocks").
+    let blocks =
+        if closed || undecided == Undecided::Every { None } else { Blocks::new(bvh, &winding, origin, h, dims) };
+    #[cfg(test)]
+    let blocks = blocks.filter(|_| undecided != Undecided::FromSurfacePerCell);
+    let flood_solid_at = |c: usize| match blocks.as_ref().and_then(|b| b.decide_cell(c)) {
+        Some(inside) => inside,
+        None => solid_at(c),
+    };
     let evaluate = |cells: &[u32]| -> Vec<u32> {
-        let keep: Vec<bool> = cells.par_iter().map(|&c| solid_at(c as usize)).collect();
+        let keep: Vec<bool> = cells.par_iter().map(|&c| flood_solid_at(c as usize)).collect();
         cells.iter().zip(keep).filter(|(_, s)| *s).map(|(&c, _)| c).collect()
     };
     if closed || undecided == Undecided::Every {
@@ -718,10 +748,190 @@ fn voxelize_cells(bvh: &TriangleBvh, closed: bool, settings: &VoxelSettings, und
         None => cell_meets_surface(bvh, g, c),
     };
     let found = flood(&open, &grid.solid, dims, on_surface, evaluate);
+    #[cfg(test)]
+    if let Some(b) = &blocks {
+        BLOCKS_DECIDED.with(|n| n.set(n.get() + b.decided.load(Ordering::Relaxed)));
+    }
     for (s, f) in grid.solid.words.iter_mut().zip(&found.words) {
         *s |= f;
     }
     grid
+}
+
+#[cfg(test)]
+thread_local! {
+    /// Blocks decided whole by this thread's voxelizations (tests: the blocks are exercised).
+    static BLOCKS_DECIDED: std::cell::Cell<usize> = const { std::cell::Cell::new(0) };
+}
+
+/// Block edges, in cells, of the three levels of [`Blocks`], largest first.
+const BLOCK_EDGES: [usize; 3] = [8, 4, 2];
+
+/// A block is decided only when its winding number stays this far from ½ (beyond the bound):
+/// five times the fast evaluation's largest measured error (4e-3, [`crate::winding`]), so a cell
+/// of a decided block gets what its own evaluation would give.
+const BLOCK_MARGIN: f64 = 0.02;
+
+/// Above this many unpaired edges the blocks are not used (each block's bound sums them all).
+const BLOCK_MAX_EDGES: usize = 1 << 14;
+
+/// Whole blocks of an open soup's cells decided from one winding number (module docs,
+/// "Blocks"). Away from the triangles w is smooth, and its gradient is the Biot–Savart field of
+/// the soup's unpaired edges: each triangle's solid angle has the gradient of a unit current
+/// around its edges, and an edge two triangles run in opposite directions cancels. So on a box
+/// that meets no triangle, |∇w| ≤ (1/4π) Σ_e |m_e| len_e / d_e², with d_e the distance from the
+/// box to edge e and m_e its net count (one per direction), and every point of the box is within
+/// R (the half-diagonal) of the centre: when |w(centre)| stays more than that bound times R (plus
+/// [`BLOCK_MARGIN`]) away from ½, every cell centre of the box is on the centre's side. Levels of
+/// [`BLOCK_EDGES`] cells: a block that cannot be decided leaves its cells to the next level, and
+/// at the last to their own evaluation. Each block is decided at most once (a byte per block,
+/// written by whichever thread asks first; every thread would write the same value, so the result
+/// does not depend on the thread count).
+struct Blocks<'a> {
+    bvh: &'a TriangleBvh,
+    winding: &'a Expansions,
+    /// The unpaired edges (a, b, |net count|), by exact corner positions.
+    edges: Vec<(DVec3, DVec3, f64)>,
+    origin: DVec3,
+    h: f64,
+    dims: [u32; 3],
+    /// Per level: blocks along each axis, and one byte per block (0 not yet decided, 1 inside,
+    /// 2 outside, 3 mixed).
+    levels: [([usize; 3], Vec<AtomicU8>); 3],
+    #[cfg(test)]
+    decided: AtomicUsize,
+}
+
+impl<'a> Blocks<'a> {
+    /// `None` when the soup has more than [`BLOCK_MAX_EDGES`] unpaired edges.
+    fn new(bvh: &'a TriangleBvh, winding: &'a Expansions, origin: DVec3, h: f64, dims: [u32; 3]) -> Option<Self> {
+        let edges = unpaired_edges(&bvh.tris);
+        if edges.len() > BLOCK_MAX_EDGES {
+            return None;
+        }
+        let levels = BLOCK_EDGES.map(|e| {
+            let nb = dims.map(|d| (d as usize).div_ceil(e));
+            (nb, (0..nb[0] * nb[1] * nb[2]).map(|_| AtomicU8::new(0)).collect())
+        });
+        Some(Blocks {
+            bvh,
+            winding,
+            edges,
+            origin,
+            h,
+            dims,
+            levels,
+            #[cfg(test)]
+            decided: AtomicUsize::new(0),
+        })
+    }
+
+    /// Whether cell `c` is inside, when a block holding it is decided; `None` leaves the cell to
+    /// its own evaluation.
+    fn decide_cell(&self, c: usize) -> Option<bool> {
+        let cell = cell_coords(c, self.dims);
+        for (level, (nb, bytes)) in self.levels.iter().enumerate() {
+            let e = BLOCK_EDGES[level];
+            let b = cell.map(|x| x / e);
+            let byte = &bytes[b[0] + nb[0] * (b[1] + nb[1] * b[2])];
+            let mut v = byte.load(Ordering::Relaxed);
+            if v == 0 {
+                v = self.decide_block(b.map(|x| x * e), e);
+                byte.store(v, Ordering::Relaxed);
+            }
+            match v {
+                1 => return Some(true),
+                2 => return Some(false),
+                _ => {}
+            }
+        }
+        None
+    }
+
+    /// The block of edge `e` cells whose first cell is `first`: 1 inside, 2 outside, 3 mixed.
+    fn decide_block(&self, first: [usize; 3], e: usize) -> u8 {
+        let last = std::array::from_fn::<usize, 3, _>(|a| (first[a] + e).min(self.dims[a] as usize) - 1);
+        let at = |i: [usize; 3]| self.origin + (DVec3::new(i[0] as f64, i[1] as f64, i[2] as f64) + 0.5) * self.h;
+        let (lo, hi) = (at(first), at(last));
+        let (centre, half) = ((lo + hi) * 0.5, (hi - lo) * 0.5);
+        // The box of the block's cell centres, widened as a surface cell's is, meets no triangle.
+        let widened = half + DVec3::splat(self.h * 1e-9);
+        let meets = std::cell::Cell::new(false);
+        let node = |a: DVec3, b: DVec3| {
+            !meets.get() && (a - centre).cmple(widened).all() && (b - centre).cmpge(-widened).all()
+        };
+        self.bvh.traverse_boxes(&node, |_, tri| {
+            if !meets.get() && tri_box_overlap(tri, centre, widened) {
+                meets.set(true);
+            }
+        });
+        if meets.get() {
+            return 3;
+        }
+        let r = half.length();
+        let mut bound = 0.0;
+        for &(a, b, m) in &self.edges {
+            let d = segment_distance(centre, a, b) - r;
+            if d <= 0.0 {
+                return 3;
+            }
+            bound += m * (b - a).length() / (d * d);
+        }
+        let slack = bound / (4.0 * std::f64::consts::PI) * r + BLOCK_MARGIN;
+        let w = self.winding.eval(self.bvh, centre);
+        let v = if w.abs() - slack >= INSIDE_WINDING {
+            1
+        } else if w.abs() + slack < INSIDE_WINDING {
+            2
+        } else {
+            return 3;
+        };
+        #[cfg(test)]
+        self.decided.fetch_add(1, Ordering::Relaxed);
+        v
+    }
+}
+
+/// The directed edges of `tris` that no edge runs back along (corners compared by exact
+/// position), each with its net count: (from, to, |count|). Zero-length edges are left out.
+fn unpaired_edges(tris: &[[DVec3; 3]]) -> Vec<(DVec3, DVec3, f64)> {
+    /// An edge by its corners' bits, low first, +1 when it runs low → high, else −1.
+    struct Keyed {
+        key: ([u64; 3], [u64; 3]),
+        sign: i64,
+        low: DVec3,
+        high: DVec3,
+    }
+    let bits = |p: DVec3| [p.x, p.y, p.z].map(f64::to_bits);
+    let mut keyed: Vec<Keyed> = tris
+        .iter()
+        .flat_map(|t| [(t[0], t[1]), (t[1], t[2]), (t[2], t[0])])
+        .filter(|(a, b)| bits(*a) != bits(*b))
+        .map(|(a, b)| {
+            let (ka, kb) = (bits(a), bits(b));
+            if ka < kb {
+                Keyed { key: (ka, kb), sign: 1, low: a, high: b }
+            } else {
+                Keyed { key: (kb, ka), sign: -1, low: b, high: a }
+            }
+        })
+        .collect();
+    keyed.sort_unstable_by_key(|e| e.key);
+    keyed
+        .chunk_by(|x, y| x.key == y.key)
+        .filter_map(|g| {
+            let net: i64 = g.iter().map(|x| x.sign).sum();
+            (net != 0).then(|| (g[0].low, g[0].high, net.unsigned_abs() as f64))
+        })
+        .collect()
+}
+
+/// Distance from `p` to the segment a–b.
+fn segment_distance(p: DVec3, a: DVec3, b: DVec3) -> f64 {
+    let ab = b - a;
+    let len2 = ab.length_squared();
+    let t = if len2 > 0.0 { ((p - a).dot(ab) / len2).clamp(0.0, 1.0) } else { 0.0 };
+    (p - (a + ab * t)).length()
 }
 
 /// Words of [`Bits`] per parallel block of the voxelizer's passes (16 384 cells).
@@ -1225,6 +1435,8 @@ mod flood_tests {
             let flood = voxelize_cells(&bvh, false, &s, Undecided::FromSurface);
             assert_eq!(flood, voxelize_bvh(&bvh, false, &s));
             assert_eq!(flood, voxelize_cells(&bvh, false, &s, Undecided::FromSurfaceByTree), "case {case}");
+            // The blocks decide as every cell's own evaluation would.
+            assert_eq!(flood, voxelize_cells(&bvh, false, &s, Undecided::FromSurfacePerCell), "case {case}");
             let surf = surface_cells(&bvh, &every);
             // The per-cell tree query finds the same surface cells.
             assert!((0..every.cell_count()).all(|c| cell_meets_surface(&bvh, &every, c) == surf.get(c)), "case {case}");
@@ -1271,8 +1483,62 @@ mod flood_tests {
         // and the large random triangles leave cells inside that do not reach the surface
         // through cells inside (2 at seed 4 when written).
         assert!(added > 100 && dropped > 0, "{added} cells found by the flood, {dropped} dropped");
+        let decided = BLOCKS_DECIDED.with(|n| n.get());
+        assert!(decided > 100, "only {decided} blocks decided whole");
         println!(
             "flood added {added} cells to the rows' solid; {dropped} solid cells not reaching the surface dropped"
         );
+    }
+
+    /// The bound of [`Blocks`]: on a box that meets no triangle, the winding number (brute
+    /// force) moves from the box centre by at most (1/4π) Σ |m| len / d² times the distance, over
+    /// the unpaired edges. Random soups (a closed octahedron's paired edges must cancel: the bound
+    /// is then about its holes and stray triangles only) and random boxes.
+    #[test]
+    fn the_winding_number_moves_no_faster_than_the_unpaired_edges_allow() {
+        let mut rng = SplitMix64::new(5);
+        let (mut checked, mut tight) = (0, 0.0f64);
+        for case in 0..12 {
+            let (pos, tris) = soup(case, &mut rng);
+            let t64: Vec<[DVec3; 3]> = tris.iter().map(|t| t.map(|v| pos[v as usize].as_dvec3())).collect();
+            let edges = unpaired_edges(&t64);
+            if case % 4 >= 2 {
+                // The octahedron's 12 edges are paired: only the extra triangles' edges remain.
+                let extra = t64.len() - 8;
+                assert_eq!(edges.len(), 3 * extra, "case {case}");
+            }
+            let brute = |p: DVec3| {
+                t64.iter().map(|t| crate::winding::solid_angle(t, p)).sum::<f64>() / (4.0 * std::f64::consts::PI)
+            };
+            for _ in 0..200 {
+                let centre = DVec3::new(rng.next_f64(), rng.next_f64(), rng.next_f64()) * 1.4 - 0.2;
+                let half = DVec3::splat(0.01 + 0.05 * rng.next_f64());
+                if t64.iter().any(|t| tri_box_overlap(t, centre, half)) {
+                    continue;
+                }
+                let r = half.length();
+                let Some(bound) = edges.iter().try_fold(0.0, |acc, &(a, b, m)| {
+                    let d = segment_distance(centre, a, b) - r;
+                    (d > 0.0).then(|| acc + m * (b - a).length() / (d * d))
+                }) else {
+                    continue;
+                };
+                let g = bound / (4.0 * std::f64::consts::PI);
+                let w0 = brute(centre);
+                for _ in 0..8 {
+                    let u = DVec3::new(rng.next_f64(), rng.next_f64(), rng.next_f64()) * 2.0 - 1.0;
+                    let p = centre + u * half;
+                    let moved = (brute(p) - w0).abs();
+                    let allowed = g * (p - centre).length();
+                    assert!(moved <= allowed + 1e-12, "case {case}: moved {moved} > {allowed}");
+                    if allowed > 1e-6 {
+                        tight = tight.max(moved / allowed);
+                    }
+                    checked += 1;
+                }
+            }
+        }
+        // Enough boxes were tested, and the bound is not vacuous (somewhere within 20× of the move).
+        assert!(checked > 2000 && tight > 0.05, "{checked} points, tightest ratio {tight}");
     }
 }
