@@ -52,7 +52,7 @@ enum Command {
     Eval(cmd_eval::EvalArgs),
     /// Write the proxy as glTF (.glb) for any viewer: icospheres per hierarchy level, sample markers.
     Export(cmd_view::ExportArgs),
-    /// Draw the mesh with its sphere set from three views into a PNG, headless.
+    /// Draw the mesh with its sphere set from three views into a PNG or JPEG, headless.
     Render(cmd_view::RenderArgs),
     /// Ground-plane soft shadows of the proxy (runtime log-SH query) against ray-traced truth.
     Shadows(cmd_shadows::ShadowsArgs),
