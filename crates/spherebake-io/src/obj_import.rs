@@ -697,6 +697,7 @@ pub(crate) fn import(ctx: &mut Ctx, bytes: &[u8]) -> Result<(Mesh, Vec<ImportedP
     let mut uvs = Vec::new();
     let mut mixed_vt: Vec<&str> = Vec::new();
     let mut triangulator = Triangulator::default();
+    let mut repeated = RepeatedPolygons::default();
     let mut fanned = Fanned::default();
     for (mi, model) in models.iter().enumerate() {
         let m = &model.mesh;
@@ -726,11 +727,16 @@ pub(crate) fn import(ctx: &mut Ctx, bytes: &[u8]) -> Result<(Mesh, Vec<ImportedP
         let faces_n = if m.face_arities.is_empty() { m.indices.len() / 3 } else { m.face_arities.len() };
         let mut tris = Vec::with_capacity(m.indices.len().saturating_sub(2 * faces_n));
         for face in faces(m) {
+            if repeated.mirror(&positions, face, &mut tris) {
+                continue;
+            }
+            let first = tris.len();
             match triangulator.polygon(&positions, face, &mut tris) {
                 How::Fan | How::EarClipped => {}
                 How::FanOverCap => fanned.over_cap += 1,
                 How::FanNoEar => fanned.no_ear += 1,
             }
+            repeated.remember(&positions, face, &tris[first..]);
             if fanned.first.is_none() && fanned.over_cap + fanned.no_ear > 0 {
                 fanned.first = Some(model.name.as_str());
             }
@@ -821,6 +827,70 @@ pub(crate) fn import(ctx: &mut Ctx, bytes: &[u8]) -> Result<(Mesh, Vec<ImportedP
     }
     mesh.rebuild_weld();
     Ok((mesh, parts))
+}
+
+/// Polygons of four or more corners given again, in any group of the file, with the same corner
+/// positions in the same cyclic order or reversed (a face exported twice, or once per side:
+/// `f 1 2 4 3`, then `f 3 4 2 1` or `f 2 4 3 1`), get the first one's triangles (reversed with it),
+/// so the duplicate removal finds every copy: triangulated on their own, from their own first
+/// corners, the copies of a quad take different diagonals and no triangle repeats (a double-sided
+/// quad cube baked as an open sheet, E 53 at 8 spheres instead of 0.90). Memory: one entry per
+/// distinct polygon of four or more corners (its corner positions and triangles); corners that
+/// repeat a position leave a polygon out.
+#[derive(Default)]
+struct RepeatedPolygons {
+    /// Sorted corner positions (bits) → the first such polygon.
+    seen: HashMap<Vec<[u32; 3]>, FirstPolygon>,
+}
+
+/// Two lists of corner positions (bits) or triangles (corner numbers): the first polygon of
+/// some corner positions is (its corner positions in its order, its triangles).
+type FirstPolygon = (Vec<[u32; 3]>, Vec<[u32; 3]>);
+
+impl RepeatedPolygons {
+    /// (sorted corner positions, corner positions in the face's order), as bits; `None` below
+    /// four corners or when a position repeats.
+    fn key(positions: &[Vec3], face: &[u32]) -> Option<FirstPolygon> {
+        if face.len() < 4 {
+            return None;
+        }
+        let order: Vec<[u32; 3]> = face.iter().map(|&v| positions[v as usize].to_array().map(f32::to_bits)).collect();
+        let mut sorted = order.clone();
+        sorted.sort_unstable();
+        sorted.windows(2).all(|w| w[0] != w[1]).then_some((sorted, order))
+    }
+
+    /// Remembers `face`'s triangles `tris` (vertex ids of `face`), unless a polygon with its
+    /// corner positions was seen.
+    fn remember(&mut self, positions: &[Vec3], face: &[u32], tris: &[[u32; 3]]) {
+        let Some((key, order)) = Self::key(positions, face) else { return };
+        let local = |v: u32| face.iter().position(|&f| f == v).map(|i| i as u32);
+        let Some(corners) = tris.iter().map(|t| Some([local(t[0])?, local(t[1])?, local(t[2])?])).collect() else {
+            return;
+        };
+        self.seen.entry(key).or_insert((order, corners));
+    }
+
+    /// When `face` repeats a remembered polygon (same cyclic order of positions, or reversed),
+    /// appends that polygon's triangles on `face`'s vertices (reversed with it) and returns true.
+    fn mirror(&self, positions: &[Vec3], face: &[u32], out: &mut Vec<[u32; 3]>) -> bool {
+        let Some((key, order)) = Self::key(positions, face) else { return false };
+        let Some((first, corners)) = self.seen.get(&key) else { return false };
+        let n = order.len();
+        let Some(o) = first.iter().position(|p| *p == order[0]) else { return false };
+        // face corner i is first's corner (o + i) (same order) or (o − i) (reversed).
+        let same = (0..n).all(|i| order[i] == first[(o + i) % n]);
+        let reversed = !same && (0..n).all(|i| order[i] == first[(o + n - i) % n]);
+        if !same && !reversed {
+            return false;
+        }
+        let at = |a: u32| {
+            let a = a as usize;
+            face[if same { (a + n - o) % n } else { (o + n - a) % n }]
+        };
+        out.extend(corners.iter().map(|&[a, b, c]| if same { [at(a), at(b), at(c)] } else { [at(a), at(c), at(b)] }));
+        true
+    }
 }
 
 /// The concave polygons of a file that got the fan ([`crate::polygon`]): more than

@@ -1553,3 +1553,60 @@ fn obj_mtllib_names_several_libraries_or_one_with_spaces() {
     assert_eq!(imp.mesh.materials[0].base_color_factor_linear, [0.5, 0.5, 0.5, 1.0]);
     assert_eq!(imp.inputs[1], dir.path().join("my lib.mtl"));
 }
+
+/// A quad cube given a second time in another group, each quad's corners reversed
+/// (`f 1 3 4 2` then `f 2 4 3 1`) or rotated (`f 3 4 2 1`), imports as the single-sided cube:
+/// triangulated from their own first corners the copies would take the other diagonal, so no
+/// triangle would repeat (the reversed cube baked as an open sheet, E 53 at 8 spheres).
+#[test]
+fn obj_polygons_given_again_reversed_or_rotated_are_duplicates() {
+    let quads = [[1, 3, 4, 2], [1, 2, 6, 5], [2, 4, 8, 6], [4, 3, 7, 8], [3, 1, 5, 7], [5, 6, 8, 7]];
+    let mut one = String::new();
+    for z in 0..2 {
+        for y in 0..2 {
+            for x in 0..2 {
+                one += &format!("v {x} {y} {z}\n");
+            }
+        }
+    }
+    for q in &quads {
+        one += &format!("f {} {} {} {}\n", q[0], q[1], q[2], q[3]);
+    }
+    // Triangles as sorted corner positions, each with its orientation (the normal's sign).
+    let tris = |imp: &spherebake_io::Imported| {
+        let p = &imp.mesh.positions;
+        let mut v: Vec<([[i32; 3]; 3], [i32; 3])> = imp
+            .mesh
+            .triangles
+            .iter()
+            .map(|t| {
+                let c = t.map(|i| p[i as usize]);
+                let n = (c[1] - c[0]).cross(c[2] - c[0]);
+                let mut k = c.map(|v| v.to_array().map(|x| x as i32));
+                k.sort_unstable();
+                (k, n.to_array().map(|x| x.signum() as i32 * (x != 0.0) as i32))
+            })
+            .collect();
+        v.sort_unstable();
+        v
+    };
+    let single = load_mesh_from_bytes(Path::new("mem/one.obj"), one.as_bytes()).unwrap();
+    assert_eq!(single.mesh.triangles.len(), 12);
+    for (name, copy) in [("reversed", [3, 2, 1, 0]), ("rotated", [1, 2, 3, 0])] {
+        let mut obj = one.clone() + "o copy\n";
+        for q in &quads {
+            obj += &format!("f {} {} {} {}\n", q[copy[0]], q[copy[1]], q[copy[2]], q[copy[3]]);
+        }
+        let imp = load_mesh_from_bytes(Path::new("mem/two.obj"), obj.as_bytes()).unwrap();
+        assert_eq!(tris(&imp), tris(&single), "{name}");
+        assert!(imp.warnings.iter().any(|w| w.0.starts_with("12 duplicate triangles")), "{name}: {:?}", imp.warnings);
+        let t = TopologyReport::compute(&imp.mesh);
+        assert!(t.closed && t.consistently_oriented, "{name}: {t:?}");
+    }
+    // A double-sided quad beside the cube, its back reversed: one face per winding, so its kept
+    // copy is surface only (the mirrored copy keeps the opposite winding) and the cube closed.
+    let obj = one + "v 2 0 0\nv 3 0 0\nv 3 1 0\nv 2 1 0\nf 9 10 11 12\nf 12 11 10 9\n";
+    let imp = load_mesh_from_bytes(Path::new("mem/fin.obj"), obj.as_bytes()).unwrap();
+    assert_eq!((imp.mesh.triangles.len(), imp.mesh.surface_only.len()), (14, 2), "{:?}", imp.warnings);
+    assert!(TopologyReport::compute(&imp.mesh).closed);
+}
