@@ -90,8 +90,8 @@
 //! · R, and a block whose centre's w is farther than that (plus a margin of 0.02, five times the
 //! fast evaluation's largest measured error) from ½ is inside or outside whole. The rest (blocks
 //! meeting the surface or near a hole's edge) fall to the next level and at last to the cell's
-//! own evaluation. BoxAnimated: 356 000 cells evaluated instead of 1.45 M, its `fast` bake 14.3
-//! → 9.9 s of CPU on one thread; every shared model gives the same solid. Cost per block tried:
+//! own evaluation. BoxAnimated: 356 000 cells evaluated instead of 1.45 M, its `fast` bake 14.4
+//! → 10.1 s of CPU on one thread; every shared model gives the same solid. Cost per block tried:
 //! one tree query, one term per cluster of 16 unpaired edges (edge by edge near it) and one
 //! winding number. Not used where unpaired edges outnumber the triangles (a bush of cards: nearly
 //! every block is near a card's edge, and trying them cost 7.0 → 8.0 s) or exceed 16 384.
@@ -104,7 +104,9 @@
 //! cell (solid, undecided; 256 MB at 1024³) plus, while the rows are built, ~45 bytes per crossing
 //! and 9 per row, and during an open soup's flood 2–3 bits per cell (cells queued, cells found,
 //! surface cells when listed, which also take 4 bytes per cell a triangle meets while they are
-//! found) and 4 bytes per cell of the current frontier (each cell joins one frontier at most).
+//! found), 4 bytes per cell of the current frontier (each cell joins one frontier at most) and,
+//! where the blocks are used, a byte per block of 2³ and of 4³ cells (1.1 bits per cell: 150 MB
+//! at 1024³).
 //! Parallel (rayon) over triangles, over blocks of cells and over each frontier; every cell's
 //! result depends only on shared read-only data, the crossings are sorted by value and the
 //! frontiers are built in one order, so the output is identical for any thread count.
