@@ -252,3 +252,38 @@ fn a_double_sided_fin_on_a_closed_box_is_covered_but_leaves_the_box_closed() {
         }
     }
 }
+
+/// A zero-area sliver on three collinear vertices closing a T-junction (as exporters leave
+/// them; pmndrs' cube has one) leaves a closed box closed: the fit pairs the sliver's edges and
+/// takes the exact closed-mesh solid, and the report says so. Before, the topology report left
+/// the sliver's edges out and called the mesh "not closed" (three boundary edges) while the fit
+/// used it as closed, without a warning.
+#[test]
+fn a_zero_area_sliver_at_a_t_junction_leaves_a_closed_box_closed() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut obj = String::new();
+    for i in 0..8 {
+        obj += &format!("v {} {} {}\n", i & 1, (i >> 1) & 1, (i >> 2) & 1);
+    }
+    obj += "v 0.5 0 0\n"; // vertex 9, on the box edge from vertex 1 to vertex 2
+    for q in [[1, 3, 4, 2], [5, 6, 8, 7], [3, 7, 8, 4], [1, 5, 7, 3], [2, 4, 8, 6]] {
+        obj += &format!("f {} {} {}\nf {} {} {}\n", q[0], q[1], q[2], q[0], q[2], q[3]);
+    }
+    // The y = 0 face, its edge 1–2 split at vertex 9, and the sliver 9 1 2 closing the junction.
+    obj += "f 1 9 6\nf 9 2 6\nf 1 6 5\nf 9 1 2\n";
+    let path = dir.path().join("sliver.obj");
+    std::fs::write(&path, &obj).unwrap();
+    let imported = spherebake_io::load_mesh(&path).unwrap();
+    assert_eq!(imported.mesh.triangles.len(), 14);
+    let mesh = imported.mesh.clone();
+    let out = bake_path(&path, &BakeSettings { spheres: 8, voxels: 48, ..Default::default() }, &|_| {}).unwrap();
+    let w = &out.report.warnings;
+    assert!(!w.iter().any(|x| x.contains("not closed") || x.contains("voxel solid")), "{w:?}");
+    assert!(out.report.closed, "{:?} {w:?}", out.topology);
+    let spheres: Vec<[f32; 4]> =
+        out.file.spheres.iter().map(|s| [s.center[0], s.center[1], s.center[2], s.radius]).collect();
+    let es = spherebake_fit::EvalSettings { voxel_resolution: 48, surface_samples: 20000, ..Default::default() };
+    let ev = spherebake_bake::evaluate_mesh(&mesh, &spheres, &es).unwrap();
+    assert_eq!(ev.solid_source, spherebake_fit::SolidSource::ClosedMesh);
+    assert!((ev.object_volume - 1.0).abs() < 1e-9, "{}", ev.object_volume);
+}

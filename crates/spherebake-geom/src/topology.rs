@@ -18,21 +18,23 @@ pub struct TopologyReport {
     pub welded_vertex_count: usize,
     /// Min / max over the corners of all triangles, model space; `None` without triangles.
     pub aabb: Option<(Vec3, Vec3)>,
-    /// Undirected welded edges of non-degenerate triangles. The edges, `closed`,
+    /// Undirected welded edges of triangles with three distinct welded vertices (a zero-area
+    /// one among them, a sliver at a T-junction, joins its edges as the fit's closed check
+    /// does). The edges, `closed`,
     /// `consistently_oriented` and `signed_volume` leave out [`Mesh::surface_only`] triangles
     /// (double-sided faces, which enclose nothing); the counts, bounds, area and components
     /// include them.
     pub edge_count: usize,
-    /// Undirected welded edges used by exactly one non-degenerate triangle.
+    /// Undirected welded edges used by exactly one such triangle.
     pub boundary_edge_count: usize,
-    /// Undirected welded edges used by three or more non-degenerate triangles.
+    /// Undirected welded edges used by three or more such triangles.
     pub non_manifold_edge_count: usize,
     /// Triangles with a repeated welded vertex or zero area (exact f64 cross product).
     pub degenerate_triangle_count: usize,
     /// Groups of triangles connected through shared welded vertices.
     pub component_count: usize,
-    /// Every undirected edge is shared by exactly two non-degenerate triangles (and there is at
-    /// least one triangle).
+    /// Every undirected edge is shared by exactly two such triangles (and there is at least one
+    /// triangle).
     pub closed: bool,
     /// Closed, and no directed edge occurs twice (all triangles wind the same way).
     pub consistently_oriented: bool,
@@ -73,7 +75,7 @@ impl TopologyReport {
         let mut r = TopologyReport { triangle_count: mesh.triangles.len(), vertex_count: n, ..Default::default() };
         let mut used = vec![false; weld_count];
         let mut parent: Vec<u32> = (0..weld_count as u32).collect();
-        // Directed edges as (undirected key, direction bit), for non-degenerate triangles.
+        // Directed edges as (undirected key, direction bit), for triangles on three distinct welded vertices.
         let mut edges: Vec<(u64, bool)> = Vec::with_capacity(mesh.triangles.len() * 3);
         let mut lo = Vec3::splat(f32::INFINITY);
         let mut hi = Vec3::splat(f32::NEG_INFINITY);
@@ -104,9 +106,16 @@ impl TopologyReport {
             let (ra, rb, rc) = (find(&mut parent, w[0]), find(&mut parent, w[1]), find(&mut parent, w[2]));
             parent[rb as usize] = ra;
             parent[rc as usize] = ra;
-            if w[0] == w[1] || w[1] == w[2] || w[0] == w[2] || cr == DVec3::ZERO {
+            if w[0] == w[1] || w[1] == w[2] || w[0] == w[2] {
                 r.degenerate_triangle_count += 1;
                 continue;
+            }
+            // A zero-area triangle on three distinct vertices (a sliver closing a T-junction)
+            // is degenerate but still joins its edges, as it does for the fit's closed check:
+            // leaving its edges out reported a closed mesh that the bake takes as closed as
+            // "not closed", with three boundary edges that are no hole.
+            if cr == DVec3::ZERO {
+                r.degenerate_triangle_count += 1;
             }
             if only(ti) {
                 continue;
@@ -167,6 +176,25 @@ mod tests {
         m.triangles.extend(b.triangles.iter().map(|t| t.map(|v| v + n)));
         m.rebuild_weld();
         m
+    }
+
+    /// The unit cube with its edge (0,0,0)–(1,0,0) split on the y = 0 side by a vertex at its
+    /// middle, the T-junction closed by a zero-area sliver on the three collinear vertices (as
+    /// exporters leave them): degenerate, but closed and consistently oriented, as the fit's
+    /// closed check (which pairs the sliver's edges too) takes it.
+    #[test]
+    fn a_zero_area_sliver_at_a_t_junction_keeps_the_mesh_closed() {
+        let mut m = cube(Vec3::ZERO);
+        m.positions.push(Vec3::new(0.5, 0.0, 0.0)); // vertex 8
+        let at = m.triangles.iter().position(|t| *t == [0, 1, 5]).expect("the y = 0 face's triangle on the edge");
+        m.triangles.splice(at..=at, [[0, 8, 5], [8, 1, 5]]);
+        m.triangles.push([8, 0, 1]);
+        m.rebuild_weld();
+        let r = TopologyReport::compute(&m);
+        assert_eq!(r.degenerate_triangle_count, 1);
+        assert_eq!((r.boundary_edge_count, r.non_manifold_edge_count), (0, 0), "{r:?}");
+        assert!(r.closed && r.consistently_oriented, "{r:?}");
+        assert!((r.signed_volume - 1.0).abs() < 1e-12, "{}", r.signed_volume);
     }
 
     #[test]
@@ -255,9 +283,17 @@ mod tests {
         m.rebuild_weld();
         let r = TopologyReport::compute(&m);
         assert_eq!(r.degenerate_triangle_count, 2);
-        assert!(r.closed, "degenerate triangles do not count as edge users");
+        // The repeated-vertex triangle joins no edge; the zero-area one on three distinct
+        // vertices joins its edges, as in the fit's closed check (which then takes the voxel
+        // solid): a third user of the cube edge 0–1 and two boundary edges.
+        assert_eq!((r.non_manifold_edge_count, r.boundary_edge_count), (1, 2), "{r:?}");
+        assert!(!r.closed);
         assert_eq!(r.welded_vertex_count, 9);
         assert_eq!(r.aabb.unwrap().1, Vec3::new(2.0, 1.0, 1.0));
+        let mut m = cube(Vec3::ZERO);
+        m.triangles.push([0, 0, 1]);
+        let r = TopologyReport::compute(&m);
+        assert!(r.closed && r.degenerate_triangle_count == 1, "a repeated-vertex triangle is no edge user");
     }
 
     #[test]
