@@ -357,6 +357,12 @@ pub fn bake_imported(
         if settings.pose_margin == PoseMargin::Auto {
             let m = grow_for_animations(mesh, &spheres, terms, &skin_settings)
                 .map_err(|e| stage_err("pose margin", e.to_string()))?;
+            if mesh.skin.as_ref().is_some_and(|s| s.skeleton.animations.is_empty()) {
+                warnings.push(
+                    "pose margin: the model has no animations, so no radius grew; the spheres bound the rest pose only (poses from elsewhere, such as live hand tracking, are not covered)"
+                        .into(),
+                );
+            }
             if m.unbounded_frames > 0 {
                 warnings.push(format!(
                     "pose margin: {} animation frames have no finite motion bound or need a radius beyond f32 (non-finite or huge keys); their coverage is not guaranteed",

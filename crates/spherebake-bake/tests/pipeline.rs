@@ -287,3 +287,27 @@ fn a_zero_area_sliver_at_a_t_junction_leaves_a_closed_box_closed() {
     assert_eq!(ev.solid_source, spherebake_fit::SolidSource::ClosedMesh);
     assert!((ev.object_volume - 1.0).abs() < 1e-9, "{}", ev.object_volume);
 }
+
+/// `--pose-margin auto` on a skinned model without animations (WebXR's generic hands, driven
+/// by live tracking) has nothing to grow for: the bake says so instead of printing a margin of
+/// "0 spheres grown over 1 frames" alone. The arm with its animation gets no such warning.
+#[test]
+fn the_pose_margin_warns_when_a_skinned_model_has_no_animations() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut doc: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(fixture("skinned-arm.gltf")).unwrap()).unwrap();
+    doc.as_object_mut().unwrap().remove("animations").expect("the fixture has an animation");
+    let still = dir.path().join("still-arm.gltf");
+    std::fs::write(&still, serde_json::to_string(&doc).unwrap()).unwrap();
+    let auto =
+        BakeSettings { spheres: 8, voxels: 48, pose_margin: spherebake_bake::PoseMargin::Auto, ..Default::default() };
+    let no_anim = |w: &String| w.starts_with("pose margin: the model has no animations");
+    let out = bake_path(&still, &auto, &|_| {}).unwrap();
+    assert!(out.report.skin.is_some(), "still skinned");
+    assert_eq!(out.report.warnings.iter().filter(|w| no_anim(w)).count(), 1, "{:?}", out.report.warnings);
+    let plain =
+        bake_path(&still, &BakeSettings { pose_margin: spherebake_bake::PoseMargin::None, ..auto.clone() }, &|_| {});
+    assert!(!plain.unwrap().report.warnings.iter().any(no_anim), "only asked for with --pose-margin auto");
+    let arm = bake_path(&fixture("skinned-arm.gltf"), &auto, &|_| {}).unwrap();
+    assert!(!arm.report.warnings.iter().any(no_anim), "{:?}", arm.report.warnings);
+}
