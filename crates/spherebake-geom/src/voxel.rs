@@ -767,7 +767,7 @@ thread_local! {
     static BLOCKS_DECIDED: std::cell::Cell<usize> = const { std::cell::Cell::new(0) };
 }
 
-/// Block edges, in cells, of the three levels of [`Blocks`], largest first.
+/// Block edges, in cells, of the two levels of [`Blocks`], largest first.
 const BLOCK_EDGES: [usize; 2] = [4, 2];
 
 /// A block is decided only when its winding number stays this far from ½ (beyond the bound):
@@ -790,9 +790,9 @@ const BLOCK_MAX_EDGES: usize = 1 << 14;
 /// R (the half-diagonal) of the centre: when |w(centre)| stays more than that bound times R (plus
 /// [`BLOCK_MARGIN`]) away from ½, every cell centre of the box is on the centre's side. Levels of
 /// [`BLOCK_EDGES`] cells (a level of 8 saved nothing more on BoxAnimated): a block that cannot be
-/// decided leaves its cells to the next level, and at the last to their own evaluation. Each block is decided at most once (a byte per block,
-/// written by whichever thread asks first; every thread would write the same value, so the result
-/// does not depend on the thread count).
+/// decided leaves its cells to the next level, and at the last to their own evaluation. Each
+/// block is decided at most once (a byte per block, written by whichever thread asks first;
+/// every thread would write the same value, so the result does not depend on the thread count).
 struct Blocks<'a> {
     bvh: &'a TriangleBvh,
     winding: &'a Expansions,
@@ -934,7 +934,8 @@ fn unpaired_edges(tris: &[[DVec3; 3]]) -> Vec<(DVec3, DVec3, f64)> {
 const EDGE_CLUSTER: usize = 16;
 
 /// A cluster counts as one term when its ball is farther than this many of its radii from the
-/// block's ball (its term then overstates its edges' by at most (1 + 1/3)²); nearer, edge by edge.
+/// block's ball (each of its edges is then at most 2 radii farther than the term assumes, so the
+/// term overstates their sum by at most (1 + 2/3)²); nearer, edge by edge.
 const CLUSTER_FAR: f64 = 3.0;
 
 /// The unpaired edges (a, b, |net count|) in clusters of at most [`EDGE_CLUSTER`] (median

@@ -697,7 +697,7 @@ pub(crate) fn import(ctx: &mut Ctx, bytes: &[u8]) -> Result<(Mesh, Vec<ImportedP
     let mut uvs = Vec::new();
     let mut mixed_vt: Vec<&str> = Vec::new();
     let mut triangulator = Triangulator::default();
-    let mut repeated = RepeatedPolygons::default();
+    let mut repeated = RepeatedPolygons::new(&models);
     let mut fanned = Fanned::default();
     for (mi, model) in models.iter().enumerate() {
         let m = &model.mesh;
@@ -834,11 +834,15 @@ pub(crate) fn import(ctx: &mut Ctx, bytes: &[u8]) -> Result<(Mesh, Vec<ImportedP
 /// `f 1 2 4 3`, then `f 3 4 2 1` or `f 2 4 3 1`), get the first one's triangles (reversed with it),
 /// so the duplicate removal finds every copy: triangulated on their own, from their own first
 /// corners, the copies of a quad take different diagonals and no triangle repeats (a double-sided
-/// quad cube baked as an open sheet, E 53 at 8 spheres instead of 0.90). Memory: one entry per
-/// distinct polygon of four or more corners (its corner positions and triangles); corners that
-/// repeat a position leave a polygon out.
-#[derive(Default)]
+/// quad cube baked as an open sheet, E 53 at 8 spheres instead of 0.90). Memory: a hash per
+/// polygon of four or more corners while the file is read, and the corner positions and
+/// triangles of the first of each repeated one; corners that repeat a position leave a polygon
+/// out.
 struct RepeatedPolygons {
+    /// Hashes of the sorted corner positions that occur more than once in the file (a first
+    /// pass): only such polygons are remembered, so a file of distinct quads costs 16–24 bytes
+    /// a quad while it is read, not its polygons.
+    candidates: std::collections::HashSet<u64>,
     /// Sorted corner positions (bits) → the first such polygon.
     seen: HashMap<Vec<[u32; 3]>, FirstPolygon>,
 }
@@ -848,22 +852,53 @@ struct RepeatedPolygons {
 type FirstPolygon = (Vec<[u32; 3]>, Vec<[u32; 3]>);
 
 impl RepeatedPolygons {
+    /// The first pass over every group's faces (corners out of range are left to the import's
+    /// own check).
+    fn new(models: &[tobj::Model]) -> Self {
+        let mut count: HashMap<u64, u8> = HashMap::new();
+        for model in models {
+            let p = &model.mesh.positions;
+            for face in faces(&model.mesh).filter(|f| f.len() >= 4) {
+                let corners: Option<Vec<[u32; 3]>> = face
+                    .iter()
+                    .map(|&v| p.get(3 * v as usize..3 * v as usize + 3).map(|c| [c[0], c[1], c[2]].map(f32::to_bits)))
+                    .collect();
+                if let Some(mut corners) = corners {
+                    corners.sort_unstable();
+                    let n = count.entry(Self::hash(&corners)).or_insert(0);
+                    *n = n.saturating_add(1);
+                }
+            }
+        }
+        let candidates = count.into_iter().filter(|&(_, n)| n > 1).map(|(h, _)| h).collect();
+        RepeatedPolygons { candidates, seen: HashMap::new() }
+    }
+
+    fn hash(sorted: &[[u32; 3]]) -> u64 {
+        use std::hash::{Hash, Hasher};
+        let mut h = std::collections::hash_map::DefaultHasher::new();
+        sorted.hash(&mut h);
+        h.finish()
+    }
+
     /// (sorted corner positions, corner positions in the face's order), as bits; `None` below
-    /// four corners or when a position repeats.
-    fn key(positions: &[Vec3], face: &[u32]) -> Option<FirstPolygon> {
-        if face.len() < 4 {
+    /// four corners, when a position repeats, or when no other polygon of the file may have these
+    /// corner positions.
+    fn key(&self, positions: &[Vec3], face: &[u32]) -> Option<FirstPolygon> {
+        if face.len() < 4 || self.candidates.is_empty() {
             return None;
         }
         let order: Vec<[u32; 3]> = face.iter().map(|&v| positions[v as usize].to_array().map(f32::to_bits)).collect();
         let mut sorted = order.clone();
         sorted.sort_unstable();
-        sorted.windows(2).all(|w| w[0] != w[1]).then_some((sorted, order))
+        (sorted.windows(2).all(|w| w[0] != w[1]) && self.candidates.contains(&Self::hash(&sorted)))
+            .then_some((sorted, order))
     }
 
     /// Remembers `face`'s triangles `tris` (vertex ids of `face`), unless a polygon with its
     /// corner positions was seen.
     fn remember(&mut self, positions: &[Vec3], face: &[u32], tris: &[[u32; 3]]) {
-        let Some((key, order)) = Self::key(positions, face) else { return };
+        let Some((key, order)) = self.key(positions, face) else { return };
         let local = |v: u32| face.iter().position(|&f| f == v).map(|i| i as u32);
         let Some(corners) = tris.iter().map(|t| Some([local(t[0])?, local(t[1])?, local(t[2])?])).collect() else {
             return;
@@ -874,7 +909,7 @@ impl RepeatedPolygons {
     /// When `face` repeats a remembered polygon (same cyclic order of positions, or reversed),
     /// appends that polygon's triangles on `face`'s vertices (reversed with it) and returns true.
     fn mirror(&self, positions: &[Vec3], face: &[u32], out: &mut Vec<[u32; 3]>) -> bool {
-        let Some((key, order)) = Self::key(positions, face) else { return false };
+        let Some((key, order)) = self.key(positions, face) else { return false };
         let Some((first, corners)) = self.seen.get(&key) else { return false };
         let n = order.len();
         let Some(o) = first.iter().position(|p| *p == order[0]) else { return false };
