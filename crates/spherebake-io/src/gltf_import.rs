@@ -1264,6 +1264,18 @@ impl Source<'_> {
             Some(i) => format!("material{i}"),
             None => "default".into(),
         });
+        // KHR_materials_transmission (glass, thin plastic): the spheres are opaque occluders,
+        // so such a material blocks light as its base colour would; said once per material.
+        let transmission = m
+            .extension_value("KHR_materials_transmission")
+            .and_then(|t| t.get("transmissionFactor"))
+            .and_then(serde_json::Value::as_f64)
+            .unwrap_or(0.0);
+        if transmission > 0.0 {
+            self.ctx.warn(format!(
+                "material {name:?}: KHR_materials_transmission (transmission {transmission}) is baked as opaque: its spheres block light fully in shadows and indirect light, and it reflects its base colour"
+            ));
+        }
         let mut out = Material {
             name,
             base_color_factor_linear: factor,

@@ -1610,3 +1610,33 @@ fn obj_polygons_given_again_reversed_or_rotated_are_duplicates() {
     assert_eq!((imp.mesh.triangles.len(), imp.mesh.surface_only.len()), (14, 2), "{:?}", imp.warnings);
     assert!(TopologyReport::compute(&imp.mesh).closed);
 }
+
+/// A material with `KHR_materials_transmission` (factor > 0) is warned about as baked opaque,
+/// once, naming it; a factor of 0 (the extension's default) and the other material are not.
+#[test]
+fn transmissive_materials_are_named_as_baked_opaque() {
+    let dir = tempfile::tempdir().unwrap();
+    let glass = |factor: &str| {
+        format!(
+            r#","materials":[{{"name":"glass","extensions":{{"KHR_materials_transmission":{{{factor}}}}}}},{{"name":"body"}}],"extensionsUsed":["KHR_materials_transmission"]"#
+        )
+    };
+    let load = |extra: String| {
+        let p = dir.path().join("t.gltf");
+        std::fs::write(&p, two_material_gltf(&extra)).unwrap();
+        load_mesh(&p).unwrap()
+    };
+    let said = |imp: &spherebake_io::Imported| {
+        imp.warnings
+            .iter()
+            .filter(|w| w.0.contains("KHR_materials_transmission"))
+            .map(|w| w.0.clone())
+            .collect::<Vec<_>>()
+    };
+    let imp = load(glass(r#""transmissionFactor":0.9"#));
+    let w = said(&imp);
+    assert_eq!(w.len(), 1, "{:?}", imp.warnings);
+    assert!(w[0].starts_with("material \"glass\"") && w[0].contains("0.9") && w[0].contains("opaque"), "{w:?}");
+    assert!(said(&load(glass(""))).is_empty());
+    assert!(said(&load(glass(r#""transmissionFactor":0"#))).is_empty());
+}
