@@ -8,6 +8,30 @@ fn fixture(name: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../../fixtures").join(name)
 }
 
+/// The stored spheres of a bake as [x, y, z, r], and `mesh` evaluated against them at 48 voxels
+/// with `samples` surface samples.
+fn evaluate_stored(
+    out: &spherebake_bake::BakeOutput,
+    mesh: &spherebake_geom::Mesh,
+    samples: usize,
+) -> (Vec<[f32; 4]>, spherebake_fit::Evaluation) {
+    let spheres: Vec<[f32; 4]> =
+        out.file.spheres.iter().map(|s| [s.center[0], s.center[1], s.center[2], s.radius]).collect();
+    let es = spherebake_fit::EvalSettings { voxel_resolution: 48, surface_samples: samples, ..Default::default() };
+    let ev = spherebake_bake::evaluate_mesh(mesh, &spheres, &es).unwrap();
+    (spheres, ev)
+}
+
+/// The unit cube's corners as OBJ `v` lines (vertex i + 1 at (i & 1, i >> 1 & 1, i >> 2 & 1)),
+/// then `quads` (1-based corners) as two triangles each.
+fn unit_cube_obj(quads: &[[u32; 4]]) -> String {
+    let mut obj: String = (0..8).map(|i| format!("v {} {} {}\n", i & 1, (i >> 1) & 1, (i >> 2) & 1)).collect();
+    for q in quads {
+        obj += &format!("f {} {} {}\nf {} {} {}\n", q[0], q[1], q[2], q[0], q[2], q[3]);
+    }
+    obj
+}
+
 fn bake_in_pool(threads: usize, path: &Path, settings: &BakeSettings) -> Vec<u8> {
     let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
     pool.install(|| bake_path(path, settings, &|_| {}).expect("bake").bytes)
@@ -158,10 +182,9 @@ fn evaluate_mesh_gives_the_e_the_bake_reported_for_a_partly_inward_open_mesh() {
     let out = bake_path(&path, &settings, &|_| {}).unwrap();
     assert!(out.report.warnings.iter().any(|w| w.contains("face inward")), "{:?}", out.report.warnings);
     let mesh = spherebake_io::load_mesh(&path).unwrap().mesh;
-    let spheres: Vec<[f32; 4]> =
-        out.file.spheres.iter().map(|s| [s.center[0], s.center[1], s.center[2], s.radius]).collect();
+    let (spheres, ev) = evaluate_stored(&out, &mesh, 1000);
+    let e = ev.outside_ratio_e;
     let es = spherebake_fit::EvalSettings { voxel_resolution: 48, surface_samples: 1000, ..Default::default() };
-    let e = spherebake_bake::evaluate_mesh(&mesh, &spheres, &es).unwrap().outside_ratio_e;
     let baked = out.report.outside_ratio_e.unwrap();
     assert!((e - baked).abs() <= 1e-9 * baked, "eval {e}, bake {baked}");
     let stored = spherebake_fit::evaluate(&mesh.welded_positions, &mesh.welded_triangles(), &spheres, &es)
@@ -183,10 +206,7 @@ fn the_reported_e_is_the_written_spheres_after_the_pose_margin() {
     let m = out.report.skin.as_ref().and_then(|s| s.pose_margin.as_ref()).expect("margin ran");
     assert!(m.grown_count > 0, "the arm's animation needs a margin");
     let mesh = spherebake_io::load_mesh(&path).unwrap().mesh;
-    let spheres: Vec<[f32; 4]> =
-        out.file.spheres.iter().map(|s| [s.center[0], s.center[1], s.center[2], s.radius]).collect();
-    let es = spherebake_fit::EvalSettings { voxel_resolution: 48, surface_samples: 1000, ..Default::default() };
-    let e = spherebake_bake::evaluate_mesh(&mesh, &spheres, &es).unwrap().outside_ratio_e;
+    let e = evaluate_stored(&out, &mesh, 1000).1.outside_ratio_e;
     let reported = out.report.outside_ratio_e.unwrap();
     let fitted = plain.report.outside_ratio_e.unwrap();
     assert!((e - reported).abs() <= 1e-9 * e, "file {e}, reported {reported}");
@@ -208,15 +228,9 @@ fn the_reported_e_is_the_written_spheres_after_the_pose_margin() {
 #[test]
 fn a_double_sided_fin_on_a_closed_box_is_covered_but_leaves_the_box_closed() {
     let dir = tempfile::tempdir().unwrap();
-    let mut obj = String::new();
-    for i in 0..8 {
-        obj += &format!("v {} {} {}\n", i & 1, (i >> 1) & 1, (i >> 2) & 1);
-    }
+    let mut obj = unit_cube_obj(&[[1, 3, 4, 2], [5, 6, 8, 7], [1, 2, 6, 5], [3, 7, 8, 4], [1, 5, 7, 3], [2, 4, 8, 6]]);
     obj += "v 1.6 0 0.5\n"; // the fin's tip, vertex 9
-    for q in [[1, 3, 4, 2], [5, 6, 8, 7], [1, 2, 6, 5], [3, 7, 8, 4], [1, 5, 7, 3], [2, 4, 8, 6]] {
-        obj += &format!("f {} {} {}\nf {} {} {}\n", q[0], q[1], q[2], q[0], q[2], q[3]);
-    }
-    // The fin on the box edge from (1, 0, 0) to (1, 0, 1), in the plane y = 0, both windings.
+                            // The fin on the box edge from (1, 0, 0) to (1, 0, 1), in the plane y = 0, both windings.
     obj += "f 2 9 6\nf 6 9 2\n";
     let path = dir.path().join("fin.obj");
     std::fs::write(&path, &obj).unwrap();
@@ -231,10 +245,7 @@ fn a_double_sided_fin_on_a_closed_box_is_covered_but_leaves_the_box_closed() {
     assert!(!w.iter().any(|x| x.contains("not closed") || x.contains("voxel solid")), "{w:?}");
     assert!(w.iter().any(|x| x.starts_with("1 duplicate triangles") && x.contains("1 face(s)")), "{w:?}");
     // E against the box's unit volume, and every point of the fin inside a stored sphere.
-    let spheres: Vec<[f32; 4]> =
-        out.file.spheres.iter().map(|s| [s.center[0], s.center[1], s.center[2], s.radius]).collect();
-    let es = spherebake_fit::EvalSettings { voxel_resolution: 48, surface_samples: 20000, ..Default::default() };
-    let ev = spherebake_bake::evaluate_mesh(&mesh, &spheres, &es).unwrap();
+    let (spheres, ev) = evaluate_stored(&out, &mesh, 20000);
     assert_eq!(ev.solid_source, spherebake_fit::SolidSource::ClosedMesh);
     assert!((ev.object_volume - 1.0).abs() < 1e-9, "{}", ev.object_volume);
     assert_eq!(Some(ev.outside_ratio_e), out.report.outside_ratio_e);
@@ -261,15 +272,9 @@ fn a_double_sided_fin_on_a_closed_box_is_covered_but_leaves_the_box_closed() {
 #[test]
 fn a_zero_area_sliver_at_a_t_junction_leaves_a_closed_box_closed() {
     let dir = tempfile::tempdir().unwrap();
-    let mut obj = String::new();
-    for i in 0..8 {
-        obj += &format!("v {} {} {}\n", i & 1, (i >> 1) & 1, (i >> 2) & 1);
-    }
+    let mut obj = unit_cube_obj(&[[1, 3, 4, 2], [5, 6, 8, 7], [3, 7, 8, 4], [1, 5, 7, 3], [2, 4, 8, 6]]);
     obj += "v 0.5 0 0\n"; // vertex 9, on the box edge from vertex 1 to vertex 2
-    for q in [[1, 3, 4, 2], [5, 6, 8, 7], [3, 7, 8, 4], [1, 5, 7, 3], [2, 4, 8, 6]] {
-        obj += &format!("f {} {} {}\nf {} {} {}\n", q[0], q[1], q[2], q[0], q[2], q[3]);
-    }
-    // The y = 0 face, its edge 1–2 split at vertex 9, and the sliver 9 1 2 closing the junction.
+                          // The y = 0 face, its edge 1–2 split at vertex 9, and the sliver 9 1 2 closing the junction.
     obj += "f 1 9 6\nf 9 2 6\nf 1 6 5\nf 9 1 2\n";
     let path = dir.path().join("sliver.obj");
     std::fs::write(&path, &obj).unwrap();
@@ -280,10 +285,7 @@ fn a_zero_area_sliver_at_a_t_junction_leaves_a_closed_box_closed() {
     let w = &out.report.warnings;
     assert!(!w.iter().any(|x| x.contains("not closed") || x.contains("voxel solid")), "{w:?}");
     assert!(out.report.closed, "{:?} {w:?}", out.topology);
-    let spheres: Vec<[f32; 4]> =
-        out.file.spheres.iter().map(|s| [s.center[0], s.center[1], s.center[2], s.radius]).collect();
-    let es = spherebake_fit::EvalSettings { voxel_resolution: 48, surface_samples: 20000, ..Default::default() };
-    let ev = spherebake_bake::evaluate_mesh(&mesh, &spheres, &es).unwrap();
+    let (_, ev) = evaluate_stored(&out, &mesh, 20000);
     assert_eq!(ev.solid_source, spherebake_fit::SolidSource::ClosedMesh);
     assert!((ev.object_volume - 1.0).abs() < 1e-9, "{}", ev.object_volume);
 }
