@@ -274,7 +274,7 @@ pub fn run(a: LightArgs) -> Result<ExitCode> {
         Some((n, t)) => format!("animation {n:?} at {t} s"),
         None => "rest pose".to_string(),
     };
-    let rgb = |v: [f64; 3]| format!("({:.5}, {:.5}, {:.5})", v[0], v[1], v[2]);
+    let rgb = rgb_text;
     println!("{} against {} ({light} light, order {}, {pose})", a.file.display(), a.model.display(), a.order);
     println!(
         "  spheres                {} ({} hierarchy nodes){}",
@@ -366,6 +366,16 @@ fn mean_albedo(proxy: &Proxy) -> Result<Proxy> {
 }
 
 /// RMSE-based statistics over receivers and channels.
+/// An RGB mean for the summary: five decimals, or four significant digits when every channel
+/// is below 0.01 (a near-black model's indirect light, about 1e-5, printed as zeros before).
+fn rgb_text(v: [f64; 3]) -> String {
+    if v.iter().all(|x| x.abs() < 0.01) && v.iter().any(|&x| x != 0.0) {
+        format!("({:.3e}, {:.3e}, {:.3e})", v[0], v[1], v[2])
+    } else {
+        format!("({:.5}, {:.5}, {:.5})", v[0], v[1], v[2])
+    }
+}
+
 fn rgb_stats(proxy: &[[f64; 3]], reference: &[[f64; 3]]) -> Stats {
     let n = proxy.len().min(reference.len());
     let mut mp = [0.0; 3];
@@ -992,6 +1002,15 @@ fn glyph(c: char) -> [u8; 7] {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn tiny_means_keep_their_digits() {
+        assert_eq!(rgb_text([0.5, 0.25, 1.0]), "(0.50000, 0.25000, 1.00000)");
+        assert_eq!(rgb_text([0.0; 3]), "(0.00000, 0.00000, 0.00000)");
+        assert_eq!(rgb_text([2.1e-5, 1.5e-5, 0.0]), "(2.100e-5, 1.500e-5, 0.000e0)");
+        // One channel at 0.01 or more keeps the fixed form for all three.
+        assert_eq!(rgb_text([0.02, 1e-5, 0.0]), "(0.02000, 0.00001, 0.00000)");
+    }
 
     #[test]
     fn a_zero_reference_prints_the_absolute_error() {
