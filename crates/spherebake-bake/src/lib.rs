@@ -300,8 +300,12 @@ pub fn bake_imported(
     // spread to mesh order (a surface-only face is not flipped: it faces both ways).
     let bvh = winding.into_bvh();
     let all_bvh = (!surface_only.is_empty()).then(|| TriangleBvh::new(positions, &mesh.welded_triangles()));
-    let solid_flip = orientation.flip.clone();
+    // The fit sees the outward-oriented triangles: a mesh and its inside-out twin are the same
+    // input to it (same solid, same spheres), and a mesh whose only defect was the winding of
+    // some patches is closed again.
+    let oriented = turned(&triangles, &orientation.flip);
     if !surface_only.is_empty() {
+        let solid_flip = std::mem::take(&mut orientation.flip);
         let mut solid_flips = solid_flip.iter();
         let mut only = mesh.surface_only.iter().peekable();
         orientation.flip = (0..mesh.triangles.len() as u32)
@@ -320,10 +324,6 @@ pub fn bake_imported(
     }
     timings.push(StageTime { stage: "orient", seconds: winding_s + t.elapsed().as_secs_f64() });
 
-    // The fit sees the outward-oriented triangles: a mesh and its inside-out twin are the same
-    // input to it (same solid, same spheres), and a mesh whose only defect was the winding of
-    // some patches is closed again.
-    let oriented = turned(&triangles, &solid_flip);
     let t = Instant::now();
     let mut fitted = fit_spheres(path, positions, &oriented, &surface_only, &bvh, settings, progress)?;
     timings.push(StageTime { stage: "fit", seconds: t.elapsed().as_secs_f64() });
