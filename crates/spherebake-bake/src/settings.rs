@@ -34,7 +34,9 @@ pub struct BakeSettings {
     /// Target mode: find the smallest sphere count whose outside-volume ratio E is at most this.
     /// Default none (use `spheres`), range (0, ∞).
     pub max_outside_ratio: Option<f64>,
-    /// Voxel cells along the longest bounding-box axis, for the solid interior. Default 128, range 16..=1024.
+    /// Voxel cells along the longest bounding-box axis, for the fit's proxy and an open mesh's
+    /// solid. Default 128 (`Preset::voxels` of the default preset; the CLI takes the chosen
+    /// preset's, 96 for `fast`, when `--voxels` is not given), range 16..=1024.
     pub voxels: u32,
     /// Seed of the random start. Default 1. Same seed + input + settings → byte-identical output.
     pub seed: u64,
@@ -67,7 +69,7 @@ impl Default for BakeSettings {
             method: Method::Variational,
             preset: Preset::Default,
             max_outside_ratio: None,
-            voxels: 128,
+            voxels: Preset::Default.voxels(),
             seed: 1,
             branching: 4.0,
             bones_per_sphere: 4,

@@ -13,7 +13,8 @@ use crate::FitError;
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
 #[non_exhaustive]
 pub enum Preset {
-    /// [`FitPlan::fast`]: fewer Lloyd iterations, no polish, fewer descent trials; higher E.
+    /// [`FitPlan::fast`]: fewer Lloyd iterations, no polish, fewer descent trials, a coarser
+    /// voxel grid ([`Preset::voxels`]); higher E.
     Fast,
     /// [`FitPlan::default`]: the measured default.
     #[default]
@@ -30,6 +31,17 @@ impl Preset {
             Preset::Fast => FitPlan::fast(),
             Preset::Default => FitPlan::default(),
             Preset::Best => FitPlan::best(),
+        }
+    }
+
+    /// Voxel cells along the longest bounding-box axis this preset bakes at unless one is given
+    /// (`spherebake bake --voxels`): 96 for [`Preset::Fast`] (see [`FitPlan::fast`]), 128 for
+    /// the others. The grid is the fit's proxy, and for an open mesh also its solid (E is then
+    /// measured against the voxel solid at this resolution).
+    pub fn voxels(self) -> u32 {
+        match self {
+            Preset::Fast => 96,
+            Preset::Default | Preset::Best => 128,
         }
     }
 
@@ -249,17 +261,30 @@ impl Default for FitPlan {
 impl FitPlan {
     /// Less work in every stage: half the Lloyd iterations, no polish (the descent covers the
     /// points from the Lloyd result directly), a quarter of the descent's trials and a
-    /// thirtieth of its budget,
-    /// three seam rounds with a quarter of their trials, half the band's sweeps, no boundary
-    /// moves and no gap round. The budgets were 15 M and 4 M until the pattern search polled
-    /// only its predicted moves (a trial then reads fewer rows): at 4 M and 1 M the bunny at 64
-    /// spheres (fit alone, seeds 1–6) went E 0.2523 → 0.2451 and CPU 2.0 → 1.9 s, the
-    /// armadillo 0.4503 → 0.4414 and 1.8 → 1.4 s; at 15 M and 4 M it gave 0.2400 in 2.7 s.
-    /// First chosen on the
-    /// bunny at 64 spheres (fit alone, CPU, load ≈ 6): polish 2 and one seam round E 0.266 in
-    /// 1.5 s; no polish and three seam rounds E 0.257 in 1.6 s; the default E 0.238 in ≈ 5.5 s
-    /// (before the band stage, which brings fast to 0.2525 and the default to 0.2331 in the
-    /// whole bake).
+    /// thirtieth of its budget, two seam rounds with a quarter of their trials on a grid of
+    /// half a voxel cell (not a quarter), half the band's sweeps, no boundary moves and no gap
+    /// round; and, through [`Preset::voxels`], a voxel grid of 96 cells instead of 128.
+    ///
+    /// The coarser grid was measured first (fit alone, CPU, one thread, load ≈ 2, 64 spheres):
+    /// with three seam rounds at a quarter cell, 96 cells gave the bunny E 0.2372 over seeds
+    /// 1–8 against 0.2438 at 128 (every seed at most 0.2440; 80 and 64 cells: 0.2423, 0.2402),
+    /// and the armadillo and the teapot lower E too (seeds 1–4: 0.4347 against 0.4405, 0.1876
+    /// against 0.1909): the descent's budgets count voxel rows, and rows of a coarser grid are
+    /// cheaper, so the same budget buys more trials. Two seam rounds at half a cell then cost
+    /// E 0.2402 on the bunny (seeds 1–8; one round 0.2430, none 0.2496) for 12 % less CPU.
+    /// Against the plan before (three rounds at a quarter cell, 128 cells), seeds 1–4: bunny
+    /// 0.2448 → 0.2402 (seeds 1–8: 0.2438 → 0.2402), armadillo 0.4405 → 0.4395, teapot 0.1909
+    /// → 0.1919, spot 0.1645 → 0.1684, unit cube 0.3115 → 0.3048, capsule 0.0507 → 0.0585, for
+    /// 18 % (armadillo) to 54 % (capsule) less CPU of the fit.
+    ///
+    /// Before: the budgets were 15 M and 4 M until the pattern search polled only its
+    /// predicted moves (a trial then reads fewer rows): at 4 M and 1 M the bunny at 64 spheres
+    /// (fit alone, seeds 1–6) went E 0.2523 → 0.2451 and CPU 2.0 → 1.9 s, the armadillo
+    /// 0.4503 → 0.4414 and 1.8 → 1.4 s; at 15 M and 4 M it gave 0.2400 in 2.7 s. First chosen
+    /// on the bunny at 64 spheres (fit alone, CPU, load ≈ 6): polish 2 and one seam round E
+    /// 0.266 in 1.5 s; no polish and three seam rounds E 0.257 in 1.6 s; the default E 0.238
+    /// in ≈ 5.5 s (before the band stage, which brings fast to 0.2525 and the default to 0.2331
+    /// in the whole bake).
     pub fn fast() -> Self {
         Self {
             max_iterations: 12,
@@ -270,7 +295,8 @@ impl FitPlan {
             descent_trials: 16,
             descent_max_fails: 8,
             descent_work_budget: 4_000_000,
-            seam_rounds: 3,
+            seam_rounds: 2,
+            seam_spacing_cells: 0.5,
             seam_trials: 4,
             seam_max_fails: 2,
             seam_work_budget: 1_000_000,
@@ -362,6 +388,7 @@ mod tests {
                 p.seam_rounds as u64,
                 p.seam_trials as u64,
                 p.seam_work_budget,
+                (1000.0 / p.seam_spacing_cells) as u64,
                 p.band_sweeps as u64,
                 p.gap_rounds as u64,
                 (p.pair_first_cut > 0.0) as u64,
@@ -372,6 +399,8 @@ mod tests {
             assert!(wf[i] <= wd[i] && wd[i] <= wb[i], "knob {i}: {} {} {}", wf[i], wd[i], wb[i]);
         }
         assert!(wf != wd && wd != wb);
+        assert!(Preset::Fast.voxels() < Preset::Default.voxels());
+        assert_eq!(Preset::Default.voxels(), Preset::Best.voxels());
         for p in [Preset::Fast, Preset::Default, Preset::Best] {
             assert_eq!(Preset::from_name(p.name()), Some(p));
         }

@@ -56,7 +56,7 @@ pub struct BakeArgs {
     /// Find the smallest sphere count whose outside-volume ratio E is at most this (overrides --spheres) [range > 0]
     #[arg(long, value_name = "E")]
     pub max_outside_ratio: Option<f64>,
-    /// Voxel cells along the longest bounding-box axis [default: 128, range 16..=1024]
+    /// Voxel cells along the longest bounding-box axis [default: 128; 96 with --preset fast; range 16..=1024]
     #[arg(long)]
     pub voxels: Option<u32>,
     /// Seed of the random start; same seed + input + settings give byte-identical files [default: 1]
@@ -288,7 +288,7 @@ fn to_settings(o: &Overrides) -> std::result::Result<BakeSettings, String> {
         method,
         preset,
         max_outside_ratio: o.max_outside_ratio.or(d.max_outside_ratio),
-        voxels: o.voxels.unwrap_or(d.voxels),
+        voxels: o.voxels.unwrap_or(preset.voxels()),
         seed: o.seed.unwrap_or(d.seed),
         sh_order: o.sh_order.unwrap_or(d.sh_order),
         cubemap_size: o.cubemap_size.unwrap_or(d.cubemap_size),

@@ -491,6 +491,54 @@ fn preset_from_the_flag_or_the_config_reaches_the_fit_and_rebakes() {
     assert_eq!(batch(&["--preset", "fast"])["up_to_date"], 1);
 }
 
+/// `--preset fast` bakes at its own voxel grid (96 cells) unless `--voxels` is given, and `eval`
+/// measures against the grid the file records: an open box's solid is the voxel solid, so its
+/// E moves with the grid (0.971 at 96, 0.964 at 40, 1.005 at 128 on this box).
+#[test]
+fn fast_bakes_at_its_own_voxel_grid_and_eval_measures_at_the_recorded_one() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    // A box 1 × 0.7 × 0.37 without its top: its walls fall between cells differently per grid.
+    std::fs::write(
+        d.join("open.obj"),
+        "v 0 0 0\nv 1 0 0\nv 1 0.7 0\nv 0 0.7 0\nv 0 0 0.37\nv 1 0 0.37\nv 1 0.7 0.37\nv 0 0.7 0.37\n\
+         f 1 4 3 2\nf 1 2 6 5\nf 2 3 7 6\nf 3 4 8 7\nf 4 1 5 8\n",
+    )
+    .unwrap();
+    let bake = |extra: &[&str], out: &str| -> (f64, serde_json::Value) {
+        let mut all = vec!["bake", "open.obj", "-o", out, "--json", "--spheres", "8", "--preset", "fast"];
+        all.extend_from_slice(extra);
+        let o = run(&all, d);
+        assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+        let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+        let e = v["assets"][0]["outside_ratio_e"].as_f64().unwrap();
+        let o = run(&["inspect", out, "--json"], d);
+        let i: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+        (e, i["metadata"]["settings"].clone())
+    };
+    let eval = |f: &str, extra: &[&str]| -> (f64, u64) {
+        let mut all = vec!["eval", f, "open.obj", "--json", "--surface-samples", "2000"];
+        all.extend_from_slice(extra);
+        let o = run(&all, d);
+        assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+        let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+        (v["outside_ratio_e"].as_f64().unwrap(), v["voxels"].as_u64().unwrap())
+    };
+    let (e96, s96) = bake(&[], "fast.sphb");
+    assert_eq!(s96["voxels"], 96, "{s96}");
+    let (e40, s40) = bake(&["--voxels", "40"], "fast40.sphb");
+    assert_eq!(s40["voxels"], 40, "{s40}");
+    for (f, e, n) in [("fast.sphb", e96, 96), ("fast40.sphb", e40, 40)] {
+        let (got, voxels) = eval(f, &[]);
+        assert_eq!(voxels, n);
+        assert!((got - e).abs() <= 1e-9 * e, "{f}: eval {got} against the bake's {e}");
+        // Another grid is another solid, and another E.
+        let (other, voxels) = eval(f, &["--voxels", "128"]);
+        assert_eq!(voxels, 128);
+        assert!((other - e).abs() > 1e-3, "{f}: {other} at 128 against {e} at {n}");
+    }
+}
+
 #[test]
 fn target_mode_warns_once_and_keeps_its_stage_times_and_trace() {
     let dir = tempfile::tempdir().unwrap();
