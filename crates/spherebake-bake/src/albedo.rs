@@ -10,7 +10,18 @@
 //!    an isotropic quadratic, whose maximum over the triangle is at a corner (convex or linear
 //!    case, r_j ≤ r_i) or at the triangle point closest to its apex (concave case). It is
 //!    conservative only where three or more segments meet inside one triangle (no single j
-//!    dominates although the pieces all belong to others).
+//!    dominates although the pieces all belong to others). A triangle rendered for two or more
+//!    spheres keeps, in each sphere's map, only the fragments whose point lies in that sphere's
+//!    segment (the smallest |p − c|/r among the spheres it is rendered for, which holds every
+//!    point's owner; ties to the lowest index), as the samples test their hits (`samples`); its
+//!    other fragments only count as back-facing surface for rule 2. Until 2026-12 whole triangles
+//!    were drawn, so a map showed the part of a shared triangle that another sphere owns: on a
+//!    near-black WebXR controller (`microsoft-mixed-reality`) a sphere beside the bright button
+//!    icons baked a mean albedo 84× its segment's area-weighted mean (3.7e-3 against 4.4e-5);
+//!    per sphere, the area-weighted mean |SH mean − segment mean| / mean albedo fell from
+//!    0.38 / 0.12 / 0.12 / 0.026 / 0.029 / 0.021 / 0.0018 to 0.11 / 0.065 / 0.031 / 0.0052 /
+//!    0.017 / 0.016 / 0.0007 (the controller, CesiumMilkTruck, BoxTextured, spot, Fox,
+//!    CesiumMan, Duck at 64 spheres).
 //! 2. **Rendering** into a cube map centred at c_i (`raster`, one sample per texel centre,
 //!    OpenGL/Vulkan faces), with the sample-point rules of §8 per texel direction ω and outward
 //!    normals (CCW, or reversed where `flip` says so):
@@ -319,7 +330,7 @@ pub fn segment_triangles(mesh: &Mesh, spheres: &[[f32; 4]]) -> Result<Vec<Vec<u3
     check_vertices(mesh)?;
     let pos: Vec<DVec3> = mesh.positions.iter().map(|p| p.as_dvec3()).collect();
     let sph = spheres_f64(spheres);
-    Ok(assign(&pos, &mesh.triangles, &sph))
+    Ok(assign(&pos, &mesh.triangles, &sph).0)
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -403,8 +414,9 @@ fn dominates(j: &SphereF64, i: &SphereF64, t: &[DVec3; 3]) -> bool {
     f(spherebake_geom::triangle::closest_point_on_triangle(q, t)) < 0.0
 }
 
-/// Per sphere, the increasing list of triangles rendered for it.
-fn assign(pos: &[DVec3], triangles: &[[u32; 3]], spheres: &[SphereF64]) -> Vec<Vec<u32>> {
+/// Per sphere, the increasing list of triangles rendered for it; and the triangles rendered for
+/// two or more spheres with their increasing sphere lists ([`SharedTriangles`]).
+fn assign(pos: &[DVec3], triangles: &[[u32; 3]], spheres: &[SphereF64]) -> (Vec<Vec<u32>>, SharedTriangles) {
     let per_tri: Vec<Vec<u32>> = triangles
         .par_iter()
         .map(|tri| {
@@ -463,12 +475,36 @@ fn assign(pos: &[DVec3], triangles: &[[u32; 3]], spheres: &[SphereF64]) -> Vec<V
         })
         .collect();
     let mut per_sphere = vec![Vec::new(); spheres.len()];
+    let mut shared = SharedTriangles { triangles: Vec::new(), offsets: vec![0], spheres: Vec::new() };
     for (t, list) in per_tri.iter().enumerate() {
         for &s in list {
             per_sphere[s as usize].push(t as u32);
         }
+        if list.len() >= 2 {
+            shared.triangles.push(t as u32);
+            shared.spheres.extend_from_slice(list);
+            shared.offsets.push(shared.spheres.len() as u32);
+        }
     }
-    per_sphere
+    (per_sphere, shared)
+}
+
+/// The triangles rendered for two or more spheres (increasing), each with the increasing list of
+/// those spheres: `spheres[offsets[k]..offsets[k + 1]]` for `triangles[k]`. Every sphere whose
+/// segment holds a point of such a triangle is in its list (a sphere that owns a point is not
+/// beaten on the whole triangle), so the segment test of its fragments compares these only.
+struct SharedTriangles {
+    triangles: Vec<u32>,
+    offsets: Vec<u32>,
+    spheres: Vec<u32>,
+}
+
+impl SharedTriangles {
+    /// The spheres triangle `t` is rendered for, when they are two or more.
+    fn spheres_of(&self, t: u32) -> Option<&[u32]> {
+        let k = self.triangles.binary_search(&t).ok()?;
+        Some(&self.spheres[self.offsets[k] as usize..self.offsets[k + 1] as usize])
+    }
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -788,6 +824,9 @@ struct Context<'a> {
     orient: Vec<f64>,
     spheres: Vec<SphereF64>,
     assigned: Vec<Vec<u32>>,
+    /// The triangles rendered for several spheres: their fragments are kept only where the point
+    /// seen lies in the sphere's own segment (module docs, step 1).
+    shared: SharedTriangles,
     /// Triangles in Morton order of their centroids, in runs of [`CLUSTER_SIZE`] with their
     /// bounding boxes: the coverage pass skips a run whose texels are all covered already.
     clusters: Vec<Cluster>,
@@ -953,14 +992,8 @@ impl<'a> Context<'a> {
         let pos: Vec<DVec3> = mesh.positions.iter().map(|p| p.as_dvec3()).collect();
         let orient: Vec<f64> = flip.iter().map(|&f| if f { -1.0 } else { 1.0 }).collect();
         let sph = spheres_f64(spheres);
-        let assigned = assign(&pos, &mesh.triangles, &sph);
-        let mut count = vec![0u32; tcount];
-        for list in &assigned {
-            for &t in list {
-                count[t as usize] += 1;
-            }
-        }
-        let shared_triangles = count.iter().filter(|&&c| c >= 2).count();
+        let (assigned, shared) = assign(&pos, &mesh.triangles, &sph);
+        let shared_triangles = shared.triangles.len();
 
         // Per triangle, in parallel (an ordered collect): its shading terms, and whether it is
         // textured without UVs.
@@ -1017,6 +1050,7 @@ impl<'a> Context<'a> {
             orient,
             spheres: sph,
             assigned,
+            shared,
             clusters,
             cluster_tris,
             shade,
@@ -1066,10 +1100,28 @@ impl<'a> Context<'a> {
         }
     }
 
-    /// Draws triangle `t` for the sphere centred at `centre`: back-facing from the centre it
+    /// The sphere of `list` (increasing indices) whose segment holds the point at `bary` of
+    /// triangle `t`: the smallest |p − c|/r, ties to the lowest index; `None` when no distance
+    /// is a number.
+    fn owner_among(&self, t: usize, bary: [f64; 3], list: &[u32]) -> Option<u32> {
+        let [a, b, c] = self.mesh.triangles[t].map(|v| self.pos[v as usize]);
+        let p = a * bary[0] + b * bary[1] + c * bary[2];
+        let mut best = (f64::INFINITY, None);
+        for &j in list {
+            let d = self.spheres[j as usize].d2(p);
+            if d < best.0 {
+                best = (d, Some(j));
+            }
+        }
+        best.1
+    }
+
+    /// Draws triangle `t` for the sphere `s` centred at `centre`: back-facing from the centre it
     /// marks the texels that have some back surface (rule 2), and in the sphere's own segment
-    /// (`mine`) it is a rule 1 (back) or rule 3 (front, seen through the centre) candidate.
-    fn draw(&self, cv: &mut Canvas, t: usize, mine: bool, centre: DVec3) {
+    /// (`mine`) it is a rule 1 (back) or rule 3 (front, seen through the centre) candidate —
+    /// where the point seen lies in the segment: a triangle rendered for several spheres
+    /// (`self.shared`) is tested per fragment, as the samples test their hits.
+    fn draw(&self, cv: &mut Canvas, t: usize, mine: bool, s: usize, centre: DVec3) {
         let [a, b, c] = self.mesh.triangles[t].map(|v| self.pos[v as usize] - centre);
         // det(a, b, c) = CCW normal · (a − centre): > 0 when the CCW side faces away.
         let det = a.dot(b.cross(c)) * self.orient[t];
@@ -1080,6 +1132,9 @@ impl<'a> Context<'a> {
         // The hole test reads level 0 (a coarse level's mean α would drop a sparse card whole or
         // keep a dense one's cut-outs), as the light reference does.
         let hole = |f: &Fragment| masked && self.surface.is_hole(t, f.bary, 0.0);
+        // Only a shared triangle has points outside the segment of a sphere it is drawn for.
+        let shared = if mine { self.shared.spheres_of(t as u32) } else { None };
+        let in_segment = |f: &Fragment| shared.is_none_or(|list| self.owner_among(t, f.bary, list) == Some(s as u32));
         if det > 0.0 {
             // Back-facing from the centre: seen along +ω.
             self.grid.rasterize(a, b, c, |f: Fragment| {
@@ -1089,7 +1144,7 @@ impl<'a> Context<'a> {
                 }
                 if mine {
                     let h = &mut cv.back[f.texel];
-                    if f.dist > h.dist && !hole(&f) {
+                    if f.dist > h.dist && in_segment(&f) && !hole(&f) {
                         *h = Hit { dist: f.dist, tri: t as u32, bary: f.bary };
                     }
                 }
@@ -1098,7 +1153,7 @@ impl<'a> Context<'a> {
             // Front-facing: seen through the centre (direction −(p − c)).
             self.grid.rasterize(-a, -b, -c, |f: Fragment| {
                 let h = &mut cv.front[f.texel];
-                if f.dist < h.dist && !hole(&f) {
+                if f.dist < h.dist && in_segment(&f) && !hole(&f) {
                     *h = Hit { dist: f.dist, tri: t as u32, bary: f.bary };
                 }
             });
@@ -1120,7 +1175,7 @@ impl<'a> Context<'a> {
         let assigned = &self.assigned[s];
         // The segment's own triangles in increasing order (ties in distance keep the first).
         for &t in assigned {
-            self.draw(&mut cv, t as usize, true, centre);
+            self.draw(&mut cv, t as usize, true, s, centre);
         }
         if let Some(colour) = self.one_colour {
             // A rule 1 texel is covered, so every texel ends the one colour (module docs).
@@ -1150,7 +1205,7 @@ impl<'a> Context<'a> {
                     break;
                 }
                 if assigned.binary_search(&t).is_err() {
-                    self.draw(&mut cv, t as usize, false, centre);
+                    self.draw(&mut cv, t as usize, false, s, centre);
                 }
             }
         }
