@@ -1850,7 +1850,14 @@ fn fit_part(
         }
     }
     if run.bound.pockets_closed > 0 {
-        warnings.push(format!("closed {} interior pockets between spheres", run.bound.pockets_closed));
+        // A pocket: a region inside the solid, away from its surface, that the fitted spheres'
+        // union missed (rule 3 of `bound`); shadows need the union to hold the whole solid.
+        let n = run.bound.pockets_closed;
+        warnings.push(format!(
+            "the fitted spheres left {n} gap{} inside the solid, away from its surface; the bounding pass grew spheres over {} so the union holds the whole solid (E includes that growth)",
+            if n == 1 { "" } else { "s" },
+            if n == 1 { "it" } else { "them" }
+        ));
     }
     run
 }
