@@ -93,9 +93,10 @@ impl Grid {
         self.visit(pts, c, r, |d2, i| out.push((d2, i)));
     }
 
-    /// Calls `f(d², i)` for every point i with d² = |pts[i] − c|² ≤ r². Columns whose distance
-    /// from c exceeds r (less [`CLIP_SLACK`] cells) are skipped; the points of the others are
-    /// tested exactly, so the set is the brute-force one.
+    /// Calls `f(d², i)` for every point i with d² = |pts[i] − c|² ≤ r², `pts` being the points
+    /// the grid was built from (the grid keeps a copy in its own order for the scans). Columns
+    /// whose distance from c exceeds r (less [`CLIP_SLACK`] cells) are skipped; the points of
+    /// the others are tested exactly, so the set is the brute-force one.
     #[inline(always)]
     fn visit(&self, pts: &[DVec3], c: DVec3, r: f64, mut f: impl FnMut(f64, u32)) {
         let r2 = r * r;
@@ -326,9 +327,8 @@ fn thin(v: &[DVec3], cap: usize, h: f64, dim: i32, thinning: Thinning) -> Vec<DV
 ///
 /// Cost: the candidates' covers are computed once per doubling of the dilation (sorted by
 /// distance once the dilation is feasible), and each bisection step takes prefixes of the
-/// last ones, so the queries cost
-/// O(candidates × covered samples) about twice, not once per step; both sets are capped by
-/// [`sample_cap`], so the start's cost follows the sphere count.
+/// last ones, so the queries cost O(candidates × covered samples) about twice, not once per
+/// step; both sets are capped by [`sample_cap`], so the start's cost follows the sphere count.
 pub fn start(
     surface_all: &[DVec3],
     interior_all: &[DVec3],
