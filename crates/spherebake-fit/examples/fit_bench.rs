@@ -5,7 +5,8 @@
 //! SB_TRIALS, SB_SEAMS, SB_TELE, SB_SUBDIV,
 //! SB_SEAM_TRIALS, SB_BUDGET, SB_SEAM_BUDGET, SB_DGRID (descent_grid_cells), SB_SEAM_SPACING,
 //! SB_PCELL, SB_PBUDGET, SB_BAND_SWEEPS, SB_BAND_WIDTH, SB_PAIR_CUT, SB_GAP_ROUNDS, SB_SWEEPS
-//! (descent_sweeps), SB_POWELL (powell_sweeps); SB_PRESET=fast|default|best starts from that plan.
+//! (descent_sweeps), SB_POWELL (powell_sweeps); SB_PRESET=fast|default|best starts from that plan
+//! and its voxel grid (`Preset::voxels`).
 
 #[path = "common/obj.rs"]
 mod obj;
@@ -60,7 +61,14 @@ fn main() {
         };
         for &k in &counts {
             let preset = std::env::var("SB_PRESET").ok().and_then(|v| Preset::from_name(&v)).unwrap_or_default();
-            let mut settings = FitSettings { method, spheres: k, plan: preset.plan(), ..Default::default() };
+            // The preset's plan and voxel grid, as `spherebake bake --preset` takes them.
+            let mut settings = FitSettings {
+                method,
+                spheres: k,
+                plan: preset.plan(),
+                voxel_resolution: preset.voxels(),
+                ..Default::default()
+            };
             // `set!(field, "SB_NAME")`: the field from the environment when set and parseable.
             macro_rules! set {
                 ($($field:ident).+, $name:literal) => {
