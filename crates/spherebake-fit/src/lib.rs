@@ -92,6 +92,7 @@ use glam::{DVec3, Vec3};
 use rayon::prelude::*;
 use solid::Solid;
 use spherebake_geom::bvh::TriangleBvh;
+use spherebake_geom::edges::{directed_ids, group_edges, id_ends, EdgeClasses};
 use spherebake_geom::triangle::triangle_grid;
 use spherebake_geom::{volume, voxel};
 use std::f64::consts::PI;
@@ -286,34 +287,26 @@ fn check_mesh(positions: &[Vec3], triangles: &[[u32; 3]]) -> Result<(), FitError
 /// Closed and oriented means every directed edge has exactly one reverse partner. Returns
 /// (some directed edge occurs twice, the directed edges without a reverse partner in ascending
 /// order, a repeated one as often as it occurs, the undirected edge classes). An edge from a
-/// vertex to itself is its own reverse, never a boundary edge. The edges are sorted once by their undirected key (in
-/// parallel; a sorted list is the same whatever the thread count) and read group by group: a
-/// sort and a linear scan, where a binary search per edge cost the 1.1 M-triangle bunny 0.45 s (the whole check).
+/// vertex to itself is its own reverse, never a boundary edge. The edges are paired by
+/// `spherebake_geom::edges` (one sort by their undirected key, in parallel, and a linear scan of
+/// the groups), where a binary search per edge cost the 1.1 M-triangle bunny 0.45 s (the whole check).
 fn directed_edge_pairing(tris: &[[u32; 3]]) -> (bool, Vec<(u32, u32)>, EdgeClasses) {
-    // (undirected key, whether the edge runs from the larger index to the smaller).
     let mut edges: Vec<(u64, bool)> = tris
         .par_iter()
         .flat_map_iter(|t| [(t[0], t[1]), (t[1], t[2]), (t[2], t[0])])
-        .map(|(a, b)| ((u64::from(a.min(b)) << 32) | u64::from(a.max(b)), a > b))
+        .map(|(a, b)| directed_ids(a, b))
         .collect();
-    edges.par_sort_unstable();
     let mut dup = false;
     let mut boundary = Vec::new();
     let mut classes = EdgeClasses::default();
-    for group in edges.chunk_by(|x, y| x.0 == y.0) {
-        let backward = group.iter().filter(|e| e.1).count();
-        let forward = group.len() - backward;
+    for group in group_edges(&mut edges) {
+        let (forward, backward) = (group.forward, group.backward);
         dup |= forward > 1 || backward > 1;
-        let (lo, hi) = ((group[0].0 >> 32) as u32, group[0].0 as u32);
+        let (lo, hi) = id_ends(group.key);
         if lo == hi {
             continue;
         }
-        match group.len() {
-            1 => classes.boundary += 1,
-            2 if forward != 1 => classes.inconsistent += 1,
-            2 => {}
-            _ => classes.non_manifold += 1,
-        }
+        classes.add(group.class());
         match (forward, backward) {
             (f, 0) => boundary.extend(std::iter::repeat_n((lo, hi), f)),
             (0, b) => boundary.extend(std::iter::repeat_n((hi, lo), b)),
@@ -322,32 +315,6 @@ fn directed_edge_pairing(tris: &[[u32; 3]]) -> (bool, Vec<(u32, u32)>, EdgeClass
     }
     boundary.sort_unstable();
     (dup, boundary, classes)
-}
-
-/// Undirected edges (an edge from a vertex to itself aside) by how many triangles use them, as
-/// `spherebake_geom::topology` counts them, so `bake` and `inspect` name the same numbers:
-/// used once (boundary), twice in the same direction (inconsistently oriented), three or more
-/// times (non-manifold).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-struct EdgeClasses {
-    boundary: usize,
-    inconsistent: usize,
-    non_manifold: usize,
-}
-
-impl EdgeClasses {
-    /// "296 boundary edges, 47 non-manifold, 3 inconsistently oriented" (classes of 0 left out;
-    /// boundary edges always named).
-    fn describe(&self) -> String {
-        let mut s = format!("{} boundary edges", self.boundary);
-        if self.non_manifold > 0 {
-            s += &format!(", {} non-manifold", self.non_manifold);
-        }
-        if self.inconsistent > 0 {
-            s += &format!(", {} inconsistently oriented", self.inconsistent);
-        }
-        s
-    }
 }
 
 /// `tree`: a caller's tree over `positions` and `triangles` to reuse ([`TriangleBvh::reuse`]).

@@ -9,6 +9,7 @@
 
 pub mod anim;
 pub mod bvh;
+pub mod edges;
 pub mod mesh;
 pub mod motion;
 pub mod mvc;

@@ -2,10 +2,11 @@
 //!
 //! Everything is computed on *welded* positions (bit-identical f32 positions are one vertex,
 //! see [`Mesh::weld`]), so UV and normal seams do not split the surface. Cost: O(n log n) in the
-//! triangle count (edge sort plus union-find).
+//! triangle count (the edge sort of [`crate::edges`] plus union-find).
 
 use glam::{DVec3, Vec3};
 
+use crate::edges::{directed_ids, group_edges, EdgeClasses};
 use crate::mesh::Mesh;
 
 /// Topology facts about a mesh, on welded positions.
@@ -75,7 +76,8 @@ impl TopologyReport {
         let mut r = TopologyReport { triangle_count: mesh.triangles.len(), vertex_count: n, ..Default::default() };
         let mut used = vec![false; weld_count];
         let mut parent: Vec<u32> = (0..weld_count as u32).collect();
-        // Directed edges as (undirected key, direction bit), for triangles on three distinct welded vertices.
+        // Directed edges as (undirected key, runs forward: [`directed_ids`]), for triangles
+        // on three distinct welded vertices.
         let mut edges: Vec<(u64, bool)> = Vec::with_capacity(mesh.triangles.len() * 3);
         let mut lo = Vec3::splat(f32::INFINITY);
         let mut hi = Vec3::splat(f32::NEG_INFINITY);
@@ -121,9 +123,7 @@ impl TopologyReport {
                 continue;
             }
             for k in 0..3 {
-                let (x, y) = (w[k], w[(k + 1) % 3]);
-                let key = (u64::from(x.min(y)) << 32) | u64::from(x.max(y));
-                edges.push((key, x < y));
+                edges.push(directed_ids(w[k], w[(k + 1) % 3]));
             }
         }
         r.aabb = (lo.x <= hi.x).then_some((lo, hi));
@@ -131,24 +131,15 @@ impl TopologyReport {
         r.surface_area = area;
         r.welded_vertex_count = used.iter().filter(|&&u| u).count();
         r.component_count = (0..weld_count as u32).filter(|&x| used[x as usize] && find(&mut parent, x) == x).count();
-        edges.sort_unstable();
-        let mut repeated_directed = false;
-        let mut i = 0;
-        while i < edges.len() {
-            let mut j = i + 1;
-            while j < edges.len() && edges[j].0 == edges[i].0 {
-                j += 1;
-            }
+        let mut classes = EdgeClasses::default();
+        for group in group_edges(&mut edges) {
             r.edge_count += 1;
-            match j - i {
-                1 => r.boundary_edge_count += 1,
-                2 => repeated_directed |= edges[i].1 == edges[i + 1].1,
-                _ => r.non_manifold_edge_count += 1,
-            }
-            i = j;
+            classes.add(group.class());
         }
+        r.boundary_edge_count = classes.boundary;
+        r.non_manifold_edge_count = classes.non_manifold;
         r.closed = !edges.is_empty() && r.boundary_edge_count == 0 && r.non_manifold_edge_count == 0;
-        r.consistently_oriented = r.closed && !repeated_directed;
+        r.consistently_oriented = r.closed && classes.inconsistent == 0;
         r
     }
 }

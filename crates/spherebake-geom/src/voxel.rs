@@ -112,6 +112,7 @@
 //! frontiers are built in one order, so the output is identical for any thread count.
 
 use crate::bvh::{RayPre, TriangleBvh};
+use crate::edges;
 use crate::triangle::cover_samples;
 use crate::winding::Expansions;
 use glam::{DVec3, Vec3};
@@ -897,36 +898,22 @@ impl<'a> Blocks<'a> {
 }
 
 /// The directed edges of `tris` that no edge runs back along (corners compared by exact
-/// position), each with its net count: (from, to, |count|). Zero-length edges are left out.
+/// position), each with its net count: (from, to, |count|), from the corner with the lower bits
+/// to the higher, in ascending order of their bits. Zero-length edges are left out.
 fn unpaired_edges(tris: &[[DVec3; 3]]) -> Vec<(DVec3, DVec3, f64)> {
-    /// An edge by its corners' bits, low first, +1 when it runs low → high, else −1.
-    struct Keyed {
-        key: ([u64; 3], [u64; 3]),
-        sign: i64,
-        low: DVec3,
-        high: DVec3,
-    }
+    // An edge by its corners' bits, low first ([`edges::directed`]).
     let bits = |p: DVec3| [p.x, p.y, p.z].map(f64::to_bits);
-    let mut keyed: Vec<Keyed> = tris
+    let point = |b: [u64; 3]| DVec3::from_array(b.map(f64::from_bits));
+    let mut keyed: Vec<_> = tris
         .iter()
         .flat_map(|t| [(t[0], t[1]), (t[1], t[2]), (t[2], t[0])])
-        .filter(|(a, b)| bits(*a) != bits(*b))
-        .map(|(a, b)| {
-            let (ka, kb) = (bits(a), bits(b));
-            if ka < kb {
-                Keyed { key: (ka, kb), sign: 1, low: a, high: b }
-            } else {
-                Keyed { key: (kb, ka), sign: -1, low: b, high: a }
-            }
-        })
+        .map(|(a, b)| (bits(a), bits(b)))
+        .filter(|(a, b)| a != b)
+        .map(|(a, b)| edges::directed(a, b))
         .collect();
-    keyed.sort_unstable_by_key(|e| e.key);
-    keyed
-        .chunk_by(|x, y| x.key == y.key)
-        .filter_map(|g| {
-            let net: i64 = g.iter().map(|x| x.sign).sum();
-            (net != 0).then(|| (g[0].low, g[0].high, net.unsigned_abs() as f64))
-        })
+    edges::group_edges(&mut keyed)
+        .filter(|g| g.net() != 0)
+        .map(|g| (point(g.key.0), point(g.key.1), g.net().unsigned_abs() as f64))
         .collect()
 }
 
