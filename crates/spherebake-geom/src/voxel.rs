@@ -1548,7 +1548,6 @@ mod flood_tests {
         // and the large random triangles leave cells inside that do not reach the surface
         // through cells inside (2 at seed 4 when written).
         assert!(added > 100 && dropped > 0, "{added} cells found by the flood, {dropped} dropped");
-
         println!(
             "flood added {added} cells to the rows' solid; {dropped} solid cells not reaching the surface dropped"
         );

@@ -365,7 +365,6 @@ fn mean_albedo(proxy: &Proxy) -> Result<Proxy> {
     Ok(Proxy::from_file(&f)?)
 }
 
-/// RMSE-based statistics over receivers and channels.
 /// An RGB mean for the summary: five decimals, or four significant digits when every channel
 /// is below 0.01 (a near-black model's indirect light, about 1e-5, printed as zeros before).
 fn rgb_text(v: [f64; 3]) -> String {
@@ -376,6 +375,7 @@ fn rgb_text(v: [f64; 3]) -> String {
     }
 }
 
+/// RMSE-based statistics over receivers and channels.
 fn rgb_stats(proxy: &[[f64; 3]], reference: &[[f64; 3]]) -> Stats {
     let n = proxy.len().min(reference.len());
     let mut mp = [0.0; 3];
