@@ -41,7 +41,7 @@ use serde::Serialize;
 use spherebake_format::{SamplePoint, Samples};
 use spherebake_geom::bvh::{Hit, TriangleBvh};
 use spherebake_geom::Mesh;
-use spherebake_sh::{GEODESIC_DIRECTIONS, GEODESIC_DIRECTION_COUNT};
+use spherebake_sh::{NearestDirection, GEODESIC_DIRECTIONS, GEODESIC_DIRECTION_COUNT};
 use std::time::Instant;
 
 /// What happened for one (sphere, direction) pair.
@@ -238,19 +238,15 @@ fn sample_areas(mesh: &Mesh, ctx: &Ctx<'_>, samples: &Samples) -> (Vec<f32>, Are
         }
         h *= ((count as f64 / max_points as f64).sqrt()).max(1.01);
     }
-    let dirs: Vec<DVec3> = GEODESIC_DIRECTIONS.iter().map(|w| Vec3::from(*w).as_dvec3()).collect();
-    // The sample that carries a surface point: its segment's sphere, then the nearest direction.
-    let carrier_of = |x: DVec3| -> Option<u32> {
-        let (k, ck) = ctx.tree.owner(&ctx.spheres, x)?;
-        let d = x - ck;
-        let mut best = (f64::NEG_INFINITY, 0usize);
-        for (q, wq) in dirs.iter().enumerate() {
-            let v = wq.dot(d);
-            if v > best.0 {
-                best = (v, q);
-            }
-        }
-        carrier.get(k * GEODESIC_DIRECTION_COUNT + best.1).copied().filter(|&g| g != u32::MAX)
+    let nearest = NearestDirection::new();
+    // The sample that carries a surface point: its segment's sphere (the previous point's
+    // owner as the search's hint), then the nearest direction (the largest dot product, ties
+    // to the lowest index).
+    let carrier_of = |x: DVec3, hint: &mut Option<usize>| -> Option<u32> {
+        let (slot, k, ck) = ctx.tree.owner(&ctx.spheres, x, *hint)?;
+        *hint = Some(slot);
+        let q = nearest.nearest((x - ck).to_array());
+        carrier.get(k * GEODESIC_DIRECTION_COUNT + q).copied().filter(|&g| g != u32::MAX)
     };
     let per_chunk: Vec<(Vec<(u32, f64)>, AreaTotals)> = longest
         .par_chunks(AREA_CHUNK)
@@ -258,6 +254,7 @@ fn sample_areas(mesh: &Mesh, ctx: &Ctx<'_>, samples: &Samples) -> (Vec<f32>, Are
         .map(|(ci, chunk)| {
             let mut out: Vec<(u32, f64)> = Vec::new();
             let mut t = AreaTotals::default();
+            let mut hint = None;
             for (k, &edge) in chunk.iter().enumerate() {
                 let Some(c) = corners(ci * AREA_CHUNK + k).filter(|_| edge.is_finite()) else { continue };
                 let m = split(h, edge);
@@ -276,7 +273,7 @@ fn sample_areas(mesh: &Mesh, ctx: &Ctx<'_>, samples: &Samples) -> (Vec<f32>, Are
                                 continue;
                             }
                             t.points += 1;
-                            match carrier_of(c[0] + e1 * (i as f64 + off) + e2 * (j as f64 + off)) {
+                            match carrier_of(c[0] + e1 * (i as f64 + off) + e2 * (j as f64 + off), &mut hint) {
                                 Some(g) => {
                                     out.push((g, w));
                                     t.assigned += w;
@@ -524,34 +521,46 @@ impl SphereTree {
     }
 
     /// The sphere whose segment holds `p`: (index, centre) of argmin_j |p − c_j| / r_j, ties to
-    /// the lowest index (the answer [`segment_of`] gives); `None` without spheres.
-    fn owner(&self, spheres: &[(DVec3, f64, usize)], p: DVec3) -> Option<(usize, DVec3)> {
-        let mut best: Option<(f64, usize, DVec3)> = None;
-        self.walk(spheres, p, f64::INFINITY, |c, dj, j, bound| {
-            if best.is_none_or(|(bd, bj, _)| dj < bd || (dj == bd && j < bj)) {
-                best = Some((dj, j, c));
+    /// the lowest index (the answer [`segment_of`] gives), with its slot in `spheres`; `None`
+    /// without spheres. `hint`, a slot of `spheres` (the owner of a nearby point), only sets
+    /// the first bound: every sphere at most as far as the hint's is still visited, so the
+    /// answer is the same with any hint or none, and a good one prunes most nodes.
+    fn owner(&self, spheres: &[(DVec3, f64, usize)], p: DVec3, hint: Option<usize>) -> Option<(usize, usize, DVec3)> {
+        let mut best: Option<(f64, usize, DVec3, usize)> = None;
+        let mut bound = f64::INFINITY;
+        if let Some((h, &(c, r, j))) = hint.and_then(|h| Some((h, spheres.get(h)?))) {
+            let dj = (p - c).length() / r;
+            if dj.is_finite() {
+                best = Some((dj, j, c, h));
+                bound = dj;
+            }
+        }
+        self.walk(spheres, p, bound, |c, dj, j, slot, bound| {
+            if best.is_none_or(|(bd, bj, _, _)| dj < bd || (dj == bd && j < bj)) {
+                best = Some((dj, j, c, slot));
                 *bound = dj;
             }
             false
         });
-        best.map(|(_, j, c)| (j, c))
+        best.map(|(_, j, c, slot)| (slot, j, c))
     }
 
     /// Whether a sphere j ≠ i has d_j < dᵢ, or d_j = dᵢ with j < i, at `p`.
     fn any_beats(&self, spheres: &[(DVec3, f64, usize)], p: DVec3, i: usize, di: f64) -> bool {
-        self.walk(spheres, p, di, |_, dj, j, _| j != i && (dj < di || (dj == di && j < i)))
+        self.walk(spheres, p, di, |_, dj, j, _, _| j != i && (dj < di || (dj == di && j < i)))
     }
 
     /// Visits the spheres of the nodes that may hold one with scaled distance d_j ≤ `bound` at `p`
     /// (a node is skipped when dist(p, box) / r_max > bound, with a relative margin so rounding
-    /// never prunes an exact tie), calling `visit(c_j, d_j, j, &mut bound)`, which may lower the
-    /// bound; stops and returns true as soon as `visit` does.
+    /// never prunes an exact tie), calling `visit(c_j, d_j, j, slot, &mut bound)` (slot: the
+    /// sphere's place in `spheres`), which may lower the bound; stops and returns true as soon
+    /// as `visit` does.
     fn walk(
         &self,
         spheres: &[(DVec3, f64, usize)],
         p: DVec3,
         mut bound: f64,
-        mut visit: impl FnMut(DVec3, f64, usize, &mut f64) -> bool,
+        mut visit: impl FnMut(DVec3, f64, usize, usize, &mut f64) -> bool,
     ) -> bool {
         if self.nodes.is_empty() {
             return false;
@@ -566,8 +575,8 @@ impl SphereTree {
                 continue;
             }
             if n.leaf {
-                for &(c, r, j) in &spheres[n.start as usize..n.end as usize] {
-                    if visit(c, (p - c).length() / r, j, &mut bound) {
+                for (slot, &(c, r, j)) in spheres.iter().enumerate().take(n.end as usize).skip(n.start as usize) {
+                    if visit(c, (p - c).length() / r, j, slot, &mut bound) {
                         return true;
                     }
                 }
@@ -605,7 +614,13 @@ mod tests {
                 let p = Vec3::new(next() * 6.0 - 3.0, next() * 6.0 - 3.0, next() * 6.0 - 3.0).as_dvec3();
                 let owner = segment_of(p.as_vec3(), &spheres).expect("valid spheres");
                 let p32 = p.as_vec3().as_dvec3();
-                assert_eq!(ctx.tree.owner(&ctx.spheres, p32).map(|o| o.0), Some(owner), "n {n}");
+                assert_eq!(ctx.tree.owner(&ctx.spheres, p32, None).map(|o| o.1), Some(owner), "n {n}");
+                // Any hint (the duplicate's slot, far spheres, an out-of-range slot) gives the
+                // same owner, and the slot returned holds it.
+                for hint in [0, n / 2, n - 1, n + 3] {
+                    let got = ctx.tree.owner(&ctx.spheres, p32, Some(hint)).expect("owner");
+                    assert_eq!((got.1, ctx.spheres[got.0].2), (owner, owner), "n {n} hint {hint}");
+                }
                 for (i, s) in spheres.iter().enumerate() {
                     let (c, r) = valid_sphere(s).expect("valid");
                     assert_eq!(ctx.in_segment(p32, i, c, r), i == owner, "n {n} sphere {i}");

@@ -59,7 +59,7 @@ pub use exp::{
     ol_max_norm, sh_exp_accurate, sh_exp_hyb, sh_exp_ol, sh_exp_ol_f32, sh_exp_ps_star, HYB_DEFAULT_NORM_BOUND,
     OL_SAMPLES,
 };
-pub use geodesic::{geodesic_directions_f64, GEODESIC_DIRECTIONS, GEODESIC_DIRECTION_COUNT};
+pub use geodesic::{geodesic_directions_f64, NearestDirection, GEODESIC_DIRECTIONS, GEODESIC_DIRECTION_COUNT};
 pub use light::{
     average_radiance_rgb_f32, cosine_weighted_radiance_rgb_f32, radiance_weights_f32, voronoi_cell_basis,
     RADIANCE_WEIGHT_SAMPLES, RADIANCE_WEIGHT_STEP,
