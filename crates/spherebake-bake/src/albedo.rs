@@ -417,25 +417,39 @@ fn dominates(j: &SphereF64, i: &SphereF64, t: &[DVec3; 3]) -> bool {
 /// Per sphere, the increasing list of triangles rendered for it; and the triangles rendered for
 /// two or more spheres with their increasing sphere lists ([`SharedTriangles`]).
 fn assign(pos: &[DVec3], triangles: &[[u32; 3]], spheres: &[SphereF64]) -> (Vec<Vec<u32>>, SharedTriangles) {
+    // The owner of each vertex (ties → lowest index; 0 when no sphere has a finite distance),
+    // once per vertex rather than once per corner.
+    let vertex_owner: Vec<usize> = pos
+        .par_iter()
+        .map(|p| {
+            let mut owner = 0;
+            let mut best = f64::INFINITY;
+            for (s, sp) in spheres.iter().enumerate().filter(|(_, sp)| sp.inv_r2.is_finite()) {
+                let d = sp.d2(*p);
+                if d < best {
+                    best = d;
+                    owner = s;
+                }
+            }
+            owner
+        })
+        .collect();
+    // The spheres as columns, so the bound below runs over all of them in one tight loop.
+    let cols: [Vec<f64>; 4] = [
+        spheres.iter().map(|s| s.c.x).collect(),
+        spheres.iter().map(|s| s.c.y).collect(),
+        spheres.iter().map(|s| s.c.z).collect(),
+        spheres.iter().map(|s| s.inv_r2).collect(),
+    ];
     let per_tri: Vec<Vec<u32>> = triangles
         .par_iter()
-        .map(|tri| {
+        .map_init(Vec::new, |bounds: &mut Vec<f64>, tri| {
             let t = tri.map(|v| pos[v as usize]);
             if !t.iter().all(|p| p.is_finite()) {
                 return Vec::new();
             }
-            // Owners of the corners (ties → lowest index): certainly in their segments.
-            let mut owners = [0usize; 3];
-            for (k, p) in t.iter().enumerate() {
-                let mut best = f64::INFINITY;
-                for (s, sp) in spheres.iter().enumerate().filter(|(_, sp)| sp.inv_r2.is_finite()) {
-                    let d = sp.d2(*p);
-                    if d < best {
-                        best = d;
-                        owners[k] = s;
-                    }
-                }
-            }
+            // Owners of the corners: certainly in their segments.
+            let owners = tri.map(|v| vertex_owner[v as usize]);
             // A quick sufficient test for an owner's dominance: d_o is convex, so it is largest
             // at a corner, and d_i is at least its value at the triangle's bounding box; when
             // some owner's largest corner value is clearly below sphere i's bound everywhere,
@@ -450,6 +464,18 @@ fn assign(pos: &[DVec3], triangles: &[[u32; 3]], spheres: &[SphereF64]) -> (Vec<
                 owner_max = owner_max.min(d);
             }
             let (lo, hi) = (t[0].min(t[1]).min(t[2]), t[0].max(t[1]).max(t[2]));
+            // Each sphere's d at the box point nearest its centre, |clamp(c) − c|² / r²
+            // (glam's clamp: max, then min), a lower bound of d on the triangle.
+            bounds.clear();
+            bounds.extend((0..spheres.len()).map(|i| {
+                let gap = |c: f64, lo: f64, hi: f64| {
+                    let a = if c > lo { c } else { lo };
+                    (if a < hi { a } else { hi }) - c
+                };
+                let (dx, dy, dz) =
+                    (gap(cols[0][i], lo.x, hi.x), gap(cols[1][i], lo.y, hi.y), gap(cols[2][i], lo.z, hi.z));
+                (dx * dx + dy * dy + dz * dz) * cols[3][i]
+            }));
             let mut out = Vec::new();
             for (i, si) in spheres.iter().enumerate() {
                 if si.inv_r2.is_infinite() {
@@ -460,7 +486,7 @@ fn assign(pos: &[DVec3], triangles: &[[u32; 3]], spheres: &[SphereF64]) -> (Vec<
                     out.push(i as u32);
                     continue;
                 }
-                let bound = si.c.clamp(lo, hi).distance_squared(si.c) * si.inv_r2;
+                let bound = bounds[i];
                 if bound > owner_max * (1.0 + 1e-9) + f64::MIN_POSITIVE {
                     continue;
                 }
