@@ -427,6 +427,18 @@ mod tests {
         let grid = Grid::new(&pts, 0.07);
         let c = DVec3::new(0.3, 0.5, 0.45);
         let sorted = Sorted::new(&grid, &pts, c, 0.6);
+        // Nearest first, ties (points at one distance: the centre's mirror images below) by
+        // index, and the same (distance, index) pairs as the query found.
+        let mut twins = pts.clone();
+        twins.extend(pts.iter().map(|p| 2.0 * c - *p));
+        let twin_grid = Grid::new(&twins, 0.07);
+        let t = Sorted::new(&twin_grid, &twins, c, 0.6);
+        let mut want = Sorted::unsorted(&twin_grid, &twins, c, 0.6);
+        let mut pairs: Vec<(f64, u32)> = want.d2.drain(..).zip(want.idx.drain(..)).collect();
+        pairs.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+        let got: Vec<(f64, u32)> = t.d2.iter().copied().zip(t.idx.iter().copied()).collect();
+        assert_eq!(got, pairs);
+        assert!(got.windows(2).any(|w| w[0].0 == w[1].0), "the test should hold ties");
         for r in [0.0, 0.05, 0.21, 0.37, 0.6] {
             let mut got = sorted.within(r).to_vec();
             got.sort_unstable();
