@@ -1617,6 +1617,7 @@ pub fn fit_with_surface(
         bound.pockets_closed += r.bound.pockets_closed;
         bound.pocket_candidates += r.bound.pocket_candidates;
         bound.shrunk += r.bound.shrunk;
+        bound.rescanned += r.bound.rescanned;
         iterations += r.iterations;
         tele = (tele.0 + r.teleports.0, tele.1 + r.teleports.1);
         history.extend(r.history);
