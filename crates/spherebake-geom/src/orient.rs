@@ -116,18 +116,7 @@ pub fn outward_orientation(positions: &[Vec3], triangles: &[[u32; 3]], winding: 
     let geo: Vec<Option<Tri>> = triangles.par_iter().map(|t| Tri::new(positions, t)).collect();
 
     // Directed edges (lo, hi, forward, triangle), sorted: runs of equal (lo, hi) are one edge.
-    let mut edges: Vec<(u32, u32, bool, u32)> = Vec::with_capacity(3 * n);
-    for (t, tri) in triangles.iter().enumerate() {
-        if geo[t].is_none() {
-            continue;
-        }
-        for k in 0..3 {
-            let (a, b) = (tri[k], tri[(k + 1) % 3]);
-            edges.push((a.min(b), a.max(b), a < b, t as u32));
-        }
-    }
-    // Distinct tuples: the sorted order is the same whatever the thread count.
-    edges.par_sort_unstable();
+    let edges = sorted_edges(triangles, |t| geo[t].is_some());
     // Manifold edges (two triangles), in edge order: (e, f, same_direction).
     let mut pairs: Vec<(u32, u32, bool)> = Vec::new();
     let mut i = 0;
@@ -272,6 +261,48 @@ pub fn outward_orientation(positions: &[Vec3], triangles: &[[u32; 3]], winding: 
         }
     }
     out
+}
+
+/// The directed edges `(lo, hi, forward, triangle)` of the triangles that `keep` accepts (three
+/// per triangle: corners k and k + 1, `lo`/`hi` the smaller / larger vertex index, `forward`
+/// when the triangle runs from `lo` to `hi`), in ascending tuple order, as sorting them would
+/// give (the tuples are distinct, so the order is unique). Bucketed by `lo` (a counting sort
+/// over the vertex indices), then each bucket sorted on its own: a vertex has a handful of
+/// edges, so this is O(T) where a comparison sort of all 3T tuples was most of the
+/// orientation's cost (the 69k-triangle bunny: 7 of 16 ms on one core). The buckets run to the
+/// largest `lo` kept: `keep` rejects triangles with a corner past the vertices (the
+/// orientation keeps only those with a normal, every corner in range).
+fn sorted_edges(triangles: &[[u32; 3]], keep: impl Fn(usize) -> bool) -> Vec<(u32, u32, bool, u32)> {
+    let kept = || triangles.iter().enumerate().filter(|&(t, _)| keep(t));
+    let edges_of = |tri: &[u32; 3]| {
+        [0, 1, 2].map(|k| {
+            let (a, b) = (tri[k], tri[(k + 1) % 3]);
+            (a.min(b), a.max(b), a < b)
+        })
+    };
+    // Bucket starts: `start[v]..start[v + 1]` will hold the edges whose lo is v.
+    let buckets = kept().flat_map(|(_, tri)| edges_of(tri)).map(|e| e.0 as usize + 1).max().unwrap_or(0);
+    let mut start = vec![0usize; buckets + 1];
+    for (_, tri) in kept() {
+        for (lo, _, _) in edges_of(tri) {
+            start[lo as usize + 1] += 1;
+        }
+    }
+    for v in 0..buckets {
+        start[v + 1] += start[v];
+    }
+    let mut fill = start.clone();
+    let mut edges = vec![(0u32, 0u32, false, 0u32); start[buckets]];
+    for (t, tri) in kept() {
+        for (lo, hi, forward) in edges_of(tri) {
+            edges[fill[lo as usize]] = (lo, hi, forward, t as u32);
+            fill[lo as usize] += 1;
+        }
+    }
+    for v in 0..buckets {
+        edges[start[v]..start[v + 1]].sort_unstable();
+    }
+    edges
 }
 
 /// `triangles` with each one that `flip` marks turned over (its last two corners swapped): the
@@ -431,6 +462,42 @@ mod tests {
         let p = vec![Vec3::X, -Vec3::X, Vec3::Y, -Vec3::Y, Vec3::Z, -Vec3::Z];
         let t = vec![[0, 2, 4], [2, 1, 4], [1, 3, 4], [3, 0, 4], [2, 0, 5], [1, 2, 5], [3, 1, 5], [0, 3, 5]];
         (p, t)
+    }
+
+    /// The bucketed edges are the edges of the kept triangles sorted, as a comparison sort
+    /// gives them (repeated, reversed and degenerate corners, skipped triangles, a vertex of many).
+    #[test]
+    fn sorted_edges_are_the_sorted_tuples() {
+        let mut x = 0x2545_F491_4F6C_DD1Du64;
+        let mut next = |n: u64| {
+            x ^= x << 13;
+            x ^= x >> 7;
+            x ^= x << 17;
+            (x % n) as u32
+        };
+        for round in 0..50 {
+            let verts = 1 + round * 7;
+            let tris: Vec<[u32; 3]> = (0..round * 13)
+                .map(|i| {
+                    if i % 5 == 0 {
+                        [0, next(verts as u64), next(verts as u64)]
+                    } else {
+                        [0; 3].map(|_| next(verts as u64))
+                    }
+                })
+                .collect();
+            let keep = |t: usize| t % 7 != 3;
+            let mut want: Vec<(u32, u32, bool, u32)> = Vec::new();
+            for (t, tri) in tris.iter().enumerate().filter(|&(t, _)| keep(t)) {
+                for k in 0..3 {
+                    let (a, b) = (tri[k], tri[(k + 1) % 3]);
+                    want.push((a.min(b), a.max(b), a < b, t as u32));
+                }
+            }
+            want.sort_unstable();
+            assert_eq!(sorted_edges(&tris, keep), want, "round {round}");
+        }
+        assert!(sorted_edges(&[], |_| true).is_empty());
     }
 
     #[test]
