@@ -468,13 +468,8 @@ mod tests {
     /// gives them (repeated, reversed and degenerate corners, skipped triangles, a vertex of many).
     #[test]
     fn sorted_edges_are_the_sorted_tuples() {
-        let mut x = 0x2545_F491_4F6C_DD1Du64;
-        let mut next = |n: u64| {
-            x ^= x << 13;
-            x ^= x >> 7;
-            x ^= x << 17;
-            (x % n) as u32
-        };
+        let mut rng = spherebake_testkit::rng::SplitMix64::new(0x2545_F491_4F6C_DD1D);
+        let mut next = |n: u64| (rng.next_u64() % n) as u32;
         for round in 0..50 {
             let verts = 1 + round * 7;
             let tris: Vec<[u32; 3]> = (0..round * 13)

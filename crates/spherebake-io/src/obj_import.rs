@@ -1316,13 +1316,8 @@ mod tests {
     /// of repeated positions, a −0.0 corner, an unused vertex, a degenerate triangle).
     #[test]
     fn group_normals_are_each_group_welded_alone() {
-        let mut x = 0x9E37_79B9_7F4A_7C15u64;
-        let mut next = |n: u64| {
-            x ^= x << 13;
-            x ^= x >> 7;
-            x ^= x << 17;
-            x % n
-        };
+        let mut rng = spherebake_testkit::rng::SplitMix64::new(0x9E37_79B9_7F4A_7C15);
+        let mut next = |n: u64| rng.next_u64() % n;
         for round in 0..30 {
             // A small lattice of positions, so vertices repeat within and across groups.
             let point = |next: &mut dyn FnMut(u64) -> u64| {
