@@ -636,138 +636,95 @@ pub fn run_multi(ctx: &Ctx, k: usize, seed: u64, limits: Limits, starts: usize) 
 /// Lloyd from the cover start with `k` spheres (see the module docs), until an iteration
 /// gains < 0.5 % and teleportation ends (`limits`), or `limits.max_iterations`.
 pub fn run(ctx: &Ctx, k: usize, seed: u64, limits: Limits, thinning: cover::Thinning) -> LloydOutcome {
-    let mut run = Run::begin(ctx, k, seed, thinning);
-    run.advance(ctx, limits, usize::MAX);
-    run.outcome()
-}
-
-/// One step: power assignment of the points to `centres` (with `radii`, or the clusters'
-/// own radii when `None`) and the centre update. `memo`: the state the centres come from,
-/// whose unchanged clusters `update` reuses.
-fn step(ctx: &Ctx, centres: &[DVec3], radii: Option<&[f64]>, memo: Option<&State>) -> State {
-    let assign = match radii {
-        Some(r) => power_assign(ctx.all, centres, r),
-        None => power_assign(ctx.all, centres, &cluster(ctx, centres, None).1),
+    let Limits { max_iterations, teleports, teleport_max_fails } = limits;
+    let pts = &ctx.pts.points;
+    let mut rng = SplitMix64::new(seed);
+    let k = k.min(pts.len()).max(1);
+    let start =
+        cover::start(&pts[..ctx.pts.surface_count], &pts[ctx.pts.surface_count..], k, ctx.pts.h, seed, thinning);
+    let mut centres: Vec<DVec3> = start.iter().map(|x| x.0).collect();
+    let mut radii0: Vec<f64> = start.iter().map(|x| x.1).collect();
+    // New centres at random points not yet used: a bounded number of random draws, then the
+    // first unused points in order. A point set with fewer distinct points than k (three equal
+    // vertices, tiny far-apart triangles, a node scaled to 0) gives fewer centres instead of
+    // looping forever; the caller reports the shortfall.
+    let key = |p: DVec3| [(p.x + 0.0).to_bits(), (p.y + 0.0).to_bits(), (p.z + 0.0).to_bits()]; // -0 == 0
+    let mut used: std::collections::BTreeSet<[u64; 3]> = centres.iter().map(|c| key(*c)).collect();
+    let mut draws = 0usize;
+    let mut scan = 0usize;
+    while centres.len() < k {
+        let i = if draws < 64 * k {
+            draws += 1;
+            rng.below(pts.len() as u64) as usize
+        } else if scan < pts.len() {
+            scan += 1;
+            scan - 1
+        } else {
+            break;
+        };
+        if used.insert(key(pts[i])) {
+            centres.push(pts[i]);
+            radii0.push(0.0);
+        }
+    }
+    let from_cover = !start.is_empty();
+    // `memo`: the state the centres come from, whose unchanged clusters `update` reuses.
+    let step = |centres: &[DVec3], radii: Option<&[f64]>, memo: Option<&State>| -> State {
+        let assign = match radii {
+            Some(r) => power_assign(ctx.all, centres, r),
+            None => power_assign(ctx.all, centres, &cluster(ctx, centres, None).1),
+        };
+        update(ctx, centres, &assign, memo)
     };
-    update(ctx, centres, &assign, memo)
-}
-
-/// A Lloyd run that can stop after some iterations and go on later ([`Run::advance`]), so two
-/// starts can be raced ([`run_multi`]); [`run`] is one run advanced to its end.
-struct Run {
-    st: State,
-    iterations: usize,
-    tried: usize,
-    accepted: usize,
-    fails: usize,
-    history: Vec<TeleportRecord>,
-    /// Converged with teleportation over, or at the iteration limit.
-    done: bool,
-}
-
-impl Run {
-    /// The cover start (random points when it gives fewer than `k` centres) and its first step.
-    fn begin(ctx: &Ctx, k: usize, seed: u64, thinning: cover::Thinning) -> Run {
-        let pts = &ctx.pts.points;
-        let mut rng = SplitMix64::new(seed);
-        let k = k.min(pts.len()).max(1);
-        let start =
-            cover::start(&pts[..ctx.pts.surface_count], &pts[ctx.pts.surface_count..], k, ctx.pts.h, seed, thinning);
-        let mut centres: Vec<DVec3> = start.iter().map(|x| x.0).collect();
-        let mut radii0: Vec<f64> = start.iter().map(|x| x.1).collect();
-        // New centres at random points not yet used: a bounded number of random draws, then the
-        // first unused points in order. A point set with fewer distinct points than k (three equal
-        // vertices, tiny far-apart triangles, a node scaled to 0) gives fewer centres instead of
-        // looping forever; the caller reports the shortfall.
-        let key = |p: DVec3| [(p.x + 0.0).to_bits(), (p.y + 0.0).to_bits(), (p.z + 0.0).to_bits()]; // -0 == 0
-        let mut used: std::collections::BTreeSet<[u64; 3]> = centres.iter().map(|c| key(*c)).collect();
-        let mut draws = 0usize;
-        let mut scan = 0usize;
-        while centres.len() < k {
-            let i = if draws < 64 * k {
-                draws += 1;
-                rng.below(pts.len() as u64) as usize
-            } else if scan < pts.len() {
-                scan += 1;
-                scan - 1
+    let mut st = if from_cover { step(&centres, Some(&radii0), None) } else { step(&centres, None, None) };
+    let mut iterations = 1;
+    let mut tried = 0;
+    let mut accepted = 0;
+    let mut fails = 0;
+    let mut history = Vec::new();
+    while iterations < max_iterations {
+        centres.clone_from(&st.centres);
+        let next = step(&centres, Some(&st.radii), Some(&st));
+        iterations += 1;
+        let (e0, e1) = (st.energy(), next.energy());
+        if e1 < e0 {
+            st = next;
+        }
+        if e1 < e0 * (1.0 - 5e-3) {
+            continue;
+        }
+        // Converged: try teleportation.
+        if tried >= teleports || fails >= teleport_max_fails {
+            break;
+        }
+        // After a rejected teleportation, the next trial splits the next-worst cluster.
+        let Some((tc, tr)) = teleport(ctx, &st, fails) else { break };
+        tried += 1;
+        let mut trial = step(&tc, Some(&tr), Some(&st));
+        iterations += 1;
+        for _ in 0..2 {
+            if iterations >= max_iterations {
+                break;
+            }
+            let t2 = step(&trial.centres, Some(&trial.radii), Some(&trial));
+            iterations += 1;
+            if t2.energy() < trial.energy() {
+                trial = t2;
             } else {
                 break;
-            };
-            if used.insert(key(pts[i])) {
-                centres.push(pts[i]);
-                radii0.push(0.0);
             }
         }
-        let st =
-            if start.is_empty() { step(ctx, &centres, None, None) } else { step(ctx, &centres, Some(&radii0), None) };
-        Run { st, iterations: 1, tried: 0, accepted: 0, fails: 0, history: Vec::new(), done: false }
-    }
-
-    /// Iterates until the run is done or has `until` iterations (it then stops before the next
-    /// iteration; a teleportation trial under way finishes first).
-    fn advance(&mut self, ctx: &Ctx, limits: Limits, until: usize) {
-        let Limits { max_iterations, teleports, teleport_max_fails } = limits;
-        while !self.done && self.iterations < until {
-            if self.iterations >= max_iterations {
-                self.done = true;
-                break;
-            }
-            let st = &self.st;
-            let next = step(ctx, &st.centres, Some(&st.radii), Some(st));
-            self.iterations += 1;
-            let (e0, e1) = (st.energy(), next.energy());
-            if e1 < e0 {
-                self.st = next;
-            }
-            if e1 < e0 * (1.0 - 5e-3) {
-                continue;
-            }
-            // Converged: try teleportation.
-            if self.tried >= teleports || self.fails >= teleport_max_fails {
-                self.done = true;
-                break;
-            }
-            // After a rejected teleportation, the next trial splits the next-worst cluster.
-            let Some((tc, tr)) = teleport(ctx, &self.st, self.fails) else {
-                self.done = true;
-                break;
-            };
-            self.tried += 1;
-            let mut trial = step(ctx, &tc, Some(&tr), Some(&self.st));
-            self.iterations += 1;
-            for _ in 0..2 {
-                if self.iterations >= max_iterations {
-                    break;
-                }
-                let t2 = step(ctx, &trial.centres, Some(&trial.radii), Some(&trial));
-                self.iterations += 1;
-                if t2.energy() < trial.energy() {
-                    trial = t2;
-                } else {
-                    break;
-                }
-            }
-            let ok = trial.energy() < self.st.energy();
-            self.history.push(TeleportRecord { e_before: self.st.energy(), e_trial: trial.energy(), accepted: ok });
-            if ok {
-                self.st = trial;
-                self.accepted += 1;
-                self.fails = 0;
-            } else {
-                self.fails += 1;
-            }
+        let ok = trial.energy() < st.energy();
+        history.push(TeleportRecord { e_before: st.energy(), e_trial: trial.energy(), accepted: ok });
+        if ok {
+            st = trial;
+            accepted += 1;
+            fails = 0;
+        } else {
+            fails += 1;
         }
     }
-
-    fn outcome(self) -> LloydOutcome {
-        LloydOutcome {
-            state: self.st,
-            history: self.history,
-            iterations: self.iterations,
-            teleports_accepted: self.accepted,
-            teleports_tried: self.tried,
-        }
-    }
+    LloydOutcome { state: st, history, iterations, teleports_accepted: accepted, teleports_tried: tried }
 }
 
 /// Final polish on the full point set (every mesh vertex, edge midpoint and triangle
