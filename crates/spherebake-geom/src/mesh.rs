@@ -304,8 +304,8 @@ impl Mesh {
     /// On a skinned mesh two corners are the same only when their influences and bind
     /// positions are too: layers that coincide at rest but move apart when animated are kept.
     ///
-    /// Cost: O(T log T) (a sort of the corner triples, parallel), and O(T) to rebuild only
-    /// when some triangle is removed.
+    /// Cost: O(T) (a counting sort of the corner triples, `sorted_corner_keys`), and O(T) to
+    /// rebuild only when some triangle is removed.
     pub fn remove_duplicate_triangles(&mut self) -> usize {
         let (removed, balanced) = self.duplicate_triangles_balanced();
         self.set_surface_only(&removed, &balanced);
@@ -423,23 +423,8 @@ impl Mesh {
     /// winding as in the other (a face exported once per side), whose solid angles cancel.
     /// Stacked copies of one winding, or an unequal count of each, are not balanced.
     pub fn duplicate_triangles_balanced(&self) -> (Vec<bool>, Vec<bool>) {
-        use rayon::prelude::*;
         let ids = self.corner_ids();
-        let id = |v: u32| ids.get(v as usize).copied().unwrap_or(u32::MAX);
-        // (sorted corners, index, counter-clockwise in the sorted order).
-        let mut keys: Vec<([u32; 3], u32, bool)> = self
-            .triangles
-            .par_iter()
-            .enumerate()
-            .map(|(i, t)| {
-                let c = [id(t[0]), id(t[1]), id(t[2])];
-                let even = u8::from(c[0] < c[1]) + u8::from(c[1] < c[2]) + u8::from(c[2] < c[0]) == 2;
-                let mut k = c;
-                k.sort_unstable();
-                (k, i as u32, even)
-            })
-            .collect();
-        keys.par_sort_unstable();
+        let keys = sorted_corner_keys(&self.triangles, &ids);
         let mut removed = vec![false; self.triangles.len()];
         let mut balanced = vec![false; self.triangles.len()];
         for group in keys.chunk_by(|a, b| a.0 == b.0) {
@@ -551,9 +536,92 @@ impl Mesh {
     }
 }
 
+/// Per triangle (corner ids by `ids`, [`Mesh::corner_ids`]; `u32::MAX` for a vertex out of
+/// range): (its corner ids sorted, its index, whether it is counter-clockwise in the sorted
+/// order), the list in ascending tuple order, as sorting it would give (the indices make the
+/// tuples distinct, so the order is unique). Bucketed by the smallest corner id (a counting
+/// sort over the ids; every id out of range, `u32::MAX`, in one last bucket), then each bucket
+/// sorted on its own: a corner is the smallest of a handful of triangles, so this is O(T)
+/// where a comparison sort of all T tuples was a tenth of the bunny's OBJ import.
+fn sorted_corner_keys(triangles: &[[u32; 3]], ids: &[u32]) -> Vec<([u32; 3], u32, bool)> {
+    let id = |v: u32| ids.get(v as usize).copied().unwrap_or(u32::MAX);
+    let key = |i: usize, t: &[u32; 3]| {
+        let c = [id(t[0]), id(t[1]), id(t[2])];
+        let even = u8::from(c[0] < c[1]) + u8::from(c[1] < c[2]) + u8::from(c[2] < c[0]) == 2;
+        let mut k = c;
+        k.sort_unstable();
+        (k, i as u32, even)
+    };
+    // Ids are below `ids.len()` (or `u32::MAX`): bucket `b` holds the smallest id b, the last
+    // bucket the rest. `start[b]..start[b + 1]` will hold bucket b.
+    let buckets = ids.len() + 1;
+    let bucket = |k: &[u32; 3]| (k[0] as usize).min(buckets - 1);
+    let mut start = vec![0usize; buckets + 1];
+    for (i, t) in triangles.iter().enumerate() {
+        start[bucket(&key(i, t).0) + 1] += 1;
+    }
+    for b in 0..buckets {
+        start[b + 1] += start[b];
+    }
+    let mut fill = start.clone();
+    let mut keys = vec![([0u32; 3], 0u32, false); triangles.len()];
+    for (i, t) in triangles.iter().enumerate() {
+        let k = key(i, t);
+        let b = bucket(&k.0);
+        keys[fill[b]] = k;
+        fill[b] += 1;
+    }
+    for b in 0..buckets {
+        keys[start[b]..start[b + 1]].sort_unstable();
+    }
+    keys
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The bucketed corner keys are the keys sorted, as a comparison sort gives them (repeated,
+    /// reversed and out-of-range corners, ids shared by several vertices, a vertex of many).
+    #[test]
+    fn sorted_corner_keys_are_the_sorted_tuples() {
+        let mut x = 0x9E37_79B9_7F4A_7C15u64;
+        let mut next = |n: u64| {
+            x ^= x << 13;
+            x ^= x >> 7;
+            x ^= x << 17;
+            (x % n) as u32
+        };
+        for round in 0..50u32 {
+            let verts = 1 + round * 5;
+            // Ids shared by vertex pairs (a weld); vertices past `verts` are out of range.
+            let ids: Vec<u32> = (0..verts).map(|v| v / 2).collect();
+            let tris: Vec<[u32; 3]> = (0..round * 11)
+                .map(|i| match i % 6 {
+                    0 => [0, next(verts as u64), next(verts as u64)],
+                    1 => [next(verts as u64 + 3), verts + next(4), next(verts as u64)],
+                    2 => [verts + 1, verts + 2, verts + next(3)],
+                    _ => [0; 3].map(|_| next(verts as u64)),
+                })
+                .collect();
+            let id = |v: u32| ids.get(v as usize).copied().unwrap_or(u32::MAX);
+            let mut want: Vec<([u32; 3], u32, bool)> = tris
+                .iter()
+                .enumerate()
+                .map(|(i, t)| {
+                    let c = t.map(id);
+                    let even = u8::from(c[0] < c[1]) + u8::from(c[1] < c[2]) + u8::from(c[2] < c[0]) == 2;
+                    let mut k = c;
+                    k.sort_unstable();
+                    (k, i as u32, even)
+                })
+                .collect();
+            want.sort_unstable();
+            assert_eq!(sorted_corner_keys(&tris, &ids), want, "round {round}");
+        }
+        assert!(sorted_corner_keys(&[], &[]).is_empty());
+        assert_eq!(sorted_corner_keys(&[[5, 6, 7]], &[]), vec![([u32::MAX; 3], 0, false)]);
+    }
 
     /// `append` keeps uvs[k] = TEXCOORD_k for every vertex: a part without a set gets
     /// [`NO_UV`] (not (0, 0), which would read a texel), and a set absent from both stays empty.
