@@ -8,6 +8,7 @@
 //! (glTF: metres), colours in linear RGB unless a name says `srgb`.
 
 pub mod anim;
+mod bucket;
 pub mod bvh;
 pub mod edges;
 pub mod mesh;

@@ -553,28 +553,10 @@ fn sorted_corner_keys(triangles: &[[u32; 3]], ids: &[u32]) -> Vec<([u32; 3], u32
         (k, i as u32, even)
     };
     // Ids are below `ids.len()` (or `u32::MAX`): bucket `b` holds the smallest id b, the last
-    // bucket the rest. `start[b]..start[b + 1]` will hold bucket b.
+    // bucket the rest.
     let buckets = ids.len() + 1;
-    let bucket = |k: &[u32; 3]| (k[0] as usize).min(buckets - 1);
-    let mut start = vec![0usize; buckets + 1];
-    for (i, t) in triangles.iter().enumerate() {
-        start[bucket(&key(i, t).0) + 1] += 1;
-    }
-    for b in 0..buckets {
-        start[b + 1] += start[b];
-    }
-    let mut fill = start.clone();
-    let mut keys = vec![([0u32; 3], 0u32, false); triangles.len()];
-    for (i, t) in triangles.iter().enumerate() {
-        let k = key(i, t);
-        let b = bucket(&k.0);
-        keys[fill[b]] = k;
-        fill[b] += 1;
-    }
-    for b in 0..buckets {
-        keys[start[b]..start[b + 1]].sort_unstable();
-    }
-    keys
+    let keys = || triangles.iter().enumerate().map(|(i, t)| key(i, t));
+    crate::bucket::bucket_sorted(keys, buckets, |k| (k.0[0] as usize).min(buckets - 1))
 }
 
 #[cfg(test)]
@@ -585,13 +567,8 @@ mod tests {
     /// reversed and out-of-range corners, ids shared by several vertices, a vertex of many).
     #[test]
     fn sorted_corner_keys_are_the_sorted_tuples() {
-        let mut x = 0x9E37_79B9_7F4A_7C15u64;
-        let mut next = |n: u64| {
-            x ^= x << 13;
-            x ^= x >> 7;
-            x ^= x << 17;
-            (x % n) as u32
-        };
+        let mut rng = spherebake_testkit::rng::SplitMix64::new(0x9E37_79B9_7F4A_7C15);
+        let mut next = |n: u64| (rng.next_u64() % n) as u32;
         for round in 0..50u32 {
             let verts = 1 + round * 5;
             // Ids shared by vertex pairs (a weld); vertices past `verts` are out of range.

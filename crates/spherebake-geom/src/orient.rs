@@ -283,29 +283,9 @@ fn sorted_edges(triangles: &[[u32; 3]], keep: impl Fn(usize) -> bool) -> Vec<(u3
             (a.min(b), a.max(b), a < b)
         })
     };
-    // Bucket starts: `start[v]..start[v + 1]` will hold the edges whose lo is v.
     let buckets = kept().flat_map(|(_, tri)| edges_of(tri)).map(|e| e.0 as usize + 1).max().unwrap_or(0);
-    let mut start = vec![0usize; buckets + 1];
-    for (_, tri) in kept() {
-        for (lo, _, _) in edges_of(tri) {
-            start[lo as usize + 1] += 1;
-        }
-    }
-    for v in 0..buckets {
-        start[v + 1] += start[v];
-    }
-    let mut fill = start.clone();
-    let mut edges = vec![(0u32, 0u32, false, 0u32); start[buckets]];
-    for (t, tri) in kept() {
-        for (lo, hi, forward) in edges_of(tri) {
-            edges[fill[lo as usize]] = (lo, hi, forward, t as u32);
-            fill[lo as usize] += 1;
-        }
-    }
-    for v in 0..buckets {
-        edges[start[v]..start[v + 1]].sort_unstable();
-    }
-    edges
+    let edges = || kept().flat_map(|(t, tri)| edges_of(tri).map(|(lo, hi, forward)| (lo, hi, forward, t as u32)));
+    crate::bucket::bucket_sorted(edges, buckets, |e| e.0 as usize)
 }
 
 /// `triangles` with each one that `flip` marks turned over (its last two corners swapped): the
