@@ -520,9 +520,9 @@ impl SphereTree {
         id
     }
 
-    /// The sphere whose segment holds `p`: (index, centre) of argmin_j |p − c_j| / r_j, ties to
-    /// the lowest index (the answer [`segment_of`] gives), with its slot in `spheres`; `None`
-    /// without spheres. `hint`, a slot of `spheres` (the owner of a nearby point), only sets
+    /// The sphere whose segment holds `p`, argmin_j |p − c_j| / r_j with ties to the lowest
+    /// index (the answer [`segment_of`] gives), as (its slot in `spheres`, index, centre);
+    /// `None` without spheres. `hint`, a slot of `spheres` (the owner of a nearby point), only sets
     /// the first bound: every sphere at most as far as the hint's is still visited, so the
     /// answer is the same with any hint or none, and a good one prunes most nodes.
     fn owner(&self, spheres: &[(DVec3, f64, usize)], p: DVec3, hint: Option<usize>) -> Option<(usize, usize, DVec3)> {
