@@ -175,9 +175,9 @@ pub const GEODESIC_DIRECTIONS: [[f32; 3]; GEODESIC_DIRECTION_COUNT] = [
 /// 3.6 candidates on average over random directions).
 const NEAREST_FACE_TEXELS: usize = 32;
 
-/// Largest |component| of a vector [`NearestDirection`] answers from its table; a larger or
-/// smaller one (and a zero or non-finite one) scans all 92 directions, so dot products never
-/// overflow or lose the table's margin to underflow.
+/// The range of a vector's largest |component| that [`NearestDirection`] answers from its
+/// table; outside it (zero included) or with a component that is not finite it scans all 92
+/// directions, so the dot products never overflow or lose the table's margin to underflow.
 const NEAREST_TABLE_RANGE: [f64; 2] = [1e-100, 1e100];
 
 /// The first index of the largest `dirs[q] · d` (x·x' + y·y' + z·z'), 0 when there is none.
@@ -195,12 +195,13 @@ fn scan_nearest(dirs: &[[f64; 3]; GEODESIC_DIRECTION_COUNT], d: [f64; 3]) -> usi
 /// Which of the 92 geodesic directions a vector points along: the index q of the largest
 /// `GEODESIC_DIRECTIONS[q] · d` (the f32 table read as f64; ties to the lowest index), the
 /// sample direction whose Voronoi cell holds d. A cube-map table lists, per texel, the
-/// directions that can win anywhere in that texel, so a query tests about 4 of them instead of 92
-/// and returns the index a scan of all 92 returns, bit for bit: a direction left out of a
-/// texel's list has a dot product below the texel's best by at least 2 × 10⁻⁹ |d| everywhere
+/// directions that can win anywhere in that texel, so a query tests about 4 of them instead
+/// of 92 and returns the index a scan of all 92 returns, bit for bit: a direction left out of
+/// a texel's list has a dot product below the texel's best by at least 2 × 10⁻⁹ |d| everywhere
 /// in the texel (a texel reaches at most δ in chord length from its centre x₀, so with p the
 /// best direction at x₀, (q − p)·x moves by at most |q − p| δ within it: q is listed when
-/// (q − p)·x₀ ≥ −|q − p| δ − 4 × 10⁻⁹), far above the dot products' rounding (≈ 10⁻¹⁵ |d|). Built in O(6144 × 92) (well under a millisecond); a query is O(1).
+/// (q − p)·x₀ ≥ −|q − p| δ − 4 × 10⁻⁹), far above the dot products' rounding (≈ 10⁻¹⁵ |d|).
+/// Built in O(6144 × 92), about 2 ms on one core; a query is O(1).
 #[derive(Clone, Debug)]
 pub struct NearestDirection {
     /// Texel t (face-major, row t = j·n + i) lists `cand[start[t]..start[t + 1]]`.
