@@ -2,7 +2,7 @@
 //! e.g. `... -- bunny.obj 16,32,64,128,256 variational,kmeans,octree 3`.
 //! Prints E (exact), the union outside ratio, and wall time (median of `runs`) per stage.
 //! Environment overrides: SB_POINTS, SB_VOXEL, SB_ITERS, SB_POLISH, SB_SEED, SB_STARTS,
-//! SB_TRIALS, SB_SEAMS, SB_TELE, SB_SUBDIV,
+//! SB_BOTH_THINNINGS (true|false), SB_TRIALS, SB_SEAMS, SB_TELE, SB_SUBDIV,
 //! SB_SEAM_TRIALS, SB_BUDGET, SB_SEAM_BUDGET, SB_DGRID (descent_grid_cells), SB_SEAM_SPACING,
 //! SB_PCELL, SB_PBUDGET, SB_BAND_SWEEPS, SB_BAND_WIDTH, SB_PAIR_CUT, SB_GAP_ROUNDS, SB_SWEEPS
 //! (descent_sweeps), SB_POWELL (powell_sweeps); SB_PRESET=fast|default|best starts from that plan
@@ -92,6 +92,7 @@ fn main() {
             set!(plan.point_cell, "SB_PCELL");
             set!(plan.point_budget, "SB_PBUDGET");
             set!(plan.starts, "SB_STARTS");
+            set!(plan.both_thinnings, "SB_BOTH_THINNINGS");
             set!(plan.band_sweeps, "SB_BAND_SWEEPS");
             set!(plan.band_width_cells, "SB_BAND_WIDTH");
             set!(plan.start_tie, "SB_START_TIE");

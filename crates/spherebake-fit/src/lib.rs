@@ -1037,7 +1037,8 @@ fn thin_surface(v: &mut Vec<DVec3>, prep: &Prepared, plan: &FitPlan) {
 /// Stage 2, Lloyd on the sparse clustering points ([`lloyd::run_multi`]): inner-ball cover
 /// start, power assignment + Powell centre updates, teleportation when progress stalls; the
 /// lowest proxy E of `plan.starts` seeded starts, each run from both thinnings of the cover
-/// start when its sets are capped ([`cover::Thinning`]; the two runs at once). Cost per
+/// start when its sets are capped ([`cover::Thinning`]; the two runs at once), or from the
+/// even one only (`plan.both_thinnings` false). Cost per
 /// iteration O(points × spheres per cell) for the assignment plus O(spheres × Powell
 /// evaluations × r²/h²) for the updates, at most `plan.max_iterations` iterations per start
 /// and thinning.
@@ -1047,7 +1048,7 @@ fn lloyd_stage(ctx: &lloyd::Ctx, k: usize, seed: u64, plan: &FitPlan) -> lloyd::
         teleports: plan.teleport_attempts,
         teleport_max_fails: plan.teleport_max_fails,
     };
-    lloyd::run_multi(ctx, k, seed, limits, plan.starts)
+    lloyd::run_multi(ctx, k, seed, limits, plan.starts, plan.both_thinnings)
 }
 
 /// Stage 3, polish on the dense points ([`lloyd::polish`]): `plan.polish_rounds` rounds of

@@ -608,10 +608,13 @@ pub struct Limits {
 /// thinning (two Lloyd runs at once), since neither start is better everywhere and Lloyd's
 /// own proxy E ranks them: measured at 64 spheres (whole bakes, seeds 1–8 of the bunny, 1–4
 /// of spot, 1–3 of the Duck) and at 128 (seeds 1–4 of the bunny), the run of lower Lloyd
-/// proxy ended at the lower exact E in 17 of 19 runs; see `docs/benchmarks.md`.
-pub fn run_multi(ctx: &Ctx, k: usize, seed: u64, limits: Limits, starts: usize) -> LloydOutcome {
+/// proxy ended at the lower exact E in 17 of 19 runs; see `docs/benchmarks.md`. With
+/// `both_thinnings` false (the `fast` plan, [`crate::FitPlan::both_thinnings`]) each seeded
+/// start runs once, from the even thinning.
+pub fn run_multi(ctx: &Ctx, k: usize, seed: u64, limits: Limits, starts: usize, both_thinnings: bool) -> LloydOutcome {
     let n_surface = ctx.pts.surface_count;
-    let both = cover::is_capped(n_surface, ctx.pts.points.len() - n_surface, k);
+    // Within the cap both thinnings keep every point, so they give the same start.
+    let both = both_thinnings && cover::is_capped(n_surface, ctx.pts.points.len() - n_surface, k);
     let mut best: Option<LloydOutcome> = None;
     for s in 0..starts.max(1) as u64 {
         let seed = seed ^ s.wrapping_mul(0x9E37_79B9_7F4A_7C15);
@@ -622,7 +625,7 @@ pub fn run_multi(ctx: &Ctx, k: usize, seed: u64, limits: Limits, starts: usize) 
             );
             (a, Some(b))
         } else {
-            (run(ctx, k, seed, limits, cover::Thinning::Strided), None)
+            (run(ctx, k, seed, limits, cover::Thinning::Even), None)
         };
         for o in std::iter::once(a).chain(b) {
             if best.as_ref().is_none_or(|b| o.state.energy() < b.state.energy()) {
@@ -967,6 +970,32 @@ mod tests {
         (solid, pts)
     }
 
+    /// A state's centres, radii and outside volumes, bit for bit.
+    fn bits(s: &State) -> Vec<u64> {
+        let v = s.centres.iter().flat_map(|c| c.to_array()).chain(s.radii.iter().copied());
+        v.chain(s.outside.iter().copied()).map(f64::to_bits).collect()
+    }
+
+    /// With one thinning `run_multi` runs Lloyd from the even one; with both, it keeps the run
+    /// of lower proxy E. The sets are capped here, so the two starts differ (else the test
+    /// could not tell which one ran).
+    #[test]
+    fn run_multi_runs_the_even_thinning_alone_or_keeps_the_lower_of_both() {
+        let (solid, pts) = setup();
+        let ctx = Ctx { solid: &solid, pts: &pts, all: &pts.reps, powell_sweeps: 2 };
+        let k = 2;
+        assert!(cover::is_capped(pts.surface_count, pts.points.len() - pts.surface_count, k));
+        let limits = Limits { max_iterations: 6, teleports: 1, teleport_max_fails: 2 };
+        for seed in [3, 9] {
+            let strided = run(&ctx, k, seed, limits, cover::Thinning::Strided);
+            let even = run(&ctx, k, seed, limits, cover::Thinning::Even);
+            assert_ne!(bits(&strided.state), bits(&even.state), "seed {seed}");
+            assert_eq!(bits(&run_multi(&ctx, k, seed, limits, 1, false).state), bits(&even.state), "seed {seed}");
+            let lower = if even.state.energy() < strided.state.energy() { &even } else { &strided };
+            assert_eq!(bits(&run_multi(&ctx, k, seed, limits, 1, true).state), bits(&lower.state), "seed {seed}");
+        }
+    }
+
     /// The memo returns what a fresh search returns, bit for bit, and only reuses a cluster
     /// whose start and members both match: each cluster's update from the previous state's
     /// centres (most clusters match, some do not) equals the update without a memo; a memo
@@ -981,17 +1010,6 @@ mod tests {
         let centres: Vec<DVec3> = (0..k).map(|_| pts.points[rng.below(pts.points.len() as u64) as usize]).collect();
         let radii = cluster(&ctx, &centres, None).1;
         let st = update(&ctx, &centres, &power_assign(ctx.all, &centres, &radii), None);
-        let bits = |s: &State| {
-            let v: Vec<u64> = s
-                .centres
-                .iter()
-                .flat_map(|c| c.to_array())
-                .chain(s.radii.iter().copied())
-                .chain(s.outside.iter().copied())
-                .map(f64::to_bits)
-                .collect();
-            v
-        };
         let mut reused = 0;
         let mut s = st.clone();
         for _ in 0..6 {
