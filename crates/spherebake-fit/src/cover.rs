@@ -282,7 +282,8 @@ const MIN_SAMPLES: usize = 256;
 
 /// How [`start`] holds a set larger than [`sample_cap`] to about the cap. The two give
 /// different starts, and neither is better everywhere: Lloyd runs from both when a set is
-/// capped ([`is_capped`]) and keeps the lower proxy E (see [`crate::lloyd::run_multi`]).
+/// capped ([`is_capped`]) and keeps the lower proxy E (see [`crate::lloyd::run_multi`]), or
+/// from the even one alone when the plan says so ([`crate::FitPlan::both_thinnings`]).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Thinning {
     /// Every s-th point in the set's order, s = ⌈len / cap⌉: between half the cap and the cap.

@@ -107,8 +107,8 @@ pub struct FitPlan {
     /// Powell direction-set sweeps per centre update (Lloyd and polish). Range 1..=20.
     pub powell_sweeps: usize,
     /// Independent seeded Lloyd starts; the lowest proxy E is kept. Cost ∝ starts (each start
-    /// runs from both thinnings of the cover start when its sets are capped).
-    /// Range 1..=16.
+    /// runs from both thinnings of the cover start when its sets are capped and
+    /// [`FitPlan::both_thinnings`] is set). Range 1..=16.
     pub starts: usize,
     /// When the cover start thins its sets (`cover::is_capped`), each start runs Lloyd from both
     /// thinnings, strided and spatially even, and keeps the lower proxy E (true); or from the
