@@ -1,5 +1,10 @@
-//! Wavefront OBJ + MTL import via `tobj` (one vertex per distinct position / UV / normal
-//! corner; polygons triangulated by [`crate::polygon`]).
+//! Wavefront OBJ + MTL import: the OBJ's lines checked here ([`check_lines`]), its geometry read
+//! by [`crate::obj_parse`] into tobj's structs exactly as `tobj` 4.0.5 reads it (one vertex per
+//! distinct position / UV / normal corner; faces as they are, not triangulated), the MTL files
+//! by `tobj::load_mtl_buf`; polygons triangulated by [`crate::polygon`] (tobj would fan them,
+//! covering area outside a concave one). "tobj" below means tobj 4.0.5's reading of the OBJ
+//! text, which [`crate::obj_parse`] reproduces: the check and the rewrite ([`tobj_text`]) are
+//! written against it.
 
 use std::cell::RefCell;
 use std::collections::HashMap;
@@ -467,16 +472,8 @@ fn tobj_text<'a>(text: &'a str, rewrite: &Rewrite) -> std::borrow::Cow<'a, str> 
     std::borrow::Cow::Owned(out)
 }
 
-/// How tobj loads: faces as they are (polygons are triangulated here, [`crate::polygon`]: tobj
-/// fans them, covering area outside a concave one), one vertex per distinct position / UV /
-/// normal corner; line and point elements are not surfaces ([`tobj_text`] has removed the `l`
-/// lines too: tobj reads one of three or more vertices as a face).
-fn tobj_options() -> tobj::LoadOptions {
-    tobj::LoadOptions { triangulate: false, single_index: true, ignore_lines: true, ignore_points: true }
-}
-
-/// The faces of a tobj mesh loaded with [`tobj_options`]: each face's corners (indices into its
-/// vertices). `face_arities` is empty when every face is a triangle.
+/// The faces of a tobj mesh as [`crate::obj_parse::load_obj`] reads them (not triangulated):
+/// each face's corners (indices into its vertices). `face_arities` is empty when every face is a triangle.
 fn faces(m: &tobj::Mesh) -> impl Iterator<Item = &[u32]> {
     let mut rest = m.indices.as_slice();
     let mut arities = m.face_arities.iter();
@@ -547,7 +544,6 @@ pub(crate) fn import(ctx: &mut Ctx, bytes: &[u8]) -> Result<(Mesh, Vec<ImportedP
     let path = ctx.path.clone();
     let text = text_of(bytes);
     let rewrite = check_lines(&path, &text)?;
-    let opts = tobj_options();
     // MTL files read by tobj's callback: (resolved path, bytes or the read error).
     let mtl_reads: RefCell<Vec<MtlRead>> = RefCell::new(Vec::new());
     // The folder of each library tobj appends materials from, with their count, in order: a
@@ -589,7 +585,7 @@ pub(crate) fn import(ctx: &mut Ctx, bytes: &[u8]) -> Result<(Mesh, Vec<ImportedP
         mtl_reads.borrow_mut().push((full, read, parse_error));
         result
     };
-    let (models, materials) = tobj::load_obj_buf(&mut std::io::Cursor::new(text.as_bytes()), &opts, |p: &Path| {
+    let (models, materials) = crate::obj_parse::load_obj(&text, |p: &Path| {
         // tobj gives the `mtllib` line's text after the keyword ([`tobj_text`]). One statement may
         // name several libraries (`mtllib a.mtl b.mtl`), but a file whose name has spaces
         // (`mtllib my lib.mtl`) is read whole when there is one.
@@ -1308,6 +1304,9 @@ fn parse_map_args(line: &str) -> MapArgs<'_> {
 }
 
 #[cfg(test)]
+mod differential;
+
+#[cfg(test)]
 mod tests {
     use super::*;
 
@@ -1666,11 +1665,12 @@ mod tests {
                     // What the check accepts, tobj reads from the text it is given, with every
                     // face and no more: no error without a line number after the check.
                     let fed = tobj_text(&text, rewrite);
-                    let (models, _) =
-                        tobj::load_obj_buf(&mut std::io::Cursor::new(fed.as_bytes()), &tobj_options(), |_| {
-                            Err(tobj::LoadError::OpenFileFailed)
-                        })
-                        .unwrap_or_else(|e| panic!("seed {seed}: tobj: {e}"));
+                    let (models, _) = tobj::load_obj_buf(
+                        &mut std::io::Cursor::new(fed.as_bytes()),
+                        &crate::obj_parse::tobj_options(),
+                        |_| Err(tobj::LoadError::OpenFileFailed),
+                    )
+                    .unwrap_or_else(|e| panic!("seed {seed}: tobj: {e}"));
                     let got: usize = models.iter().flat_map(|m| faces(&m.mesh)).map(|f| f.len() - 2).sum();
                     assert_eq!(got, triangles, "seed {seed}: triangles");
                     assert_eq!(fed.lines().count(), text.lines().count(), "seed {seed}: line count");
