@@ -47,7 +47,7 @@
 
 use std::collections::hash_map::Entry;
 use std::collections::HashMap;
-use std::hash::{BuildHasherDefault, Hasher};
+use std::hash::Hasher;
 use std::path::Path;
 
 use tobj::{LoadError, LoadResult, MTLLoadResult, Material, Mesh, Model};
@@ -69,16 +69,29 @@ struct Corner {
 /// A corner slot with no index (tobj's `MISSING_INDEX`).
 const ABSENT: usize = usize::MAX;
 
-/// A fast deterministic hasher for [`Corner`] keys: each `usize` written is mixed in by a
-/// 64 × 64 → 128-bit multiply folded to 64 bits. Not keyed: a file crafted for collisions could
-/// make its import slow, never wrong (std's SipHash map, as tobj used, was the larger part of
-/// tobj's cost).
+/// A fast hasher for [`Corner`] keys: each `usize` written is mixed in by a 64 × 64 → 128-bit
+/// multiply folded to 64 bits, from a per-map random key ([`FoldKey`]), so a file cannot be
+/// crafted to make its corners collide (std's SipHash map, as tobj used, was the larger part of
+/// tobj's cost). The map is only looked up, never iterated, so the key changes no output.
 #[derive(Clone, Copy, Debug)]
 struct FoldHasher(u64);
 
-impl Default for FoldHasher {
+/// The [`std::hash::BuildHasher`] of [`FoldHasher`]: its start value drawn from std's
+/// `RandomState` (randomly keyed per process) when the map is made.
+#[derive(Clone, Copy, Debug)]
+struct FoldKey(u64);
+
+impl Default for FoldKey {
     fn default() -> Self {
-        FoldHasher(0x243F_6A88_85A3_08D3)
+        use std::hash::BuildHasher;
+        FoldKey(std::collections::hash_map::RandomState::new().hash_one(0x243F_6A88_85A3_08D3u64))
+    }
+}
+
+impl std::hash::BuildHasher for FoldKey {
+    type Hasher = FoldHasher;
+    fn build_hasher(&self) -> FoldHasher {
+        FoldHasher(self.0)
     }
 }
 
@@ -334,7 +347,7 @@ struct Parser {
     /// The current model's generation (never 0: 0 marks an unused `first` entry).
     generation: u32,
     /// Corner → its vertex number in the current model, for the corners not in `first`.
-    numbers: HashMap<Corner, u32, BuildHasherDefault<FoldHasher>>,
+    numbers: HashMap<Corner, u32, FoldKey>,
     /// A corner of the current model named a position not yet defined.
     ahead: bool,
     /// The corners of the face being read (reused).
@@ -526,6 +539,18 @@ fn definition(data: &[f32], index: usize, k: usize) -> Option<&[f32]> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Each map's hasher starts from its own random key, so which corners share a bucket
+    /// cannot be known from the file (and the same corner hashes alike within one map).
+    #[test]
+    fn each_corner_map_has_its_own_key() {
+        use std::hash::BuildHasher;
+        let corner = Corner { v: 7, vt: ABSENT, vn: 3 };
+        let keys: Vec<FoldKey> = (0..4).map(|_| FoldKey::default()).collect();
+        let hashes: std::collections::BTreeSet<u64> = keys.iter().map(|k| k.hash_one(corner)).collect();
+        assert_eq!(hashes.len(), 4, "{keys:?}");
+        assert_eq!(keys[0].hash_one(corner), keys[0].hash_one(corner));
+    }
 
     /// [`Words`] splits as `str::split_whitespace` does, every whitespace character included.
     #[test]
