@@ -518,7 +518,14 @@ impl Parser {
         self.faces = 0;
         self.all_triangles = true;
         self.unique.clear();
-        self.numbers.clear();
+        // A map's `clear` costs its capacity: after a model that filled a large map, many small
+        // models would each pay for it. A map much larger than its use is replaced instead, so
+        // a model's end costs what the model used (regrowing is amortised in its insertions).
+        if self.numbers.capacity() > 4 * self.numbers.len() + 64 {
+            self.numbers = HashMap::default();
+        } else {
+            self.numbers.clear();
+        }
         self.ahead = false;
         // A new generation leaves every `first` entry stale (cleared when the count wraps).
         self.generation = self.generation.wrapping_add(1);
@@ -539,6 +546,42 @@ fn definition(data: &[f32], index: usize, k: usize) -> Option<&[f32]> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A model's end costs what the model used: after a model whose corners filled a large map,
+    /// a small model's end leaves a small map, not the large one cleared (a clear costs the
+    /// capacity, at every later model's end).
+    #[test]
+    fn a_small_model_after_a_large_one_does_not_keep_its_map() {
+        let mut text = String::from("o big\n");
+        for i in 0..3000 {
+            text.push_str(&format!("v {i} 0 0\nvt 0 0\nvt 1 0\nvt 0 1\n"));
+        }
+        // Each position with three texture coordinates: two of each three corners go through the map.
+        for i in 1..=3000 {
+            let t = 3 * i - 2;
+            text.push_str(&format!("f {i}/{t} {i}/{} {i}/{}\n", t + 1, t + 2));
+        }
+        let mut p = Parser::default();
+        for line in text.lines() {
+            if let Some(rest) = line.strip_prefix("v ") {
+                p.vertex(words(rest)).unwrap();
+            } else if let Some(rest) = line.strip_prefix("vt ") {
+                read_floats::<2>(&mut words(rest), &mut p.texcoords).unwrap();
+            } else if let Some(rest) = line.strip_prefix("f ") {
+                p.face(words(rest)).unwrap();
+            }
+        }
+        let used = p.numbers.len();
+        assert!(used >= 6000, "{used}");
+        // The model that filled the map keeps it, cleared: the next may need as much.
+        p.end_model().unwrap();
+        assert!(p.numbers.is_empty() && p.numbers.capacity() >= used, "{}", p.numbers.capacity());
+        // A small model after it (two corners through the map) ends with a small map.
+        p.face(words("1/1 1/2 1/3")).unwrap();
+        assert_eq!(p.numbers.len(), 2);
+        p.end_model().unwrap();
+        assert!(p.numbers.capacity() < 256, "{}", p.numbers.capacity());
+    }
 
     /// Each map's hasher starts from its own random key, so which corners share a bucket
     /// cannot be known from the file (and the same corner hashes alike within one map).
