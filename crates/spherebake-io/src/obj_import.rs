@@ -473,7 +473,8 @@ fn tobj_text<'a>(text: &'a str, rewrite: &Rewrite) -> std::borrow::Cow<'a, str> 
 }
 
 /// The faces of a tobj mesh as [`crate::obj_parse::load_obj`] reads them (not triangulated):
-/// each face's corners (indices into its vertices). `face_arities` is empty when every face is a triangle.
+/// each face's corners (indices into its vertices). `face_arities` is empty when every face is
+/// a triangle.
 fn faces(m: &tobj::Mesh) -> impl Iterator<Item = &[u32]> {
     let mut rest = m.indices.as_slice();
     let mut arities = m.face_arities.iter();
