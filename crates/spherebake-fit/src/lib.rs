@@ -1427,7 +1427,8 @@ fn add_timing(timings: &mut Vec<(&'static str, f64)>, stage: &'static str, secs:
 /// cover start O(k × S_b) per doubling of its dilation, its samples and candidates capped at
 /// 125 per sphere (at most 8000) and S_b the samples one candidate ball covers, so it follows
 /// k (see the `cover` module); when a set is capped, the start and Lloyd run twice (two
-/// thinnings, at once on two threads); each Lloyd iteration and polish round costs
+/// thinnings, at once on two threads; once with `plan.both_thinnings` off, as in `fast`); each
+/// Lloyd iteration and polish round costs
 /// O((P or D) × spheres per grid cell) for the assignment plus
 /// O(k × Powell evaluations × (r/h)²) for the centre updates, since one proxy ball volume
 /// reads O((r/h)²) voxel rows; the descent's trials stop at a fixed work budget counted in
