@@ -11,7 +11,8 @@
 //!    resolves), the interior lattice points;
 //! 2. **Lloyd** on the sparse points: a greedy cover of surface samples by dilated inner balls
 //!    as the start ([`cover`]-module; seeded tie order; when its sets are capped, Lloyd runs
-//!    from a strided and from a spatially even thinning and keeps the lower proxy E), power
+//!    from a strided and from a spatially even thinning and keeps the lower proxy E; `fast`
+//!    from the even one only, [`FitPlan::both_thinnings`]), power
 //!    assignment (each point to the containing sphere it lies deepest in: monotone, unlike
 //!    the paper's flood fill, which is kept only as the fallback when the cover start is
 //!    empty), a per-cluster Powell update of the centre minimising the proxy outside volume
