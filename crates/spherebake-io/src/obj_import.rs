@@ -266,7 +266,7 @@ fn is_data(key: Option<&str>) -> bool {
 /// the keyword, trimmed), and as tobj 4.0.5 reads it (after the line's first space, trimmed).
 fn names<'a>(line: &'a str, key: &str) -> (&'a str, &'a str) {
     let ours = line.trim_start().get(key.len()..).unwrap_or("").trim();
-    (ours, line.split_once(' ').map_or("", |x| x.1.trim()))
+    (ours, crate::obj_parse::after_first_space(line))
 }
 
 /// The keyword of a logical line (comment removed) and its other tokens.

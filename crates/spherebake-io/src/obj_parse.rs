@@ -247,8 +247,8 @@ where
 }
 
 /// The text after a line's first space, trimmed (`""` without a space): tobj's `usemtl` and
-/// `mtllib` name.
-fn after_first_space(line: &str) -> &str {
+/// `mtllib` name (the line check in `obj_import` reads it here too).
+pub(crate) fn after_first_space(line: &str) -> &str {
     line.split_once(' ').map_or("", |(_, name)| name.trim())
 }
 
