@@ -175,7 +175,8 @@ struct AreaTotals {
 
 /// The surface area each sample stands for (spec §7.2, format minor 2), one per sample in
 /// `samples` order, f32 model units². Every triangle is split uniformly into m² sub-triangles
-/// (m = ⌈longest edge / h⌉, h = [`AREA_EDGE_PER_RADIUS`] × the median valid radius, coarsened
+/// (m = ⌈longest edge / h⌉, h = [`AREA_EDGE_PER_RADIUS`] × the median radius of the spheres
+/// with samples, at least the mesh's longest edge / [`AREA_MAX_SPLIT`], coarsened
 /// until at most [`AREA_MAX_POINTS`] sub-triangles and [`AREA_MAX_POINTS_PER_SAMPLE`] per sample,
 /// or one per triangle, m ≤ [`AREA_MAX_SPLIT`]); each sub-triangle's
 /// area goes to the sphere whose segment holds its centroid (smallest scaled distance, the same
@@ -214,7 +215,11 @@ fn sample_areas(mesh: &Mesh, ctx: &Ctx<'_>, samples: &Samples) -> (Vec<f32>, Are
             }
         }
     }
-    let mut radii: Vec<f64> = ctx.spheres.iter().map(|s| s.1).collect();
+    // The median radius of the spheres that carry samples: a fit stores the spheres it left
+    // empty at the least positive f32 radius, and when they are the majority (the capsule at
+    // 64 spheres uses 11) a median over all would set a sub-triangle edge of 10⁻³⁹.
+    let mut radii: Vec<f64> =
+        ctx.spheres.iter().filter(|s| s.2 < n && !samples.of(s.2).is_empty()).map(|s| s.1).collect();
     radii.sort_by(f64::total_cmp);
     let Some(&median) = radii.get(radii.len() / 2) else {
         return (vec![0.0; total], totals);
@@ -230,7 +235,11 @@ fn sample_areas(mesh: &Mesh, ctx: &Ctx<'_>, samples: &Samples) -> (Vec<f32>, Are
         .collect();
     let split = |h: f64, longest: f64| -> u64 { ((longest / h).ceil() as u64).clamp(1, AREA_MAX_SPLIT) };
     let max_points = AREA_MAX_POINTS.min(AREA_MAX_POINTS_PER_SAMPLE.saturating_mul(total as u64));
-    let mut h = AREA_EDGE_PER_RADIUS * median;
+    // Below the longest edge over AREA_MAX_SPLIT, the longest triangles' splits are clamped and
+    // the count below stops following h², so the coarsening step could not catch up with a
+    // tiny start; from this floor on it does, in a few steps.
+    let longest_edge = longest.iter().copied().filter(|l| l.is_finite()).fold(0.0, f64::max);
+    let mut h = (AREA_EDGE_PER_RADIUS * median).max(longest_edge / AREA_MAX_SPLIT as f64);
     for _ in 0..32 {
         let count: u64 = longest.iter().filter(|l| l.is_finite()).map(|&l| split(h, l).pow(2)).sum();
         if count <= max_points {

@@ -109,3 +109,57 @@ fn tiny_spheres_do_not_blow_up_the_area_work() {
     let sum = stats.area_assigned + stats.area_unassigned;
     assert!((sum - area).abs() < 1e-9 * area, "{sum} vs {area}");
 }
+
+#[test]
+fn a_majority_of_empty_spheres_does_not_blow_up_the_area_work() {
+    // A fit stores the spheres it leaves empty at the least positive f32 radius, and may leave
+    // most of them so (the capsule fixture at 64 spheres uses 11). Their radius must not set
+    // the sub-triangle edge: at most 256 sub-triangles per sample (or one per triangle), and
+    // the sub-triangle edge of a tenth of the carrying spheres' median radius at most.
+    let mesh = capsule_mesh(0.5, 0.5, 12, 6);
+    let mut spheres = vec![[0.0, 0.0, 0.0, 1.1f32], [0.0, 0.0, 0.6, 0.6]];
+    for i in 0..40 {
+        spheres.push([0.01 * i as f32 - 0.2, 0.0, 0.0, f32::MIN_POSITIVE]);
+    }
+    let (samples, stats, _) = run(&mesh, &spheres);
+    let total = samples.total() as u64;
+    assert!(total > 0);
+    let bound = (256 * total).max(mesh.triangles.len() as u64);
+    assert!(stats.area_points <= bound, "{} sub-triangles for {total} samples", stats.area_points);
+    // Each triangle split with edges of at most h, a tenth of the median carrying radius (the
+    // upper one of 0.6 and 1.1): m = ⌈longest / h⌉ and m² sub-triangles, summed here apart
+    // from the bake.
+    let h = 0.1 * f64::from(1.1f32);
+    let want: u64 = mesh
+        .triangles
+        .iter()
+        .map(|t| {
+            let [a, b, c] = t.map(|i| mesh.positions[i as usize].as_dvec3());
+            let l = (b - a).length().max((c - b).length()).max((a - c).length());
+            let m = (l / h).ceil().max(1.0) as u64;
+            m * m
+        })
+        .sum();
+    assert!(want <= bound, "{want} > {bound}: the test needs a subdivision under the cap");
+    assert_eq!(stats.area_points, want, "sub-triangles at a tenth of the median carrying radius");
+    let area = mesh_area(&mesh);
+    let sum = stats.area_assigned + stats.area_unassigned;
+    assert!((sum - area).abs() < 1e-9 * area, "{sum} vs {area}");
+}
+
+#[test]
+fn a_tiny_carrying_sphere_still_gets_a_bounded_subdivision_quickly() {
+    // One sphere of the least f32 radius (a subnormal, 1.4·10⁻⁴⁵) owns the whole surface and
+    // carries its samples: a tenth of its radius as the sub-triangle edge would split every
+    // triangle to the 256-per-edge clamp, where the count stops following the edge and the
+    // coarsening's 32 steps could not catch up. The subdivision must still end within the cap.
+    let mesh = capsule_mesh(0.5, 0.5, 12, 6);
+    let (samples, stats, _) = run(&mesh, &[[0.0, 0.0, 0.0, f32::from_bits(1)]]);
+    let total = samples.total() as u64;
+    assert!(total > 0, "the lone sphere carries samples");
+    let bound = (256 * total).max(mesh.triangles.len() as u64);
+    assert!(stats.area_points <= bound, "{} sub-triangles for {total} samples", stats.area_points);
+    let area = mesh_area(&mesh);
+    let sum = stats.area_assigned + stats.area_unassigned;
+    assert!((sum - area).abs() < 1e-9 * area, "{sum} vs {area}");
+}
