@@ -304,6 +304,21 @@ pub fn winding_number_brute(p: DVec3, positions: &[DVec3], triangles: &[[u32; 3]
     sum / (4.0 * PI)
 }
 
+/// [`winding_number_brute`] with the angles summed by one [`SolidAngleSum`] (one `atan2` in
+/// all instead of one per triangle): the same value to rounding, not the same bits. The exact
+/// winding number of an open soup where no faster exact rule applies (the fit's pocket check):
+/// on an open 6 300-triangle teapot at 32 voxels and 256 spheres the per-triangle `atan2`s
+/// were 45 % of the bake. O(T).
+pub fn winding_number_exact(p: DVec3, positions: &[DVec3], triangles: &[[u32; 3]]) -> f64 {
+    let mut sum = SolidAngleSum::default();
+    for t in triangles {
+        if let Some((a, b, c)) = corners(positions, t) {
+            sum.add(a - p, b - p, c - p);
+        }
+    }
+    sum.total() / (4.0 * PI)
+}
+
 fn corners(positions: &[DVec3], t: &[u32; 3]) -> Option<(DVec3, DVec3, DVec3)> {
     Some((*positions.get(t[0] as usize)?, *positions.get(t[1] as usize)?, *positions.get(t[2] as usize)?))
 }
@@ -405,6 +420,30 @@ mod tests {
                 }
             }
         }
+    }
+
+    #[test]
+    fn the_exact_winding_number_is_the_per_triangle_sum() {
+        // An open hemisphere cap (the icosphere's triangles with z > −0.2 at every corner) plus
+        // one triangle with an index out of range, which both forms skip: the product form
+        // agrees with the per-triangle atan2 sum, and inside the whole sphere it is 1.
+        let (p, t) = crate::sphere::icosphere(2);
+        let pos: Vec<DVec3> = p.iter().map(|v| DVec3::from_array(v.map(f64::from))).collect();
+        let mut cap: Vec<[u32; 3]> =
+            t.iter().copied().filter(|t| t.iter().all(|&i| pos[i as usize].z > -0.2)).collect();
+        assert!(cap.len() < t.len() && cap.len() > t.len() / 2);
+        cap.push([0, 1, pos.len() as u32]);
+        let mut rng = crate::rng::SplitMix64::new(21);
+        let mut near_half = 0;
+        for _ in 0..400 {
+            let q = DVec3::new(rng.next_f64() - 0.5, rng.next_f64() - 0.5, rng.next_f64() - 0.5) * 3.0;
+            let (got, want) = (winding_number_exact(q, &pos, &cap), winding_number_brute(q, &pos, &cap));
+            assert!((got - want).abs() < 1e-12, "{q}: {got} vs {want}");
+            near_half += usize::from((0.2..0.8).contains(&want));
+        }
+        assert!(near_half > 20, "open cap: {near_half} points of fractional winding number");
+        let q = DVec3::new(0.1, -0.2, 0.3);
+        assert!((winding_number_exact(q, &pos, &t) - 1.0).abs() < 1e-12);
     }
 
     #[test]
