@@ -314,19 +314,33 @@ pub fn make_bounding(spheres: &[(DVec3, f64)], input: &BoundInput) -> (Vec<Spher
         rep.grown_points += 1;
     }
     // Rule 3.
-    close_pockets(&mut out, &mut live, input, &mut rep);
+    let mut memo = InsideMemo::default();
+    close_pockets(&mut out, &mut live, input, &mut rep, &mut memo);
     // Rule 4, then rule 3 again on what it changed.
     if shrink_back(&mut out, &rounded, &mut live, input, &mut rep) > 0 {
-        close_pockets(&mut out, &mut live, input, &mut rep);
+        close_pockets(&mut out, &mut live, input, &mut rep, &mut memo);
     }
     (out, rep)
 }
 
+/// The inside test's answers by the bits of the point asked: a round of the pocket search
+/// finds again the power vertices of every sphere that did not grow since the last round, at
+/// the same bits, and the test (an exact winding number, O(T) on an open mesh) is a function
+/// of the point alone, so an answer kept is the answer recomputed. Only looked up, never
+/// iterated: the map's order cannot reach the result.
+type InsideMemo = std::collections::HashMap<[u64; 3], bool>;
+
 /// Rule 3: rounds of the pocket search, each uncovered pocket vertex covered by the cheapest
 /// sphere (at most 64 rounds).
-fn close_pockets(out: &mut [Sphere32], live: &mut Live, input: &BoundInput, rep: &mut BoundReport) {
+fn close_pockets(
+    out: &mut [Sphere32],
+    live: &mut Live,
+    input: &BoundInput,
+    rep: &mut BoundReport,
+    memo: &mut InsideMemo,
+) {
     for _round in 0..64 {
-        let found = pocket_vertices(out, input, rep);
+        let found = pocket_vertices(out, input, rep, memo);
         if found.is_empty() {
             break;
         }
@@ -572,7 +586,12 @@ fn genuine_power_vertex(
     })
 }
 
-fn pocket_vertices(s: &[Sphere32], input: &BoundInput, rep: &mut BoundReport) -> Vec<(DVec3, f64)> {
+fn pocket_vertices(
+    s: &[Sphere32],
+    input: &BoundInput,
+    rep: &mut BoundReport,
+    memo: &mut InsideMemo,
+) -> Vec<(DVec3, f64)> {
     let n = s.len();
     if n < 4 {
         return Vec::new();
@@ -628,8 +647,13 @@ fn pocket_vertices(s: &[Sphere32], input: &BoundInput, rep: &mut BoundReport) ->
         })
         .collect();
     rep.pocket_candidates = cand.len();
-    let inside: Vec<bool> = cand.par_iter().map(|(v, _)| (input.inside)(*v)).collect();
-    cand.into_iter().zip(inside).filter(|x| x.1).map(|x| x.0).collect()
+    let bits = |v: DVec3| [v.x.to_bits(), v.y.to_bits(), v.z.to_bits()];
+    let mut ask: Vec<DVec3> = cand.iter().map(|x| x.0).filter(|v| !memo.contains_key(&bits(*v))).collect();
+    ask.sort_unstable_by_key(|v| bits(*v));
+    ask.dedup_by_key(|v| bits(*v));
+    let answers: Vec<bool> = ask.par_iter().map(|v| (input.inside)(*v)).collect();
+    memo.extend(ask.iter().map(|v| bits(*v)).zip(answers));
+    cand.into_iter().filter(|(v, _)| memo.get(&bits(*v)).copied().unwrap_or(false)).collect()
 }
 
 /// A convex polytope as its faces (vertex loops), for power cells.
@@ -824,7 +848,7 @@ mod tests {
             };
             let mut rep = BoundReport::default();
             let want = clique_pocket_vertices(&s, &input, &mut rep);
-            let got = pocket_vertices(&s, &input, &mut rep);
+            let got = pocket_vertices(&s, &input, &mut rep, &mut InsideMemo::default());
             assert!(!want.is_empty(), "seed {seed}: the configuration has pockets");
             for (v, p) in &want {
                 let hit = got.iter().find(|(g, _)| close(*g, *v));
@@ -852,7 +876,7 @@ mod tests {
         let input =
             BoundInput { positions: &[], triangles: &[], interior: &[], delta: 0.6, inside: &everywhere, weights: &[] };
         let mut rep = BoundReport::default();
-        let got = pocket_vertices(&s, &input, &mut rep);
+        let got = pocket_vertices(&s, &input, &mut rep, &mut InsideMemo::default());
         let centre = DVec3::ONE;
         let hit = got.iter().find(|(v, _)| v.distance(centre) < 1e-9).expect("centre found");
         assert!((hit.1 - (3.0 - 1.44)).abs() < 1e-5, "power {}", hit.1);
@@ -872,6 +896,37 @@ mod tests {
         let (out, rep) = make_bounding(&raw, &input);
         assert!(rep.pockets_closed >= 1);
         assert!(out.iter().any(|s| contains(s, DVec3::ONE)), "the centre is covered");
+    }
+
+    #[test]
+    fn the_pocket_search_asks_the_inside_test_once_per_point() {
+        // A jittered 4 × 4 × 4 lattice of spheres too small to meet: pockets everywhere, closed
+        // over several rounds, each round finding again the power vertices of the spheres that
+        // did not grow. The inside test (here: inside the lattice's box) is asked once per
+        // point, by its bits, and still decides: the covered spheres hold the box's centre.
+        let mut rng = crate::rng::SplitMix64::new(5);
+        let raw: Vec<(DVec3, f64)> = (0..64)
+            .map(|i| {
+                let g = DVec3::new((i % 4) as f64, ((i / 4) % 4) as f64, (i / 16) as f64);
+                let j = DVec3::new(rng.next_f64(), rng.next_f64(), rng.next_f64()) * 0.1;
+                (g + j, 0.62 + 0.05 * rng.next_f64())
+            })
+            .collect();
+        let asked = std::sync::Mutex::new(Vec::new());
+        let inside = |v: DVec3| {
+            asked.lock().unwrap().push([v.x.to_bits(), v.y.to_bits(), v.z.to_bits()]);
+            v.cmpge(DVec3::ZERO).all() && v.cmple(DVec3::splat(3.1)).all()
+        };
+        let input =
+            BoundInput { positions: &[], triangles: &[], interior: &[], delta: 0.3, inside: &inside, weights: &[] };
+        let (out, rep) = make_bounding(&raw, &input);
+        assert!(rep.pockets_closed >= 8, "{rep:?}");
+        let mut asked = asked.into_inner().unwrap();
+        let n = asked.len();
+        asked.sort_unstable();
+        asked.dedup();
+        assert_eq!(asked.len(), n, "a point asked twice");
+        assert!(out.iter().any(|s| contains(s, DVec3::splat(1.55))), "the box's centre is covered");
     }
 
     /// A tiny triangle at `p` (edge 0.01).
