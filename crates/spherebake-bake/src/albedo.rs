@@ -174,6 +174,9 @@ pub struct AlbedoStats {
     /// Texels of the one-colour spheres not coloured by rule 1 (rule 2, 3 or empty: the map is
     /// the one colour either way).
     pub texels_unclassified: u64,
+    /// Texels of spheres whose segment holds no triangle (spheres the fit left empty): left 0
+    /// without drawing any triangle, so not told apart by rule.
+    pub texels_no_segment: u64,
     /// Σ over spheres of the number of triangles rendered for it.
     pub triangle_assignments: u64,
     /// Triangles rendered for two or more spheres.
@@ -880,6 +883,7 @@ struct SphereCounts {
     rule3: u64,
     empty: u64,
     unclassified: u64,
+    no_segment: u64,
     one_colour: bool,
     triangles: u64,
 }
@@ -891,6 +895,7 @@ impl SphereCounts {
         s.texels_rule3 += self.rule3;
         s.texels_empty += self.empty;
         s.texels_unclassified += self.unclassified;
+        s.texels_no_segment += self.no_segment;
         s.one_colour_spheres += usize::from(self.one_colour);
         s.triangle_assignments += self.triangles;
     }
@@ -1199,6 +1204,14 @@ impl<'a> Context<'a> {
             uncovered: n_texels,
         };
         let assigned = &self.assigned[s];
+        if assigned.is_empty() {
+            // No triangle of its own (a sphere the fit left empty): rules 1 and 3 read only the
+            // segment's triangles, so every texel stays 0 and uncovered, whatever the others
+            // would mark. Drawing them only told rule 2 from empty, at up to every triangle of
+            // the mesh per sphere (the bunny at 4096 spheres, 2459 left empty: 6.6 s).
+            let counts = SphereCounts { no_segment: n_texels as u64, ..Default::default() };
+            return (vec![[0.0; 3]; n_texels], counts, vec![false; n_texels]);
+        }
         // The segment's own triangles in increasing order (ties in distance keep the first).
         for &t in assigned {
             self.draw(&mut cv, t as usize, true, s, centre);

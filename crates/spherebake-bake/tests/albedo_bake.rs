@@ -786,3 +786,33 @@ fn a_one_colour_mesh_skips_the_coverage_pass_and_bakes_what_the_full_render_give
         assert!(stats.texels_rule2 > 0, "the coverage pass ran: {stats:?}");
     }
 }
+
+#[test]
+fn a_sphere_without_a_segment_renders_nothing_and_leaves_the_others_alone() {
+    // The cube of the ray-caster test with its two spheres, plus a sphere of the least positive
+    // radius at the centre (how a fit stores a sphere it left empty): its scaled distance to
+    // every point is far the largest, so its segment holds no triangle. Rules 1 and 3 read only
+    // the segment's triangles, so its map is 0; the other maps are the same bits as without it.
+    let mut mesh = cube_mesh([[0.0; 3]; 6]);
+    mesh.materials = (0..12)
+        .map(|t| Material { base_color_factor_linear: [(t + 1) as f32 / 12.0, 0.5, 1.0, 1.0], ..Default::default() })
+        .collect();
+    mesh.triangle_materials = (0..12).collect();
+    let flip = vec![false; 12];
+    let two = [[0.2f32, 0.1, -0.05, 1.0], [0.2, 0.1, 1.6, 1.0]];
+    let three = [two[0], two[1], [0.0, 0.0, 0.0, f32::MIN_POSITIVE]];
+    assert!(segment_triangles(&mesh, &three).unwrap()[2].is_empty());
+    let n = 16;
+    let (maps2, stats2) = render_albedo_cubemaps(&mesh, &flip, &two, &settings(1, n)).unwrap();
+    let (maps3, stats3) = render_albedo_cubemaps(&mesh, &flip, &three, &settings(1, n)).unwrap();
+    let bits = |m: &CubeMap| m.texels_linear.iter().flat_map(|t| t.map(f32::to_bits)).collect::<Vec<u32>>();
+    for s in 0..2 {
+        assert_eq!(bits(&maps3[s]), bits(&maps2[s]), "sphere {s}");
+    }
+    assert!(maps3[2].texels_linear.iter().all(|t| *t == [0.0; 3]));
+    assert_eq!(stats3.texels_no_segment, (6 * n * n) as u64, "{stats3:?}");
+    assert_eq!(
+        (stats3.texels_rule1, stats3.texels_rule2, stats3.texels_rule3, stats3.texels_empty),
+        (stats2.texels_rule1, stats2.texels_rule2, stats2.texels_rule3, stats2.texels_empty)
+    );
+}
