@@ -396,6 +396,17 @@ fn far_texture_is_filtered_to_its_mean() {
     }
 }
 
+/// The cube [−1, 1]³ with a colour of its own per triangle (so a cube map says which triangle
+/// each texel took), outward, with its `flip` flags.
+fn cube_of_triangle_colours() -> (Mesh, Vec<bool>) {
+    let mut mesh = cube_mesh([[0.0; 3]; 6]);
+    mesh.materials = (0..12)
+        .map(|t| Material { base_color_factor_linear: [(t + 1) as f32 / 12.0, 0.5, 1.0, 1.0], ..Default::default() })
+        .collect();
+    mesh.triangle_materials = (0..12).collect();
+    (mesh, vec![false; 12])
+}
+
 #[test]
 fn sample_rules_match_a_brute_force_ray_caster() {
     // Math reference §8's example: cube [−1,1]³, S0 = ((0.2, 0.1, −0.05), 1) inside, S1 =
@@ -404,12 +415,7 @@ fn sample_rules_match_a_brute_force_ray_caster() {
     // a texel takes a hit only where the hit point itself lies in the segment (P_0: z < 0.775),
     // as §8 defines the segment by points, not triangles. Every triangle gets its own colour, so
     // the cube map says which triangle was chosen.
-    let mut mesh = cube_mesh([[0.0; 3]; 6]);
-    mesh.materials = (0..12)
-        .map(|t| Material { base_color_factor_linear: [(t + 1) as f32 / 12.0, 0.5, 1.0, 1.0], ..Default::default() })
-        .collect();
-    mesh.triangle_materials = (0..12).collect();
-    let flip = vec![false; 12];
+    let (mesh, flip) = cube_of_triangle_colours();
     let spheres = [[0.2f32, 0.1, -0.05, 1.0], [0.2, 0.1, 1.6, 1.0]];
     let seg = segment_triangles(&mesh, &spheres).unwrap();
     let tris: Vec<[DVec3; 3]> = (0..12).map(|t| mesh.triangle(t).map(|p| p.as_dvec3())).collect();
@@ -793,12 +799,7 @@ fn a_sphere_without_a_segment_renders_nothing_and_leaves_the_others_alone() {
     // radius at the centre (how a fit stores a sphere it left empty): its scaled distance to
     // every point is far the largest, so its segment holds no triangle. Rules 1 and 3 read only
     // the segment's triangles, so its map is 0; the other maps are the same bits as without it.
-    let mut mesh = cube_mesh([[0.0; 3]; 6]);
-    mesh.materials = (0..12)
-        .map(|t| Material { base_color_factor_linear: [(t + 1) as f32 / 12.0, 0.5, 1.0, 1.0], ..Default::default() })
-        .collect();
-    mesh.triangle_materials = (0..12).collect();
-    let flip = vec![false; 12];
+    let (mesh, flip) = cube_of_triangle_colours();
     let two = [[0.2f32, 0.1, -0.05, 1.0], [0.2, 0.1, 1.6, 1.0]];
     let three = [two[0], two[1], [0.0, 0.0, 0.0, f32::MIN_POSITIVE]];
     assert!(segment_triangles(&mesh, &three).unwrap()[2].is_empty());

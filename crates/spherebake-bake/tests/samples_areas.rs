@@ -6,6 +6,8 @@ mod samples_support;
 
 use glam::DVec3;
 use samples_support::*;
+use spherebake_bake::samples::SampleStats;
+use spherebake_format::Samples;
 use spherebake_geom::Mesh;
 
 fn mesh_area(m: &Mesh) -> f64 {
@@ -16,6 +18,19 @@ fn mesh_area(m: &Mesh) -> f64 {
             0.5 * (b - a).cross(c - a).length()
         })
         .sum()
+}
+
+/// The area work's bound holds (at most 256 sub-triangles per sample, or one per triangle) and
+/// the areas still partition the surface. Returns the bound.
+fn assert_bounded_partition(mesh: &Mesh, samples: &Samples, stats: &SampleStats) -> u64 {
+    let total = samples.total() as u64;
+    assert!(total > 0, "the spheres carry samples");
+    let bound = (256 * total).max(mesh.triangles.len() as u64);
+    assert!(stats.area_points <= bound, "{} sub-triangles for {total} samples", stats.area_points);
+    let area = mesh_area(mesh);
+    let sum = stats.area_assigned + stats.area_unassigned;
+    assert!((sum - area).abs() < 1e-9 * area, "{sum} vs {area}");
+    bound
 }
 
 /// Share of the sphere of directions nearest to each of the 92 directions, from `n` points of a
@@ -100,14 +115,7 @@ fn tiny_spheres_do_not_blow_up_the_area_work() {
         spheres.push([0.01 * i as f32 - 0.2, 0.0, 0.0, 1e-7]);
     }
     let (samples, stats, _) = run(&mesh, &spheres);
-    let total = samples.total() as u64;
-    assert!(total > 0);
-    let bound = (256 * total).max(mesh.triangles.len() as u64);
-    assert!(stats.area_points <= bound, "{} sub-triangles for {total} samples", stats.area_points);
-    // Still a partition of the surface.
-    let area = mesh_area(&mesh);
-    let sum = stats.area_assigned + stats.area_unassigned;
-    assert!((sum - area).abs() < 1e-9 * area, "{sum} vs {area}");
+    assert_bounded_partition(&mesh, &samples, &stats);
 }
 
 #[test]
@@ -122,10 +130,7 @@ fn a_majority_of_empty_spheres_does_not_blow_up_the_area_work() {
         spheres.push([0.01 * i as f32 - 0.2, 0.0, 0.0, f32::MIN_POSITIVE]);
     }
     let (samples, stats, _) = run(&mesh, &spheres);
-    let total = samples.total() as u64;
-    assert!(total > 0);
-    let bound = (256 * total).max(mesh.triangles.len() as u64);
-    assert!(stats.area_points <= bound, "{} sub-triangles for {total} samples", stats.area_points);
+    let bound = assert_bounded_partition(&mesh, &samples, &stats);
     // Each triangle split with edges of at most h, a tenth of the median carrying radius (the
     // upper one of 0.6 and 1.1): m = ⌈longest / h⌉ and m² sub-triangles, summed here apart
     // from the bake.
@@ -142,9 +147,6 @@ fn a_majority_of_empty_spheres_does_not_blow_up_the_area_work() {
         .sum();
     assert!(want <= bound, "{want} > {bound}: the test needs a subdivision under the cap");
     assert_eq!(stats.area_points, want, "sub-triangles at a tenth of the median carrying radius");
-    let area = mesh_area(&mesh);
-    let sum = stats.area_assigned + stats.area_unassigned;
-    assert!((sum - area).abs() < 1e-9 * area, "{sum} vs {area}");
 }
 
 #[test]
@@ -155,11 +157,5 @@ fn a_tiny_carrying_sphere_still_gets_a_bounded_subdivision_quickly() {
     // coarsening's 32 steps could not catch up. The subdivision must still end within the cap.
     let mesh = capsule_mesh(0.5, 0.5, 12, 6);
     let (samples, stats, _) = run(&mesh, &[[0.0, 0.0, 0.0, f32::from_bits(1)]]);
-    let total = samples.total() as u64;
-    assert!(total > 0, "the lone sphere carries samples");
-    let bound = (256 * total).max(mesh.triangles.len() as u64);
-    assert!(stats.area_points <= bound, "{} sub-triangles for {total} samples", stats.area_points);
-    let area = mesh_area(&mesh);
-    let sum = stats.area_assigned + stats.area_unassigned;
-    assert!((sum - area).abs() < 1e-9 * area, "{sum} vs {area}");
+    assert_bounded_partition(&mesh, &samples, &stats);
 }
