@@ -306,9 +306,9 @@ pub fn winding_number_brute(p: DVec3, positions: &[DVec3], triangles: &[[u32; 3]
 
 /// [`winding_number_brute`] with the angles summed by one [`SolidAngleSum`] (one `atan2` in
 /// all instead of one per triangle): the same value to rounding, not the same bits. The exact
-/// winding number of an open soup where no faster exact rule applies (the fit's pocket check):
-/// on an open 6 300-triangle teapot at 32 voxels and 256 spheres the per-triangle `atan2`s
-/// were 45 % of the bake. O(T).
+/// winding number of an open soup where no faster exact rule applies (the fit's pocket check).
+/// O(T); each triangle's terms still take three square roots, so it saves about a tenth (the
+/// open 6 300-triangle teapot at 32 voxels and 256 spheres: bounding pass 1.66 → 1.50 s).
 pub fn winding_number_exact(p: DVec3, positions: &[DVec3], triangles: &[[u32; 3]]) -> f64 {
     let mut sum = SolidAngleSum::default();
     for t in triangles {
