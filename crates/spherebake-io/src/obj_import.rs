@@ -589,10 +589,14 @@ pub(crate) fn import(ctx: &mut Ctx, bytes: &[u8]) -> Result<(Mesh, Vec<ImportedP
     let (models, materials) = crate::obj_parse::load_obj(&text, |p: &Path| {
         // tobj gives the `mtllib` line's text after the keyword ([`tobj_text`]). One statement may
         // name several libraries (`mtllib a.mtl b.mtl`), but a file whose name has spaces
-        // (`mtllib my lib.mtl`) is read whole when there is one.
-        let name = p.to_string_lossy();
-        let whole = read(&name);
-        let several = name.split_whitespace().nth(1).is_some();
+        // (`mtllib my lib.mtl`) is read whole when there is one, and a name in double quotes
+        // (`mtllib "my lib.mtl"`, as some exporters write one with spaces) is one file.
+        let text = p.to_string_lossy();
+        let quoted =
+            text.strip_prefix('"').and_then(|s| s.strip_suffix('"')).filter(|s| !s.is_empty() && !s.contains('"'));
+        let name = quoted.unwrap_or(&text);
+        let whole = read(name);
+        let several = quoted.is_none() && name.split_whitespace().nth(1).is_some();
         if !several || !matches!(whole.1, Err(IoError::ReferenceNotFound { .. })) {
             return parse(whole);
         }

@@ -1520,6 +1520,9 @@ fn obj_mtllib_names_several_libraries_or_one_with_spaces() {
         ),
         // A library that is missing is said; the others' materials are read.
         ("mtllib a.mtl none.mtl", [Some([1.0, 0.0, 0.0]), d, d], "a", 1),
+        // A name in double quotes is one file, its spaces kept, never split into words.
+        ("mtllib \"my lib.mtl\"", [Some([0.5, 0.5, 0.5]), d, d], "my lib", 1),
+        ("mtllib \"a.mtl\"", [Some([1.0, 0.0, 0.0]), d, d], "a", 1),
     ];
     for (head, want, libs, warnings) in cases {
         let imp = load(head, &files).unwrap_or_else(|e| panic!("{head:?}: {e}"));
@@ -1542,6 +1545,10 @@ fn obj_mtllib_names_several_libraries_or_one_with_spaces() {
     }
     let imp = load("mtllib a.mtl none.mtl", &files).unwrap();
     assert!(imp.warnings[0].0.contains("\"none.mtl\" not found"), "{:?}", imp.warnings);
+    // A quoted name that is missing is said as one name, without its quotes.
+    let imp = load("mtllib \"none here.mtl\"", &files).unwrap();
+    assert!(imp.warnings[0].0.contains("\"none here.mtl\" not found"), "{:?}", imp.warnings);
+    assert_eq!(imp.warnings.len(), 1, "{:?}", imp.warnings);
     // Each name is confined to the model's folder.
     let e = load("mtllib a.mtl ../b.mtl", &files).unwrap_err();
     assert!(matches!(e, IoError::OutsideAsset { ref uri, .. } if uri == "../b.mtl"), "{e}");
