@@ -591,10 +591,10 @@ pub(crate) fn import(ctx: &mut Ctx, bytes: &[u8]) -> Result<(Mesh, Vec<ImportedP
         // name several libraries (`mtllib a.mtl b.mtl`), but a file whose name has spaces
         // (`mtllib my lib.mtl`) is read whole when there is one, and a name in double quotes
         // (`mtllib "my lib.mtl"`, as some exporters write one with spaces) is one file.
-        let text = p.to_string_lossy();
+        let given = p.to_string_lossy();
         let quoted =
-            text.strip_prefix('"').and_then(|s| s.strip_suffix('"')).filter(|s| !s.is_empty() && !s.contains('"'));
-        let name = quoted.unwrap_or(&text);
+            given.strip_prefix('"').and_then(|s| s.strip_suffix('"')).filter(|s| !s.is_empty() && !s.contains('"'));
+        let name = quoted.unwrap_or(&given);
         let whole = read(name);
         let several = quoted.is_none() && name.split_whitespace().nth(1).is_some();
         if !several || !matches!(whole.1, Err(IoError::ReferenceNotFound { .. })) {
