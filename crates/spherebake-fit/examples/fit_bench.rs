@@ -100,6 +100,9 @@ fn main() {
             set!(plan.gap_rounds, "SB_GAP_ROUNDS");
             set!(plan.descent_sweeps, "SB_SWEEPS");
             set!(plan.powell_sweeps, "SB_POWELL");
+            set!(plan.search_first_share, "SB_PA");
+            set!(plan.search_first_cells, "SB_PB");
+            set!(plan.search_stop_cells, "SB_PSTOP");
             set!(seed, "SB_SEED");
             let mut times = Vec::new();
             let mut last = None;

@@ -140,7 +140,14 @@ fn radius(pts: &[DVec3], mem: &[u32], c: DVec3) -> f64 {
 /// Adds its work to `work`: proxy evaluations × (1 + (r/h)²), about the voxel rows read. An
 /// exact solid ([`Solid::set_exact_mesh`], cheaper per evaluation) is counted alike, so a
 /// plan's trials do not depend on which of the two answers.
-fn best_ball(solid: &Solid, pts: &[DVec3], mem: &[u32], c0: DVec3, work: &AtomicU64) -> (DVec3, f64, f64) {
+fn best_ball(
+    solid: &Solid,
+    pts: &[DVec3],
+    mem: &[u32],
+    c0: DVec3,
+    search: Search,
+    work: &AtomicU64,
+) -> (DVec3, f64, f64) {
     if mem.is_empty() {
         return (c0, 0.0, 0.0);
     }
@@ -178,7 +185,8 @@ fn best_ball(solid: &Solid, pts: &[DVec3], mem: &[u32], c0: DVec3, work: &Atomic
         fq.max_dists(xs, radii);
         s.changes(radii, moves, out)
     };
-    let c = pattern_search(&mut f, &mut predict, c0, f0, 0.1 * rs + solid.h, PATTERN_STOP * solid.h);
+    let first = search.first_share * rs + search.first_cells * solid.h;
+    let c = pattern_search(&mut f, &mut predict, c0, f0, first, search.stop_cells * solid.h);
     work.fetch_add(evals * (1 + (rs / solid.h).powi(2) as u64), Ordering::Relaxed);
     let r = radius(pts, mem, c);
     (c, r, solid.outside(c, r))
@@ -205,6 +213,8 @@ struct Cover<'a> {
     transfer_clean: Vec<bool>,
     /// Work done by every copy (see [`best_ball`]).
     work: Arc<AtomicU64>,
+    /// The pattern search's steps.
+    search: Search,
 }
 
 /// A reach `x` with a relative slack of 1e-9 for the rounding of the membership tests
@@ -236,7 +246,7 @@ fn key(s: (DVec3, f64), ex: &[u32]) -> u64 {
 }
 
 impl<'a> Cover<'a> {
-    fn new(solid: &'a Solid, pts: &'a [DVec3], grid: &'a Grid, spheres: &[(DVec3, f64)]) -> Self {
+    fn new(solid: &'a Solid, pts: &'a [DVec3], grid: &'a Grid, spheres: &[(DVec3, f64)], search: Search) -> Self {
         let mut cnt = vec![0u16; pts.len()];
         for s in spheres {
             grid.for_each_in(pts, s.0, s.1, |q| cnt[q as usize] = cnt[q as usize].saturating_add(1));
@@ -254,6 +264,7 @@ impl<'a> Cover<'a> {
             step_clean: vec![false; k],
             transfer_clean: vec![false; k],
             work: Arc::new(AtomicU64::new(0)),
+            search,
         }
     }
 
@@ -349,7 +360,7 @@ impl<'a> Cover<'a> {
             }
             let res: Vec<(DVec3, f64, f64)> = jobs
                 .par_iter()
-                .map(|(i, ex)| best_ball(this.solid, this.pts, ex, this.spheres[*i].0, &this.work))
+                .map(|(i, ex)| best_ball(this.solid, this.pts, ex, this.spheres[*i].0, this.search, &this.work))
                 .collect();
             // Every step of the class read the cover as it was before any of them moves.
             for (i, kk) in keys {
@@ -492,8 +503,8 @@ impl<'a> Cover<'a> {
                     let (l, r) = ranked.split_at(cut as usize);
                     (l.iter().map(|x| x.1).collect(), r.iter().map(|x| x.1).collect())
                 };
-                let (ca, ra, oa) = best_ball(self.solid, self.pts, &ma, si.0, &self.work);
-                let (cb, rb, ob) = best_ball(self.solid, self.pts, &mb, sj.0, &self.work);
+                let (ca, ra, oa) = best_ball(self.solid, self.pts, &ma, si.0, self.search, &self.work);
+                let (cb, rb, ob) = best_ball(self.solid, self.pts, &mb, sj.0, self.search, &self.work);
                 if oa + ob >= prev {
                     break;
                 }
@@ -647,8 +658,8 @@ impl<'a> Cover<'a> {
         if ma.is_empty() || mb.is_empty() {
             return (kk, None);
         }
-        let (ca, ra, oa) = best_ball(self.solid, self.pts, &ma, sa, &self.work);
-        let (cb, rb, ob) = best_ball(self.solid, self.pts, &mb, sb, &self.work);
+        let (ca, ra, oa) = best_ball(self.solid, self.pts, &ma, sa, self.search, &self.work);
+        let (cb, rb, ob) = best_ball(self.solid, self.pts, &mb, sb, self.search, &self.work);
         (kk, Some((oa + ob - self.outs[i], (ca, ra), (cb, rb))))
     }
 }
@@ -672,13 +683,38 @@ pub struct Options {
     ///
     /// [`FitPlan::pair_first_cut`]: crate::FitPlan::pair_first_cut
     pub pair_first_cut: f64,
+    /// The steps of the pattern search that moves each sphere ([`FitPlan::search`]).
+    ///
+    /// [`FitPlan::search`]: crate::FitPlan::search
+    pub search: Search,
+}
+
+/// The steps of the pattern search that moves a sphere (a descent step, a split's halves, a
+/// boundary move's pair): it starts at `first_share` × the ball's radius + `first_cells`
+/// voxel cells and stops once the step is below `stop_cells` cells.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Search {
+    /// First step, share of the ball's radius. Range [0, 1].
+    pub first_share: f64,
+    /// First step, voxel cells added to the share. Range [0, 64].
+    pub first_cells: f64,
+    /// Stop below this step, voxel cells. Range (0, 64].
+    pub stop_cells: f64,
+}
+
+impl Default for Search {
+    /// A tenth of the radius plus one cell, down to 0.03 cells: the steps before the default
+    /// plan of 2026-12-06 ([`FitPlan::search`]).
+    ///
+    /// [`FitPlan::search`]: crate::FitPlan::search
+    fn default() -> Self {
+        Search { first_share: 0.1, first_cells: 1.0, stop_cells: 0.03 }
+    }
 }
 
 /// Trials are only tried while the predicted change is below this share of the total
 /// (predictions are pessimistic: the local sweeps after a move gain 0.1–0.5 % of E).
 const TRIAL_THRESHOLD: f64 = 0.05;
-/// Pattern search stops below this step, in voxel cells.
-const PATTERN_STOP: f64 = 0.03;
 /// Above this sphere count the trials are skipped (their first evaluation splits every sphere).
 const MAX_TRIAL_SPHERES: usize = 1024;
 /// Barycentric grid (points per edge − 1) of the seam search, at least.
@@ -736,7 +772,7 @@ pub fn exclusive_descent(solid: &Solid, pts: &[DVec3], spheres: &mut [(DVec3, f6
         cover_points(solid, spheres, &uncovered);
     }
     let grid = Grid::new(pts, 2.0 * solid.h);
-    let mut cov = Cover::new(solid, pts, &grid, spheres);
+    let mut cov = Cover::new(solid, pts, &grid, spheres, opts.search);
     // Spheres that meet (with two cells of slack).
     let near = |a: (DVec3, f64), b: (DVec3, f64)| a.0.distance(b.0) <= a.1 + b.1 + 2.0 * solid.h;
     let all: Vec<usize> = (0..k).collect();
@@ -1467,13 +1503,27 @@ mod tests {
                 &solid,
                 &pts,
                 &mut after_sweeps,
-                &Options { sweeps: 4, trials: 0, max_fails: 6, work_budget: u64::MAX, pair_first_cut: 0.0 },
+                &Options {
+                    sweeps: 4,
+                    trials: 0,
+                    max_fails: 6,
+                    work_budget: u64::MAX,
+                    pair_first_cut: 0.0,
+                    search: Search::default(),
+                },
             );
             exclusive_descent(
                 &solid,
                 &pts,
                 &mut spheres,
-                &Options { sweeps: 4, trials: 12, max_fails: 6, work_budget: u64::MAX, pair_first_cut: 0.0 },
+                &Options {
+                    sweeps: 4,
+                    trials: 12,
+                    max_fails: 6,
+                    work_budget: u64::MAX,
+                    pair_first_cut: 0.0,
+                    search: Search::default(),
+                },
             );
             for sp in [&after_sweeps, &spheres] {
                 for p in &pts {
@@ -1506,7 +1556,7 @@ mod tests {
                 spheres[i].1 = spheres[i].1.max(p.distance(centres[i]) * (1.0 + 1e-12));
             }
             let grid = Grid::new(&pts, 2.0 * solid.h);
-            let mut cov = Cover::new(&solid, &pts, &grid, &spheres);
+            let mut cov = Cover::new(&solid, &pts, &grid, &spheres, Search::default());
             let all: Vec<usize> = (0..k).collect();
             for round in 0..24 {
                 if round % 3 == 0 {
@@ -1570,7 +1620,14 @@ mod tests {
         let total = |sp: &[(DVec3, f64)]| sp.iter().map(|s| solid.outside(s.0, s.1)).sum::<f64>();
         let run = |first: f64| {
             let mut sp = start.clone();
-            let opts = Options { sweeps: 8, trials: 0, max_fails: 1, work_budget: 0, pair_first_cut: first };
+            let opts = Options {
+                sweeps: 8,
+                trials: 0,
+                max_fails: 1,
+                work_budget: 0,
+                pair_first_cut: first,
+                search: Search::default(),
+            };
             exclusive_descent(&solid, &pts, &mut sp, &opts);
             for p in &pts {
                 assert!(sp.iter().any(|s| p.distance_squared(s.0) <= s.1 * s.1), "{p} uncovered with {first}");
@@ -1595,7 +1652,14 @@ mod tests {
             &solid,
             &pts,
             &mut spheres,
-            &Options { sweeps: 2, trials: 2, max_fails: 6, work_budget: u64::MAX, pair_first_cut: 0.0 },
+            &Options {
+                sweeps: 2,
+                trials: 2,
+                max_fails: 6,
+                work_budget: u64::MAX,
+                pair_first_cut: 0.0,
+                search: Search::default(),
+            },
         );
         for p in &pts {
             assert!(spheres.iter().any(|s| p.distance_squared(s.0) <= s.1 * s.1));

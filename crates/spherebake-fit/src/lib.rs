@@ -1146,6 +1146,7 @@ fn descent_stage(prep: &Prepared, dpts: &[DVec3], sp: &mut [(DVec3, f64)], plan:
         max_fails: plan.descent_max_fails,
         work_budget: scaled_budget(plan.descent_work_budget, sp.len()),
         pair_first_cut: 0.0,
+        search: plan.search(),
     };
     descent::exclusive_descent(&prep.solid, dpts, sp, &opts)
 }
@@ -1187,6 +1188,7 @@ fn seam_round(
         max_fails: plan.seam_max_fails,
         work_budget: scaled_budget(plan.seam_work_budget, sp.len()),
         pair_first_cut: plan.pair_first_cut,
+        search: plan.search(),
     };
     Some(descent::exclusive_descent(&prep.solid, dpts, sp, &opts))
 }
@@ -1236,6 +1238,7 @@ fn band_stage(
         max_fails: 1,
         work_budget: 0,
         pair_first_cut: plan.pair_first_cut,
+        search: plan.search(),
     };
     (n, descent::exclusive_descent(&prep.solid, dpts, sp, &opts))
 }
@@ -1257,8 +1260,14 @@ fn gap_round(
     plan: &FitPlan,
 ) -> Option<(usize, descent::DescentStats)> {
     let n = add_seam_points(prep, dpts, sp, plan)?;
-    let opts =
-        descent::Options { sweeps: 0, trials: 0, max_fails: 1, work_budget: 0, pair_first_cut: plan.pair_first_cut };
+    let opts = descent::Options {
+        sweeps: 0,
+        trials: 0,
+        max_fails: 1,
+        work_budget: 0,
+        pair_first_cut: plan.pair_first_cut,
+        search: plan.search(),
+    };
     Some((n, descent::exclusive_descent(&prep.solid, dpts, sp, &opts)))
 }
 

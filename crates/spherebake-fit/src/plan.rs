@@ -200,6 +200,16 @@ pub struct FitPlan {
     /// descent too it gained nothing more. Range [0, 0.5].
     pub pair_first_cut: f64,
 
+    // --- pattern search ---
+    /// The pattern search that moves a sphere in the descent, the seam, band and gap rounds
+    /// (`descent::best_ball`) starts at this share of the ball's radius plus
+    /// [`FitPlan::search_first_cells`]. Range [0, 1].
+    pub search_first_share: f64,
+    /// Voxel cells added to the pattern search's first step. Range [0, 64].
+    pub search_first_cells: f64,
+    /// The pattern search stops once its step is below this many voxel cells. Range (0, 64].
+    pub search_stop_cells: f64,
+
     // --- bound ---
     /// The bounding pass grows the sphere with the least weighted growth; a sphere's weight
     /// is the outside share of a one-cell shell around it, clamped to [this, 1] so a sphere
@@ -255,6 +265,9 @@ impl Default for FitPlan {
             band_width_cells: 1.0,
             gap_rounds: 1,
             pair_first_cut: 1.0 / 16.0,
+            search_first_share: 0.1,
+            search_first_cells: 1.0,
+            search_stop_cells: 0.03,
             bound_weight_min: 0.02,
             target_start: 8,
             target_max_spheres: 1024,
@@ -336,6 +349,15 @@ impl FitPlan {
         Self { restarts: 4, start_tie: 0.3, ..Self::default() }
     }
 
+    /// The pattern search's steps ([`FitPlan::search_first_share`], …).
+    pub(crate) fn search(&self) -> crate::descent::Search {
+        crate::descent::Search {
+            first_share: self.search_first_share,
+            first_cells: self.search_first_cells,
+            stop_cells: self.search_stop_cells,
+        }
+    }
+
     /// Checks every field's range; the error names the field.
     pub fn validate(&self) -> Result<(), FitError> {
         use crate::check_range as range;
@@ -372,6 +394,9 @@ impl FitPlan {
         positive("band_width_cells", self.band_width_cells, 64.0, "(0, 64]")?;
         range("gap_rounds", self.gap_rounds, 0, 10, "0..=10")?;
         range("pair_first_cut", self.pair_first_cut, 0.0, 0.5, "[0, 0.5]")?;
+        range("search_first_share", self.search_first_share, 0.0, 1.0, "[0, 1]")?;
+        range("search_first_cells", self.search_first_cells, 0.0, 64.0, "[0, 64]")?;
+        positive("search_stop_cells", self.search_stop_cells, 64.0, "(0, 64]")?;
         range("bound_weight_min", self.bound_weight_min, 0.0, 1.0, "[0, 1]")?;
         range("target_start", self.target_start, 1, 4096, "1..=4096")?;
         range("target_max_spheres", self.target_max_spheres, 1, 4096, "1..=4096")?;
