@@ -5,7 +5,8 @@
 //! SB_BOTH_THINNINGS (true|false), SB_TRIALS, SB_SEAMS, SB_TELE, SB_SUBDIV,
 //! SB_SEAM_TRIALS, SB_BUDGET, SB_SEAM_BUDGET, SB_DGRID (descent_grid_cells), SB_SEAM_SPACING,
 //! SB_PCELL, SB_PBUDGET, SB_BAND_SWEEPS, SB_BAND_WIDTH, SB_PAIR_CUT, SB_GAP_ROUNDS, SB_SWEEPS
-//! (descent_sweeps), SB_POWELL (powell_sweeps); SB_PRESET=fast|default|best starts from that plan
+//! (descent_sweeps), SB_POWELL (powell_sweeps), SB_PA / SB_PB / SB_PSTOP (search_first_share /
+//! search_first_cells / search_stop_cells); SB_PRESET=fast|default|best starts from that plan
 //! and its voxel grid (`Preset::voxels`).
 
 #[path = "common/obj.rs"]

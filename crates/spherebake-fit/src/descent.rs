@@ -703,12 +703,11 @@ pub struct Search {
 }
 
 impl Default for Search {
-    /// A tenth of the radius plus one cell, down to 0.03 cells: the steps before the default
-    /// plan of 2026-12-06 ([`FitPlan::search`]).
+    /// The default plan's steps ([`FitPlan::search`]).
     ///
     /// [`FitPlan::search`]: crate::FitPlan::search
     fn default() -> Self {
-        Search { first_share: 0.1, first_cells: 1.0, stop_cells: 0.03 }
+        crate::FitPlan::default().search()
     }
 }
 
@@ -1370,6 +1369,33 @@ mod tests {
         let cap = 2.0 * std::f64::consts::PI * r * (r - d) * delta;
         assert!((out[3] - cap).abs() <= 0.06 * cap, "{} vs {cap}", out[3]);
         assert!((out[0] - (disc + cap)).abs() <= 0.06 * (disc + cap), "{}", out[0]);
+    }
+
+    #[test]
+    fn the_search_steps_set_where_the_pattern_search_starts_and_stops() {
+        // A solid slab x < 0.5 of a unit box of 32 cells; two members just inside its face.
+        // From a centre beyond the face their bounding ball is largely outside the slab.
+        let n = 32;
+        let cells = (0..n * n * n).map(|i| i % n < n / 2).collect();
+        let solid = Solid::from_cells(DVec3::ZERO, 1.0 / n as f64, [n; 3], cells);
+        let pts = [DVec3::new(0.40, 0.5, 0.45), DVec3::new(0.40, 0.5, 0.55)];
+        let mem = [0u32, 1];
+        let c0 = DVec3::new(0.55, 0.5, 0.5);
+        let at_c0 = solid.outside(c0, radius(&pts, &mem, c0));
+        let run = |search: Search| {
+            let work = AtomicU64::new(0);
+            let (c, _, out) = best_ball(&solid, &pts, &mem, c0, search, &work);
+            (c, out, work.into_inner())
+        };
+        // The default plan's steps move the ball into the slab.
+        let (c, fine, fine_work) = run(Search::default());
+        assert!(c != c0 && fine < 0.5 * at_c0, "{c}: {fine} vs {at_c0}");
+        // A stop above the first step: no step is taken, the start is returned as it is.
+        let (c, out, _) = run(Search { first_share: 0.0, first_cells: 1.0, stop_cells: 2.0 });
+        assert_eq!((c, out.to_bits()), (c0, at_c0.to_bits()));
+        // A coarser stop runs a prefix of the same search: fewer evaluations, no lower E.
+        let (_, coarse, coarse_work) = run(Search { stop_cells: 0.5, ..Search::default() });
+        assert!(coarse_work < fine_work && fine <= coarse * (1.0 + 1e-9), "{coarse} {fine}");
     }
 
     #[test]
