@@ -135,7 +135,9 @@
 //! - **Parents' radiance (§7.3).** A node N stands for its leaves j in the far field, where the power received from
 //!   a sphere is its average radiance times its solid angle ∝ r²: L^c_N = Σ_j (r_j / r_N)² L^c_j (leaves below N, all
 //!   coefficients in their rest frames), and N turns with the polar rotation of Σ_j r_j² R_j. Mutual occlusion of the
-//!   leaves is what the reflection ratio corrects.
+//!   leaves is what the reflection ratio corrects. A leaf under a millionth of N's radius ((r_j / r_N)² ≤ 10⁻¹²: the
+//!   empty spheres a fit leaves, radius the least positive f32) is not in N's sums, as pass 2 skips it among the
+//!   leaves (Ṽ₀ ≤ 10⁻¹²); a node of such leaves only is dark.
 //! - **Reflection ratio (eq. 25–26; taken over the cluster, departure).** Every accepted node N is evaluated twice
 //!   with the same routine as the receivers: as one light among the cut, and replaced by its leaves (each occluded by
 //!   the rest of the cut and by its non-intersecting siblings); t_N = Σ_q Σ_j (L̃Ṽ)_q,j / Σ_q (L̃Ṽ)_q,N per RGB
@@ -790,6 +792,12 @@ fn project_sample_radiance(
                 out.leaf[i * nc + k][ch] = prod[k] as f32;
             }
         }
+        // A light beyond f32 (a leaf of almost no radius whose samples stand for real surface: area / r²) is
+        // dark: no path could weight it by a share that small ([`node_share`]; pass 2's Ṽ₀ cutoff).
+        let light = &mut out.leaf[i * nc..(i + 1) * nc];
+        if light.iter().flatten().any(|v| !v.is_finite()) {
+            light.fill([0.0; 3]);
+        }
         // The Voronoi function itself, L_pj · c(ω_j), for lights seen from very close (pass 2).
         let mut y = [0.0f64; MAX_COEFFS];
         for (k, sp) in pts.iter().enumerate() {
@@ -946,7 +954,10 @@ fn derive_node_lights(posed: &PosedProxy<'_>, out: &mut SphereLights) -> Result<
                             ChildRef::Leaf(l) => {
                                 let l = l as usize;
                                 let Some(s) = posed.leaves.get(l) else { continue };
-                                let w = if rn > 0.0 { sq(f64::from(s.radius) / rn) } else { 0.0 };
+                                let w = node_share(s.radius, rn);
+                                if w == 0.0 {
+                                    continue;
+                                }
                                 let src = out.leaf.get(l * nc..(l + 1) * nc).unwrap_or(&[]);
                                 for (a, v) in acc.iter_mut().zip(src) {
                                     for ch in 0..3 {
@@ -972,7 +983,10 @@ fn derive_node_lights(posed: &PosedProxy<'_>, out: &mut SphereLights) -> Result<
             let rn = f64::from(root.radius);
             let mut rot = [0.0f64; 9];
             for (l, s) in posed.leaves.iter().enumerate() {
-                let w = if rn > 0.0 { sq(f64::from(s.radius) / rn) } else { 0.0 };
+                let w = node_share(s.radius, rn);
+                if w == 0.0 {
+                    continue;
+                }
                 let src = out.leaf.get(l * nc..(l + 1) * nc).unwrap_or(&[]);
                 for (a, v) in out.root.iter_mut().zip(src) {
                     for ch in 0..3 {
@@ -994,11 +1008,42 @@ fn sq(x: f64) -> f64 {
     x * x
 }
 
+/// Below this share (r_j / r_N)² a leaf stands for nothing in its node ([`node_share`]).
+const NEGLIGIBLE_NODE_SHARE: f64 = 1e-12;
+
+/// A leaf's weight (r_j / r_N)² in its node's light, or 0 when it is at most [`NEGLIGIBLE_NODE_SHARE`] (a leaf
+/// under a millionth of the node's radius), when the node has no positive radius, or when either is not finite.
+/// Wherever a cut takes the node, such a leaf subtends less than the leaves-only path's cutoff (Ṽ₀ ≤ 10⁻¹², which
+/// skips it there too), so both paths drop it alike. Without the cutoff a node holding only empty spheres (radius
+/// the least positive f32) that own samples got a light of 10⁻⁷⁵ × theirs (0 in f32, or NaN where a leaf's light,
+/// area / r² for loose samples, overflowed f32) and a rotation from Σ w_j R_j ≈ 10⁻⁷⁵ I, which the polar
+/// iteration did not bring back to a rotation in its steps; pass 2 then read NaN from it and the receiver's sum
+/// was clamped to 0: the capsule at 64 spheres (53 left empty) lit the ground with 0 through the hierarchy.
+fn node_share(leaf_radius: f32, node_radius: f64) -> f64 {
+    let w = sq(f64::from(leaf_radius) / node_radius);
+    if node_radius > 0.0 && w.is_finite() && w > NEGLIGIBLE_NODE_SHARE {
+        w
+    } else {
+        0.0
+    }
+}
+
 /// The rotation of the polar decomposition M = R S (column-major 3×3) by Higham's iteration
-/// X ← (X + X⁻ᵀ)/2 (quadratic convergence; at most 30 steps); `None` when det M ≤ 0 or M is not finite.
+/// X ← (X + X⁻ᵀ)/2 (quadratic convergence; at most 30 steps); `None` when det M ≤ 0 or M is not finite. R of s M
+/// is R of M for s > 0, so a matrix of Frobenius norm outside [1/16, 16] is first scaled by a power of two (exact)
+/// to a norm in [1, 2): from s I the iteration needs about |log₂ s| steps before it converges.
 #[must_use]
 pub fn polar_rotation(m: &[f64; 9]) -> Option<[f64; 9]> {
     let mut x = *m;
+    let f = frob2(&x);
+    if f.is_finite() && f > 0.0 && !(0.0625..=16.0).contains(&f) {
+        // 2^−e with 2^e ≤ f < 2^(e+1) (f normal: its exponent field; subnormal norms stay as they are).
+        let e = ((f.to_bits() >> 52) & 0x7ff) as i64 - 1023;
+        if (-1022..=1022).contains(&e) {
+            let scale = f64::from_bits(((1023 - e) as u64) << 52);
+            x = x.map(|v| v * scale);
+        }
+    }
     let det0 = det3(&x);
     if !det0.is_finite()
         || det0

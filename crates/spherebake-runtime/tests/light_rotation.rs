@@ -86,6 +86,11 @@ fn polar_rotation_recovers_the_rotation_of_r_times_spd() {
         // A rotation is its own polar factor; a uniformly scaled one too.
         let got = polar_rotation(&r.map(|v| 3.0 * v)).unwrap();
         assert!(max_diff(&got, &r) < 1e-9, "case {k}: scaled rotation");
+        // Whatever the scale (a hierarchy node's Σ (r_j / r_N)² R_j over tiny leaves is tiny).
+        for scale in [1e-75, 1e-8, 1e-3, 1e3, 1e70] {
+            let got = polar_rotation(&r.map(|v| scale * v)).expect("det > 0");
+            assert!(max_diff(&got, &r) < 1e-9, "case {k}: rotation scaled by {scale}: {got:?}");
+        }
     }
     // Reflections (det < 0), singular and non-finite matrices have no rotation.
     let reflect = [1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, -1.0];

@@ -352,3 +352,47 @@ fn cesium_man_at_64_spheres_and_the_soft_rotation_reduces_the_posed_error() {
     assert!(g_rot < g_no, "the rotation must reduce the ground error: {g_rot} vs {g_no}");
     assert!(m_rot < m_no, "the rotation must reduce the model error: {m_rot} vs {m_no}");
 }
+
+/// A fit leaves the spheres it finds no use for empty (radius the least positive f32), and the
+/// bake may give them samples; the hierarchy holds them like any leaf. The capsule fixture at the
+/// default 64 spheres leaves most of them empty (the README's quick start): through the
+/// hierarchy's cut its ground was lit with 0 (a node of empty leaves turned NaN, clamped), while
+/// every leaf as its own light (θmax = 0) gave the path tracer's value. Both must agree with it.
+#[test]
+fn empty_spheres_do_not_darken_the_light_through_the_hierarchy() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let fixtures = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../fixtures");
+    for f in ["capsule.obj", "capsule.mtl"] {
+        std::fs::copy(fixtures.join(f), d.join(f)).unwrap();
+    }
+    let baked = json_of(&run(&["bake", "capsule.obj", "-o", "c.sphb", "--json"], d));
+    let empty = baked["assets"][0]["report"]["empty_spheres"].as_u64().unwrap();
+    assert!(empty >= 8, "the case needs empty spheres: {empty}");
+    let light = |theta: &str| {
+        let args = [
+            "light",
+            "c.sphb",
+            "capsule.obj",
+            "--resolution",
+            "16",
+            "--rays",
+            "64",
+            "--model-receivers",
+            "0",
+            "--theta-max-deg",
+            theta,
+            "--json",
+        ];
+        let j = json_of(&run(&args, d));
+        let g = &j["indirect"]["ground"];
+        (g["bias"].as_f64().unwrap(), rgb(&g["mean_proxy_rgb"]))
+    };
+    let (bias_cut, cut) = light("25");
+    let (bias_leaves, leaves) = light("0");
+    eprintln!("capsule, {empty} empty spheres: ground bias {bias_cut:+.4} (cut), {bias_leaves:+.4} (leaves only)");
+    assert!(bias_cut.abs() < 0.15 && bias_leaves.abs() < 0.15, "{bias_cut} {bias_leaves}");
+    for k in 0..3 {
+        assert!((cut[k] / leaves[k] - 1.0).abs() < 0.02, "channel {k}: {cut:?} against {leaves:?}");
+    }
+}
