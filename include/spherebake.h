@@ -277,8 +277,9 @@ typedef struct {
   float center[3];
   // Radius of that ball (model units).
   float radius;
-  // The receivers' mean unit normal, for the reflection ratios (taken at the centre and at four
-  // points on the disc of this normal through it); used when `has_normal` is 1.
+  // The receivers' mean normal, for the reflection ratios (taken at the centre and at four
+  // points on the disc of this normal through it); used when `has_normal` is 1 (scaled to unit
+  // length; zero or non-finite makes the build `SPHB_ERR_INVALID_ARGUMENT`).
   float normal[3];
   // 1: `normal` is given; 0: no normal (reflection ratios are 1, no overlap correction).
   uint32_t has_normal;
@@ -454,7 +455,8 @@ int32_t sphb_visibility(const SphbShadowContext *ctx,
                         SphbError *err);
 
 // The shading vector T = L ∗ H(N) (Ren 2006 §7) for lighting `light` (order² SH radiance
-// coefficients, f64) and unit normal `normal` (3 doubles) into `out[0..order²]`; the shaded value
+// coefficients, f64) and normal `normal` (3 doubles; scaled to unit length, zero or non-finite is
+// `SPHB_ERR_INVALID_ARGUMENT`) into `out[0..order²]`; the shaded value
 // is `sphb_shade(T, g)`. For uniform white light (`sphb_uniform_light`) and g = 1 it is 1.
 // Thread-safe.
 int32_t sphb_shading_vector(const SphbShadowContext *ctx,
@@ -468,7 +470,8 @@ int32_t sphb_shading_vector(const SphbShadowContext *ctx,
 // T · g over `count` coefficients (0 when either pointer is NULL). Thread-safe.
 double sphb_shade(const double *shading_vector, const double *visibility, size_t count);
 
-// The shaded value at receiver `p` (3 floats) with unit normal `normal` (3 floats) for the
+// The shaded value at receiver `p` (3 floats) with normal `normal` (3 floats; scaled to unit
+// length, zero or non-finite is `SPHB_ERR_INVALID_ARGUMENT`) for the
 // cluster's blockers: accumulate, exponentiate, dot with `shading_vector` (order² doubles), into
 // `*out`. Allocation-free; does not modify the cluster (concurrent calls are safe).
 int32_t sphb_shade_point(const SphbShadowContext *ctx,
@@ -568,7 +571,8 @@ int32_t sphb_light_spheres_from_radiance(const SphbLightContext *ctx,
                                          SphbError *err);
 
 // The environment `env` (order² SH radiance coefficients of `ctx`'s order, f64) with everything
-// below the horizon of the unit `up` direction (3 doubles) removed (exact for an infinite ground
+// below the horizon of the `up` direction (3 doubles; scaled to unit length, zero or non-finite is
+// `SPHB_ERR_INVALID_ARGUMENT`) removed (exact for an infinite ground
 // plane under the scene), into `out[0..order²]`. Thread-safe.
 int32_t sphb_clip_below_horizon(const SphbLightContext *ctx,
                                 const double *env,
@@ -636,7 +640,8 @@ int32_t sphb_indirect_cluster_light_count(const SphbIndirectCluster *cluster,
                                           SphbError *err);
 
 // **Pass 2, per receiver**: the indirect irradiance E (linear RGB, ∫ L_in cos dω; 3 doubles
-// into `out`) at receiver `p` (3 floats) with unit `normal` (3 floats) from the cluster's lights.
+// into `out`) at receiver `p` (3 floats) with `normal` (3 floats; scaled to unit length, zero or
+// non-finite is `SPHB_ERR_INVALID_ARGUMENT`) from the cluster's lights.
 // `sources` / `lights` must be the arrays the cluster was built from. Reuses the cluster's
 // buffers: one thread at a time per cluster (to query one cluster from many threads, use
 // `sphb_indirect_irradiance_with`); allocation-free once they have grown (up to 8 sources).

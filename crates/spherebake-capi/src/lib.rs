@@ -335,8 +335,9 @@ pub struct SphbClusterSpec {
     pub center: [f32; 3],
     /// Radius of that ball (model units).
     pub radius: f32,
-    /// The receivers' mean unit normal, for the reflection ratios (taken at the centre and at four
-    /// points on the disc of this normal through it); used when `has_normal` is 1.
+    /// The receivers' mean normal, for the reflection ratios (taken at the centre and at four
+    /// points on the disc of this normal through it); used when `has_normal` is 1 (scaled to unit
+    /// length; zero or non-finite makes the build `SPHB_ERR_INVALID_ARGUMENT`).
     pub normal: [f32; 3],
     /// 1: `normal` is given; 0: no normal (reflection ratios are 1, no overlap correction).
     pub has_normal: u32,
@@ -1146,7 +1147,8 @@ pub unsafe extern "C" fn sphb_visibility(
 }
 
 /// The shading vector T = L ∗ H(N) (Ren 2006 §7) for lighting `light` (order² SH radiance
-/// coefficients, f64) and unit normal `normal` (3 doubles) into `out[0..order²]`; the shaded value
+/// coefficients, f64) and normal `normal` (3 doubles; scaled to unit length, zero or non-finite is
+/// `SPHB_ERR_INVALID_ARGUMENT`) into `out[0..order²]`; the shaded value
 /// is `sphb_shade(T, g)`. For uniform white light (`sphb_uniform_light`) and g = 1 it is 1.
 /// Thread-safe.
 #[no_mangle]
@@ -1183,7 +1185,8 @@ pub unsafe extern "C" fn sphb_shade(shading_vector: *const f64, visibility: *con
     .unwrap_or(0.0)
 }
 
-/// The shaded value at receiver `p` (3 floats) with unit normal `normal` (3 floats) for the
+/// The shaded value at receiver `p` (3 floats) with normal `normal` (3 floats; scaled to unit
+/// length, zero or non-finite is `SPHB_ERR_INVALID_ARGUMENT`) for the
 /// cluster's blockers: accumulate, exponentiate, dot with `shading_vector` (order² doubles), into
 /// `*out`. Allocation-free; does not modify the cluster (concurrent calls are safe).
 #[no_mangle]
@@ -1434,7 +1437,8 @@ pub unsafe extern "C" fn sphb_light_spheres_from_radiance(
 }
 
 /// The environment `env` (order² SH radiance coefficients of `ctx`'s order, f64) with everything
-/// below the horizon of the unit `up` direction (3 doubles) removed (exact for an infinite ground
+/// below the horizon of the `up` direction (3 doubles; scaled to unit length, zero or non-finite is
+/// `SPHB_ERR_INVALID_ARGUMENT`) removed (exact for an infinite ground
 /// plane under the scene), into `out[0..order²]`. Thread-safe.
 #[no_mangle]
 pub unsafe extern "C" fn sphb_clip_below_horizon(
@@ -1642,7 +1646,8 @@ unsafe fn with_sources<'a, R>(
 }
 
 /// **Pass 2, per receiver**: the indirect irradiance E (linear RGB, ∫ L_in cos dω; 3 doubles
-/// into `out`) at receiver `p` (3 floats) with unit `normal` (3 floats) from the cluster's lights.
+/// into `out`) at receiver `p` (3 floats) with `normal` (3 floats; scaled to unit length, zero or
+/// non-finite is `SPHB_ERR_INVALID_ARGUMENT`) from the cluster's lights.
 /// `sources` / `lights` must be the arrays the cluster was built from. Reuses the cluster's
 /// buffers: one thread at a time per cluster (to query one cluster from many threads, use
 /// `sphb_indirect_irradiance_with`); allocation-free once they have grown (up to 8 sources).

@@ -397,13 +397,13 @@ impl LightContext {
     }
 }
 
-/// The environment `env` (order² radiance coefficients) with everything below the horizon of the unit `up`
-/// direction removed: the SH product env ∗ χ, χ the hemisphere {ω · up > 0} (exact for an infinite ground plane
+/// The environment `env` (order² radiance coefficients) with everything below the horizon of the `up` direction
+/// (scaled to unit length) removed: the SH product env ∗ χ, χ the hemisphere {ω · up > 0} (exact for an infinite ground plane
 /// under the scene, which hides the lower half of every point's sphere of directions). Into `out[0..order²]`.
 ///
 /// # Errors
 ///
-/// `env` or `out` shorter than order².
+/// `env` or `out` shorter than order²; `up` zero or not finite.
 pub fn clip_below_horizon(ctx: &LightContext, env: &[f64], up: [f64; 3], out: &mut [f64]) -> Result<(), LightError> {
     let order = ctx.order();
     let nc = coeff_count(order);
@@ -412,7 +412,7 @@ pub fn clip_below_horizon(ctx: &LightContext, env: &[f64], up: [f64; 3], out: &m
     let mut g = [0.0; MAX_ORDER];
     cap_zh(core::f64::consts::FRAC_PI_2, order, &mut g)?;
     let mut hemi = [0.0; MAX_COEFFS];
-    zh_rotate(&g[..order], normalize3(up), &mut hemi)?;
+    zh_rotate(&g[..order], crate::shadow::unit_normal("up", up)?, &mut hemi)?;
     ctx.shadow.triple_product().product(&env[..nc], &hemi[..nc], out)?;
     Ok(())
 }
@@ -422,15 +422,6 @@ fn check_len(argument: &'static str, expected: usize, actual: usize) -> Result<(
         Err(LightError::SliceLength { argument, expected, actual })
     } else {
         Ok(())
-    }
-}
-
-fn normalize3(v: [f64; 3]) -> [f64; 3] {
-    let n = crate::refit::sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
-    if n > 0.0 && n.is_finite() {
-        [v[0] / n, v[1] / n, v[2] / n]
-    } else {
-        [0.0, 1.0, 0.0]
     }
 }
 
@@ -1330,6 +1321,7 @@ impl IndirectCluster {
         cluster: &ClusterSpec,
     ) -> Result<(), LightError> {
         let ClusterSpec { center, radius, normal, theta_max_rad, reflection_ratio, overlap_correction } = *cluster;
+        let normal = normal.map(|n| crate::shadow::unit_normal_f32("cluster normal", n)).transpose()?;
         let order = ctx.order();
         self.order = order;
         self.entries.clear();
@@ -1459,7 +1451,7 @@ impl IndirectCluster {
             return Err(LightError::Mismatch { what: "sources (not the ones the cluster was built from)" });
         }
         crate::shadow::check_point("p", p)?;
-        crate::shadow::check_point("normal", normal)?;
+        let normal = crate::shadow::unit_normal_f32("normal", normal)?;
         let e = contribution(self.order, &self.entries, &mut scratch.active, ctx, sources, p, normal, |_| true)?;
         Ok(e.map(|v| v.max(0.0)))
     }

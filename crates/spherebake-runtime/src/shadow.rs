@@ -670,14 +670,15 @@ impl ShadowContext {
     }
 
     /// The shading vector T = L ∗ H(N) (Ren §7) for lighting `light` (order² radiance
-    /// coefficients) and unit normal `normal`, with H(N)_lm = (A_l/π) y_lm(N) the clamped cosine
+    /// coefficients) and normal `normal` (scaled to unit length), with H(N)_lm = (A_l/π) y_lm(N) the clamped cosine
     /// about N (Ramamoorthi–Hanrahan A_l), into `out[0..order²]`. Shaded value = T · g
     /// ([`shade`]); for `light` = **1** (uniform white, [`uniform_light`]) and g = **1** it is 1.
     ///
     /// # Errors
     ///
-    /// `light` or `out` shorter than order².
+    /// `light` or `out` shorter than order²; `normal` zero or not finite.
     pub fn shading_vector(&self, light: &[f64], normal: [f64; 3], out: &mut [f64]) -> Result<(), ShadowError> {
+        let normal = unit_normal("normal", normal)?;
         let n = self.order;
         let nc = coeff_count(n);
         check_len("light", nc, light.len())?;
@@ -695,13 +696,14 @@ impl ShadowContext {
         Ok(())
     }
 
-    /// The shaded value at receiver `p` (unit normal `normal`) for the cluster's blockers and a
-    /// shading vector from [`ShadowContext::shading_vector`]: accumulate, exponentiate, dot.
-    /// Allocation-free.
+    /// The shaded value at receiver `p` (normal `normal`, scaled to unit length) for the cluster's
+    /// blockers and a shading vector from [`ShadowContext::shading_vector`]: accumulate,
+    /// exponentiate, dot. Allocation-free.
     ///
     /// # Errors
     ///
-    /// The cluster was built for another order; `shading_vector` shorter than order².
+    /// The cluster was built for another order; `shading_vector` shorter than order²; `p` not
+    /// finite; `normal` zero or not finite.
     pub fn shade_point(
         &self,
         blockers: &ClusterBlockers,
@@ -716,7 +718,7 @@ impl ShadowContext {
             return Err(ShadowError::Order { order: blockers.order });
         }
         check_point("p", p)?;
-        check_point("normal", normal)?;
+        let normal = unit_normal_f32("normal", normal)?;
         let nc = coeff_count(self.order);
         check_len("shading_vector", nc, shading_vector.len())?;
         let mut log = [0.0f32; MAX_COEFFS];
@@ -737,6 +739,30 @@ pub(crate) fn check_point(argument: &'static str, p: [f32; 3]) -> Result<(), Sha
     } else {
         Err(ShadowError::Argument { argument, expected: "finite" })
     }
+}
+
+/// `n` at unit length: as it is when |n|² is within 10⁻⁶ of 1 (so unit normals keep their bits), else divided by
+/// |n|. `Err(Argument)` unless `n` is finite and not zero: a normal need not be unit (interpolated vertex normals
+/// are not), but it must have a direction.
+pub(crate) fn unit_normal(argument: &'static str, n: [f64; 3]) -> Result<[f64; 3], ShadowError> {
+    let len2 = n[0] * n[0] + n[1] * n[1] + n[2] * n[2];
+    if !(len2.is_finite() && len2 > 0.0) {
+        return Err(ShadowError::Argument { argument, expected: "a finite, non-zero vector" });
+    }
+    if (len2 - 1.0).abs() <= 1e-6 {
+        return Ok(n);
+    }
+    let len = crate::refit::sqrt(len2);
+    Ok(n.map(|v| v / len))
+}
+
+/// [`unit_normal`] of an f32 vector (the same rule; the result rounded to f32).
+pub(crate) fn unit_normal_f32(argument: &'static str, n: [f32; 3]) -> Result<[f32; 3], ShadowError> {
+    let len2 = n.iter().map(|&v| f64::from(v) * f64::from(v)).sum::<f64>();
+    if len2.is_finite() && (len2 - 1.0).abs() <= 1e-6 {
+        return Ok(n);
+    }
+    Ok(unit_normal(argument, n.map(f64::from))?.map(|v| v as f32))
 }
 
 /// `Err(Argument)` unless 0 ≤ `a` ≤ π (radians).
