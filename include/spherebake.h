@@ -369,7 +369,9 @@ int32_t sphb_pose_and_refit(const SphbProxy *proxy,
 // subtending less than `theta_max_rad` and leaves (Ren 2006 eq. 36), over the node spheres `nodes`
 // (refitted or rest, `node_count` = the proxy's). Writes `*len_out` entries into `out`
 // (capacity `out_cap`); when too small returns `SPHB_ERR_BUFFER_TOO_SMALL` with `*len_out` = the
-// needed count. Allocates its scratch; thread-safe.
+// needed count. A centre that is not finite, a radius that is not finite and ≥ 0, or a θmax
+// outside [0, π] is `SPHB_ERR_INVALID_ARGUMENT` (as for the shadow cluster's build; above π/2 the
+// cut is the root's). Allocates its scratch; thread-safe.
 int32_t sphb_cut(const SphbProxy *proxy,
                  const SphbSphere *nodes,
                  size_t node_count,

@@ -947,7 +947,9 @@ pub unsafe extern "C" fn sphb_pose_and_refit(
 /// subtending less than `theta_max_rad` and leaves (Ren 2006 eq. 36), over the node spheres `nodes`
 /// (refitted or rest, `node_count` = the proxy's). Writes `*len_out` entries into `out`
 /// (capacity `out_cap`); when too small returns `SPHB_ERR_BUFFER_TOO_SMALL` with `*len_out` = the
-/// needed count. Allocates its scratch; thread-safe.
+/// needed count. A centre that is not finite, a radius that is not finite and ≥ 0, or a θmax
+/// outside [0, π] is `SPHB_ERR_INVALID_ARGUMENT` (as for the shadow cluster's build; above π/2 the
+/// cut is the root's). Allocates its scratch; thread-safe.
 #[no_mangle]
 pub unsafe extern "C" fn sphb_cut(
     proxy: *const SphbProxy,
@@ -969,6 +971,16 @@ pub unsafe extern "C" fn sphb_cut(
         disjoint(("len_out", span(len_out, 1)), &[inputs[0], inputs[1], ("out", span(out, out_cap))])?;
         let n = unsafe { input(nodes, node_count, "nodes")? };
         let c = unsafe { vec3(receiver_center, "receiver_center")? };
+        // The receiver ball and θmax under the rules of the shadow cluster's build.
+        if !c.iter().all(|v| v.is_finite()) {
+            return Err(invalid("receiver_center must be finite"));
+        }
+        if !(receiver_radius >= 0.0 && receiver_radius.is_finite()) {
+            return Err(invalid(format!("receiver_radius must be finite and ≥ 0, got {receiver_radius}")));
+        }
+        if !(0.0..=core::f32::consts::PI).contains(&theta_max_rad) {
+            return Err(invalid(format!("theta_max_rad must be in [0, π] radians, got {theta_max_rad}")));
+        }
         let len = unsafe { object_mut(len_out, "len_out")? };
         let mut cut = Vec::new();
         spherebake_runtime::cut(plan, spheres_of(n), c, receiver_radius, theta_max_rad, &mut cut).map_err(invalid)?;

@@ -167,6 +167,21 @@ fn drive_proxy(p: *mut SphbProxy) {
             SPHB_ERR_BUFFER_TOO_SMALL
         );
         assert!(len >= 1, "the needed length is reported");
+        // A receiver ball or θmax outside the shadow build's rules is an argument error, not a cut.
+        let bad_c = [f32::NAN, 0.0, 0.0];
+        assert_eq!(
+            unsafe {
+                sphb_cut(p, nodes.as_ptr(), m, bad_c.as_ptr(), 0.1, th, cut.as_mut_ptr(), m + n, &mut len, &mut e)
+            },
+            SPHB_ERR_INVALID_ARGUMENT
+        );
+        for (r, t) in [(-1.0, th), (f32::INFINITY, th), (f32::NAN, th), (0.1, f32::NAN), (0.1, -0.1), (0.1, 4.0)] {
+            assert_eq!(
+                unsafe { sphb_cut(p, nodes.as_ptr(), m, c.as_ptr(), r, t, cut.as_mut_ptr(), m + n, &mut len, &mut e) },
+                SPHB_ERR_INVALID_ARGUMENT,
+                "radius {r}, theta {t}"
+            );
+        }
         assert_eq!(
             unsafe { sphb_cut(p, nodes.as_ptr(), m, c.as_ptr(), 0.1, th, cut.as_mut_ptr(), len, &mut len, &mut e) },
             SPHB_OK
