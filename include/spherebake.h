@@ -332,7 +332,8 @@ int32_t sphb_proxy_metadata(const SphbProxy *proxy,
 
 // Poses the spheres: `out[s]` = Σ_j M_j · (q_j, b_j) over sphere s's skin slots, radius kept;
 // `joints` holds `joint_count` column-major 4×4 joint matrices (16 floats each, glTF convention).
-// Without skin the rest spheres are copied. `out_len` must be at least the sphere count.
+// Without skin the rest spheres are copied. `out_len` must be at least the sphere count. A NaN or
+// an infinity in a matrix the bone table uses is `SPHB_ERR_INVALID_ARGUMENT`.
 // Allocation-free; thread-safe (distinct `out`).
 int32_t sphb_pose(const SphbProxy *proxy,
                   const float *joints,
@@ -405,8 +406,9 @@ void sphb_shadow_cluster_free(SphbShadowCluster *cluster);
 // (Ren 2006 eq. 36, 37), at SH `order`. `leaves` are the posed spheres (`leaf_count` = the
 // proxy's); `nodes` the node spheres (`node_count` = the proxy's), or NULL (or a proxy without
 // hierarchy): all leaves under one implicit root. `proxy` provides the hierarchy plan.
-// Writes the number of blockers to `*blocker_count_out` when not NULL. Reuses the cluster's
-// buffers; one thread at a time per cluster.
+// Writes the number of blockers to `*blocker_count_out` when not NULL. A sphere (leaf or node)
+// without a finite centre and a finite radius ≥ 0 is `SPHB_ERR_INVALID_ARGUMENT`. Reuses the
+// cluster's buffers; one thread at a time per cluster.
 int32_t sphb_shadow_cluster_build(SphbShadowCluster *cluster,
                                   const SphbProxy *proxy,
                                   uint32_t order,

@@ -466,6 +466,10 @@ impl<'a> PosedProxy<'a> {
                 });
             }
         }
+        crate::shadow::check_spheres("leaves", self.leaves)?;
+        if let Some((_, nodes)) = self.nodes {
+            crate::shadow::check_spheres("nodes", nodes)?;
+        }
         Ok(())
     }
 }

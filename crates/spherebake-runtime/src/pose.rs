@@ -32,6 +32,11 @@ pub enum PoseError {
     },
     /// The hierarchy refit of [`pose_and_refit`] refused its slices.
     Refit(QueryError),
+    /// Joint matrix `joint` (of those the bone table uses) holds a NaN or an infinity.
+    NonFinite {
+        /// Its index.
+        joint: usize,
+    },
 }
 
 impl core::fmt::Display for PoseError {
@@ -44,6 +49,7 @@ impl core::fmt::Display for PoseError {
                 write!(f, "pose: output holds {actual} spheres, expected {expected}")
             }
             PoseError::Refit(e) => write!(f, "pose: hierarchy refit: {e}"),
+            PoseError::NonFinite { joint } => write!(f, "pose: joint matrix {joint} is not finite"),
         }
     }
 }
@@ -60,8 +66,9 @@ impl core::error::Error for PoseError {}
 ///
 /// # Errors
 ///
-/// [`PoseError::JointCount`] when fewer matrices than bones are given (only checked for a proxy
-/// with a skin), [`PoseError::OutputLength`] when `out.len() != proxy.sphere_count()`.
+/// [`PoseError::JointCount`] when fewer matrices than bones are given, [`PoseError::NonFinite`]
+/// when one of those holds a NaN or an infinity (both only checked for a proxy with a skin),
+/// [`PoseError::OutputLength`] when `out.len() != proxy.sphere_count()`.
 pub fn pose(proxy: &Proxy, joint_matrices: &[[f32; 16]], out: &mut [Sphere]) -> Result<(), PoseError> {
     let rest = proxy.spheres();
     if out.len() != rest.len() {
@@ -74,6 +81,9 @@ pub fn pose(proxy: &Proxy, joint_matrices: &[[f32; 16]], out: &mut [Sphere]) -> 
     let bone_count = proxy.bones().len();
     if joint_matrices.len() < bone_count {
         return Err(PoseError::JointCount { expected: bone_count, actual: joint_matrices.len() });
+    }
+    if let Some(joint) = joint_matrices[..bone_count].iter().position(|m| !m.iter().all(|v| v.is_finite())) {
+        return Err(PoseError::NonFinite { joint });
     }
     let k = skin.bones_per_sphere as usize;
     if k == 0 {

@@ -296,6 +296,10 @@ impl ClusterBlockers {
                 return Err(ShadowError::Argument { argument: "receiver_radius", expected: "finite and ≥ 0" });
             }
             check_angle("theta_max_rad", f64::from(theta_max_rad))?;
+            check_spheres("leaves", leaves)?;
+            if let Some((_, nodes)) = hierarchy {
+                check_spheres("nodes", nodes)?;
+            }
             self.order = order;
             self.blockers.clear();
             let p_star = receiver_center.map(f64::from);
@@ -738,6 +742,17 @@ pub(crate) fn check_point(argument: &'static str, p: [f32; 3]) -> Result<(), Sha
         Ok(())
     } else {
         Err(ShadowError::Argument { argument, expected: "finite" })
+    }
+}
+
+/// `Err(Argument)` unless every sphere has a finite centre and a finite radius ≥ 0 (a posed proxy from a joint
+/// matrix with a NaN, or a caller's own spheres, would otherwise give plausible-looking values).
+pub(crate) fn check_spheres(argument: &'static str, spheres: &[Sphere]) -> Result<(), ShadowError> {
+    let ok = |s: &Sphere| s.center.iter().all(|v| v.is_finite()) && s.radius.is_finite() && s.radius >= 0.0;
+    if spheres.iter().all(ok) {
+        Ok(())
+    } else {
+        Err(ShadowError::Argument { argument, expected: "spheres with finite centres and finite radii ≥ 0" })
     }
 }
 

@@ -96,3 +96,32 @@ fn shadows_and_the_horizon_take_any_length_of_normal() {
         assert!(matches!(clip(bad.map(f64::from)), Err(LightError::Shadow(ShadowError::Argument { .. }))), "{bad:?}");
     }
 }
+
+/// Spheres that are not spheres (a NaN centre from a bad joint matrix, a negative or infinite radius) are refused by
+/// the shadow cluster's build and by the light passes, instead of giving plausible-looking values.
+#[test]
+fn builds_refuse_spheres_that_are_not_finite() {
+    let good = Sphere { center: [0.0, 1.0, 0.0], radius: 0.5 };
+    let bad = [
+        Sphere { center: [f32::NAN, 1.0, 0.0], radius: 0.5 },
+        Sphere { center: [0.0, f32::INFINITY, 0.0], radius: 0.5 },
+        Sphere { center: [0.0, 1.0, 0.0], radius: -1.0 },
+        Sphere { center: [0.0, 1.0, 0.0], radius: f32::NAN },
+    ];
+    let mut cb = ClusterBlockers::new();
+    cb.build(4, &[good, good], None, [0.0; 3], 0.0, 0.4363323).unwrap();
+    for b in bad {
+        let e = cb.build(4, &[good, b], None, [0.0; 3], 0.0, 0.4363323);
+        assert!(matches!(e, Err(ShadowError::Argument { argument: "leaves", .. })), "{b:?}: {e:?}");
+    }
+    let proxy = common::sphere_proxy(&[(good, [0.8, 0.5, 0.3]), (good, [0.8, 0.5, 0.3])], 4);
+    let ctx = LightContext::new(4, ExpMethod::default()).unwrap();
+    let env = common::uniform_sky(&ctx);
+    let mut lights = SphereLights::new();
+    for b in bad {
+        let leaves = [good, b];
+        let posed = PosedProxy { leaves: &leaves, ..PosedProxy::at_rest(&proxy) };
+        let e = light_spheres(&ctx, &posed, &env, &[], &Pass1Settings::default(), &mut lights);
+        assert!(matches!(e, Err(LightError::Shadow(ShadowError::Argument { argument: "leaves", .. }))), "{b:?}: {e:?}");
+    }
+}

@@ -114,6 +114,18 @@ fn argument_errors_and_static_files() {
     assert_eq!(pose(&p, &[ID], &mut out), Err(PoseError::JointCount { expected: 2, actual: 1 }));
     assert_eq!(pose(&p, &[ID; 2], &mut []), Err(PoseError::OutputLength { expected: 1, actual: 0 }));
     assert_eq!(out[0], Sphere::default(), "nothing written on error");
+    // A NaN or an infinity in a matrix the bone table uses is an error (it would pose a NaN centre).
+    for bad in [f32::NAN, f32::INFINITY] {
+        let mut m = [ID; 2];
+        m[1][13] = bad;
+        assert_eq!(pose(&p, &m, &mut out), Err(PoseError::NonFinite { joint: 1 }));
+        assert_eq!(out[0], Sphere::default(), "nothing written on error");
+    }
+    // One beyond the bone table is not read.
+    let mut m = [ID; 3];
+    m[2][0] = f32::NAN;
+    pose(&p, &m, &mut out).unwrap();
+    assert!(out[0].center.iter().all(|v| v.is_finite()));
     // No skin: the rest spheres, whatever the matrices.
     let s = Sphere { center: [1.0, 2.0, 3.0], radius: 4.0 };
     let p = Proxy::from_file(&SphbFile { spheres: vec![s], ..SphbFile::default() }).unwrap();
