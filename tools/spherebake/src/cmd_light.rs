@@ -67,7 +67,8 @@ pub struct LightArgs {
     /// Keep only the constant (mean) term of every sphere's albedo SH (baseline)
     #[arg(long)]
     pub mean_albedo: bool,
-    /// Write the ground's indirect irradiance, proxy | reference | difference, to this PNG
+    /// Write the ground's indirect irradiance, proxy | reference | difference, to this image (.png, or
+    /// .jpg / .jpeg for JPEG)
     #[arg(short, long, value_name = "CMP.png")]
     pub output: Option<PathBuf>,
     /// Print one JSON document instead of text
@@ -162,6 +163,10 @@ pub struct LightResult {
 }
 
 pub fn run(a: LightArgs) -> Result<ExitCode> {
+    // The picture's type from its extension, refused before any work (as `render`).
+    if let Some(out) = &a.output {
+        crate::cmd_view::image_format(out)?;
+    }
     if !(2..=1024).contains(&a.resolution) {
         bail!("--resolution {} is outside 2..=1024", a.resolution);
     }
@@ -199,7 +204,7 @@ pub fn run(a: LightArgs) -> Result<ExitCode> {
     if let Some(out) = &a.output {
         let mut read = imported.inputs.clone();
         read.push(a.file.clone());
-        write_png(out, res, &r.ground_proxy, &r.ground_reference, &read)?;
+        write_image(out, res, &r.ground_proxy, &r.ground_reference, &read)?;
     }
     if let Some(out) = &a.values_json {
         let mut read = imported.inputs.clone();
@@ -872,7 +877,7 @@ fn srgb8(v: f64) -> u8 {
 /// Proxy and reference share one scale (white = the largest reference channel, linear → sRGB);
 /// the difference (mean over channels) is red where the proxy is brighter, blue where darker, at
 /// 4× that scale.
-fn write_png(path: &Path, res: usize, proxy: &[[f64; 3]], reference: &[[f64; 3]], read: &[PathBuf]) -> Result<()> {
+fn write_image(path: &Path, res: usize, proxy: &[[f64; 3]], reference: &[[f64; 3]], read: &[PathBuf]) -> Result<()> {
     let k = 400usize.div_ceil(res).max(1);
     let panel = res * k;
     let gap = 16;
@@ -913,9 +918,8 @@ fn write_png(path: &Path, res: usize, proxy: &[[f64; 3]], reference: &[[f64; 3]]
             }
         }
     }
-    let mut bytes = Vec::new();
-    img.write_to(&mut std::io::Cursor::new(&mut bytes), image::ImageFormat::Png)
-        .with_context(|| format!("{}: encoding PNG", path.display()))?;
+    let format = crate::cmd_view::image_format(path)?;
+    let bytes = crate::cmd_view::encode_rgb(path, format, img.as_raw(), img.width(), img.height())?;
     crate::atomic::write_atomic(path, &bytes, read)?;
     Ok(())
 }

@@ -68,7 +68,8 @@ pub struct ShadowsArgs {
     /// Lighting environment
     #[arg(long, value_enum, default_value_t = LightArg::Uniform)]
     pub light: LightArg,
-    /// Write truth | proxy | difference side by side to this PNG
+    /// Write truth | proxy | difference side by side to this image (.png, or
+    /// .jpg / .jpeg for JPEG)
     #[arg(short, long, value_name = "CMP.png")]
     pub output: Option<PathBuf>,
     /// Print one JSON document instead of text
@@ -132,6 +133,10 @@ pub struct ShadowsResult {
 }
 
 pub fn run(a: ShadowsArgs) -> Result<ExitCode> {
+    // The picture's type from its extension, refused before any work (as `render`).
+    if let Some(out) = &a.output {
+        crate::cmd_view::image_format(out)?;
+    }
     if !(2..=2048).contains(&a.resolution) {
         bail!("--resolution {} is outside 2..=2048", a.resolution);
     }
@@ -155,7 +160,7 @@ pub fn run(a: ShadowsArgs) -> Result<ExitCode> {
     if let Some(out) = &a.output {
         let mut read = imported.inputs.clone();
         read.push(a.file.clone());
-        write_png(out, a.resolution, &r.truth, &r.proxy, &read)?;
+        write_image(out, a.resolution, &r.truth, &r.proxy, &read)?;
     }
     let hierarchy = r.hierarchy;
     let light = match a.light {
@@ -423,7 +428,7 @@ fn srgb8(v: f64) -> u8 {
 /// Truth | proxy | difference, each `res`² pixels (row = z, column = x), 4 px gaps. Truth and
 /// proxy are scaled by the largest truth value (linear → sRGB grey); the difference is red where
 /// the proxy is brighter, blue where darker, at 4× that scale.
-fn write_png(path: &std::path::Path, res: usize, truth: &[f64], proxy: &[f64], read: &[PathBuf]) -> Result<()> {
+fn write_image(path: &std::path::Path, res: usize, truth: &[f64], proxy: &[f64], read: &[PathBuf]) -> Result<()> {
     let gap = 4;
     let w = 3 * res + 2 * gap;
     let mut img = image::RgbImage::from_pixel(w as u32, res as u32, image::Rgb([255, 255, 255]));
@@ -442,9 +447,8 @@ fn write_png(path: &std::path::Path, res: usize, truth: &[f64], proxy: &[f64], r
             img.put_pixel((2 * (res + gap) + i) as u32, j as u32, image::Rgb(c));
         }
     }
-    let mut bytes = Vec::new();
-    img.write_to(&mut std::io::Cursor::new(&mut bytes), image::ImageFormat::Png)
-        .with_context(|| format!("{}: encoding PNG", path.display()))?;
+    let format = crate::cmd_view::image_format(path)?;
+    let bytes = crate::cmd_view::encode_rgb(path, format, img.as_raw(), img.width(), img.height())?;
     crate::atomic::write_atomic(path, &bytes, read)?;
     Ok(())
 }

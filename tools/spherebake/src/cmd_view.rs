@@ -83,19 +83,41 @@ pub fn run_export(a: ExportArgs) -> Result<ExitCode> {
 }
 
 #[derive(Clone, Copy, Debug)]
-enum ImageFormat {
+pub(crate) enum ImageFormat {
     Png,
     Jpeg,
 }
 
 /// The image format by the output's extension: `.png` (or none, e.g. `/dev/stdout`) is PNG,
 /// `.jpg` / `.jpeg` JPEG; anything else is refused rather than written as mislabelled PNG.
-fn image_format(path: &Path) -> Result<ImageFormat> {
+pub(crate) fn image_format(path: &Path) -> Result<ImageFormat> {
     match path.extension().map(|e| e.to_string_lossy().to_ascii_lowercase()).as_deref() {
         None | Some("png") => Ok(ImageFormat::Png),
         Some("jpg" | "jpeg") => Ok(ImageFormat::Jpeg),
         Some(e) => bail!("{}: unsupported image type .{e} (use .png, .jpg or .jpeg)", path.display()),
     }
+}
+
+/// 8-bit RGB pixels (`width` × `height`, rows top down) encoded as `format` (from
+/// [`image_format`] of `path`, which names the file in errors).
+pub(crate) fn encode_rgb(path: &Path, format: ImageFormat, rgb: &[u8], width: u32, height: u32) -> Result<Vec<u8>> {
+    let mut bytes = Vec::new();
+    let color = image::ExtendedColorType::Rgb8;
+    let encoded = match format {
+        ImageFormat::Png => {
+            let enc = image::codecs::png::PngEncoder::new(&mut bytes);
+            image::ImageEncoder::write_image(enc, rgb, width, height, color)
+        }
+        ImageFormat::Jpeg => {
+            let enc = image::codecs::jpeg::JpegEncoder::new_with_quality(&mut bytes, 92);
+            image::ImageEncoder::write_image(enc, rgb, width, height, color)
+        }
+    };
+    encoded.with_context(|| format!("{}: encoding {format:?}", path.display()))?;
+    if bytes.is_empty() {
+        bail!("{}: empty image", path.display());
+    }
+    Ok(bytes)
 }
 
 pub fn run_render(a: RenderArgs) -> Result<ExitCode> {
@@ -106,22 +128,7 @@ pub fn run_render(a: RenderArgs) -> Result<ExitCode> {
     let spheres: Vec<[f32; 4]> =
         proxy.spheres().iter().map(|s| [s.center[0], s.center[1], s.center[2], s.radius]).collect();
     let img = spherebake_bake::render::render_views(&m.positions, &m.triangles, &spheres, a.size.0, a.size.1);
-    let mut png = Vec::new();
-    let color = image::ExtendedColorType::Rgb8;
-    let encoded = match format {
-        ImageFormat::Png => {
-            let enc = image::codecs::png::PngEncoder::new(&mut png);
-            image::ImageEncoder::write_image(enc, &img.rgb, img.width, img.height, color)
-        }
-        ImageFormat::Jpeg => {
-            let enc = image::codecs::jpeg::JpegEncoder::new_with_quality(&mut png, 92);
-            image::ImageEncoder::write_image(enc, &img.rgb, img.width, img.height, color)
-        }
-    };
-    encoded.with_context(|| format!("{}: encoding {format:?}", a.output.display()))?;
-    if png.is_empty() {
-        bail!("{}: empty image", a.output.display());
-    }
+    let png = encode_rgb(&a.output, format, &img.rgb, img.width, img.height)?;
     let mut read = imported.inputs.clone();
     read.push(a.file.clone());
     crate::atomic::write_atomic(&a.output, &png, &read)?;

@@ -117,6 +117,16 @@ fn bad_arguments() {
     let o = run(&["shadows", "missing.sphb", "--model", "ball.obj"], dir.path());
     assert_eq!(o.status.code(), Some(1));
     assert!(String::from_utf8_lossy(&o.stderr).contains("missing.sphb"));
+    // The picture's type follows its extension, as `render`'s: .jpg is JPEG, .bmp is refused
+    // (naming the file) and nothing is written; it once wrote PNG bytes under any name.
+    let small = ["shadows", "ball.sphb", "--model", "ball.obj", "--resolution", "8", "--rays", "16", "-o"];
+    let o = run(&[&small[..], &["cmp.jpg"]].concat(), dir.path());
+    assert_eq!(o.status.code(), Some(0), "{}", String::from_utf8_lossy(&o.stderr));
+    assert_eq!(&std::fs::read(dir.path().join("cmp.jpg")).unwrap()[..3], &[0xFF, 0xD8, 0xFF], "JPEG magic");
+    let o = run(&[&small[..], &["cmp.bmp"]].concat(), dir.path());
+    assert_eq!(o.status.code(), Some(1));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("cmp.bmp"));
+    assert!(!dir.path().join("cmp.bmp").exists());
 }
 
 /// The truth's rays pass through the holes of an alpha-masked material: a 20 × 20 card at
