@@ -17,8 +17,10 @@
 //!   temp files are written and synced first, then renamed; if a later rename fails the earlier
 //!   ones are removed again.
 //! - SIGINT / SIGTERM remove the temp files of this process before it dies by the signal, and
-//!   each write removes `.spherebake-*.tmp` files in its directory that are older than this run
-//!   (left by a process that was killed with SIGKILL or lost power).
+//!   each write removes `.spherebake-*.tmp` files in its directory last modified more than
+//!   [`STALE_TEMP_AGE`] before this run started (left by a process that was killed with SIGKILL or
+//!   lost power). A temp file of a bake running beside this one (ninja -j into one directory) is
+//!   younger than that, however the two processes' starts fall.
 
 use anyhow::{bail, Context, Result};
 use std::io::Write;
@@ -28,6 +30,12 @@ use std::time::SystemTime;
 
 const TMP_PREFIX: &str = ".spherebake-";
 const TMP_SUFFIX: &str = ".tmp";
+
+/// A temp file is stale when last modified this long before the run started. A live one is
+/// renamed within the fsync after its last write; with "older than the run" alone, a bake that
+/// started after a concurrent bake had written its temp file removed it before its rename, and
+/// that bake failed (ninja building three assets into one directory, under load).
+const STALE_TEMP_AGE: std::time::Duration = std::time::Duration::from_secs(600);
 
 /// Temp files of this process that exist right now (removed by the signal handler).
 static LIVE_TEMPS: Mutex<Vec<PathBuf>> = Mutex::new(Vec::new());
@@ -286,9 +294,11 @@ fn prepare(path: &Path, bytes: &[u8]) -> Result<Prepared> {
     Ok(Prepared::Temp { file: tmp, target, shown: path.to_path_buf() })
 }
 
-/// Removes `.spherebake-*.tmp` regular files in `dir` last modified before this run started.
+/// Removes `.spherebake-*.tmp` regular files in `dir` last modified more than [`STALE_TEMP_AGE`]
+/// before this run started.
 fn remove_stale_temps(dir: &Path) {
-    let start = *RUN_START.get_or_init(SystemTime::now);
+    let run_start = *RUN_START.get_or_init(SystemTime::now);
+    let Some(start) = run_start.checked_sub(STALE_TEMP_AGE) else { return };
     let Ok(entries) = std::fs::read_dir(dir) else { return };
     for e in entries.flatten() {
         let name = e.file_name();

@@ -302,10 +302,17 @@ fn stale_temp_files_older_than_the_run_are_removed() {
     let other = d.path().join("unrelated.tmp");
     std::fs::write(&other, b"not ours").unwrap();
     std::fs::File::options().write(true).open(&other).unwrap().set_modified(old).unwrap();
+    // Written just before this run by a bake still running beside it (ninja -j into one
+    // directory): not stale, it is about to be renamed.
+    let live = d.path().join(".spherebake-XyZ789.tmp");
+    std::fs::write(&live, b"a concurrent bake's output").unwrap();
+    let recent = std::time::SystemTime::now() - std::time::Duration::from_secs(5);
+    std::fs::File::options().write(true).open(&live).unwrap().set_modified(recent).unwrap();
     let o = run(&["bake", "cube.obj", "-o", "out.sphb", "--spheres", "4", "--method", "kmeans"], d.path());
     assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
     assert!(!stale.exists(), "stale temp file kept");
     assert!(other.exists(), "a file that is not ours was removed");
+    assert!(live.exists(), "a concurrent bake's temp file was removed");
 }
 
 // ---- 2. Broken pipe and full disk, for every command ------------------------------------------
