@@ -222,7 +222,7 @@ fn plan(a: &BakeArgs) -> std::result::Result<Vec<Job>, Usage> {
                 inputs.len()
             )))
         }
-        (None, Some(d)) => inputs.iter().map(|i| d.join(format!("{}.sphb", stem(i)))).collect(),
+        (None, Some(d)) => inputs.iter().map(|i| d.join(sphb_name(i))).collect(),
         _ => return Err(Usage("give --output FILE (one input) or --out-dir DIR".into())),
     };
     let mut seen = std::collections::BTreeMap::new();
@@ -323,8 +323,17 @@ fn collect_meshes(dir: &Path, out: &mut Vec<PathBuf>) -> std::io::Result<()> {
     Ok(())
 }
 
-fn stem(p: &Path) -> String {
-    p.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_else(|| "out".into())
+/// The input's file stem as the OS gives it (a name that is not UTF-8 keeps its bytes: two such
+/// names do not collapse into one U+FFFD name), or `out`.
+fn stem(p: &Path) -> std::ffi::OsString {
+    p.file_stem().map_or_else(|| "out".into(), std::ffi::OsStr::to_os_string)
+}
+
+/// `<stem of p>.sphb`.
+fn sphb_name(p: &Path) -> std::ffi::OsString {
+    let mut name = stem(p);
+    name.push(".sphb");
+    name
 }
 
 fn run_job(job: &Job, a: &BakeArgs, bar: &ProgressBar) -> AssetResult {

@@ -1119,3 +1119,33 @@ fn debug_cubemaps_never_overwrite_a_texture_the_model_reads() {
     assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
     assert!(d.path().join("dbg/sphere_0000.png").is_file());
 }
+
+/// `--out-dir` names each output after its input's stem as the OS gives it: two inputs whose
+/// names are not UTF-8 and differ only in those bytes get two outputs (they were both named with
+/// U+FFFD and refused as a collision, exit 2).
+#[cfg(unix)]
+#[test]
+fn out_dir_keeps_file_names_that_are_not_utf8() {
+    use std::os::unix::ffi::OsStrExt;
+    let d = tempdir();
+    let names = [std::ffi::OsStr::from_bytes(b"b\xfe"), std::ffi::OsStr::from_bytes(b"b\xff")];
+    for n in names {
+        let mut obj = n.to_os_string();
+        obj.push(".obj");
+        std::fs::write(d.path().join(obj), CUBE_OBJ).unwrap();
+    }
+    let mut cmd = Command::new(env!("CARGO_BIN_EXE_spherebake"));
+    cmd.current_dir(d.path()).args(["bake", "--out-dir", "out", "--spheres", "4", "--method", "kmeans"]);
+    for n in names {
+        let mut obj = n.to_os_string();
+        obj.push(".obj");
+        cmd.arg(obj);
+    }
+    let o = cmd.output().unwrap();
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    for n in names {
+        let mut out = n.to_os_string();
+        out.push(".sphb");
+        assert!(d.path().join("out").join(&out).is_file(), "{out:?}");
+    }
+}
