@@ -15,9 +15,9 @@ pub struct EvalArgs {
     /// Voxel cells along the longest axis, for the solid of open meshes and the union estimate [default: the file's bake setting, else 128; range 16..=1024]
     #[arg(long)]
     pub voxels: Option<u32>,
-    /// Random surface points tested for coverage
-    #[arg(long, default_value_t = 1_000_000)]
-    pub surface_samples: usize,
+    /// Random surface points tested for coverage [range 1..=268435456]
+    #[arg(long, default_value_t = 1_000_000, value_parser = clap::value_parser!(u64).range(1..=1 << 28))]
+    pub surface_samples: u64,
     /// Print one JSON document instead of text
     #[arg(long)]
     pub json: bool,
@@ -34,7 +34,7 @@ pub fn run(a: EvalArgs) -> Result<ExitCode> {
     let voxels = a.voxels.or_else(|| recorded_voxels(proxy.metadata().map(|m| m.settings.as_str()))).unwrap_or(128);
     let settings = spherebake_fit::EvalSettings {
         voxel_resolution: voxels,
-        surface_samples: a.surface_samples,
+        surface_samples: a.surface_samples as usize,
         ..Default::default()
     };
     let e = spherebake_bake::evaluate_mesh(mesh, &spheres, &settings)

@@ -598,6 +598,9 @@ fn eval_matches_the_analytic_outside_volume_of_a_sphere_around_a_cube() {
     assert!((e - expected).abs() < 1e-9 * expected, "E {e} vs analytic {expected}");
     assert_eq!(v["surface_coverage"].as_f64(), Some(1.0));
     assert_eq!(v["sphere_count"], 1);
+    // No surface points is a usage error, not a coverage of 1 over nothing.
+    let o = run(&["eval", "one.sphb", "cube.obj", "--json", "--surface-samples", "0"], d);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
 
     // A sphere that misses a corner region leaves surface points uncovered.
     let file = spherebake_format::SphbFile {
