@@ -231,11 +231,13 @@ fn plan(a: &BakeArgs) -> std::result::Result<Vec<Job>, Usage> {
             return Err(Usage(format!("{} and {} would both write {}", prev.display(), i.display(), o.display())));
         }
     }
-    let config = match &a.config {
+    let config_path = match &a.config {
+        Some(p) => Some(p.clone()),
+        None if Path::new("spherebake.toml").is_file() => Some(PathBuf::from("spherebake.toml")),
+        None => None,
+    };
+    let config = match &config_path {
         Some(p) => Config::load(p).map_err(|e| Usage(format!("{e:#}")))?,
-        None if Path::new("spherebake.toml").is_file() => {
-            Config::load(Path::new("spherebake.toml")).map_err(|e| Usage(format!("{e:#}")))?
-        }
         None => Config::default(),
     };
     let cli = Overrides {
@@ -258,7 +260,14 @@ fn plan(a: &BakeArgs) -> std::result::Result<Vec<Job>, Usage> {
         .zip(outputs)
         .map(|(input, output)| {
             let o = config.for_input(&input).merged(&cli);
-            let mut settings = to_settings(&o).map_err(|m| Usage(format!("{}: {m}", input.display())))?;
+            let mut settings = to_settings(&o).map_err(|m| {
+                // A value the command line alone does not make bad came from the configuration
+                // file: name it, since the message names the setting by its flag.
+                match config_path.as_ref().filter(|_| to_settings(&cli).is_ok()) {
+                    Some(cfg) => Usage(format!("{}: {m} (set in {})", input.display(), cfg.display())),
+                    None => Usage(format!("{}: {m}", input.display())),
+                }
+            })?;
             // Several assets: one sub-directory per asset.
             settings.debug_cubemaps =
                 a.debug_cubemaps.as_ref().map(|d| if n_inputs > 1 { d.join(stem(&input)) } else { d.clone() });

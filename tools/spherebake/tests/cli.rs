@@ -437,6 +437,16 @@ fn config_file_sets_per_asset_settings_and_flags_override() {
     let o = run(&["bake", "capsule.obj", "-o", "c.sphb"], d);
     assert_eq!(o.status.code(), Some(2), "a typo in the config is a usage error");
     assert!(stderr(&o).contains("spherebake.toml"), "{}", stderr(&o));
+    // A value out of range in the config names the config (the message names the setting by
+    // its flag); the same value from the command line does not.
+    std::fs::write(d.join("spherebake.toml"), "[defaults]\nspheres = 9000\n").unwrap();
+    let o = run(&["bake", "capsule.obj", "-o", "c.sphb"], d);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(stderr(&o).contains("9000") && stderr(&o).contains("(set in spherebake.toml)"), "{}", stderr(&o));
+    std::fs::write(d.join("spherebake.toml"), "[defaults]\nseed = 3\n").unwrap();
+    let o = run(&["bake", "capsule.obj", "-o", "c.sphb", "--spheres", "9000"], d);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(stderr(&o).contains("9000") && !stderr(&o).contains("set in"), "{}", stderr(&o));
 }
 
 #[test]
