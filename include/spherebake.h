@@ -120,7 +120,9 @@ typedef struct {
 } SphbCounts;
 
 // One sphere: centre x, y, z and radius (model space / model units; radius > 0). 16 bytes, the
-// file's sphere record.
+// file's sphere record. A sphere the fit left empty (it found no use for it within its budget)
+// is stored as a point: radius `FLT_MIN` (the least positive normal float). It blocks and emits
+// nothing measurable; an engine may skip it, and every query treats it as the point it is.
 typedef struct {
   // Centre x, y, z.
   float center[3];
@@ -449,8 +451,8 @@ int32_t sphb_accumulate_log_visibility(const SphbShadowCluster *cluster,
                                        size_t *used_out,
                                        SphbError *err);
 
-// Visibility vector g = exp*(log) (f64, `order²` values) from a summed log vector (f32).
-// Allocation-free; thread-safe.
+// Visibility vector g = exp*(log) (f64, `order²` values) from a summed log vector (f32); a log
+// with a NaN or an infinity is `SPHB_ERR_INVALID_ARGUMENT`. Allocation-free; thread-safe.
 int32_t sphb_visibility(const SphbShadowContext *ctx,
                         const float *log,
                         size_t log_len,

@@ -103,7 +103,9 @@ pub struct SphbError {
 }
 
 /// One sphere: centre x, y, z and radius (model space / model units; radius > 0). 16 bytes, the
-/// file's sphere record.
+/// file's sphere record. A sphere the fit left empty (it found no use for it within its budget)
+/// is stored as a point: radius `FLT_MIN` (the least positive normal float). It blocks and emits
+/// nothing measurable; an engine may skip it, and every query treats it as the point it is.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct SphbSphere {
@@ -1139,8 +1141,8 @@ pub unsafe extern "C" fn sphb_accumulate_log_visibility(
     })
 }
 
-/// Visibility vector g = exp*(log) (f64, `order²` values) from a summed log vector (f32).
-/// Allocation-free; thread-safe.
+/// Visibility vector g = exp*(log) (f64, `order²` values) from a summed log vector (f32); a log
+/// with a NaN or an infinity is `SPHB_ERR_INVALID_ARGUMENT`. Allocation-free; thread-safe.
 #[no_mangle]
 pub unsafe extern "C" fn sphb_visibility(
     ctx: *const SphbShadowContext,
@@ -1155,6 +1157,9 @@ pub unsafe extern "C" fn sphb_visibility(
         let nc = c.ctx.order() * c.ctx.order();
         disjoint(("out", span(out, out_len)), &[("log", span(log, log_len))])?;
         let l = unsafe { input_min(log, log_len, nc, "log")? };
+        if !l[..nc].iter().all(|v| v.is_finite()) {
+            return Err(invalid("log must be finite"));
+        }
         let o = unsafe { output(out, out_len, nc, "out")? };
         c.ctx.visibility(l, o).map_err(invalid)
     })

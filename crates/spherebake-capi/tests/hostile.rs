@@ -283,6 +283,15 @@ fn drive_shadow(p: *mut SphbProxy, leaves: &[SphbSphere], nodes: Option<&[SphbSp
     );
     assert_eq!(unsafe { sphb_visibility(null(), log.as_ptr(), 16, g.as_mut_ptr(), 16, &mut e) }, SPHB_ERR_NULL);
     assert_eq!(unsafe { sphb_visibility(ctx, log.as_ptr(), 16, g.as_mut_ptr(), 16, &mut e) }, SPHB_OK);
+    for bad in [f32::NAN, f32::INFINITY] {
+        let mut l = log.clone();
+        l[3] = bad;
+        assert_eq!(
+            unsafe { sphb_visibility(ctx, l.as_ptr(), 16, g.as_mut_ptr(), 16, &mut e) },
+            SPHB_ERR_INVALID_ARGUMENT,
+            "a log of {bad}"
+        );
+    }
     let mut light = [0.0f64; 16];
     assert_eq!(unsafe { sphb_uniform_light(9, light.as_mut_ptr(), 16, &mut e) }, SPHB_ERR_INVALID_ARGUMENT);
     assert_eq!(unsafe { sphb_uniform_light(4, light.as_mut_ptr(), 3, &mut e) }, SPHB_ERR_BUFFER_TOO_SMALL);
