@@ -284,7 +284,7 @@ fn drive_shadow(p: *mut SphbProxy, leaves: &[SphbSphere], nodes: Option<&[SphbSp
     assert_eq!(unsafe { sphb_visibility(null(), log.as_ptr(), 16, g.as_mut_ptr(), 16, &mut e) }, SPHB_ERR_NULL);
     assert_eq!(unsafe { sphb_visibility(ctx, log.as_ptr(), 16, g.as_mut_ptr(), 16, &mut e) }, SPHB_OK);
     for bad in [f32::NAN, f32::INFINITY] {
-        let mut l = log.clone();
+        let mut l = log;
         l[3] = bad;
         assert_eq!(
             unsafe { sphb_visibility(ctx, l.as_ptr(), 16, g.as_mut_ptr(), 16, &mut e) },
