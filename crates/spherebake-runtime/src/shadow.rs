@@ -122,6 +122,13 @@ pub enum ShadowError {
     },
     /// The cluster has no blockers to query: it was never built, or its last build failed.
     NotBuilt,
+    /// The cluster was built at another SH order than the context's.
+    OrderMismatch {
+        /// The order of the cluster's build.
+        built: usize,
+        /// The context's order.
+        context: usize,
+    },
 }
 
 impl fmt::Display for ShadowError {
@@ -135,6 +142,9 @@ impl fmt::Display for ShadowError {
             }
             ShadowError::Argument { argument, expected } => write!(f, "{argument} must be {expected}"),
             ShadowError::NotBuilt => write!(f, "the cluster was not built (or its last build failed)"),
+            ShadowError::OrderMismatch { built, context } => {
+                write!(f, "the cluster was built at SH order {built}, the context's order is {context}")
+            }
         }
     }
 }
@@ -401,7 +411,7 @@ impl ClusterBlockers {
             return Err(ShadowError::NotBuilt);
         }
         if self.order != ctx.order {
-            return Err(ShadowError::Order { order: self.order });
+            return Err(ShadowError::OrderMismatch { built: self.order, context: ctx.order });
         }
         check_point("p_star", p_star)?;
         check_point("normal", normal)?;
@@ -719,7 +729,7 @@ impl ShadowContext {
             return Err(ShadowError::NotBuilt);
         }
         if blockers.order != self.order {
-            return Err(ShadowError::Order { order: blockers.order });
+            return Err(ShadowError::OrderMismatch { built: blockers.order, context: self.order });
         }
         check_point("p", p)?;
         let normal = unit_normal_f32("normal", normal)?;

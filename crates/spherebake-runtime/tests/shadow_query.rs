@@ -223,8 +223,10 @@ fn errors_not_panics() {
     cb.build(4, &leaves, None, [5.0, 0.0, 0.0], 0.0, 0.4).unwrap();
     assert!(matches!(
         ctx.shade_point(&cb, [5.0, 0.0, 0.0], [1.0, 0.0, 0.0], &[0.0; 9]),
-        Err(ShadowError::Order { .. })
+        Err(ShadowError::OrderMismatch { built: 4, context: 3 })
     ));
+    let message = ctx.shade_point(&cb, [5.0, 0.0, 0.0], [1.0, 0.0, 0.0], &[0.0; 9]).unwrap_err().to_string();
+    assert!(message.contains("built at SH order 4") && message.contains("order is 3"), "{message}");
     assert!(matches!(ctx.visibility(&[0.0; 4], &mut [0.0; 9]), Err(ShadowError::SliceLength { argument: "log", .. })));
     // A failed build leaves the cluster not built: no blockers, and its queries refuse instead of reporting a
     // receiver fully lit (before, the blockers of the build before were gone and the order kept).
@@ -318,5 +320,8 @@ fn overlap_correction_undoes_duplicate_spheres() {
     }
     // Mismatched order.
     let ctx3 = ShadowContext::new(3, ExpMethod::Accurate).unwrap();
-    assert!(matches!(cb.correct_overlap(&ctx3, [0.0; 3], n, 16), Err(ShadowError::Order { order: 4 })));
+    assert!(matches!(
+        cb.correct_overlap(&ctx3, [0.0; 3], n, 16),
+        Err(ShadowError::OrderMismatch { built: 4, context: 3 })
+    ));
 }
