@@ -426,7 +426,7 @@ int32_t sphb_shadow_cluster_build(SphbShadowCluster *cluster,
 
 // **Optional, not in Ren 2006.** Damps the over-counting of overlapping blockers: finds one
 // scale s in {1, 0.95, …, 0.05} for all log vectors of the built cluster such that the DC of the
-// visibility at the cluster point `p_star` (3 floats, unit `normal` 3 floats, self-shadowing
+// visibility at the cluster point `p_star` (3 floats, `normal` 3 floats scaled to unit length, self-shadowing
 // rules applied) best matches the visible fraction of the union of the blocker spheres there,
 // measured with `directions` Fibonacci rays (256 is a good count); multiplies every blocker's
 // band weights by s and writes s to `*scale_out` (optional; 1 when nothing improves).
@@ -440,8 +440,8 @@ int32_t sphb_shadow_cluster_correct_overlap(SphbShadowCluster *cluster,
                                             SphbError *err);
 
 // Adds the log-SH visibility of the cluster's blockers seen from receiver `p` (3 floats) to
-// `log_inout[0..order²]` (f32; zero it first), with the self-shadowing rules about the unit
-// `normal` (3 floats; NULL skips them). `*used_out` (optional) = blockers accumulated.
+// `log_inout[0..order²]` (f32; zero it first), with the self-shadowing rules about `normal` (3
+// floats, scaled to unit length; NULL skips them). `*used_out` (optional) = blockers accumulated.
 // Allocation-free; does not modify the cluster: concurrent calls on one cluster are safe.
 int32_t sphb_accumulate_log_visibility(const SphbShadowCluster *cluster,
                                        const float *p,

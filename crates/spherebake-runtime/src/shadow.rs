@@ -399,7 +399,8 @@ impl ClusterBlockers {
     ///
     /// # Errors
     ///
-    /// The order of `ctx` differs from the build's.
+    /// The order of `ctx` differs from the build's; `normal` zero or not finite (any other length
+    /// is scaled to unit); `p_star` not finite; `directions` above [`MAX_OVERLAP_DIRECTIONS`].
     pub fn correct_overlap(
         &mut self,
         ctx: &ShadowContext,
@@ -414,7 +415,7 @@ impl ClusterBlockers {
             return Err(ShadowError::OrderMismatch { built: self.order, context: ctx.order });
         }
         check_point("p_star", p_star)?;
-        check_point("normal", normal)?;
+        let normal = unit_normal_f32("normal", normal)?;
         if directions > MAX_OVERLAP_DIRECTIONS {
             return Err(ShadowError::Argument { argument: "directions", expected: "at most 65536" });
         }
@@ -578,8 +579,8 @@ pub fn self_shadow_sphere(center: [f32; 3], radius: f32, p: [f32; 3], normal: [f
     Some(([center[0] + k * normal[0], center[1] + k * normal[1], center[2] + k * normal[2]], r_new))
 }
 
-/// Adds the log-visibility vectors of `blockers` seen from receiver `p` with unit normal `normal`
-/// (self-shadowing rules applied, eq. 38) to `out[0..order²]`; returns how many blockers were
+/// Adds the log-visibility vectors of `blockers` seen from receiver `p` with normal `normal`
+/// (scaled to unit length; self-shadowing rules applied, eq. 38) to `out[0..order²]`; returns how many blockers were
 /// accumulated (the rest were removed as entirely behind the tangent plane or degenerate).
 ///
 /// Allocation-free. Pass `normal = None` to skip the self-shadowing rules (a receiver that is not
@@ -587,7 +588,7 @@ pub fn self_shadow_sphere(center: [f32; 3], radius: f32, p: [f32; 3], normal: [f
 ///
 /// # Errors
 ///
-/// Order outside 1..=8, `out` shorter than order².
+/// Order outside 1..=8, `out` shorter than order², `normal` zero or not finite.
 pub fn accumulate_log_visibility(
     blockers: &[Blocker],
     order: usize,
@@ -596,6 +597,7 @@ pub fn accumulate_log_visibility(
     out: &mut [f32],
 ) -> Result<usize, ShadowError> {
     check_order(order)?;
+    let normal = normal.map(|n| unit_normal_f32("normal", n)).transpose()?;
     check_len("out", coeff_count(order), out.len())?;
     let mut used = 0;
     for b in blockers {

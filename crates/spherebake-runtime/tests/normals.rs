@@ -9,7 +9,9 @@ use spherebake_runtime::light::{
     clip_below_horizon, light_spheres, ClusterSpec, IndirectCluster, LightContext, LightError, Pass1Settings,
     PosedProxy, SphereLights,
 };
-use spherebake_runtime::shadow::{uniform_light, ClusterBlockers, ExpMethod, ShadowContext, ShadowError};
+use spherebake_runtime::shadow::{
+    accumulate_log_visibility, uniform_light, ClusterBlockers, ExpMethod, ShadowContext, ShadowError,
+};
 use spherebake_runtime::Sphere;
 
 const SCALES: [f32; 4] = [1e-3, 0.5, 7.0, 100.0];
@@ -79,7 +81,23 @@ fn shadows_and_the_horizon_take_any_length_of_normal() {
         let got = ctx.shade_point(&cb, [0.0; 3], m, &t).unwrap();
         assert!(close(got, want), "shade_point, normal scaled by {s}: {got} against {want}");
     }
+    // The log accumulation and the overlap correction (self-shadowing rules about the normal).
+    let log_of = |m: [f32; 3]| {
+        let mut log = vec![0.0f32; order * order];
+        accumulate_log_visibility(cb.blockers(), order, [0.0; 3], Some(m), &mut log).map(|_| log)
+    };
+    let want_log = log_of(unit).unwrap();
+    let scale_of = |m: [f32; 3]| cb.clone().correct_overlap(&ctx, [0.0; 3], m, 64);
+    let want_scale = scale_of(unit).unwrap();
+    for s in SCALES {
+        let m = unit.map(|v| v * s);
+        let got = log_of(m).unwrap();
+        assert!(got.iter().zip(&want_log).all(|(a, b)| (a - b).abs() <= 1e-5), "log, normal scaled by {s}");
+        assert_eq!(scale_of(m).unwrap(), want_scale, "overlap scale, normal scaled by {s}");
+    }
     for bad in NO_DIRECTION {
+        assert!(matches!(log_of(bad), Err(ShadowError::Argument { .. })), "{bad:?}");
+        assert!(matches!(scale_of(bad), Err(ShadowError::Argument { .. })), "{bad:?}");
         assert!(matches!(t_of(bad), Err(ShadowError::Argument { .. })), "{bad:?}");
         assert!(matches!(ctx.shade_point(&cb, [0.0; 3], bad, &t), Err(ShadowError::Argument { .. })), "{bad:?}");
     }
