@@ -365,6 +365,8 @@ fn run_job(job: &Job, a: &BakeArgs, bar: &ProgressBar) -> AssetResult {
         .and_then(|_| {
             // A depfile sits beside a file: `-o /dev/null --depfile` would create `/dev/null.d`.
             match std::fs::metadata(&job.output) {
+                // A directory is refused by the write anyway: say so before the bake, not after.
+                Ok(m) if m.is_dir() => anyhow::bail!("{}: is a directory", job.output.display()),
                 Ok(m) if a.depfile && !m.is_file() => anyhow::bail!(
                     "{}: --depfile needs a regular output file (this is a device, FIFO or directory)",
                     job.output.display()

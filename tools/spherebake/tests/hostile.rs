@@ -232,6 +232,19 @@ fn output_mode_honours_the_umask_and_keeps_an_existing_mode() {
     assert_eq!(mode("a.sphb"), 0o640, "the existing mode must be kept");
 }
 
+/// An output path that is a directory is refused before the bake, not after it: nothing of the
+/// bake happens (its debug cube maps are not written), and the one-line error names the path.
+#[test]
+fn an_output_that_is_a_directory_is_refused_before_the_bake() {
+    let d = tempdir();
+    std::fs::write(d.path().join("cube.obj"), CUBE_OBJ).unwrap();
+    std::fs::create_dir(d.path().join("outdir")).unwrap();
+    let o = run(&["bake", "cube.obj", "-o", "outdir", "--debug-cubemaps", "cm", "--spheres", "4"], d.path());
+    assert_one_line_error(&o, "outdir", "is a directory");
+    assert!(!d.path().join("cm").exists(), "the bake ran before the output was refused");
+    assert!(temps(d.path()).is_empty());
+}
+
 #[test]
 fn a_failed_depfile_leaves_no_output_so_the_next_run_rebakes() {
     let d = tempdir();
