@@ -151,11 +151,14 @@ fn a_majority_of_empty_spheres_does_not_blow_up_the_area_work() {
 
 #[test]
 fn a_tiny_carrying_sphere_still_gets_a_bounded_subdivision_quickly() {
-    // One sphere of the least f32 radius (a subnormal, 1.4·10⁻⁴⁵) owns the whole surface and
+    // One sphere of the least radius that still owns a segment (the float just above the least
+    // positive normal f32, 1.2·10⁻³⁸, the empty spheres' marker) owns the whole surface and
     // carries its samples: a tenth of its radius as the sub-triangle edge would split every
     // triangle to the 256-per-edge clamp, where the count stops following the edge and the
     // coarsening's 32 steps could not catch up. The subdivision must still end within the cap.
     let mesh = capsule_mesh(0.5, 0.5, 12, 6);
-    let (samples, stats, _) = run(&mesh, &[[0.0, 0.0, 0.0, f32::from_bits(1)]]);
+    let tiny = f32::from_bits(f32::MIN_POSITIVE.to_bits() + 1);
+    let (samples, stats, _) = run(&mesh, &[[0.0, 0.0, 0.0, tiny]]);
+    assert!(samples.total() > 0, "the tiny sphere carries samples");
     assert_bounded_partition(&mesh, &samples, &stats);
 }

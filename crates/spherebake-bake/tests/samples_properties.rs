@@ -153,3 +153,28 @@ fn large_flipped_patch_is_oriented_back() {
     assert_eq!(flip, expect);
     assert_close(&got, &reference, 1e-6);
 }
+
+/// A sphere the fit left empty (radius the least positive normal f32, a point) owns no segment:
+/// it gets no samples, its 92 directions are counted as skipped, and the other spheres' samples
+/// are those they get without it. Below it in radius, a subnormal, the same; one float above it,
+/// a sphere again. Empty spheres used to carry samples of no area, which the runtime drops (the
+/// capsule fixture at 64 spheres: 193 of its 405 samples).
+#[test]
+fn an_empty_sphere_owns_no_samples_and_changes_no_others() {
+    let mesh = capsule_mesh(1.0, 0.5, 48, 12);
+    let real = [[-0.5, 0.0, 0.0, 0.75], [0.5, 0.0, 0.0, 0.75]];
+    let (alone, _, _) = run(&mesh, &real);
+    for (r, owns) in [(f32::MIN_POSITIVE, false), (f32::from_bits(1), false), (f32::from_bits(0x0080_0001), true)] {
+        let mut with = real.to_vec();
+        with.insert(1, [0.0, 0.2, 0.1, r]);
+        let (s, st, _) = run(&mesh, &with);
+        let per: Vec<_> = s.per_sphere().collect();
+        if owns {
+            assert!(st.per_sphere[1].skipped == 0, "radius {r:e} is a sphere");
+            continue;
+        }
+        assert!(per[1].is_empty() && st.per_sphere[1].skipped == 92, "radius {r:e}: {} samples", per[1].len());
+        let others: Vec<_> = alone.per_sphere().collect();
+        assert_eq!((per[0], per[2]), (others[0], others[1]), "radius {r:e} changed the others' samples");
+    }
+}
