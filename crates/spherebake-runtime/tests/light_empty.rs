@@ -1,8 +1,8 @@
 //! Empty spheres in the hierarchy. A fit leaves the spheres it finds no use for empty: radius the least positive f32
-//! at some centre, and the bake may still give them samples (the surface seen from that centre) with their areas.
-//! Such a leaf's light is area / r², beyond f32, and a node holding only such leaves once turned NaN, so a cut
-//! that took the node lit every receiver with 0 (the capsule fixture at 64 spheres: ground irradiance 0 against
-//! the path tracer's 0.12). Here two real spheres and two empty ones, each pair under its own node: at a receiver
+//! at some centre, and files baked before 2026-12-06 (or by another writer) may still give them samples. A node
+//! holding only such leaves got a light of 10⁻⁷⁵ × theirs and a rotation from Σ (r_j / r_N)² R_j ≈ 10⁻⁷⁵ I that
+//! the polar iteration did not converge from, so pass 2 read NaN from it and a cut that took the node lit every
+//! receiver with 0 (the capsule fixture at 64 spheres: ground irradiance 0 against the path tracer's 0.12). Here two real spheres and two empty ones, each pair under its own node: at a receiver
 //! where the cut takes the empty pair's node and splits the real pair, the irradiance must be the leaves-only
 //! value (θmax = 0, where pass 2's Ṽ₀ cutoff skips the empty leaves), and every node's light finite.
 
