@@ -168,29 +168,29 @@ pub fn run(a: LightArgs) -> Result<ExitCode> {
         crate::cmd_view::image_format(out)?;
     }
     if !(2..=1024).contains(&a.resolution) {
-        bail!("--resolution {} is outside 2..=1024", a.resolution);
+        usage_bail!("--resolution {} is outside 2..=1024", a.resolution);
     }
     if a.model_receivers > 1 << 20 {
-        bail!("--model-receivers {} is above 1048576", a.model_receivers);
+        usage_bail!("--model-receivers {} is above 1048576", a.model_receivers);
     }
     if !(1..=1 << 20).contains(&a.rays) {
-        bail!("--rays {} is outside 1..=1048576", a.rays);
+        usage_bail!("--rays {} is outside 1..=1048576", a.rays);
     }
     if !(1..=1024).contains(&a.shadow_rays) {
-        bail!("--shadow-rays {} is outside 1..=1024", a.shadow_rays);
+        usage_bail!("--shadow-rays {} is outside 1..=1024", a.shadow_rays);
     }
     if a.cluster == 0 {
-        bail!("--cluster must be at least 1");
+        usage_bail!("--cluster must be at least 1");
     }
     if !(0.0..=90.0).contains(&a.theta_max_deg) {
-        bail!("--theta-max-deg {} is outside 0..=90", a.theta_max_deg);
+        usage_bail!("--theta-max-deg {} is outside 0..=90", a.theta_max_deg);
     }
     if !(2..=8).contains(&a.order) {
-        bail!("--order {} is outside 2..=8", a.order);
+        usage_bail!("--order {} is outside 2..=8", a.order);
     }
     if let Some(t) = a.time {
         if !t.is_finite() {
-            bail!("--time must be a finite number of seconds, got {t}");
+            usage_bail!("--time must be a finite number of seconds, got {t}");
         }
     }
     let mut proxy = crate::cmd_view::read_sphb(&a.file)?;

@@ -29,7 +29,7 @@ pub struct PoseArgs {
 
 pub fn run(a: PoseArgs) -> Result<ExitCode> {
     if !a.time.is_finite() {
-        bail!("--time must be a finite number of seconds, got {}", a.time);
+        usage_bail!("--time must be a finite number of seconds, got {}", a.time);
     }
     let proxy = crate::cmd_view::read_sphb(&a.file)?;
     let imported = spherebake_io::load_mesh(&a.model)?;

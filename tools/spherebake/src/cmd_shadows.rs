@@ -138,19 +138,19 @@ pub fn run(a: ShadowsArgs) -> Result<ExitCode> {
         crate::cmd_view::image_format(out)?;
     }
     if !(2..=2048).contains(&a.resolution) {
-        bail!("--resolution {} is outside 2..=2048", a.resolution);
+        usage_bail!("--resolution {} is outside 2..=2048", a.resolution);
     }
     if !(4..=1 << 20).contains(&a.rays) {
-        bail!("--rays {} is outside 4..=1048576", a.rays);
+        usage_bail!("--rays {} is outside 4..=1048576", a.rays);
     }
     if a.cluster == 0 {
-        bail!("--cluster must be at least 1");
+        usage_bail!("--cluster must be at least 1");
     }
     if !(0.0..=90.0).contains(&a.theta_max_deg) {
-        bail!("--theta-max-deg {} is outside 0..=90", a.theta_max_deg);
+        usage_bail!("--theta-max-deg {} is outside 0..=90", a.theta_max_deg);
     }
     if !(2..=8).contains(&a.order) {
-        bail!("--order {} is outside 2..=8", a.order);
+        usage_bail!("--order {} is outside 2..=8", a.order);
     }
     let proxy = crate::cmd_view::read_sphb(&a.file)?;
     let imported = spherebake_io::load_mesh(&a.model)?;

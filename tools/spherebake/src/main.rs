@@ -12,6 +12,13 @@ macro_rules! eline {
     }};
 }
 
+/// Returns a usage error (exit status 2, like clap's own): a flag's value outside its range.
+macro_rules! usage_bail {
+    ($($t:tt)*) => {
+        return Err(anyhow::Error::new(crate::UsageError(format!($($t)*))))
+    };
+}
+
 mod atomic;
 mod cmd_bake;
 mod cmd_eval;
@@ -26,6 +33,18 @@ mod output;
 
 use clap::{Parser, Subcommand};
 use std::process::ExitCode;
+
+/// A usage error found after parsing (a flag's value out of its range): exit status 2.
+#[derive(Debug)]
+pub struct UsageError(pub String);
+
+impl std::fmt::Display for UsageError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(&self.0)
+    }
+}
+
+impl std::error::Error for UsageError {}
 
 /// Bake bounding sphere proxies (soft shadows, indirect light) from glTF and OBJ meshes.
 #[derive(Parser, Debug)]
@@ -96,7 +115,11 @@ fn main() -> ExitCode {
                 return output::closed_pipe_status();
             }
             eline!("spherebake: error: {e:#}");
-            ExitCode::from(1)
+            if e.downcast_ref::<UsageError>().is_some() {
+                ExitCode::from(2)
+            } else {
+                ExitCode::from(1)
+            }
         }
     }
 }

@@ -1073,7 +1073,7 @@ fn a_directory_walk_does_not_follow_symlinked_directories() {
 }
 
 /// `shadows --rays` is bounded like `light --rays`: a huge count (its square overflowed and the run
-/// never ended) is refused at once with the range.
+/// never ended) is refused at once with the range, a usage error (exit 2).
 #[test]
 fn shadows_refuses_a_ray_count_beyond_its_range() {
     let d = tempdir();
@@ -1081,7 +1081,7 @@ fn shadows_refuses_a_ray_count_beyond_its_range() {
     for rays in ["18446744073709551615", "4294967297", "1048577"] {
         let args = ["shadows", "cube.sphb", "--model", "cube.obj", "--rays", rays, "--resolution", "2"];
         let o = run_within(&args, d.path(), 20);
-        assert_eq!(o.status.code(), Some(1), "--rays {rays}: {}", stderr(&o));
+        assert_eq!(o.status.code(), Some(2), "--rays {rays}: {}", stderr(&o));
         assert!(stderr(&o).contains("outside 4..=1048576"), "{}", stderr(&o));
     }
 }

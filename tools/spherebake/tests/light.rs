@@ -190,12 +190,19 @@ fn human_output_and_errors() {
     assert_eq!(o.status.code(), Some(1));
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(err.starts_with("spherebake: error: nope.sphb") && err.lines().count() == 1, "{err}");
-    // Out-of-range settings and a pose for a model without a skin are errors, not panics.
-    for bad in [&["--order", "9"][..], &["--resolution", "1"], &["--time", "0.5"], &["--animation", "Walk"]] {
+    // Out-of-range settings are usage errors (exit 2, as clap's own), a pose for a model without
+    // a skin is an input error (exit 1); none panics.
+    for (bad, code) in [
+        (&["--order", "9"][..], 2),
+        (&["--resolution", "1"], 2),
+        (&["--time", "nan"], 2),
+        (&["--time", "0.5"], 1),
+        (&["--animation", "Walk"], 1),
+    ] {
         let mut args = vec!["light", "m.sphb", "--model", "m.obj"];
         args.extend_from_slice(bad);
         let o = run(&args, d);
-        assert_eq!(o.status.code(), Some(1), "{bad:?}: {}", String::from_utf8_lossy(&o.stderr));
+        assert_eq!(o.status.code(), Some(code), "{bad:?}: {}", String::from_utf8_lossy(&o.stderr));
     }
 }
 

@@ -112,8 +112,12 @@ fn bad_arguments() {
     fixture(dir.path());
     let o = run(&["shadows", "ball.sphb", "--model", "ball.obj", "--light", "sun"], dir.path());
     assert_eq!(o.status.code(), Some(2));
+    // A value out of its range is a usage error, as clap's own.
     let o = run(&["shadows", "ball.sphb", "--model", "ball.obj", "--resolution", "1"], dir.path());
-    assert_eq!(o.status.code(), Some(1));
+    assert_eq!(o.status.code(), Some(2));
+    let o = run(&["shadows", "ball.sphb", "--model", "ball.obj", "--cluster", "0"], dir.path());
+    assert_eq!(o.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&o.stderr).starts_with("spherebake: error: --cluster"));
     let o = run(&["shadows", "missing.sphb", "--model", "ball.obj"], dir.path());
     assert_eq!(o.status.code(), Some(1));
     assert!(String::from_utf8_lossy(&o.stderr).contains("missing.sphb"));
