@@ -40,19 +40,7 @@ pub fn run(a: EvalArgs) -> Result<ExitCode> {
     let e = spherebake_bake::evaluate_mesh(mesh, &spheres, &settings)
         .with_context(|| format!("{}: evaluating against {}", a.file.display(), a.model.display()))?;
     let solid = format!("{:?}", e.solid_source);
-    // The file records the content hash of what it was baked from: say when this model differs
-    // (the numbers are still valid for this pair, but rarely what was meant).
-    let model_hash = format!("{:016x}", imported.content_hash);
-    let hash_matches = proxy.metadata().map(|m| m.input_hash == model_hash);
-    if hash_matches == Some(false) {
-        eline!(
-            "spherebake: warning: {} was baked from another input (input hash {}); {} hashes to {}",
-            a.file.display(),
-            proxy.metadata().map(|m| m.input_hash.as_str()).unwrap_or(""),
-            a.model.display(),
-            model_hash
-        );
-    }
+    let hash_matches = crate::cmd_view::warn_other_input(&proxy, &a.file, &imported, &a.model);
     if a.json {
         let doc = json!({
             "file": a.file.display().to_string(),

@@ -198,6 +198,7 @@ pub fn run(a: LightArgs) -> Result<ExitCode> {
         proxy = mean_albedo(&proxy).with_context(|| format!("{}: --mean-albedo", a.file.display()))?;
     }
     let imported = spherebake_io::load_mesh(&a.model)?;
+    crate::cmd_view::warn_other_input(&proxy, &a.file, &imported, &a.model);
     let r = compute(&a, &proxy, &imported.mesh)
         .with_context(|| format!("{}: light against {}", a.file.display(), a.model.display()))?;
     let res = a.resolution;

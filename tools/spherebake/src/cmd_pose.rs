@@ -33,6 +33,7 @@ pub fn run(a: PoseArgs) -> Result<ExitCode> {
     }
     let proxy = crate::cmd_view::read_sphb(&a.file)?;
     let imported = spherebake_io::load_mesh(&a.model)?;
+    crate::cmd_view::warn_other_input(&proxy, &a.file, &imported, &a.model);
     let mesh = &imported.mesh;
     let skel = mesh.skin.as_ref().map(|s| &s.skeleton);
     let (anim_index, anim_name) = match (&a.animation, skel) {

@@ -154,6 +154,7 @@ pub fn run(a: ShadowsArgs) -> Result<ExitCode> {
     }
     let proxy = crate::cmd_view::read_sphb(&a.file)?;
     let imported = spherebake_io::load_mesh(&a.model)?;
+    crate::cmd_view::warn_other_input(&proxy, &a.file, &imported, &a.model);
     let mesh = &imported.mesh;
     let r = compute(&a, &proxy, mesh)
         .with_context(|| format!("{}: shadows against {}", a.file.display(), a.model.display()))?;

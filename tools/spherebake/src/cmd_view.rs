@@ -120,10 +120,35 @@ pub(crate) fn encode_rgb(path: &Path, format: ImageFormat, rgb: &[u8], width: u3
     Ok(bytes)
 }
 
+/// Whether `model` is the input `file` was baked from (the content hash the file records), `None`
+/// when the file records none; warns on stderr when it is not: the numbers are still valid for
+/// this pair, but rarely what was meant (`eval`, `pose`, `shadows`, `light`, `render`).
+pub(crate) fn warn_other_input(
+    proxy: &spherebake_runtime::Proxy,
+    file: &Path,
+    imported: &spherebake_io::Imported,
+    model: &Path,
+) -> Option<bool> {
+    let model_hash = format!("{:016x}", imported.content_hash);
+    let recorded = proxy.metadata().map(|m| m.input_hash.as_str());
+    let matches = recorded.map(|h| h == model_hash);
+    if matches == Some(false) {
+        eline!(
+            "spherebake: warning: {} was baked from another input (input hash {}); {} hashes to {}",
+            file.display(),
+            recorded.unwrap_or(""),
+            model.display(),
+            model_hash
+        );
+    }
+    matches
+}
+
 pub fn run_render(a: RenderArgs) -> Result<ExitCode> {
     let format = image_format(&a.output)?;
     let proxy = read_sphb(&a.file)?;
     let imported = spherebake_io::load_mesh(&a.model)?;
+    warn_other_input(&proxy, &a.file, &imported, &a.model);
     let m = &imported.mesh;
     let spheres: Vec<[f32; 4]> =
         proxy.spheres().iter().map(|s| [s.center[0], s.center[1], s.center[2], s.radius]).collect();

@@ -1162,3 +1162,30 @@ fn out_dir_keeps_file_names_that_are_not_utf8() {
         assert!(d.path().join("out").join(&out).is_file(), "{out:?}");
     }
 }
+
+/// Every command that reads a model beside a baked file says when the model is not the input the
+/// file was baked from (its recorded content hash): `eval` did, while `pose`, `shadows`, `light`
+/// and `render` printed plausible numbers for the wrong pair without a word. The numbers stay
+/// valid for the pair given, so it is a warning (exit 0), and the right model gives none.
+#[test]
+fn every_command_reading_a_model_warns_when_it_is_not_the_baked_one() {
+    let d = tempdir();
+    bake_cube(d.path());
+    std::fs::write(d.path().join("other.obj"), CUBE_OBJ.replace("v 1 1 1", "v 1.2 1.2 1.2")).unwrap();
+    let commands: [&[&str]; 5] = [
+        &["eval", "cube.sphb", "MODEL", "--surface-samples", "100"],
+        &["pose", "cube.sphb", "MODEL", "--time", "0"],
+        &["shadows", "cube.sphb", "--model", "MODEL", "--resolution", "4", "--rays", "16"],
+        &["light", "cube.sphb", "--model", "MODEL", "--resolution", "2", "--rays", "1", "--model-receivers", "0"],
+        &["render", "cube.sphb", "--model", "MODEL", "-o", "v.png", "--size", "30x10"],
+    ];
+    for cmd in commands {
+        for (model, warned) in [("cube.obj", false), ("other.obj", true)] {
+            let args: Vec<&str> = cmd.iter().map(|&a| if a == "MODEL" { model } else { a }).collect();
+            let o = run(&args, d.path());
+            assert_eq!(o.status.code(), Some(0), "{args:?}: {}", stderr(&o));
+            let says = stderr(&o).contains("cube.sphb was baked from another input");
+            assert_eq!(says, warned, "{args:?}: {}", stderr(&o));
+        }
+    }
+}
