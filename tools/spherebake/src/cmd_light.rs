@@ -56,7 +56,7 @@ pub struct LightArgs {
     #[arg(long)]
     pub animation: Option<String>,
     /// Time in seconds of the animation (clamped to each channel's key range) [default: 0]
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     pub time: Option<f32>,
     /// Do not turn the sphere lights with the skin's average rotation (§7.1)
     #[arg(long)]

@@ -20,7 +20,7 @@ pub struct PoseArgs {
     #[arg(long)]
     pub animation: Option<String>,
     /// Time in seconds (clamped to each channel's key range, as glTF does)
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     pub time: f32,
     /// Print one JSON document `{spheres: [{center, radius}], coverage, ...}` instead of text
     #[arg(long)]

@@ -68,6 +68,11 @@ pub fn read_sphb(path: &Path) -> Result<spherebake_runtime::Proxy> {
 }
 
 pub fn run_export(a: ExportArgs) -> Result<ExitCode> {
+    // Binary glTF only: a `.gltf` (JSON) or any other name would hold mislabelled GLB bytes.
+    match a.output.extension().map(|e| e.to_string_lossy().to_ascii_lowercase()).as_deref() {
+        None | Some("glb") => {}
+        Some(e) => bail!("{}: unsupported output type .{e} (export writes binary glTF: use .glb)", a.output.display()),
+    }
     let proxy = read_sphb(&a.file)?;
     let (bytes, summary) = spherebake_bake::export::export_glb(proxy.file());
     crate::atomic::write_atomic(&a.output, &bytes, std::slice::from_ref(&a.file))?;

@@ -1189,3 +1189,24 @@ fn every_command_reading_a_model_warns_when_it_is_not_the_baked_one() {
         }
     }
 }
+
+/// `export` writes binary glTF only: `-o x.gltf` (a JSON name) is refused, naming the file, and
+/// nothing is written (it wrote GLB bytes under any name). A negative `--time` parses as a number
+/// (clap took `-1` for a flag, so only `--time=-1` worked; the time is clamped to the keys).
+#[test]
+fn export_names_its_format_and_a_negative_time_is_a_time() {
+    let d = tempdir();
+    bake_cube(d.path());
+    let o = run(&["export", "cube.sphb", "-o", "x.gltf"], d.path());
+    assert_one_line_error(&o, "x.gltf", "unsupported output type");
+    assert!(!d.path().join("x.gltf").exists());
+    let o = run(&["export", "cube.sphb", "-o", "x.glb"], d.path());
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    assert_eq!(&std::fs::read(d.path().join("x.glb")).unwrap()[..4], b"glTF");
+    for cmd in
+        [&["pose", "cube.sphb", "cube.obj", "--time", "-1"][..], &["pose", "cube.sphb", "cube.obj", "--time", "-0.5"]]
+    {
+        let o = run(cmd, d.path());
+        assert_eq!(o.status.code(), Some(0), "{cmd:?}: {}", stderr(&o));
+    }
+}
