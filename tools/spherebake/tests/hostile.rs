@@ -160,8 +160,13 @@ fn export_and_render_refuse_to_write_over_their_inputs() {
     let d = tempdir();
     bake_cube(d.path());
     let before = std::fs::read(d.path().join("cube.sphb")).unwrap();
+    // `-o cube.sphb` is not a .glb name and is refused as such; a .glb name that is the input
+    // (through a symlink) is refused as the input.
     let o = run(&["export", "cube.sphb", "-o", "cube.sphb"], d.path());
-    assert_one_line_error(&o, "cube.sphb", "refusing");
+    assert_one_line_error(&o, "cube.sphb", "unsupported output type");
+    std::os::unix::fs::symlink("cube.sphb", d.path().join("view.glb")).unwrap();
+    let o = run(&["export", "cube.sphb", "-o", "view.glb"], d.path());
+    assert_one_line_error(&o, "view.glb", "refusing");
     let o = run(&["render", "cube.sphb", "--model", "cube.obj", "-o", "cube.obj", "--size", "30x10"], d.path());
     assert_one_line_error(&o, "cube.obj", "unsupported image type");
     std::os::unix::fs::symlink("cube.sphb", d.path().join("view.png")).unwrap();
