@@ -975,15 +975,7 @@ pub unsafe extern "C" fn sphb_cut(
         let n = unsafe { input(nodes, node_count, "nodes")? };
         let c = unsafe { vec3(receiver_center, "receiver_center")? };
         // The receiver ball and θmax under the rules of the shadow cluster's build.
-        if !c.iter().all(|v| v.is_finite()) {
-            return Err(invalid("receiver_center must be finite"));
-        }
-        if !(receiver_radius >= 0.0 && receiver_radius.is_finite()) {
-            return Err(invalid(format!("receiver_radius must be finite and ≥ 0, got {receiver_radius}")));
-        }
-        if !(0.0..=core::f32::consts::PI).contains(&theta_max_rad) {
-            return Err(invalid(format!("theta_max_rad must be in [0, π] radians, got {theta_max_rad}")));
-        }
+        spherebake_runtime::shadow::check_receiver(c, receiver_radius, theta_max_rad).map_err(invalid)?;
         let len = unsafe { object_mut(len_out, "len_out")? };
         let mut cut = Vec::new();
         spherebake_runtime::cut(plan, spheres_of(n), c, receiver_radius, theta_max_rad, &mut cut).map_err(invalid)?;

@@ -301,11 +301,7 @@ impl ClusterBlockers {
         // One pass in a closure, so a failure anywhere empties the cluster below.
         let built = (|| -> Result<(), ShadowError> {
             check_order(order)?;
-            check_point("receiver_center", receiver_center)?;
-            if !(receiver_radius >= 0.0 && receiver_radius.is_finite()) {
-                return Err(ShadowError::Argument { argument: "receiver_radius", expected: "finite and ≥ 0" });
-            }
-            check_angle("theta_max_rad", f64::from(theta_max_rad))?;
+            check_receiver(receiver_center, receiver_radius, theta_max_rad)?;
             check_spheres("leaves", leaves)?;
             if let Some((_, nodes)) = hierarchy {
                 check_spheres("nodes", nodes)?;
@@ -755,6 +751,16 @@ pub(crate) fn check_point(argument: &'static str, p: [f32; 3]) -> Result<(), Sha
     } else {
         Err(ShadowError::Argument { argument, expected: "finite" })
     }
+}
+
+/// `Err(Argument)` unless the receiver ball and the cut threshold of a cluster build (or of a cut,
+/// `crate::cut::cut`) are usable: a finite centre, a radius finite and ≥ 0, 0 ≤ θmax ≤ π radians.
+pub fn check_receiver(center: [f32; 3], radius: f32, theta_max_rad: f32) -> Result<(), ShadowError> {
+    check_point("receiver_center", center)?;
+    if !(radius >= 0.0 && radius.is_finite()) {
+        return Err(ShadowError::Argument { argument: "receiver_radius", expected: "finite and ≥ 0" });
+    }
+    check_angle("theta_max_rad", f64::from(theta_max_rad))
 }
 
 /// `Err(Argument)` unless every sphere has a finite centre and a finite radius ≥ 0 (a posed proxy from a joint
