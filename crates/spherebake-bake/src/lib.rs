@@ -353,6 +353,12 @@ pub fn bake_imported(
             ));
         }
     }
+    if skin.is_none() && settings.pose_margin == PoseMargin::Auto {
+        warnings.push(
+            "pose margin: the model has no skin, so nothing moves and no radius grew (--pose-margin auto applies to skinned models)"
+                .into(),
+        );
+    }
     if let Some((terms, _, _)) = &skin {
         if settings.pose_margin == PoseMargin::Auto {
             let m = grow_for_animations(mesh, &spheres, terms, &skin_settings)

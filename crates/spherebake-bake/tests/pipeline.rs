@@ -313,3 +313,24 @@ fn the_pose_margin_warns_when_a_skinned_model_has_no_animations() {
     let arm = bake_path(&fixture("skinned-arm.gltf"), &auto, &|_| {}).unwrap();
     assert!(!arm.report.warnings.iter().any(no_anim), "{:?}", arm.report.warnings);
 }
+
+/// `--pose-margin auto` on a model without a skin has nothing to move: the bake says so once,
+/// and says nothing without the flag or on a skinned model.
+#[test]
+fn the_pose_margin_warns_when_the_model_has_no_skin() {
+    let no_skin = |w: &String| w.starts_with("pose margin: the model has no skin");
+    let auto =
+        BakeSettings { spheres: 8, voxels: 48, pose_margin: spherebake_bake::PoseMargin::Auto, ..Default::default() };
+    let out = bake_path(&fixture("capsule.obj"), &auto, &|_| {}).unwrap();
+    assert!(out.report.skin.is_none());
+    assert_eq!(out.report.warnings.iter().filter(|w| no_skin(w)).count(), 1, "{:?}", out.report.warnings);
+    let plain = bake_path(
+        &fixture("capsule.obj"),
+        &BakeSettings { pose_margin: spherebake_bake::PoseMargin::None, ..auto.clone() },
+        &|_| {},
+    )
+    .unwrap();
+    assert!(!plain.report.warnings.iter().any(no_skin), "{:?}", plain.report.warnings);
+    let arm = bake_path(&fixture("skinned-arm.gltf"), &auto, &|_| {}).unwrap();
+    assert!(!arm.report.warnings.iter().any(no_skin), "{:?}", arm.report.warnings);
+}
