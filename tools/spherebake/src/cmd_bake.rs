@@ -396,6 +396,16 @@ fn run_job(job: &Job, a: &BakeArgs, bar: &ProgressBar) -> AssetResult {
                         .with_context(|| format!("{}: writing depfile", path.display()))
                 });
         }
+        if kept.is_ok() {
+            // The output's content is current, but its time may be older than an input that
+            // was touched or checked out again unchanged: Make and Ninja (without `restat`)
+            // would then run this edge on every build. Mark it as made now, as a compiler that
+            // rewrote the same bytes would; a read-only output stays as it is.
+            let _ = std::fs::File::options()
+                .append(true)
+                .open(&job.output)
+                .and_then(|f| f.set_modified(std::time::SystemTime::now()));
+        }
         r.seconds = t0.elapsed().as_secs_f64();
         match kept {
             Ok(()) => r.status = "up-to-date",

@@ -1,6 +1,6 @@
 //! The guide's Ninja integration, for real: a generated `build.ninja` over generated assets with
 //! `depfile` / `deps = gcc`; a second run does no work, editing a texture rebuilds exactly the
-//! one output that uses it, and a broken asset fails its edge while `ninja -k 0` builds the rest.
+//! one output that uses it, touching an input without a change costs one up-to-date check, and a broken asset fails its edge while `ninja -k 0` builds the rest.
 //! Needs `ninja` on PATH (Debian package `ninja-build`; `.ci/run` installs it).
 
 use std::path::Path;
@@ -89,6 +89,23 @@ fn ninja_builds_incrementally_from_depfiles_and_keeps_going() {
         ["plain", "textured", "other"].iter().map(|n| mtime(&d.join(format!("out/{n}.sphb")))).collect();
     assert_eq!((before[0], before[2]), (after[0], after[2]), "other outputs untouched");
     assert!(after[1] > before[1], "textured output rebuilt");
+    let o = ninja(d, &[]);
+    assert!(text(&o).contains("no work to do"), "{}", text(&o));
+
+    // An input touched without a change (a `git checkout`, a `touch`): ninja runs the edge
+    // once, the tool finds the output up to date and marks it as made, and the next run has
+    // nothing to do (without the mark, ninja ran the edge on every build).
+    let content = std::fs::read(d.join("out/plain.sphb")).unwrap();
+    std::thread::sleep(std::time::Duration::from_millis(20));
+    std::fs::File::options()
+        .append(true)
+        .open(d.join("assets/plain.obj"))
+        .unwrap()
+        .set_modified(std::time::SystemTime::now())
+        .unwrap();
+    let o = ninja(d, &[]);
+    assert!(text(&o).contains("out/plain.sphb") && text(&o).contains("[1/1]"), "{}", text(&o));
+    assert_eq!(std::fs::read(d.join("out/plain.sphb")).unwrap(), content, "not re-baked");
     let o = ninja(d, &[]);
     assert!(text(&o).contains("no work to do"), "{}", text(&o));
 
