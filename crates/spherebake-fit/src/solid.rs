@@ -332,7 +332,7 @@ impl Solid {
     /// The lookup of a grid of cells given directly (tests, baselines): `solid` has one bit per
     /// cell of `dims`, x fastest.
     pub fn from_cells(origin: DVec3, h: f64, dims: [usize; 3], solid: Bits) -> Solid {
-        Solid::from_grid(VoxelGrid { origin, cell_size: h, dims: dims.map(|d| d as u32), solid })
+        Solid::from_grid(VoxelGrid { origin, cell_size: h, dims: dims.map(|d| d as u32), solid, covered_twice: 0 })
     }
 
     /// Builds the row runs of the solid `grid` ([`spherebake_geom::voxel::voxelize_bvh`]).

@@ -538,3 +538,41 @@ fn target_mode_does_not_stop_before_the_default_count() {
     );
     assert_triangles_covered(&p, &t, &r.spheres);
 }
+
+/// Two closed unit cubes, the second moved by `dx` along x: a closed mesh (every edge paired)
+/// whose parts overlap when `dx` < 1.
+fn two_cubes(dx: f32) -> (Vec<Vec3>, Vec<[u32; 3]>) {
+    let (c, t) = spherebake_testkit::mesh::unit_cube();
+    let mut p: Vec<Vec3> = c.iter().map(|q| Vec3::new(q[0] as f32, q[1] as f32, q[2] as f32)).collect();
+    p.extend(c.iter().map(|q| Vec3::new(q[0] as f32 + dx, q[1] as f32, q[2] as f32)));
+    let mut tris = t.clone();
+    tris.extend(t.iter().map(|f| f.map(|v| v + 8)));
+    (p, tris)
+}
+
+/// Closed parts that overlap are solid once (the union), not twice: two unit cubes overlapping
+/// by half are the 1.5 × 1 × 1 box. The mesh's signed volume (2.0) and its exact ball volumes
+/// count the overlap twice, so the fit says so and measures on the voxel solid: V(T) near 1.5
+/// and E within a few per cent of a Monte Carlo E against the analytic union (before, V(T) was
+/// 2.0 and E was off by a factor of two). Apart, the same two cubes stay an exact closed mesh.
+#[test]
+fn overlapping_closed_parts_are_measured_as_their_union() {
+    let s = FitSettings { spheres: 8, voxel_resolution: 64, ..Default::default() };
+    let (p, t) = two_cubes(0.5);
+    let r = fit(&p, &t, &s, &|_| {}).unwrap();
+    assert!(r.warnings.iter().any(|w| w.starts_with("closed parts overlap")), "{:?}", r.warnings);
+    assert_eq!(r.stats.solid_source, SolidSource::VoxelSolid);
+    assert!((r.stats.object_volume - 1.5).abs() < 0.02 * 1.5, "V(T) {}", r.stats.object_volume);
+    assert_triangles_covered(&p, &t, &r.spheres);
+    let mc = outside_ratio(&r.spheres, 1.5, 400_000, 7, |x| {
+        (0.0..=1.5).contains(&x[0]) && (0.0..=1.0).contains(&x[1]) && (0.0..=1.0).contains(&x[2])
+    });
+    let tol = 4.0 * mc.standard_error + 0.03 * mc.e;
+    assert!((r.stats.outside_ratio_e - mc.e).abs() <= tol, "fit E {} vs oracle {mc:?}", r.stats.outside_ratio_e);
+
+    let (p, t) = two_cubes(2.0);
+    let r = fit(&p, &t, &s, &|_| {}).unwrap();
+    assert!(!r.warnings.iter().any(|w| w.starts_with("closed parts overlap")), "{:?}", r.warnings);
+    assert_eq!(r.stats.solid_source, SolidSource::ClosedMesh);
+    assert!((r.stats.object_volume - 2.0).abs() < 1e-9, "V(T) {}", r.stats.object_volume);
+}

@@ -234,6 +234,24 @@ fn duplicates_overlaps_and_flips() {
     assert_brackets(&two.0, &two.1, &g, union, "two boxes");
     let w = WindingNumber::new(&two.0, &two.1);
     assert!((w.eval_exact(DVec3::new(0.8, 0.5, 0.6)) - 2.0).abs() < 1e-9);
+    // The cells enclosed twice are exactly those whose centre lies in both boxes (counted
+    // here from the boxes alone); a single closed mesh, and every soup that is not closed,
+    // has none.
+    let in_box = |p: DVec3, lo: [f64; 3], hi: [f64; 3]| (0..3).all(|a| lo[a] < p[a] && p[a] < hi[a]);
+    let mut both = 0;
+    for k in 0..g.dims[2] {
+        for j in 0..g.dims[1] {
+            for i in 0..g.dims[0] {
+                let c = g.cell_center(i, j, k);
+                both += usize::from(in_box(c, [0.0; 3], [1.0; 3]) && in_box(c, [0.6, 0.2, 0.3], [1.7, 0.8, 1.3]));
+            }
+        }
+    }
+    assert!(both > 500, "{both}");
+    assert_eq!(g.covered_twice, both);
+    assert_eq!(closed.covered_twice, 0);
+    assert_eq!(vox(&v, &flipped, 40).covered_twice, 0);
+    assert_eq!(vox(&v, &dup, 40).covered_twice, 0, "not closed: no integer count");
     // Overlapping spheres: union of two icospheres.
     let mut spheres = icosphere(3, Vec3::ZERO, 1.0);
     merge(&mut spheres, &icosphere(3, Vec3::new(0.8, 0.0, 0.0), 1.0));
