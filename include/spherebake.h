@@ -289,9 +289,11 @@ typedef struct {
   float theta_max_rad;
   // 1 (default): compute the reflection ratios of Guerrero 2008 eq. 25; 0 only to measure their effect.
   uint32_t reflection_ratio;
-  // 1: scale each source's blocker logs by the overlap correction at the cluster centre (needs
-  // a normal; not in the papers; default 0: results then depend on the frame and jump between
-  // clusters).
+  // 1: scale each source's blocker logs by the overlap correction at the cluster centre
+  // (`sphb_shadow_cluster_correct_overlap` with 256 directions; needs a normal; not in the
+  // papers). Default 0 (off): the correction makes results depend on the coordinate frame (its
+  // directions are fixed in the spheres' space, not turned with the receivers) and jump between
+  // neighbouring clusters and between frames of a moving proxy (its scale moves in steps of 0.05).
   uint32_t overlap_correction;
 } SphbClusterSpec;
 
@@ -334,6 +336,13 @@ int32_t sphb_proxy_metadata(const SphbProxy *proxy,
 
 // Poses the spheres: `out[s]` = Σ_j M_j · (q_j, b_j) over sphere s's skin slots, radius kept;
 // `joints` holds `joint_count` column-major 4×4 joint matrices (16 floats each, glTF convention).
+// The palette is indexed by the file's bone table: matrix j belongs to bone j
+// (`sphb_proxy_bone(proxy, j, ...)`, j < `SphbCounts::bone_count`; extra matrices are ignored).
+// The bone table holds the joints of all the asset's skins in order of first use, a joint two
+// skins share with the same inverse bind being one bone (formats/spherebake-v1.md §10): for a
+// model with one skin that is glTF `skin.joints` order, otherwise not necessarily the order of
+// an engine's skin, so map each bone to the engine's joint by its name (`SphbBone::name`; names
+// need not be unique, so check the inverse bind too where they repeat).
 // Without skin the rest spheres are copied. `out_len` must be at least the sphere count. A NaN or
 // an infinity in a matrix the bone table uses is `SPHB_ERR_INVALID_ARGUMENT`.
 // Allocation-free; thread-safe (distinct `out`).
@@ -357,8 +366,9 @@ int32_t sphb_refit(const SphbProxy *proxy,
                    size_t node_len,
                    SphbError *err);
 
-// `sphb_pose` then `sphb_refit`: posed leaves into `leaves_out`, refitted nodes into `nodes_out`.
-// Allocation-free; thread-safe (distinct outputs).
+// `sphb_pose` then `sphb_refit`: posed leaves into `leaves_out`, refitted nodes into `nodes_out`;
+// `joints` indexed by the file's bone table, as for `sphb_pose`. Allocation-free; thread-safe
+// (distinct outputs).
 int32_t sphb_pose_and_refit(const SphbProxy *proxy,
                             const float *joints,
                             size_t joint_count,
@@ -397,7 +407,8 @@ int32_t sphb_shadow_context_new(uint32_t order,
 // Frees a shadow context; NULL does nothing.
 void sphb_shadow_context_free(SphbShadowContext *ctx);
 
-// A new, empty receiver cluster (never NULL unless out of memory). Free with `sphb_shadow_cluster_free`.
+// A new, empty receiver cluster (NULL only on an internal error, a caught panic). Free with
+// `sphb_shadow_cluster_free`.
 SphbShadowCluster *sphb_shadow_cluster_new(void);
 
 // Frees a cluster; NULL does nothing.
@@ -428,9 +439,15 @@ int32_t sphb_shadow_cluster_build(SphbShadowCluster *cluster,
 // scale s in {1, 0.95, …, 0.05} for all log vectors of the built cluster such that the DC of the
 // visibility at the cluster point `p_star` (3 floats, `normal` 3 floats scaled to unit length, self-shadowing
 // rules applied) best matches the visible fraction of the union of the blocker spheres there,
-// measured with `directions` Fibonacci rays (256 is a good count); multiplies every blocker's
-// band weights by s and writes s to `*scale_out` (optional; 1 when nothing improves).
-// `ctx` must have the build's order. Allocation-free; one thread at a time per cluster.
+// measured with `directions` Fibonacci rays (at most 65536; cost: `directions` × blockers ray
+// tests); multiplies every blocker's band weights by s and writes s to `*scale_out` (optional; 1
+// when nothing improves). `sphb_shadow_cluster_build` does not apply it: call it after each build.
+// `spherebake shadows` (by default) and `spherebake light` apply it with 1024 directions, and the
+// shadow errors in docs/benchmarks.md are measured so; `SphbClusterSpec::overlap_correction`
+// uses 256. Its cost in stability: s moves in steps of 0.05 and the directions are fixed in the
+// spheres' space, so the shading of a moving proxy can jump between frames and neighbouring
+// clusters can differ by a step. `ctx` must have the build's order. Allocation-free; one thread
+// at a time per cluster.
 int32_t sphb_shadow_cluster_correct_overlap(SphbShadowCluster *cluster,
                                             const SphbShadowContext *ctx,
                                             const float *p_star,
@@ -461,7 +478,8 @@ int32_t sphb_visibility(const SphbShadowContext *ctx,
                         SphbError *err);
 
 // The shading vector T = L ∗ H(N) (Ren 2006 §7) for lighting `light` (order² SH radiance
-// coefficients, f64) and normal `normal` (3 doubles; scaled to unit length, zero or non-finite is
+// coefficients, f64, one channel: monochrome radiance; T is linear in it, so a coloured light
+// takes one shading vector per channel) and normal `normal` (3 doubles; scaled to unit length, zero or non-finite is
 // `SPHB_ERR_INVALID_ARGUMENT`) into `out[0..order²]`; the shaded value
 // is `sphb_shade(T, g)`. For uniform white light (`sphb_uniform_light`) and g = 1 it is 1.
 // Thread-safe.
@@ -513,7 +531,8 @@ int32_t sphb_light_context_new(uint32_t order,
 // Frees a light context; NULL does nothing.
 void sphb_light_context_free(SphbLightContext *ctx);
 
-// New, empty sphere lights (pass 1's output). Free with `sphb_sphere_lights_free`.
+// New, empty sphere lights (pass 1's output; NULL only on an internal error, a caught panic).
+// Free with `sphb_sphere_lights_free`.
 SphbSphereLights *sphb_sphere_lights_new(void);
 
 // Frees sphere lights; NULL does nothing.
@@ -529,7 +548,8 @@ int32_t sphb_sphere_lights_leaf(const SphbSphereLights *lights,
 
 // Soft-deformation rotations (Guerrero 2008 §7.1) of every sphere: R = polar(Σ b_j M_j) ·
 // polar(Σ b_j M⁰_j)ᵀ over its skin slots, from `joints` (pose) and `rest_joints` (the rest pose
-// of the file's model space), `joint_count` column-major 4×4 matrices each; into `out`
+// of the file's model space), `joint_count` column-major 4×4 matrices each, indexed by the
+// file's bone table as for `sphb_pose`; into `out`
 // (9 floats per sphere, column-major 3×3, `out_len` floats). Thread-safe.
 // `rest_joints` are the joint matrices world(joint) × inverse bind of the glTF scene with no
 // animation applied (each node's own TRS), computed as the engine computes `joints`; they are
@@ -547,8 +567,11 @@ int32_t sphb_sphere_rotations(const SphbProxy *proxy,
 SphbPass1Settings sphb_pass1_settings_default(void);
 
 // **Pass 1**: lights every sample of `posed` under the environment `env` (`env_len` ≥ order² SH
-// radiance coefficients, f64; e.g. from `sphb_clip_below_horizon`), projects it onto each sphere's
-// light and derives the hierarchy nodes' lights; results into `lights`. `others` (`other_count`
+// radiance coefficients, f64, one channel: monochrome radiance; e.g. from
+// `sphb_clip_below_horizon`), projects it onto each sphere's light and derives the hierarchy
+// nodes' lights; results into `lights`. The lights are RGB through the albedo SH; a coloured sky
+// takes one pass 1 (and pass 2) per channel, keeping that channel of each result (pass 1 is
+// linear in `env`, but for clamping each sample's radiance at 0). `others` (`other_count`
 // posed proxies, NULL with 0 for none) are further proxies whose spheres block the environment
 // (their lights are not needed). `settings` NULL means `sphb_pass1_settings_default()`.
 // `*stats_out` (optional) receives the counts. The proxy needs samples and albedo SH
@@ -576,7 +599,7 @@ int32_t sphb_light_spheres_from_radiance(const SphbLightContext *ctx,
                                          SphbSphereLights *lights,
                                          SphbError *err);
 
-// The environment `env` (order² SH radiance coefficients of `ctx`'s order, f64) with everything
+// The environment `env` (order² SH radiance coefficients of `ctx`'s order, f64, one channel) with everything
 // below the horizon of the `up` direction (3 doubles; scaled to unit length, zero or non-finite is
 // `SPHB_ERR_INVALID_ARGUMENT`) removed (exact for an infinite ground
 // plane under the scene), into `out[0..order²]`. Thread-safe.
@@ -606,14 +629,15 @@ int32_t sphb_sphere_lights_sample_radiance(const SphbSphereLights *lights,
                                            size_t *len_out,
                                            SphbError *err);
 
-// A new, empty indirect-light cluster. Free with `sphb_indirect_cluster_free`.
+// A new, empty indirect-light cluster (NULL only on an internal error, a caught panic). Free with
+// `sphb_indirect_cluster_free`.
 SphbIndirectCluster *sphb_indirect_cluster_new(void);
 
 // Frees an indirect-light cluster; NULL does nothing.
 void sphb_indirect_cluster_free(SphbIndirectCluster *cluster);
 
-// A new, empty scratch for `sphb_indirect_irradiance_with` (one per querying thread). Free with
-// `sphb_indirect_scratch_free`.
+// A new, empty scratch for `sphb_indirect_irradiance_with` (one per querying thread; NULL only on
+// an internal error, a caught panic). Free with `sphb_indirect_scratch_free`.
 SphbIndirectScratch *sphb_indirect_scratch_new(void);
 
 // Frees a scratch; NULL does nothing.

@@ -1,6 +1,8 @@
 // spherebake.hpp: a header-only C++17 RAII wrapper over the spherebake C ABI (spherebake.h).
 // Each object owns one C handle and frees it in its destructor; copies are disabled, moves allowed.
 // Failures throw sphb::Error carrying the status code, the specification's rule ID and the message.
+// A `*_new` without arguments that returns NULL (only on an internal error, a caught panic) throws
+// std::bad_alloc.
 #ifndef SPHEREBAKE_HPP
 #define SPHEREBAKE_HPP
 

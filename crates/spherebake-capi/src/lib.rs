@@ -22,7 +22,9 @@
 //!   `sphb_proxy_bone` and `sphb_proxy_metadata` point into the proxy and live until it is freed.
 //!   Every `*_new` object is freed by its `*_free`; freeing NULL does nothing.
 //! - Memory: the library allocates with the system allocator (no allocator hooks). Running out
-//!   of memory aborts the process, as Rust's global allocator does; `*_new` never returns NULL.
+//!   of memory aborts the process, as Rust's global allocator does. A `*_new` without arguments
+//!   returns NULL only on an internal error (a caught panic); `sphb_shadow_context_new` and
+//!   `sphb_light_context_new` return a status and leave NULL in `*out` when they fail.
 //! - Thread safety: a proxy and the shadow / light contexts are immutable after creation: any
 //!   number of threads may use them at once. A `SphbShadowCluster` is mutated by its build (one
 //!   thread at a time); once built, its queries (`sphb_accumulate_log_visibility`,
@@ -347,9 +349,11 @@ pub struct SphbClusterSpec {
     pub theta_max_rad: f32,
     /// 1 (default): compute the reflection ratios of Guerrero 2008 eq. 25; 0 only to measure their effect.
     pub reflection_ratio: u32,
-    /// 1: scale each source's blocker logs by the overlap correction at the cluster centre (needs
-    /// a normal; not in the papers; default 0: results then depend on the frame and jump between
-    /// clusters).
+    /// 1: scale each source's blocker logs by the overlap correction at the cluster centre
+    /// (`sphb_shadow_cluster_correct_overlap` with 256 directions; needs a normal; not in the
+    /// papers). Default 0 (off): the correction makes results depend on the coordinate frame (its
+    /// directions are fixed in the spheres' space, not turned with the receivers) and jump between
+    /// neighbouring clusters and between frames of a moving proxy (its scale moves in steps of 0.05).
     pub overlap_correction: u32,
 }
 
@@ -854,6 +858,13 @@ pub unsafe extern "C" fn sphb_proxy_metadata(
 
 /// Poses the spheres: `out[s]` = Σ_j M_j · (q_j, b_j) over sphere s's skin slots, radius kept;
 /// `joints` holds `joint_count` column-major 4×4 joint matrices (16 floats each, glTF convention).
+/// The palette is indexed by the file's bone table: matrix j belongs to bone j
+/// (`sphb_proxy_bone(proxy, j, ...)`, j < `SphbCounts::bone_count`; extra matrices are ignored).
+/// The bone table holds the joints of all the asset's skins in order of first use, a joint two
+/// skins share with the same inverse bind being one bone (formats/spherebake-v1.md §10): for a
+/// model with one skin that is glTF `skin.joints` order, otherwise not necessarily the order of
+/// an engine's skin, so map each bone to the engine's joint by its name (`SphbBone::name`; names
+/// need not be unique, so check the inverse bind too where they repeat).
 /// Without skin the rest spheres are copied. `out_len` must be at least the sphere count. A NaN or
 /// an infinity in a matrix the bone table uses is `SPHB_ERR_INVALID_ARGUMENT`.
 /// Allocation-free; thread-safe (distinct `out`).
@@ -920,8 +931,9 @@ pub unsafe extern "C" fn sphb_refit(
     })
 }
 
-/// `sphb_pose` then `sphb_refit`: posed leaves into `leaves_out`, refitted nodes into `nodes_out`.
-/// Allocation-free; thread-safe (distinct outputs).
+/// `sphb_pose` then `sphb_refit`: posed leaves into `leaves_out`, refitted nodes into `nodes_out`;
+/// `joints` indexed by the file's bone table, as for `sphb_pose`. Allocation-free; thread-safe
+/// (distinct outputs).
 #[no_mangle]
 pub unsafe extern "C" fn sphb_pose_and_refit(
     proxy: *const SphbProxy,
@@ -1017,7 +1029,8 @@ pub unsafe extern "C" fn sphb_shadow_context_free(ctx: *mut SphbShadowContext) {
     unsafe { free_object(ctx) }
 }
 
-/// A new, empty receiver cluster (never NULL unless out of memory). Free with `sphb_shadow_cluster_free`.
+/// A new, empty receiver cluster (NULL only on an internal error, a caught panic). Free with
+/// `sphb_shadow_cluster_free`.
 #[no_mangle]
 pub extern "C" fn sphb_shadow_cluster_new() -> *mut SphbShadowCluster {
     new_object(|| SphbShadowCluster { cb: ClusterBlockers::new(), cut: Vec::new() })
@@ -1076,9 +1089,15 @@ pub unsafe extern "C" fn sphb_shadow_cluster_build(
 /// scale s in {1, 0.95, …, 0.05} for all log vectors of the built cluster such that the DC of the
 /// visibility at the cluster point `p_star` (3 floats, `normal` 3 floats scaled to unit length, self-shadowing
 /// rules applied) best matches the visible fraction of the union of the blocker spheres there,
-/// measured with `directions` Fibonacci rays (256 is a good count); multiplies every blocker's
-/// band weights by s and writes s to `*scale_out` (optional; 1 when nothing improves).
-/// `ctx` must have the build's order. Allocation-free; one thread at a time per cluster.
+/// measured with `directions` Fibonacci rays (at most 65536; cost: `directions` × blockers ray
+/// tests); multiplies every blocker's band weights by s and writes s to `*scale_out` (optional; 1
+/// when nothing improves). `sphb_shadow_cluster_build` does not apply it: call it after each build.
+/// `spherebake shadows` (by default) and `spherebake light` apply it with 1024 directions, and the
+/// shadow errors in docs/benchmarks.md are measured so; `SphbClusterSpec::overlap_correction`
+/// uses 256. Its cost in stability: s moves in steps of 0.05 and the directions are fixed in the
+/// spheres' space, so the shading of a moving proxy can jump between frames and neighbouring
+/// clusters can differ by a step. `ctx` must have the build's order. Allocation-free; one thread
+/// at a time per cluster.
 #[no_mangle]
 pub unsafe extern "C" fn sphb_shadow_cluster_correct_overlap(
     cluster: *mut SphbShadowCluster,
@@ -1158,7 +1177,8 @@ pub unsafe extern "C" fn sphb_visibility(
 }
 
 /// The shading vector T = L ∗ H(N) (Ren 2006 §7) for lighting `light` (order² SH radiance
-/// coefficients, f64) and normal `normal` (3 doubles; scaled to unit length, zero or non-finite is
+/// coefficients, f64, one channel: monochrome radiance; T is linear in it, so a coloured light
+/// takes one shading vector per channel) and normal `normal` (3 doubles; scaled to unit length, zero or non-finite is
 /// `SPHB_ERR_INVALID_ARGUMENT`) into `out[0..order²]`; the shaded value
 /// is `sphb_shade(T, g)`. For uniform white light (`sphb_uniform_light`) and g = 1 it is 1.
 /// Thread-safe.
@@ -1283,7 +1303,8 @@ pub unsafe extern "C" fn sphb_light_context_free(ctx: *mut SphbLightContext) {
     unsafe { free_object(ctx) }
 }
 
-/// New, empty sphere lights (pass 1's output). Free with `sphb_sphere_lights_free`.
+/// New, empty sphere lights (pass 1's output; NULL only on an internal error, a caught panic).
+/// Free with `sphb_sphere_lights_free`.
 #[no_mangle]
 pub extern "C" fn sphb_sphere_lights_new() -> *mut SphbSphereLights {
     new_object(|| SphbSphereLights { lights: SphereLights::new() })
@@ -1332,7 +1353,8 @@ unsafe fn posed_of<'a>(posed: &'a SphbPosed) -> Res<PosedProxy<'a>> {
 
 /// Soft-deformation rotations (Guerrero 2008 §7.1) of every sphere: R = polar(Σ b_j M_j) ·
 /// polar(Σ b_j M⁰_j)ᵀ over its skin slots, from `joints` (pose) and `rest_joints` (the rest pose
-/// of the file's model space), `joint_count` column-major 4×4 matrices each; into `out`
+/// of the file's model space), `joint_count` column-major 4×4 matrices each, indexed by the
+/// file's bone table as for `sphb_pose`; into `out`
 /// (9 floats per sphere, column-major 3×3, `out_len` floats). Thread-safe.
 /// `rest_joints` are the joint matrices world(joint) × inverse bind of the glTF scene with no
 /// animation applied (each node's own TRS), computed as the engine computes `joints`; they are
@@ -1388,8 +1410,11 @@ pub extern "C" fn sphb_pass1_settings_default() -> SphbPass1Settings {
 }
 
 /// **Pass 1**: lights every sample of `posed` under the environment `env` (`env_len` ≥ order² SH
-/// radiance coefficients, f64; e.g. from `sphb_clip_below_horizon`), projects it onto each sphere's
-/// light and derives the hierarchy nodes' lights; results into `lights`. `others` (`other_count`
+/// radiance coefficients, f64, one channel: monochrome radiance; e.g. from
+/// `sphb_clip_below_horizon`), projects it onto each sphere's light and derives the hierarchy
+/// nodes' lights; results into `lights`. The lights are RGB through the albedo SH; a coloured sky
+/// takes one pass 1 (and pass 2) per channel, keeping that channel of each result (pass 1 is
+/// linear in `env`, but for clamping each sample's radiance at 0). `others` (`other_count`
 /// posed proxies, NULL with 0 for none) are further proxies whose spheres block the environment
 /// (their lights are not needed). `settings` NULL means `sphb_pass1_settings_default()`.
 /// `*stats_out` (optional) receives the counts. The proxy needs samples and albedo SH
@@ -1447,7 +1472,7 @@ pub unsafe extern "C" fn sphb_light_spheres_from_radiance(
     })
 }
 
-/// The environment `env` (order² SH radiance coefficients of `ctx`'s order, f64) with everything
+/// The environment `env` (order² SH radiance coefficients of `ctx`'s order, f64, one channel) with everything
 /// below the horizon of the `up` direction (3 doubles; scaled to unit length, zero or non-finite is
 /// `SPHB_ERR_INVALID_ARGUMENT`) removed (exact for an infinite ground
 /// plane under the scene), into `out[0..order²]`. Thread-safe.
@@ -1510,7 +1535,8 @@ pub unsafe extern "C" fn sphb_sphere_lights_sample_radiance(
     })
 }
 
-/// A new, empty indirect-light cluster. Free with `sphb_indirect_cluster_free`.
+/// A new, empty indirect-light cluster (NULL only on an internal error, a caught panic). Free with
+/// `sphb_indirect_cluster_free`.
 #[no_mangle]
 pub extern "C" fn sphb_indirect_cluster_new() -> *mut SphbIndirectCluster {
     new_object(|| SphbIndirectCluster { ic: IndirectCluster::new() })
@@ -1523,8 +1549,8 @@ pub unsafe extern "C" fn sphb_indirect_cluster_free(cluster: *mut SphbIndirectCl
     unsafe { free_object(cluster) }
 }
 
-/// A new, empty scratch for `sphb_indirect_irradiance_with` (one per querying thread). Free with
-/// `sphb_indirect_scratch_free`.
+/// A new, empty scratch for `sphb_indirect_irradiance_with` (one per querying thread; NULL only on
+/// an internal error, a caught panic). Free with `sphb_indirect_scratch_free`.
 #[no_mangle]
 pub extern "C" fn sphb_indirect_scratch_new() -> *mut SphbIndirectScratch {
     new_object(|| SphbIndirectScratch { scratch: IndirectScratch::new() })
