@@ -16,8 +16,9 @@
 //! 3. **Pass 2** per receiver cluster ([`IndirectCluster::build`]: hierarchy cut, ratio vectors, reflection ratios)
 //!    and per receiver ([`IndirectCluster::irradiance`]): E^I(p) = π Σ_i L̃_p,Si · Ṽ_p,Si · t_Si (eq. 14, 26), with
 //!    the cosine-weighted average radiance and the visibility share below.
-//! 4. Direct light: [`crate::shadow`] (`ShadowContext::shade_point`); total = direct + indirect (eq. 12), both
-//!    exposed: [`IndirectCluster::irradiance`] returns the indirect part only.
+//! 4. Direct light: [`crate::shadow`] (`ShadowContext::shade_point`, whose shaded value is the direct irradiance
+//!    over π); total = direct + indirect (eq. 12): E_total = π · shade + E^I, exit radiance ρ · E_total / π, both
+//!    parts exposed: [`IndirectCluster::irradiance`] returns the indirect part only.
 //!
 //! # Readings taken (where the paper's text is ambiguous) and departures
 //!
@@ -136,7 +137,7 @@
 //!   a sphere is its average radiance times its solid angle ∝ r²: L^c_N = Σ_j (r_j / r_N)² L^c_j (leaves below N, all
 //!   coefficients in their rest frames), and N turns with the polar rotation of Σ_j r_j² R_j. Mutual occlusion of the
 //!   leaves is what the reflection ratio corrects. A leaf under a millionth of N's radius ((r_j / r_N)² ≤ 10⁻¹²: the
-//!   empty spheres a fit leaves, radius the least positive f32) is not in N's sums, as pass 2 skips it among the
+//!   empty spheres a fit leaves, radius `f32::MIN_POSITIVE`) is not in N's sums, as pass 2 skips it among the
 //!   leaves (Ṽ₀ ≤ 10⁻¹²); a node of such leaves only is dark.
 //! - **Reflection ratio (eq. 25–26; taken over the cluster, departure).** Every accepted node N is evaluated twice
 //!   with the same routine as the receivers: as one light among the cut, and replaced by its leaves (each occluded by
@@ -589,7 +590,8 @@ fn rotate_transposed(m: &[f32; 9], v: [f32; 3]) -> [f32; 3] {
 }
 
 /// **Pass 1** (eq. 3–11): lights every sample of `posed` under the environment `env` (order² radiance
-/// coefficients, e.g. from [`clip_below_horizon`]), projects onto each leaf's SH with the Voronoi-cell basis sums,
+/// coefficients of one channel, monochrome, e.g. from [`clip_below_horizon`]; the lights are RGB through the albedo
+/// SH, so a coloured sky takes one pass per channel), projects onto each leaf's SH with the Voronoi-cell basis sums,
 /// multiplies by the albedo SH, and derives the hierarchy nodes' lights. `others` are further proxies whose spheres
 /// block the environment (their own lights are not needed here). Results go to `out`.
 ///
@@ -1010,7 +1012,7 @@ const NEGLIGIBLE_NODE_SHARE: f64 = 1e-12;
 /// under a millionth of the node's radius), when the node has no positive radius, or when either is not finite.
 /// Wherever a cut takes the node, such a leaf subtends less than the leaves-only path's cutoff (Ṽ₀ ≤ 10⁻¹², which
 /// skips it there too), so both paths drop it alike. Without the cutoff a node holding only empty spheres (radius
-/// the least positive f32) that own samples got a light of 10⁻⁷⁵ × theirs (0 in f32, or NaN where a leaf's light,
+/// `f32::MIN_POSITIVE`) that own samples got a light of 10⁻⁷⁵ × theirs (0 in f32, or NaN where a leaf's light,
 /// area / r² for loose samples, overflowed f32) and a rotation from Σ w_j R_j ≈ 10⁻⁷⁵ I, which the polar
 /// iteration did not bring back to a rotation in its steps; pass 2 then read NaN from it and the receiver's sum
 /// was clamped to 0: the capsule at 64 spheres (53 left empty) lit the ground with 0 through the hierarchy.
@@ -1220,9 +1222,10 @@ pub struct ClusterSpec {
     pub theta_max_rad: f32,
     /// Compute the reflection ratios of eq. 25 (the default; off only to measure their effect).
     pub reflection_ratio: bool,
-    /// Scale each source's blocker logs by [`ClusterBlockers::correct_overlap`] at the cluster centre (needs
-    /// `normal`; not in the papers; off by default: its world-fixed directions and 0.05 steps make results depend
-    /// on the frame and jump between clusters).
+    /// Scale each source's blocker logs by [`ClusterBlockers::correct_overlap`] at the cluster centre, with 256
+    /// directions (needs `normal`; not in the papers). Off by default: its directions, fixed in the spheres' space,
+    /// and its scale's steps of 0.05 make results depend on the coordinate frame and jump between neighbouring
+    /// clusters and between frames of a moving proxy.
     pub overlap_correction: bool,
 }
 

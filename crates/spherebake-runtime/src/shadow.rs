@@ -17,8 +17,11 @@
 //!    Allocates only while its buffers grow.
 //!    Optionally, [`ClusterBlockers::correct_overlap`] (not in the paper) then scales the
 //!    cluster's logs so that the visibility DC at p* matches the union of the spheres: deeply
-//!    overlapping sphere sets otherwise over-count in log space (measured in
-//!    `docs/bench-shadows.md`: without it the ground error *rises* past 64–128 spheres).
+//!    overlapping sphere sets otherwise over-count in log space (measured in `docs/benchmarks.md`,
+//!    "Shadows (issue 10)": without it the ground error *rises* past 64–128 spheres).
+//!    `spherebake shadows` applies it by default (1024 directions), and the measured errors there
+//!    are with it; its scale moves in steps of 0.05 over directions fixed in the spheres' space, so
+//!    a moving proxy's shading can jump between frames and neighbouring clusters can differ.
 //! 2. **Per receiver point** p with unit normal N: [`accumulate_log_visibility`] applies the
 //!    self-shadowing rules ([`self_shadow_sphere`]) to every blocker of the cluster and sums its
 //!    log vector. Allocation-free.
@@ -391,7 +394,12 @@ impl ClusterBlockers {
     ///
     /// Overlapping spheres multiply binary visibilities harmlessly, but their band-limited logs
     /// add: deep overlaps drive ‖f̂‖ far past the range where exp* behaves and can make the
-    /// visibility *brighter* than no blocker (see `docs/bench-shadows.md`). Allocation-free.
+    /// visibility *brighter* than no blocker (see `docs/benchmarks.md`, "Shadows (issue 10)").
+    /// [`ClusterBlockers::build`] does not apply it; `spherebake shadows` and `spherebake light` call
+    /// it with 1024 directions, [`crate::light::ClusterSpec::overlap_correction`] with 256. The
+    /// scale's steps of 0.05 and the fixed directions make the result depend on the coordinate
+    /// frame and jump between neighbouring clusters and between frames of a moving proxy.
+    /// Allocation-free.
     ///
     /// # Errors
     ///
