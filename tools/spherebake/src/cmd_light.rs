@@ -49,7 +49,7 @@ pub struct LightArgs {
     pub file: PathBuf,
     #[command(flatten)]
     pub model: crate::cmd_view::ModelArg,
-    /// Lighting environment
+    /// Lighting environment (+Y up; the ground plane is y = the model's lowest y)
     #[arg(long, value_enum, default_value_t = LightArg::Uniform)]
     pub light: LightArg,
     /// Pose from this animation [default: rest pose; with --time alone, the model's first animation]

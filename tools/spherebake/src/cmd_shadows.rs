@@ -65,7 +65,7 @@ pub struct ShadowsArgs {
     pub file: PathBuf,
     #[command(flatten)]
     pub model: crate::cmd_view::ModelArg,
-    /// Lighting environment
+    /// Lighting environment (+Y up; the ground plane is y = the model's lowest y)
     #[arg(long, value_enum, default_value_t = LightArg::Uniform)]
     pub light: LightArg,
     /// Write truth | proxy | difference side by side to this image (.png, or

@@ -73,11 +73,20 @@ enum Command {
     Export(cmd_view::ExportArgs),
     /// Draw the mesh with its sphere set from three views into a PNG or JPEG, headless.
     Render(cmd_view::RenderArgs),
-    /// Ground-plane soft shadows of the proxy (runtime log-SH query) against ray-traced truth.
+    /// Ground-plane soft shadows of the proxy (runtime log-SH query) against ray-traced truth; +Y is up.
+    ///
+    /// The model stands on the ground plane y = its lowest y, with normal +Y: +Y is up (glTF's
+    /// convention), for OBJ models too, so a Z-up model is checked lying on its side. The ground is
+    /// a square of 3 × the model's larger horizontal (x or z) extent, centred under it.
     Shadows(cmd_shadows::ShadowsArgs),
     /// Pose a skinned proxy from its model's animation at a time; print the spheres and their vertex coverage.
     Pose(cmd_pose::PoseArgs),
-    /// One-bounce indirect light of the proxy (runtime passes 1 and 2) on the ground and the model against path tracing.
+    /// One-bounce indirect light of the proxy (runtime passes 1 and 2) on the ground and the model against path tracing; +Y is up.
+    ///
+    /// The model (posed by --animation / --time, else at rest) stands on the ground plane y = its
+    /// lowest y, with normal +Y: +Y is up (glTF's convention), for OBJ models too, so a Z-up model
+    /// is checked lying on its side. The ground is a square of 3 × the model's larger horizontal
+    /// (x or z) extent, centred under it; it reflects nothing, and the sky below it is removed.
     Light(cmd_light::LightArgs),
 }
 
