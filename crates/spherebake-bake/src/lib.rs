@@ -1,5 +1,5 @@
-//! The spherebake pipeline: import → orient → voxelize → fit → (hierarchy, samples, albedo SH, skinning)
-//! → `.sphb` file bytes.
+//! The spherebake pipeline: import → orient → voxelize → fit → skinning (and the pose margin, which
+//! may grow radii) → hierarchy → samples → albedo SH → `.sphb` file bytes.
 //!
 //! Architecture invariant: no terminal, no JSON printing, no exit codes. [`bake_path`] returns
 //! the file bytes and a [`BakeReport`]; the caller decides where they go (the CLI writes them
@@ -80,7 +80,7 @@ pub struct BakeReport {
     pub vertices_welded: usize,
     pub closed: bool,
     pub sphere_count: usize,
-    /// Spheres the fit left empty (radius 0, stored as the smallest positive f32, a point): no
+    /// Spheres the fit left empty (radius 0, stored as `f32::MIN_POSITIVE`, a point): no
     /// split trial of the descent put them to use within its budget. Sometimes no sphere could
     /// lower E there (the capsule at 64 spheres uses 11 along its axis; each sphere off it would
     /// stick out), but not always: beetle-alt at `--preset fast` leaves 3 of 64 empty at

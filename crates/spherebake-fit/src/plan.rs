@@ -242,8 +242,9 @@ pub struct FitPlan {
 }
 
 impl Default for FitPlan {
-    /// The measured default (bunny at 64 spheres, whole bake: E 0.2227 at seed 1, mean
-    /// 0.2235 over seeds 1–4).
+    /// The measured default (bunny at 64 spheres, whole bake: E 0.2289 at seed 1, mean
+    /// 0.2226 over seeds 1–4; `docs/benchmarks.md`, "The pattern search polls the moves its
+    /// sphere's surface predicts").
     fn default() -> Self {
         Self {
             point_resolution: 40,

@@ -1,10 +1,10 @@
 //! Exact volume of a ball ∩ a closed triangle mesh (Wang et al. 2006 style), and the outside
 //! volume V(S − T) = V(S) − V(S ∩ T) the sphere-set fit minimises (Ren et al. 2006, eq. 35).
 //!
-//! Method (`shared/research/math-reference.md` §6): for a closed, outward-oriented mesh T and a
-//! ball B(c, r), V(B ∩ T) = Σ_f V_f where V_f is the signed volume of (cone from c over the
-//! triangle f) ∩ B. This holds for c inside or outside T: along any ray from c the signed
-//! crossings beyond a point sum to 1 inside T and 0 outside.
+//! Method (math reference §6: `../shared/research/math-reference.md`, outside this repository):
+//! for a closed, outward-oriented mesh T and a ball B(c, r), V(B ∩ T) = Σ_f V_f where V_f is the
+//! signed volume of (cone from c over the triangle f) ∩ B. This holds for c inside or outside T:
+//! along any ray from c the signed crossings beyond a point sum to 1 inside T and 0 outside.
 //!
 //! All arithmetic is f64; positions are model space in the input's units, volumes in units³.
 //!

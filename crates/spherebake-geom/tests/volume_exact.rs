@@ -1,5 +1,6 @@
-//! Exact ball ∩ mesh volume against the checkable values of
-//! `shared/research/math-reference.md` §6 (tolerance 1e-9, relative where stated).
+//! Exact ball ∩ mesh volume against the checkable values of the math reference §6
+//! (`../shared/research/math-reference.md`, outside this repository; the values are copied here;
+//! tolerance 1e-9, relative where stated).
 
 use glam::DVec3;
 use spherebake_geom::volume::*;

@@ -1,4 +1,4 @@
-//! Empty spheres in the hierarchy. A fit leaves the spheres it finds no use for empty: radius the least positive f32
+//! Empty spheres in the hierarchy. A fit leaves the spheres it finds no use for empty: radius `f32::MIN_POSITIVE`
 //! at some centre, and files baked before 2026-12-06 (or by another writer) may still give them samples. A node
 //! holding only such leaves got a light of 10⁻⁷⁵ × theirs and a rotation from Σ (r_j / r_N)² R_j ≈ 10⁻⁷⁵ I that
 //! the polar iteration did not converge from, so pass 2 read NaN from it and a cut that took the node lit every

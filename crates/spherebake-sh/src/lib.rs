@@ -3,7 +3,10 @@
 //! log-visibility table of a circle, shared by the baker and the runtime.
 //!
 //! `#![no_std]` + `alloc` (only [`CubeProjector`] and [`TripleProduct`] allocate); maths through `libm`.
-//! Every formula and checked value follows `shared/research/math-reference.md` (section numbers below).
+//! Every formula and checked value follows the project's math reference, `math-reference.md` of the
+//! research notes beside the repository (`../shared/research/`; the "§" numbers below and in the
+//! modules), which is **not part of this repository**. The conventions the code relies on are stated
+//! here and, normatively for the file, in `formats/spherebake-v1.md` §1.
 //!
 //! | convention | value |
 //! |---|---|

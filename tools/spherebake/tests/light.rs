@@ -360,7 +360,7 @@ fn cesium_man_at_64_spheres_and_the_soft_rotation_reduces_the_posed_error() {
     assert!(m_rot < m_no, "the rotation must reduce the model error: {m_rot} vs {m_no}");
 }
 
-/// A fit leaves the spheres it finds no use for empty (radius the least positive f32), and the
+/// A fit leaves the spheres it finds no use for empty (radius the least positive normal f32), and the
 /// bake may give them samples; the hierarchy holds them like any leaf. The capsule fixture at the
 /// default 64 spheres leaves most of them empty (the README's quick start): through the
 /// hierarchy's cut its ground was lit with 0 (a node of empty leaves turned NaN, clamped), while
