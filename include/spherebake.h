@@ -443,8 +443,8 @@ int32_t sphb_shadow_cluster_build(SphbShadowCluster *cluster,
 // tests); multiplies every blocker's band weights by s and writes s to `*scale_out` (optional; 1
 // when nothing improves). `sphb_shadow_cluster_build` does not apply it: call it after each build.
 // `spherebake shadows` (by default) and `spherebake light` apply it with 1024 directions, and the
-// shadow errors in docs/benchmarks.md are measured so; `SphbClusterSpec::overlap_correction`
-// uses 256. Its cost in stability: s moves in steps of 0.05 and the directions are fixed in the
+// shadow errors in docs/benchmarks.md are measured so unless a table says otherwise;
+// `SphbClusterSpec::overlap_correction` uses 256. Its cost in stability: s moves in steps of 0.05 and the directions are fixed in the
 // spheres' space, so the shading of a moving proxy can jump between frames and neighbouring
 // clusters can differ by a step. `ctx` must have the build's order. Allocation-free; one thread
 // at a time per cluster.
