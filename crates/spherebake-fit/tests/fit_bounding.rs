@@ -576,3 +576,74 @@ fn overlapping_closed_parts_are_measured_as_their_union() {
     assert_eq!(r.stats.solid_source, SolidSource::ClosedMesh);
     assert!((r.stats.object_volume - 2.0).abs() < 1e-9, "V(T) {}", r.stats.object_volume);
 }
+
+/// One bounding sphere of least outside volume is the minimal ball around the vertices, so at
+/// one sphere the fit returns it: the unit cube's circumsphere (radius √3/2, E = π√3/2 − 1)
+/// and a UV sphere's circumsphere (radius 1 about the origin, E = V(ball) / V(T) − 1 with the
+/// polyhedron's volume by the divergence theorem). With more spheres the fit never ends above
+/// that ball: on the UV sphere, where the voxel proxy's half-cell errors cost more than more
+/// spheres gain, 32 spheres give at most the one ball's E.
+#[test]
+fn one_sphere_is_the_enclosing_ball_and_no_fit_ends_above_it() {
+    let s1 = FitSettings { spheres: 1, voxel_resolution: 64, ..Default::default() };
+    let (c, t) = spherebake_testkit::mesh::unit_cube();
+    let p: Vec<Vec3> = c.iter().map(|q| Vec3::new(q[0] as f32, q[1] as f32, q[2] as f32)).collect();
+    let r = fit(&p, &t, &s1, &|_| {}).unwrap();
+    let want = std::f64::consts::PI * 3f64.sqrt() / 2.0 - 1.0;
+    assert_eq!(r.spheres.len(), 1);
+    assert!((r.spheres[0][3] as f64 - 3f64.sqrt() / 2.0).abs() < 1e-6, "{:?}", r.spheres);
+    assert!((r.stats.outside_ratio_e - want).abs() < 1e-5, "E {} vs {want}", r.stats.outside_ratio_e);
+
+    let (q, t) = spherebake_testkit::mesh::uv_sphere(24, 1.0);
+    let p: Vec<Vec3> = q.iter().map(|v| Vec3::new(v[0] as f32, v[1] as f32, v[2] as f32)).collect();
+    let vol: f64 = t
+        .iter()
+        .map(|f| {
+            let [a, b, c] = f.map(|i| DVec3::from(q[i as usize]));
+            a.dot(b.cross(c)) / 6.0
+        })
+        .sum();
+    let ball_e = 4.0 / 3.0 * std::f64::consts::PI / vol - 1.0;
+    let r = fit(&p, &t, &s1, &|_| {}).unwrap();
+    let s = r.spheres[0];
+    assert!(DVec3::new(s[0] as f64, s[1] as f64, s[2] as f64).length() < 1e-6, "{s:?}");
+    assert!((s[3] as f64 - 1.0).abs() < 1e-6, "{s:?}");
+    assert!((r.stats.outside_ratio_e - ball_e).abs() < 1e-5, "E {} vs {ball_e}", r.stats.outside_ratio_e);
+    let r = fit(&p, &t, &FitSettings { spheres: 32, ..s1 }, &|_| {}).unwrap();
+    assert!(r.stats.outside_ratio_e <= ball_e + 1e-5, "E {} above the ball's {ball_e}", r.stats.outside_ratio_e);
+    assert_triangles_covered(&p, &t, &r.spheres);
+}
+
+/// The union outside ratio V(∪S − T) / V(T) of a rod thinner than a voxel cell (10 × 0.1 ×
+/// 0.1 at 64 cells), against a Monte Carlo count over the spheres' box with the analytic rod:
+/// within 10 %, and never above E (V(∪S − T) ≤ Σ V(S_i − T) holds for any spheres). Measured
+/// against the voxel solid, whose cells stand in for a rod no cell centre is inside, it was
+/// 2.03 for a true 6.66 (and above E on other rods).
+#[test]
+fn the_union_outside_ratio_of_a_thin_rod_is_measured_against_the_rod() {
+    let (c, t) = spherebake_testkit::mesh::unit_cube();
+    let d = 0.1;
+    let p: Vec<Vec3> = c.iter().map(|q| Vec3::new(10.0 * q[0] as f32, (d * q[1]) as f32, (d * q[2]) as f32)).collect();
+    let r = fit(&p, &t, &FitSettings { spheres: 32, voxel_resolution: 64, ..Default::default() }, &|_| {}).unwrap();
+    let (e, u) = (r.stats.outside_ratio_e, r.stats.union_outside_ratio);
+    let live: Vec<[f32; 4]> = r.spheres.iter().copied().filter(|s| s[3] > 0.0).collect();
+    let (mut lo, mut hi) = (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY));
+    for s in &live {
+        let c = DVec3::new(s[0] as f64, s[1] as f64, s[2] as f64);
+        lo = lo.min(c - s[3] as f64);
+        hi = hi.max(c + s[3] as f64);
+    }
+    let mut rng = spherebake_geom::rng::SplitMix64::new(3);
+    let n = 400_000;
+    let hits = (0..n)
+        .filter(|_| {
+            let x = lo + (hi - lo) * DVec3::new(rng.next_f64(), rng.next_f64(), rng.next_f64());
+            let in_rod = (0.0..=10.0).contains(&x.x) && (0.0..=d).contains(&x.y) && (0.0..=d).contains(&x.z);
+            !in_rod && in_some(&live, x)
+        })
+        .count();
+    let mc = hits as f64 / n as f64 * (hi - lo).element_product() / (10.0 * d * d);
+    assert!((u - mc).abs() <= 0.1 * mc && u <= e, "union {u} vs Monte Carlo {mc}, E {e}");
+    let ev = evaluate(&p, &t, &r.spheres, &EvalSettings { voxel_resolution: 64, ..Default::default() }).unwrap();
+    assert!((ev.union_outside_ratio - mc).abs() <= 0.1 * mc, "{ev:?} vs {mc}");
+}

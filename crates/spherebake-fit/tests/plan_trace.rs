@@ -46,17 +46,17 @@ fn the_trace_lists_each_stage_once_in_order() {
     let r = fit(&p, &t, &s, &|_| {}).expect("fits");
     let got = stages(&r);
     // dense_points, lloyd, lattice_start, polish, descent_points, descent, 0..=5 seam rounds
-    // numbered 1, 2, ..., band, at most one gap round numbered 1, bound, exact_e: written out,
-    // not derived from the code's list.
+    // numbered 1, 2, ..., band, at most one gap round numbered 1, bound, exact_e,
+    // enclosing_ball: written out, not derived from the code's list.
     assert_eq!(&got[..6], ["dense_points", "lloyd", "lattice_start", "polish", "descent_points", "descent"], "{got:?}");
-    assert_eq!(&got[got.len() - 2..], ["bound", "exact_e"], "{got:?}");
-    let gaps = usize::from(got[got.len() - 3] == "gap");
-    assert_eq!(got[got.len() - 3 - gaps], "band", "{got:?}");
+    assert_eq!(&got[got.len() - 3..], ["bound", "exact_e", "enclosing_ball"], "{got:?}");
+    let gaps = usize::from(got[got.len() - 4] == "gap");
+    assert_eq!(got[got.len() - 4 - gaps], "band", "{got:?}");
     if gaps == 1 {
-        let g = &r.stats.trace[got.len() - 3];
+        let g = &r.stats.trace[got.len() - 4];
         assert!(g.round == 1 && g.points > 0 && g.trials == 0, "{g:?}");
     }
-    let seams: Vec<&TraceEntry> = r.stats.trace[6..got.len() - 3 - gaps].iter().collect();
+    let seams: Vec<&TraceEntry> = r.stats.trace[6..got.len() - 4 - gaps].iter().collect();
     assert!(seams.len() <= 5, "{got:?}");
     for (i, e) in seams.iter().enumerate() {
         assert_eq!((e.stage, e.round), ("seam", i + 1));
@@ -74,17 +74,29 @@ fn the_trace_lists_each_stage_once_in_order() {
             assert!(x.is_finite() && x >= 0.0, "{e:?}");
         }
     }
-    // The last entry is the exact E of the result (one part).
-    let last = r.stats.trace.last().expect("entries");
-    assert!((last.e.expect("E") - r.stats.outside_ratio_e).abs() <= 1e-12 * r.stats.outside_ratio_e);
+    // `exact_e` is the exact E of the result (one part); the enclosing ball after it, one
+    // sphere around two spheres' worth of dumbbell, is worse and not kept.
+    let exact = &r.stats.trace[got.len() - 2];
+    assert!((exact.e.expect("E") - r.stats.outside_ratio_e).abs() <= 1e-12 * r.stats.outside_ratio_e);
+    let ball = r.stats.trace.last().expect("entries");
+    assert!(ball.e.expect("E") > r.stats.outside_ratio_e && ball.iterations == 0, "{ball:?}");
     // Lloyd ran at least one iteration, the descent at least one sweep.
     assert!(r.stats.trace[1].iterations >= 1 && r.stats.trace[5].iterations >= 1);
     // A dumbbell is no box: the descent starts from the polish, not from the octree.
     assert_eq!((r.stats.trace[2].iterations, r.stats.trace[3].iterations), (0, s.plan.polish_rounds));
     // Every stage's time is in the stage timings too.
-    for st in
-        ["dense_points", "lloyd", "lattice_start", "polish", "descent_points", "descent", "band", "bound", "exact_e"]
-    {
+    for st in [
+        "dense_points",
+        "lloyd",
+        "lattice_start",
+        "polish",
+        "descent_points",
+        "descent",
+        "band",
+        "bound",
+        "exact_e",
+        "enclosing_ball",
+    ] {
         assert!(r.stats.timings.iter().any(|(n, _)| *n == st), "{st} missing from {:?}", r.stats.timings);
     }
 }

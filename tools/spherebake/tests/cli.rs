@@ -560,10 +560,11 @@ fn target_mode_warns_once_and_keeps_its_stage_times_and_trace() {
     let out = String::from_utf8_lossy(&o.stdout).into_owned();
     let lines: Vec<&str> = out.lines().filter(|l| l.contains("warning") && l.contains("target mode")).collect();
     assert_eq!(lines.len(), 1, "the target-mode result is printed once: {out}");
-    // -v prints the trace: every run (at least the first count, 8) from dense points to exact E.
+    // -v prints the trace: every run (at least the first count, 8) from dense points to exact E
+    // and the enclosing ball it is compared with.
     let trace: Vec<&str> = out.lines().filter(|l| l.trim_start().starts_with("trace")).collect();
     assert!(trace.first().is_some_and(|l| l.contains("k 8") && l.contains("dense_points")), "{out}");
-    assert!(trace.last().is_some_and(|l| l.contains("exact_e")), "{out}");
+    assert!(trace.last().is_some_and(|l| l.contains("enclosing_ball")), "{out}");
     let o = run(&[&args[..], &["--json", "--force"]].concat(), d);
     assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
     let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
