@@ -1931,7 +1931,7 @@ fn fit_part(
             let distinct = distinct_points(&pts.points);
             warnings.push(if distinct < asked {
                 format!(
-                    "{got} spheres instead of the {asked} asked: the mesh has only {distinct} distinct sample points"
+                    "{got} spheres instead of the {asked} asked: the fit's clustering set (surface points at its spacing and interior lattice points) has only {distinct} distinct points"
                 )
             } else {
                 format!("{got} spheres instead of the {asked} asked: more did not lower the outside volume")

@@ -223,8 +223,28 @@ pub const GRID_BUDGET: usize = 2_000_000;
 pub fn build(positions: &[DVec3], triangles: &[[u32; 3]], solid: &Solid, lo: DVec3, hi: DVec3, h: f64) -> PointSet {
     let fine = h * SURFACE_SPACING;
     let mut samples: Vec<DVec3> = Vec::with_capacity(triangles.len() * 2);
-    let plan = grid_plan(positions, triangles, |l| (l / fine).ceil().clamp(1.0, 256.0) as usize, 1, GRID_BUDGET);
-    for (t, &m) in triangles.iter().zip(&plan) {
+    let want = |l: f64| (l / fine).ceil().clamp(1.0, 256.0) as usize;
+    let plan = grid_plan(positions, triangles, want, 1, GRID_BUDGET);
+    // A sliver's grid is held below `want` (`grid_plan`), which along a long thin part leaves
+    // points only every several spacings: a 100 : 1 cylinder of 128 triangles kept 11 points
+    // at a fine voxel grid (no lattice point inside it), and the fit 11 of 32 spheres. So a
+    // sliver also gets points along its longest edge at the spacing, within the same budget.
+    let longest = |t: &[u32; 3]| {
+        let [a, b, c] = t.map(|v| positions[v as usize]);
+        [(a, b), (b, c), (c, a)].into_iter().max_by(|x, y| (x.1 - x.0).length().total_cmp(&(y.1 - y.0).length()))
+    };
+    let mut edge: Vec<usize> = triangles
+        .iter()
+        .zip(&plan)
+        .map(|(t, &m)| longest(t).map_or(0, |(a, b)| want((b - a).length())).saturating_sub(m).min(256))
+        .map(|e| if e > 0 { e + 1 } else { 0 })
+        .collect();
+    let total: usize = plan.iter().map(|&m| grid_points(m)).sum::<usize>() + edge.iter().sum::<usize>();
+    if total > GRID_BUDGET {
+        let f = GRID_BUDGET as f64 / total as f64;
+        edge.iter_mut().for_each(|e| *e = (*e as f64 * f).floor() as usize);
+    }
+    for ((t, &m), &e) in triangles.iter().zip(&plan).zip(&edge) {
         let a = positions[t[0] as usize];
         let b = positions[t[1] as usize];
         let c = positions[t[2] as usize];
@@ -232,6 +252,11 @@ pub fn build(positions: &[DVec3], triangles: &[[u32; 3]], solid: &Solid, lo: DVe
             samples.push(a);
         } else {
             samples.extend(spherebake_geom::triangle::triangle_grid(a, b, c, m).map(|(_, _, p)| p));
+        }
+        if e > 1 {
+            if let Some((p, q)) = longest(t) {
+                samples.extend((0..e).map(|i| p.lerp(q, i as f64 / (e - 1) as f64)));
+            }
         }
         samples.push((a + b + c) / 3.0);
     }

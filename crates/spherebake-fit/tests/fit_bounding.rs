@@ -647,3 +647,45 @@ fn the_union_outside_ratio_of_a_thin_rod_is_measured_against_the_rod() {
     let ev = evaluate(&p, &t, &r.spheres, &EvalSettings { voxel_resolution: 64, ..Default::default() }).unwrap();
     assert!((ev.union_outside_ratio - mc).abs() <= 0.1 * mc, "{ev:?} vs {mc}");
 }
+
+/// A closed cylinder of radius `a` and length `len` along x, `n` segments: 4n triangles, the
+/// sides slivers of aspect len : 2πa/n.
+fn cylinder(a: f64, len: f64, n: u32) -> (Vec<Vec3>, Vec<[u32; 3]>) {
+    let mut p = Vec::new();
+    for x in [0.0, len] {
+        for i in 0..n {
+            let t = std::f64::consts::TAU * i as f64 / n as f64;
+            p.push(Vec3::new(x as f32, (a * t.cos()) as f32, (a * t.sin()) as f32));
+        }
+    }
+    p.push(Vec3::new(0.0, 0.0, 0.0));
+    p.push(Vec3::new(len as f32, 0.0, 0.0));
+    let (c0, c1) = (2 * n, 2 * n + 1);
+    let mut t = Vec::new();
+    for i in 0..n {
+        let j = (i + 1) % n;
+        t.push([i, j, n + j]);
+        t.push([i, n + j, n + i]);
+        t.push([c0, j, i]);
+        t.push([c1, n + i, n + j]);
+    }
+    (p, t)
+}
+
+/// A 100 : 1 rod at a fine voxel grid (no lattice point inside it): its sliver sides get points
+/// along their length, so the fit uses every sphere asked for and stays within 1.5 × a chain of
+/// equal spheres, each the circumsphere of one of k equal slices (E of the chain ≤ Σ V(S_i) /
+/// V(T) − 1, since the slices' spheres hold the whole rod). Before, the slivers' grids were held
+/// to 8 divisions, the clustering set had 11 points, and 11 spheres gave E 61.6.
+#[test]
+fn a_thin_rod_at_a_fine_grid_gets_every_sphere_asked_for() {
+    let (a, len, n, k) = (0.05, 10.0, 32, 32);
+    let (p, t) = cylinder(a, len, n);
+    let r = fit(&p, &t, &FitSettings { spheres: k, voxel_resolution: 512, ..Default::default() }, &|_| {}).unwrap();
+    assert_eq!(r.spheres.iter().filter(|s| s[3] > 0.0).count(), k, "{:?}", r.warnings);
+    let v_rod = 0.5 * n as f64 * a * a * (std::f64::consts::TAU / n as f64).sin() * len;
+    let rc = (a * a + (len / (2.0 * k as f64)).powi(2)).sqrt();
+    let chain = k as f64 * 4.0 / 3.0 * std::f64::consts::PI * rc.powi(3) / v_rod - 1.0;
+    assert!(r.stats.outside_ratio_e <= 1.5 * chain, "E {} vs chain {chain}", r.stats.outside_ratio_e);
+    assert_triangles_covered(&p, &t, &r.spheres);
+}

@@ -474,7 +474,7 @@ fn fewer_distinct_points_than_spheres_end_with_a_warning() {
             assert!(out.contains("the mesh has 10 parts far apart"), "{input}: {out}");
             assert!(out.contains("spheres   64") || out.contains("instead of the 64 asked"), "{input}: {out}");
         } else {
-            assert!(out.contains("instead of the") && out.contains("distinct sample points"), "{input}: {out}");
+            assert!(out.contains("instead of the") && out.contains("distinct points"), "{input}: {out}");
         }
         let bytes = std::fs::read(d.path().join("out.sphb")).unwrap();
         assert!(bytes.len() > 64, "{input}: a valid file is written");
