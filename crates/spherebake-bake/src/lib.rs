@@ -265,6 +265,33 @@ pub fn evaluate_mesh(
 }
 
 /// Bakes an already imported mesh (see [`bake_path`]).
+/// A warning when the mesh lies so far from the origin, for its size, that an f32 step there
+/// is more than a sixteenth of a voxel cell: positions, sphere centres and radii are f32 (the
+/// importers round to it, the file stores it), so the fit's resolution is lost (a unit cube
+/// at 32 spheres: E 0.47 at the origin, 0.66 moved by 10⁶, 6.75 by 10⁷, where an f32 step is a
+/// whole unit), and the spheres bound the positions as rounded, which differ from the file's
+/// decimal text by up to half a step.
+fn far_from_origin(positions: &[glam::Vec3], voxels: u32) -> Option<String> {
+    let (mut lo, mut hi) = (glam::Vec3::splat(f32::INFINITY), glam::Vec3::splat(f32::NEG_INFINITY));
+    for p in positions {
+        lo = lo.min(*p);
+        hi = hi.max(*p);
+    }
+    let far = lo.abs().max(hi.abs()).max_element();
+    let extent = f64::from((hi - lo).max_element());
+    if !(far.is_finite() && extent > 0.0) {
+        return None;
+    }
+    let step = f64::from(spherebake_format::quant::next_up_f32(far) - far);
+    let cell = extent / f64::from(voxels.max(1));
+    (step > cell / 16.0).then(|| {
+        format!(
+            "coordinates far from the origin for the model's size: at {far:.4e} an f32 step is {step:.3e}, {:.2} of a voxel cell ({cell:.3e}); positions and spheres are f32, so the fit loses resolution and bounds the positions as rounded: move the model near the origin (and place it in the engine) for a tighter fit",
+            step / cell
+        )
+    })
+}
+
 pub fn bake_imported(
     path: &Path,
     imported: spherebake_io::Imported,
@@ -279,6 +306,9 @@ pub fn bake_imported(
         return Err(BakeError::EmptyMesh { path: path.to_path_buf() });
     }
     let positions = &mesh.welded_positions;
+    if let Some(w) = far_from_origin(positions, settings.voxels) {
+        warnings.push(w);
+    }
     // The surface-only triangles (`Mesh::surface_only`: double-sided faces, enclosing nothing)
     // are left out of the closed check, the orientation and the solid, and handed to the fit
     // beside the others to be covered.

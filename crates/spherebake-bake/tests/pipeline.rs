@@ -334,3 +334,30 @@ fn the_pose_margin_warns_when_the_model_has_no_skin() {
     let arm = bake_path(&fixture("skinned-arm.gltf"), &auto, &|_| {}).unwrap();
     assert!(!arm.report.warnings.iter().any(no_skin), "{:?}", arm.report.warnings);
 }
+
+/// A model far from the origin for its size gets one warning: the unit cube moved by 10⁵ has
+/// f32 steps of 2⁻⁷ there, a whole cell of its 128-cell grid (more than the 1/16 of a cell
+/// the warning allows); moved by 10³ (steps of 2⁻¹⁴, 1/128 of a cell) or at the origin, none.
+#[test]
+fn a_model_far_from_the_origin_for_its_size_is_warned_about() {
+    let dir = tempfile::tempdir().unwrap();
+    let quads = [[1, 3, 4, 2], [5, 6, 8, 7], [1, 2, 6, 5], [3, 7, 8, 4], [1, 5, 7, 3], [2, 4, 8, 6]];
+    let far = |w: &String| w.starts_with("coordinates far from the origin");
+    for (offset, warned) in [(0.0, false), (1e3, false), (1e5, true)] {
+        let obj: String = unit_cube_obj(&quads)
+            .lines()
+            .map(|l| match l.strip_prefix("v ") {
+                Some(v) => {
+                    let c: Vec<f64> = v.split(' ').map(|x| x.parse::<f64>().unwrap() + offset).collect();
+                    format!("v {} {} {}\n", c[0], c[1], c[2])
+                }
+                None => format!("{l}\n"),
+            })
+            .collect();
+        let path = dir.path().join(format!("cube{offset}.obj"));
+        std::fs::write(&path, obj).unwrap();
+        let out = bake_path(&path, &BakeSettings { spheres: 4, voxels: 128, ..Default::default() }, &|_| {}).unwrap();
+        let n = out.report.warnings.iter().filter(|w| far(w)).count();
+        assert_eq!(n, usize::from(warned), "offset {offset}: {:?}", out.report.warnings);
+    }
+}
