@@ -103,9 +103,10 @@ pub enum IoError {
     /// A position is beyond what f32 bounding spheres can bound.
     #[error("{}: coordinate {value:e} is beyond the supported range ±{limit:e} (f32 spheres could not bound the model)", path.display())]
     CoordinateRange { path: PathBuf, value: f32, limit: f32 },
-    /// The file imports but holds no triangles.
-    #[error("{}: no triangles to import", path.display())]
-    EmptyMesh { path: PathBuf },
+    /// The file imports but holds no triangles; `reason` says why when the importer knows (the
+    /// scene used has no nodes, every primitive was points or lines).
+    #[error("{}: no triangles to import{}", path.display(), reason.as_ref().map(|r| format!(": {r}")).unwrap_or_default())]
+    EmptyMesh { path: PathBuf, reason: Option<String> },
 }
 
 impl IoError {

@@ -160,6 +160,14 @@ pub(crate) fn prepare(path: &Path, root: &mut Value) -> Result<Prepared, IoError
             }
         }
     }
+    // A scene's `nodes` is optional in glTF 2.0 (scene.schema.json); gltf-json requires it, so
+    // a scene without it gets an empty list (an empty scene: nothing to import if it is the one
+    // used, see `gltf_import`; harmless otherwise).
+    if let Some(scenes) = obj.get_mut("scenes").and_then(Value::as_array_mut) {
+        for scene in scenes.iter_mut().filter_map(Value::as_object_mut) {
+            scene.entry("nodes").or_insert_with(|| Value::Array(Vec::new()));
+        }
+    }
     // Channels whose target has no node (optional in glTF 2.0) are removed before the gltf crate,
     // which requires one, sees them.
     if let Some(anims) = obj.get_mut("animations").and_then(Value::as_array_mut) {

@@ -735,6 +735,14 @@ impl Source<'_> {
 
         // Mesh instances of the default scene, depth first in document order.
         let roots: Vec<usize> = match doc.default_scene().or_else(|| doc.scenes().next()) {
+            // An empty scene is valid glTF (`nodes` is optional) but shows nothing: said so
+            // rather than "no triangles". Other, unused scenes may be empty.
+            Some(scene) if scene.nodes().len() == 0 => {
+                return Err(IoError::EmptyMesh {
+                    path,
+                    reason: Some(format!("scene {} (the scene imported) has no nodes", scene.index())),
+                });
+            }
             Some(scene) => scene.nodes().map(|n| n.index()).collect(),
             None => {
                 self.ctx.warn("glTF has no scene: importing every root node".into());

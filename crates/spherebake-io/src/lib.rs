@@ -269,7 +269,7 @@ fn import_bytes(
         Kind::Obj => obj_import::import(&mut ctx, bytes)?,
     };
     if mesh.triangles.is_empty() {
-        return Err(IoError::EmptyMesh { path: path.to_path_buf() });
+        return Err(IoError::EmptyMesh { path: path.to_path_buf(), reason: None });
     }
     // Stacked copies of a face are one surface (`Mesh::remove_duplicate_triangles`): removed
     // here, so every command (bake, eval, inspect, the light checks) reads the same mesh.

@@ -1647,3 +1647,24 @@ fn transmissive_materials_are_named_as_baked_opaque() {
     assert!(said(&load(glass(""))).is_empty());
     assert!(said(&load(glass(r#""transmissionFactor":0"#))).is_empty());
 }
+
+/// A scene's `nodes` is optional in glTF 2.0 (scene.schema.json). A file with a second, empty
+/// scene was refused ("missing field `nodes`"); now the scene used imports as before, and when
+/// the scene used is the empty one the error says so (not just "no triangles").
+#[test]
+fn a_scene_without_nodes_is_valid_and_named_when_it_is_the_one_used() {
+    let (json, _) = gltf_json(&TRI, Some(&[0, 1, 2]), false, "");
+    let two = json.replace(r#""scenes":[{"nodes":[0]}]"#, r#""scenes":[{"nodes":[0]},{"name":"empty"}]"#);
+    assert_ne!(two, json, "gltf_json layout changed");
+    let imp = load_mesh_from_bytes(Path::new("mem/s.gltf"), two.as_bytes()).expect("an unused empty scene is valid");
+    assert_eq!(imp.mesh.triangles, vec![[0, 1, 2]]);
+    assert_eq!(imp.mesh.positions, TRI.map(Vec3::from).to_vec());
+    let used = two.replace(r#""scene":0"#, r#""scene":1"#);
+    assert_ne!(used, two);
+    let e = load_mesh_from_bytes(Path::new("mem/s.gltf"), used.as_bytes()).unwrap_err();
+    assert!(
+        matches!(e, IoError::EmptyMesh { reason: Some(ref r), .. } if r.contains("scene 1") && r.contains("no nodes")),
+        "{e}"
+    );
+    assert!(e.to_string().starts_with("mem/s.gltf: "), "{e}");
+}
