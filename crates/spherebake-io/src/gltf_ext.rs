@@ -5,7 +5,8 @@
 //! through `KHR_texture_basisu` / `EXT_texture_webp` / `EXT_texture_avif` (their `source` is
 //! filled in so that the crate accepts them; a WebP image is decoded like a PNG, a Basis or AVIF
 //! one is skipped with a warning naming the extension and the material keeps its base colour
-//! factor). `EXT_mesh_gpu_instancing` node
+//! factor; a texture with no `source` at all, e.g. one only `MSFT_texture_dds` provides, gets a
+//! placeholder image that is never decoded, with the same fallback). `EXT_mesh_gpu_instancing` node
 //! attributes are collected here too (the importer places one copy of the mesh per instance).
 
 use std::collections::HashMap;
@@ -108,6 +109,10 @@ pub(crate) struct Prepared {
     pub fallback: Vec<bool>,
     /// Images reachable only through a texture extension the importer cannot decode.
     pub undecodable_images: HashMap<usize, &'static str>,
+    /// Placeholder images added for textures without a `source` (glTF 2.0.1 lets an extension
+    /// such as `MSFT_texture_dds` supply it): the texture's index and the extensions it names.
+    /// Never decoded; the material keeps its base colour factor.
+    pub sourceless_images: HashMap<usize, (usize, Vec<String>)>,
     /// `EXT_mesh_gpu_instancing` per node: accessor of TRANSLATION, ROTATION, SCALE.
     pub instancing: HashMap<usize, [Option<usize>; 3]>,
     /// Animation channels removed because their target names no node (glTF 2.0 allows it, e.g.
@@ -275,12 +280,16 @@ pub(crate) fn prepare(path: &Path, root: &mut Value) -> Result<Prepared, IoError
             prep.instancing.insert(ni, acc);
         }
     }
+    // Textures left without a source (optional since glTF 2.0.1 when an extension such as
+    // MSFT_texture_dds supplies the image), by index, with the extensions they name.
+    let mut sourceless: Vec<(usize, Vec<String>)> = Vec::new();
     if let Some(textures) = obj.get_mut("textures").and_then(Value::as_array_mut) {
-        for t in textures.iter_mut() {
+        for (ti, t) in textures.iter_mut().enumerate() {
             let Some(t) = t.as_object_mut() else { continue };
             if t.contains_key("source") {
                 continue; // a fallback image the importer may be able to decode
             }
+            let mut found = false;
             for ext in TEXTURE_SOURCES {
                 let src = t.get("extensions").and_then(|e| e.get(ext)).and_then(|e| e.get("source")).and_then(as_index);
                 if let Some(src) = src {
@@ -288,7 +297,34 @@ pub(crate) fn prepare(path: &Path, root: &mut Value) -> Result<Prepared, IoError
                     if ext != "EXT_texture_webp" {
                         prep.undecodable_images.insert(src, ext); // WebP is decoded (image crate)
                     }
+                    found = true;
                     break;
+                }
+            }
+            if !found {
+                let exts = t.get("extensions").and_then(Value::as_object).map(|e| e.keys().cloned().collect());
+                sourceless.push((ti, exts.unwrap_or_default()));
+            }
+        }
+    }
+    // The gltf crate requires a source: each such texture gets an empty placeholder image of its
+    // own, which the importer never decodes (a warning, the base colour factor is used).
+    if !sourceless.is_empty() {
+        let images = obj.entry("images").or_insert_with(|| Value::Array(Vec::new()));
+        let Some(images) = images.as_array_mut() else {
+            return Err(IoError::Invalid { path: path.to_path_buf(), message: "images is not an array".into() });
+        };
+        let mut placeholders = Vec::with_capacity(sourceless.len());
+        for (ti, exts) in sourceless {
+            let ii = images.len();
+            images.push(serde_json::json!({ "uri": "data:application/octet-stream;base64," }));
+            placeholders.push((ti, ii));
+            prep.sourceless_images.insert(ii, (ti, exts));
+        }
+        if let Some(textures) = obj.get_mut("textures").and_then(Value::as_array_mut) {
+            for (ti, ii) in placeholders {
+                if let Some(t) = textures[ti].as_object_mut() {
+                    t.insert("source".into(), Value::from(ii));
                 }
             }
         }

@@ -173,6 +173,8 @@ struct Source<'c> {
     decoded: HashMap<usize, Vec<u8>>,
     /// Images only an undecodable texture extension provides, with that extension's name.
     undecodable_images: HashMap<usize, &'static str>,
+    /// Placeholder images of textures without a `source` (`gltf_ext::Prepared::sourceless_images`).
+    sourceless_images: HashMap<usize, (usize, Vec<String>)>,
     /// `EXT_mesh_gpu_instancing` accessors (TRANSLATION, ROTATION, SCALE) by node.
     instancing: HashMap<usize, [Option<usize>; 3]>,
     /// The file's channel indices of animations that lost channels (`gltf_ext::Prepared`).
@@ -348,6 +350,7 @@ pub(crate) fn import(ctx: &mut Ctx, bytes: &[u8], glb: bool) -> Result<(Mesh, Ve
         buffers,
         decoded,
         undecodable_images: prep.undecodable_images,
+        sourceless_images: prep.sourceless_images,
         instancing: prep.instancing,
         channel_numbers: prep.channel_numbers,
         refused: None,
@@ -1303,7 +1306,9 @@ impl Source<'_> {
                 Some(s) => *s,
                 None => {
                     let key = match img.source() {
-                        _ if self.undecodable_images.contains_key(&ii) => ImageKey::Image(ii),
+                        _ if self.undecodable_images.contains_key(&ii) || self.sourceless_images.contains_key(&ii) => {
+                            ImageKey::Image(ii)
+                        }
                         gltf::image::Source::View { view, .. } if self.decoded.contains_key(&view.index()) => {
                             ImageKey::View(view.index())
                         }
@@ -1366,6 +1371,16 @@ impl Source<'_> {
     /// Loads and decodes an image; on failure warns and returns `None` (base colour factor used).
     fn load_image(&mut self, img: &gltf::Image, material: &str) -> Option<spherebake_geom::Texture> {
         let ii = img.index();
+        if let Some((ti, exts)) = self.sourceless_images.get(&ii) {
+            let through = match exts.len() {
+                0 => String::new(),
+                _ => format!(" (its image comes through {}, which spherebake does not read)", exts.join(", ")),
+            };
+            self.ctx.warn(format!(
+                "material {material:?}: texture {ti} has no source image{through}; using the base colour factor"
+            ));
+            return None;
+        }
         if let Some(ext) = self.undecodable_images.get(&ii) {
             let what = match *ext {
                 "KHR_texture_basisu" => "KTX2 / Basis Universal",

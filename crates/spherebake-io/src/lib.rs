@@ -21,6 +21,7 @@
 //! | `KHR_texture_transform` | kept on the material's [`spherebake_geom::TextureRef`] |
 //! | `EXT_texture_webp` | a fallback PNG / JPEG `source` is used when present, otherwise the WebP image (lossy or lossless, decoded like a PNG) |
 //! | `KHR_texture_basisu`, `EXT_texture_avif` | a fallback PNG / JPEG `source` is used when present; otherwise a warning naming the extension and the base colour factor |
+//! | `MSFT_texture_dds` (or any texture without `source`, allowed since glTF 2.0.1) | a warning naming the texture and its extensions; the base colour factor |
 //! | `KHR_materials_pbrSpecularGlossiness` | its diffuse factor and texture are the base colour |
 //! | other `KHR_materials_*`, `KHR_lights_punctual` | ignored (no effect on geometry or base colour) |
 //!

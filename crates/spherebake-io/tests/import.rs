@@ -1668,3 +1668,26 @@ fn a_scene_without_nodes_is_valid_and_named_when_it_is_the_one_used() {
     );
     assert!(e.to_string().starts_with("mem/s.gltf: "), "{e}");
 }
+
+/// A texture without `source` is valid since glTF 2.0.1 when an extension supplies the image
+/// (MSFT_texture_dds here). It was refused ("textures[0].source: Missing data"); now it is a
+/// texture that cannot be decoded: a warning naming it and the extension, and the material
+/// keeps its base colour factor. The other material's PNG texture (image 0) is still read.
+#[test]
+fn a_texture_without_a_source_falls_back_to_the_base_colour_factor() {
+    let png = b64(&flat_png(&[255, 0, 0]));
+    let extra = format!(
+        r#","extensionsUsed":["MSFT_texture_dds"],"materials":[{{"pbrMetallicRoughness":{{"baseColorFactor":[0.5,0.25,1,1],"baseColorTexture":{{"index":0}}}}}},{{"pbrMetallicRoughness":{{"baseColorTexture":{{"index":1}}}}}}],"textures":[{{"extensions":{{"MSFT_texture_dds":{{"source":1}}}}}},{{"source":0}}],"images":[{{"uri":"data:image/png;base64,{png}"}},{{"uri":"t.dds"}}]"#
+    );
+    let imp = load_mesh_from_bytes(Path::new("mem/t.gltf"), two_material_gltf(&extra).as_bytes())
+        .expect("a texture without source is valid glTF 2.0.1");
+    let m = &imp.mesh.materials;
+    assert_eq!(m.len(), 2);
+    assert!(m[0].base_color_texture.is_none());
+    assert_eq!(m[0].base_color_factor_linear, [0.5, 0.25, 1.0, 1.0]);
+    let w: Vec<&str> = imp.warnings.iter().map(|w| w.0.as_str()).collect();
+    assert!(w.iter().any(|w| w.contains("texture 0 has no source image") && w.contains("MSFT_texture_dds")), "{w:?}");
+    let t = m[1].base_color_texture.as_ref().expect("the PNG texture is read");
+    // sRGB 255 → linear 1, 0 → 0.
+    assert_eq!(imp.mesh.textures[t.texture].texels_linear[0][..3], [1.0, 0.0, 0.0]);
+}
