@@ -103,6 +103,12 @@ pub enum IoError {
     /// A position is beyond what f32 bounding spheres can bound.
     #[error("{}: coordinate {value:e} is beyond the supported range ±{limit:e} (f32 spheres could not bound the model)", path.display())]
     CoordinateRange { path: PathBuf, value: f32, limit: f32 },
+    /// The model expands past a limit that no input size bounds (`what`: vertices placed, values
+    /// of accessors without a buffer view). `per_budget_byte`: the limit is that many per byte of
+    /// the input budget ([`crate::ImportOptions::max_input_bytes`], `--max-input-mb`), which
+    /// raises it; `None`: a fixed cap.
+    #[error("{}: {what}, over the limit of {limit}{}", path.display(), match per_budget_byte { Some(k) => format!(" ({k} per byte of the input budget; --max-input-mb raises it)"), None => " (a fixed cap)".into() })]
+    OverLimit { path: PathBuf, what: String, limit: u64, per_budget_byte: Option<u64> },
     /// The file imports but holds no triangles; `reason` says why when the importer knows (the
     /// scene used has no nodes, every primitive was points or lines).
     #[error("{}: no triangles to import{}", path.display(), reason.as_ref().map(|r| format!(": {r}")).unwrap_or_default())]

@@ -24,8 +24,31 @@ use crate::{Ctx, ImportedPart, IoError, ReadLimit, MAX_IMAGE_BYTES};
 /// instancing multiplies a large mesh, and keeps vertex indices within `u32`.
 const MAX_VERTICES: usize = 1 << 27;
 
+/// Vertices one import may produce (all placements together) per byte of the input budget
+/// (`ImportOptions::max_input_bytes`, `--max-input-mb`), up to [`MAX_VERTICES`]. The densest
+/// honest encoding stores a vertex in 4 bytes (quantized positions), so a file that fits the
+/// budget expands this far only through instancing or nodes sharing a mesh; a tiny file whose
+/// accessors claim millions of vertices (no buffer view, or placed by many nodes) stops here,
+/// before they are read, and `--max-input-mb` raises the limit with the budget.
+const VERTICES_PER_BUDGET_BYTE: u64 = 1;
+
 /// Largest accessor (in components) accepted without a buffer view (zeros + sparse values).
 const MAX_VIEWLESS_VALUES: usize = 1 << 26;
+
+/// Values (components) one import may materialise from accessors without a buffer view, every
+/// read counted, per byte of the input budget: nothing in the file bounds such an accessor (a
+/// 794-byte file claimed 67 million zeros, read once per node), so the budget does.
+const VIEWLESS_VALUES_PER_BUDGET_BYTE: u64 = 1;
+
+/// `per_byte` × `budget`, at most `cap`, and whether the budget (not `cap`) set it.
+fn budget_limit(budget: u64, per_byte: u64, cap: usize) -> (usize, bool) {
+    let l = budget.saturating_mul(per_byte);
+    if l < cap as u64 {
+        (l as usize, true)
+    } else {
+        (cap, false)
+    }
+}
 
 /// Most morph-target vertex deltas one import reads (targets × vertices, every instance and
 /// both POSITION and NORMAL counted): a few seconds of work at most.
@@ -184,6 +207,9 @@ struct Source<'c> {
     refused: Option<IoError>,
     /// Morph-target vertex deltas read so far (capped by [`MAX_MORPH_VALUES`]).
     morph_values_read: usize,
+    /// Values materialised from accessors without a buffer view so far, against
+    /// [`VIEWLESS_VALUES_PER_BUDGET_BYTE`] × the input budget.
+    viewless_values_read: std::cell::Cell<usize>,
     /// Holds the decoded textures to [`crate::texture::MAX_TOTAL_TEXELS`] together.
     texel_budget: TexelBudget,
     /// Bounds the pixels the images decode together ([`crate::texture::MAX_DECODED_PIXELS`]).
@@ -355,6 +381,7 @@ pub(crate) fn import(ctx: &mut Ctx, bytes: &[u8], glb: bool) -> Result<(Mesh, Ve
         channel_numbers: prep.channel_numbers,
         refused: None,
         morph_values_read: 0,
+        viewless_values_read: std::cell::Cell::new(0),
         texel_budget,
         decode_budget: DecodeBudget::new(decode_caps.0, decode_caps.1),
     };
@@ -553,15 +580,31 @@ impl Source<'_> {
                 }
             }
             None => {
-                // No buffer bounds the size of an all-zeros accessor: refuse absurd counts.
-                if count.saturating_mul(comps) > MAX_VIEWLESS_VALUES {
+                // No buffer bounds the size of an all-zeros accessor: refuse absurd counts, and
+                // hold what all such reads materialise to the input budget.
+                let n = count.saturating_mul(comps);
+                if n > MAX_VIEWLESS_VALUES {
                     return Err(IoError::Accessor {
                         path: self.path(),
                         accessor: ai,
                         reason: format!("{count} elements without a buffer view (limit {MAX_VIEWLESS_VALUES} values)"),
                     });
                 }
-                values.resize(count * comps, 0.0)
+                let total = self.viewless_values_read.get().saturating_add(n);
+                let (limit, budget) =
+                    budget_limit(self.ctx.opts.max_input_bytes, VIEWLESS_VALUES_PER_BUDGET_BYTE, usize::MAX);
+                if total > limit {
+                    return Err(IoError::OverLimit {
+                        path: self.path(),
+                        what: format!(
+                            "accessor {ai}: {count} elements without a buffer view make {total} such values read in all"
+                        ),
+                        limit: limit as u64,
+                        per_budget_byte: budget.then_some(VIEWLESS_VALUES_PER_BUDGET_BYTE),
+                    });
+                }
+                self.viewless_values_read.set(total);
+                values.resize(n, 0.0)
             }
         }
         if let Some(sparse) = acc.sparse() {
@@ -847,6 +890,7 @@ impl Source<'_> {
                 _ => placements.push((ni, world[ni])),
             }
         }
+        let vertex_limit = budget_limit(self.ctx.opts.max_input_bytes, VERTICES_PER_BUDGET_BYTE, MAX_VERTICES);
         for &(ni, node_world) in &placements {
             let node = nodes[ni].clone();
             let mesh = node.mesh().expect("instances have meshes");
@@ -863,6 +907,19 @@ impl Source<'_> {
                     self.ctx.warn(format!("{ctx_name}: primitive without POSITION skipped"));
                     continue;
                 };
+                // Checked before POSITION is read: the placements' vertices together are held to
+                // the input budget ([`VERTICES_PER_BUDGET_BYTE`]).
+                let total = b.mesh.positions.len().saturating_add(pos_acc.count());
+                if total > vertex_limit.0 {
+                    return Err(IoError::OverLimit {
+                        path,
+                        what: format!(
+                            "{ctx_name} (node {ni}): the scene expands to {total} vertices or more (every placement counted)"
+                        ),
+                        limit: vertex_limit.0 as u64,
+                        per_budget_byte: vertex_limit.1.then_some(VERTICES_PER_BUDGET_BYTE),
+                    });
+                }
                 let pos = self.read_vec(&pos_acc, &[3], "POSITION")?;
                 let n = pos.count();
                 let mut raw: Vec<Vec3> = (0..n).map(|v| Vec3::from(pos.get::<3>(v).map(|x| x as f32))).collect();
@@ -1163,14 +1220,6 @@ impl Source<'_> {
                     }
                 };
 
-                if b.mesh.positions.len() + scene.len() > MAX_VERTICES {
-                    return Err(IoError::Invalid {
-                        path,
-                        message: format!(
-                            "{ctx_name}: the scene expands to more than {MAX_VERTICES} vertices (instancing included)"
-                        ),
-                    });
-                }
                 let v0 = b.mesh.positions.len() as u32;
                 let t0 = b.mesh.triangles.len() as u32;
                 b.push(scene, normals, uv_sets, colors, &tris, material);

@@ -154,7 +154,10 @@ pub struct ImportOptions {
     /// textures between folders). Default false.
     pub allow_outside_paths: bool,
     /// Bytes read per model in total (model + buffers + images + MTL); reading more is an error.
-    /// Default [`DEFAULT_MAX_INPUT_BYTES`].
+    /// Default [`DEFAULT_MAX_INPUT_BYTES`]. It also bounds what a glTF file may expand to
+    /// without bytes to match: one vertex per byte (all placements of its meshes together, at
+    /// most 2²⁷) and one value per byte materialised from accessors without a buffer view
+    /// (every read counted); past either the import is an [`IoError::OverLimit`].
     pub max_input_bytes: u64,
     /// Texels the decoded textures of a model may hold together; over it, the largest are
     /// halved as they are read (`texture::TexelBudget`), with a warning. Default

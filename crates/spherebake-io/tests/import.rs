@@ -1691,3 +1691,43 @@ fn a_texture_without_a_source_falls_back_to_the_base_colour_factor() {
     // sRGB 255 → linear 1, 0 → 0.
     assert_eq!(imp.mesh.textures[t.texture].texels_linear[0][..3], [1.0, 0.0, 0.0]);
 }
+
+/// An accessor without a buffer view costs no input bytes whatever its count (zeros plus a
+/// sparse block): a 794-byte file whose POSITION claimed 22 million of them, placed by six
+/// nodes, took 10 GB and 38 s even with `--max-input-mb 1`. The vertices placed and the values
+/// such accessors materialise are now held to the input budget (one per byte each): a file of
+/// 2 nodes × 2997 vertices (5994 vertices, 2 × 8991 values) imports with a budget of 20000
+/// bytes, and stops with an error naming the limit and `--max-input-mb` at 2000 (vertices,
+/// before any is read) and at 10000 (values, at the second node).
+#[test]
+fn accessors_without_a_buffer_view_are_held_to_the_input_budget() {
+    let mut bin = 1u32.to_le_bytes().to_vec();
+    bin.extend([1.0f32, 2.0, 3.0].iter().flat_map(|x| x.to_le_bytes()));
+    let json = format!(
+        r#"{{"asset":{{"version":"2.0"}},"scene":0,"scenes":[{{"nodes":[0,1]}}],"nodes":[{{"mesh":0}},{{"mesh":0,"translation":[5,0,0]}}],
+"meshes":[{{"primitives":[{{"attributes":{{"POSITION":0}}}}]}}],
+"buffers":[{{"byteLength":16,"uri":"data:application/octet-stream;base64,{}"}}],
+"bufferViews":[{{"buffer":0,"byteOffset":0,"byteLength":4}},{{"buffer":0,"byteOffset":4,"byteLength":12}}],
+"accessors":[{{"componentType":5126,"count":2997,"type":"VEC3","sparse":{{"count":1,"indices":{{"bufferView":0,"componentType":5125}},"values":{{"bufferView":1}}}}}}]}}"#,
+        b64(&bin)
+    );
+    assert!(json.len() < 2000);
+    let load = |budget: u64| {
+        let opts = ImportOptions { max_input_bytes: budget, ..Default::default() };
+        spherebake_io::load_mesh_from_bytes_with(Path::new("mem/v.gltf"), json.as_bytes(), &opts)
+    };
+    let imp = load(20_000).expect("within the budget");
+    let p = &imp.mesh.positions;
+    assert_eq!(p.len(), 2 * 2997);
+    assert_eq!((p[1], p[2997 + 1], p[2997 + 2]), (Vec3::new(1.0, 2.0, 3.0), Vec3::new(6.0, 2.0, 3.0), Vec3::X * 5.0));
+    for budget in [2000, 10_000] {
+        let e = load(budget).err().expect("over the limit");
+        let s = e.to_string();
+        assert!(matches!(e, IoError::OverLimit { limit, .. } if limit == budget), "{s}");
+        assert!(s.starts_with("mem/v.gltf: ") && s.contains("--max-input-mb"), "{s}");
+    }
+    let s = load(2000).err().expect("over the limit").to_string();
+    assert!(s.contains("2997 vertices") && s.contains("over the limit of 2000"), "{s}");
+    let s = load(10_000).err().expect("over the limit").to_string();
+    assert!(s.contains("without a buffer view") && s.contains("17982"), "{s}");
+}
