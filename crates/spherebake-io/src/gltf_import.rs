@@ -877,10 +877,62 @@ impl Source<'_> {
         let mut material_map: HashMap<Option<usize>, u32> = HashMap::new();
         let mut image_map = ImageMaps::default();
         let mut warned_unattached = false;
+        // The primitives of each mesh placed that can give triangles, worked out once per mesh
+        // (not per placement): points and lines are skipped, and so are primitives without
+        // POSITION or with none (count 0; they add nothing). The skipped ones are counted per
+        // kind, each primitive once however often it is placed, for one warning per kind.
+        let mut live: HashMap<usize, Vec<gltf::Primitive>> = HashMap::new();
+        let mut skipped: Vec<(String, usize, String)> = Vec::new();
+        for &ni in &instances {
+            let mesh = nodes[ni].mesh().expect("instances have meshes");
+            let mi = mesh.index();
+            if live.contains_key(&mi) {
+                continue;
+            }
+            let mut kept = Vec::new();
+            for prim in mesh.primitives() {
+                let kind = match prim.mode() {
+                    m @ (Mode::Points | Mode::Lines | Mode::LineLoop | Mode::LineStrip) => format!("{m:?}"),
+                    _ => match prim.get(&Semantic::Positions) {
+                        None => "without POSITION".to_owned(),
+                        Some(a) if a.count() == 0 => continue,
+                        Some(_) => {
+                            kept.push(prim);
+                            continue;
+                        }
+                    },
+                };
+                match skipped.iter_mut().find(|(k, _, _)| *k == kind) {
+                    Some(entry) => entry.1 += 1,
+                    None => {
+                        let first = format!("mesh {mi} ({:?}) primitive {}", mesh.name().unwrap_or(""), prim.index());
+                        skipped.push((kind, 1, first));
+                    }
+                }
+            }
+            live.insert(mi, kept);
+        }
+        for (kind, n, first) in &skipped {
+            let (what, why) = match kind.starts_with("without") {
+                true => (format!("primitive{} {kind}", if *n > 1 { "s" } else { "" }), ""),
+                false => {
+                    (format!("{kind} primitive{}", if *n > 1 { "s" } else { "" }), " (only triangles are imported)")
+                }
+            };
+            self.ctx.warn(match n {
+                1 => format!("{first}: {what} skipped{why}"),
+                _ => format!("{n} {what} skipped{why}, the first {first}"),
+            });
+        }
         // Mesh placements: one per node, or one per EXT_mesh_gpu_instancing instance (scene ←
-        // node ← instance). Skinned nodes ignore instancing (the extension excludes skins).
+        // node ← instance), for meshes with primitives to import. Skinned nodes ignore
+        // instancing (the extension excludes skins). Each placement of each live primitive adds
+        // a vertex at least, so the vertex limit below bounds placements × primitives too.
         let mut placements: Vec<(usize, DMat4)> = Vec::with_capacity(instances.len());
         for &ni in &instances {
+            if live.get(&nodes[ni].mesh().expect("instances have meshes").index()).is_none_or(Vec::is_empty) {
+                continue;
+            }
             match self.instancing.get(&ni).copied() {
                 Some(attrs) if nodes[ni].skin().is_none() => {
                     for m in self.instance_matrices(ni, attrs)? {
@@ -895,18 +947,11 @@ impl Source<'_> {
             let node = nodes[ni].clone();
             let mesh = node.mesh().expect("instances have meshes");
             let mi = mesh.index();
-            for prim in mesh.primitives() {
+            for prim in live.get(&mi).into_iter().flatten().cloned() {
                 let pi = prim.index();
                 let ctx_name = format!("mesh {mi} ({:?}) primitive {pi}", mesh.name().unwrap_or(""));
                 let mode = prim.mode();
-                if matches!(mode, Mode::Points | Mode::Lines | Mode::LineLoop | Mode::LineStrip) {
-                    self.ctx.warn(format!("{ctx_name}: {mode:?} primitive skipped (only triangles are imported)"));
-                    continue;
-                }
-                let Some(pos_acc) = prim.get(&Semantic::Positions) else {
-                    self.ctx.warn(format!("{ctx_name}: primitive without POSITION skipped"));
-                    continue;
-                };
+                let Some(pos_acc) = prim.get(&Semantic::Positions) else { continue };
                 // Checked before POSITION is read: the placements' vertices together are held to
                 // the input budget ([`VERTICES_PER_BUDGET_BYTE`]).
                 let total = b.mesh.positions.len().saturating_add(pos_acc.count());
