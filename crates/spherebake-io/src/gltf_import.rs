@@ -924,6 +924,16 @@ impl Source<'_> {
                 _ => format!("{n} {what} skipped{why}, the first {first}"),
             });
         }
+        // Nothing but points and lines: said so, rather than "no triangles to import" alone.
+        let lines: usize = skipped.iter().filter(|(k, _, _)| !k.starts_with("without")).map(|(_, n, _)| n).sum();
+        if lines > 0 && live.values().all(Vec::is_empty) {
+            return Err(IoError::EmptyMesh {
+                path,
+                reason: Some(format!(
+                    "the model has only POINTS / LINES primitives ({lines} skipped; only triangles are imported)"
+                )),
+            });
+        }
         // Mesh placements: one per node, or one per EXT_mesh_gpu_instancing instance (scene ←
         // node ← instance), for meshes with primitives to import. Skinned nodes ignore
         // instancing (the extension excludes skins). Each placement of each live primitive adds
