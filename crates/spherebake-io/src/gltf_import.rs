@@ -713,7 +713,14 @@ impl Source<'_> {
         let mut parent: Vec<Option<usize>> = vec![None; node_count];
         for node in doc.nodes() {
             for c in node.children() {
-                if parent[c.index()].is_some() || c.index() == node.index() {
+                if c.index() == node.index() {
+                    return Err(IoError::NodeGraph {
+                        path,
+                        node: c.index(),
+                        reason: "node is its own child (a cycle)",
+                    });
+                }
+                if parent[c.index()].is_some() {
                     return Err(IoError::NodeGraph { path, node: c.index(), reason: "node has more than one parent" });
                 }
                 parent[c.index()] = Some(node.index());

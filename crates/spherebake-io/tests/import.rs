@@ -1761,3 +1761,17 @@ fn skipped_and_empty_primitives_are_handled_once_per_mesh() {
     let w: Vec<&str> = imp.warnings.iter().map(|w| w.0.as_str()).collect();
     assert_eq!(w, ["3 Points primitives skipped (only triangles are imported), the first mesh 0 (\"m\") primitive 1"]);
 }
+
+/// A node listing itself as a child is a cycle, and the error says so (it said "node has more
+/// than one parent"); a node that two nodes list keeps that message.
+#[test]
+fn a_node_that_is_its_own_child_is_called_a_cycle() {
+    let (json, _) = gltf_json(&TRI, Some(&[0, 1, 2]), false, "");
+    let own = json.replace(r#""nodes":[{"mesh":0}]"#, r#""nodes":[{"mesh":0,"children":[0]}]"#);
+    assert_ne!(own, json, "gltf_json layout changed");
+    let e = load_mesh_from_bytes(Path::new("mem/c.gltf"), own.as_bytes()).err().expect("a cycle");
+    assert_eq!(e.to_string(), "mem/c.gltf: node 0: node is its own child (a cycle)");
+    let two = json.replace(r#""nodes":[{"mesh":0}]"#, r#""nodes":[{"mesh":0},{"children":[0]},{"children":[0]}]"#);
+    let e = load_mesh_from_bytes(Path::new("mem/c.gltf"), two.as_bytes()).err().expect("two parents");
+    assert_eq!(e.to_string(), "mem/c.gltf: node 0: node has more than one parent");
+}
