@@ -1515,6 +1515,14 @@ impl Source<'_> {
                     }
                 }
             }
+            // An empty URI names no file (it would resolve to the model's folder itself, which
+            // the folder rule refused, failing the import): a texture that cannot be read.
+            gltf::image::Source::Uri { uri, .. } if uri.trim().is_empty() => {
+                self.ctx.warn(format!(
+                    "material {material:?}: image {ii} has an empty uri (no file); using the base colour factor"
+                ));
+                return None;
+            }
             gltf::image::Source::Uri { uri, .. } => match resolve_uri(&self.ctx.dir, uri) {
                 Ok(UriData::Inline(b)) => (format!("image[{ii}] (data URI)"), b),
                 Ok(UriData::File(p)) => match self.ctx.read_referenced(uri, &p, ReadLimit::AtMost(MAX_IMAGE_BYTES)) {

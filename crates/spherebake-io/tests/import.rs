@@ -1775,3 +1775,23 @@ fn a_node_that_is_its_own_child_is_called_a_cycle() {
     let e = load_mesh_from_bytes(Path::new("mem/c.gltf"), two.as_bytes()).err().expect("two parents");
     assert_eq!(e.to_string(), "mem/c.gltf: node 0: node has more than one parent");
 }
+
+/// An image whose `uri` is empty names no file: a texture that cannot be read (a warning, the
+/// base colour factor), not a refusal of the whole import as a path outside the model's folder.
+#[test]
+fn an_image_with_an_empty_uri_falls_back_to_the_base_colour_factor() {
+    let dir = tempfile::tempdir().unwrap();
+    let extra = r#","materials":[{"pbrMetallicRoughness":{"baseColorFactor":[0.25,0.5,0.75,1],"baseColorTexture":{"index":0}}},{}],"textures":[{"source":0}],"images":[{"uri":""}]"#;
+    let p = dir.path().join("e.gltf");
+    std::fs::write(&p, two_material_gltf(extra)).unwrap();
+    let imp = load_mesh(&p).expect("an empty image uri is a texture that cannot be read");
+    let m = &imp.mesh.materials[0];
+    assert!(m.base_color_texture.is_none());
+    assert_eq!(m.base_color_factor_linear, [0.25, 0.5, 0.75, 1.0]);
+    let w: Vec<&str> = imp.warnings.iter().map(|w| w.0.as_str()).collect();
+    assert!(
+        w.contains(&"material \"material0\": image 0 has an empty uri (no file); using the base colour factor"),
+        "{w:?}"
+    );
+    assert_eq!(imp.inputs, [p]);
+}
