@@ -240,6 +240,10 @@ struct ImageMaps {
 pub(crate) fn import(ctx: &mut Ctx, bytes: &[u8], glb: bool) -> Result<(Mesh, Vec<ImportedPart>), IoError> {
     let path = ctx.path.clone();
     let (json, bin) = if glb { parse_glb(&path, bytes)? } else { (bytes, None) };
+    // A UTF-8 byte-order mark before the JSON is skipped: glTF 2.0 §3.2 forbids writers to add
+    // one but lets readers ignore it, as RFC 8259 §8.1 does (Windows tools write it; serde_json
+    // refused it as "expected value at line 1 column 1").
+    let json = json.strip_prefix(b"\xEF\xBB\xBF").unwrap_or(json);
     let mut value: serde_json::Value =
         serde_json::from_slice(json).map_err(|e| IoError::Json { path: path.clone(), message: e.to_string() })?;
     let prep = gltf_ext::prepare(&path, &mut value)?;

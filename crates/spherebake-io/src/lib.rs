@@ -264,7 +264,12 @@ fn import_bytes(
     // extension (a `.gltf` holding GLB bytes, a `.glb` holding JSON text).
     let kind = match kind {
         Kind::Gltf | Kind::Glb if bytes.starts_with(b"glTF") => Kind::Glb,
-        Kind::Glb if bytes.iter().find(|b| !b.is_ascii_whitespace()) == Some(&b'{') => Kind::Gltf,
+        Kind::Glb
+            if bytes.strip_prefix(b"\xEF\xBB\xBF").unwrap_or(bytes).iter().find(|b| !b.is_ascii_whitespace())
+                == Some(&b'{') =>
+        {
+            Kind::Gltf // JSON text, after a byte-order mark if any (skipped by the glTF reader)
+        }
         k => k,
     };
     let (mut mesh, mut parts) = match kind {

@@ -1795,3 +1795,18 @@ fn an_image_with_an_empty_uri_falls_back_to_the_base_colour_factor() {
     );
     assert_eq!(imp.inputs, [p]);
 }
+
+/// A UTF-8 byte-order mark before the JSON is skipped (glTF 2.0 §3.2 and RFC 8259 §8.1 let a
+/// reader ignore it), in a `.gltf` file and in JSON text named `.glb`: the same triangle as
+/// without it. It was "invalid glTF JSON: expected value at line 1 column 1".
+#[test]
+fn a_byte_order_mark_before_the_json_is_skipped() {
+    let (json, _) = gltf_json(&TRI, Some(&[0, 1, 2]), false, "");
+    let mut bom = b"\xEF\xBB\xBF".to_vec();
+    bom.extend(json.as_bytes());
+    for name in ["mem/b.gltf", "mem/b.glb"] {
+        let imp = load_mesh_from_bytes(Path::new(name), &bom).unwrap_or_else(|e| panic!("{name}: {e}"));
+        assert_eq!(imp.mesh.triangles, vec![[0, 1, 2]], "{name}");
+        assert_eq!(imp.mesh.positions, TRI.map(Vec3::from).to_vec(), "{name}");
+    }
+}
