@@ -1074,11 +1074,28 @@ impl Source<'_> {
                     }
                 };
 
-                // Attributes.
+                // Attributes. Each must have POSITION's count (glTF §3.7.2.1 "MUST", and cgltf's
+                // validation): one that differs is an error, checked before it is read, as for
+                // JOINTS / WEIGHTS and morph targets. Dropping it (as was done, silently) baked
+                // the model without its normals, UVs (its texture) or colours.
+                let same_count = |acc: &gltf::Accessor, what: &str| {
+                    if acc.count() == n {
+                        return Ok(());
+                    }
+                    Err(IoError::Accessor {
+                        path: path.clone(),
+                        accessor: acc.index(),
+                        reason: format!(
+                            "{ctx_name}: {what} has {} elements, POSITION {n} (the attributes of a primitive have one count, glTF §3.7.2.1)",
+                            acc.count()
+                        ),
+                    })
+                };
                 let mut normals = match prim.get(&Semantic::Normals) {
                     Some(acc) => {
+                        same_count(&acc, "NORMAL")?;
                         let d = self.read_vec(&acc, &[3], "NORMAL")?;
-                        (d.count() == n).then(|| (0..n).map(|v| DVec3::from(d.get::<3>(v))).collect::<Vec<_>>())
+                        Some((0..n).map(|v| DVec3::from(d.get::<3>(v))).collect::<Vec<_>>())
                     }
                     None => None,
                 };
@@ -1098,14 +1115,16 @@ impl Source<'_> {
                         uv_sets.push(None);
                         continue;
                     };
+                    same_count(&acc, &format!("TEXCOORD_{set}"))?;
                     let d = self.read_vec(&acc, &[2], "TEXCOORD")?;
-                    uv_sets.push((d.count() == n).then(|| (0..n).map(|v| d.get::<2>(v).map(|x| x as f32)).collect()));
+                    uv_sets.push(Some((0..n).map(|v| d.get::<2>(v).map(|x| x as f32)).collect()));
                 }
                 let colors = match prim.get(&Semantic::Colors(0)) {
                     Some(acc) => {
+                        same_count(&acc, "COLOR_0")?;
                         let d = self.read_vec(&acc, &[3, 4], "COLOR_0")?;
                         let c3 = d.comps == 3;
-                        (d.count() == n).then(|| {
+                        Some(
                             (0..n)
                                 .map(|v| {
                                     let c = d.get::<4>(v).map(|x| x as f32);
@@ -1115,8 +1134,8 @@ impl Source<'_> {
                                         c
                                     }
                                 })
-                                .collect::<Vec<_>>()
-                        })
+                                .collect::<Vec<_>>(),
+                        )
                     }
                     None => None,
                 };

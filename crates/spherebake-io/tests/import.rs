@@ -1810,3 +1810,32 @@ fn a_byte_order_mark_before_the_json_is_skipped() {
         assert_eq!(imp.mesh.positions, TRI.map(Vec3::from).to_vec(), "{name}");
     }
 }
+
+/// Every attribute of a primitive has POSITION's count (glTF §3.7.2.1 "MUST"). A NORMAL,
+/// TEXCOORD_n or COLOR_0 that differs was dropped silently (the model baked without its
+/// normals, texture or colours); now it is an error naming the attribute, both counts and the
+/// file, as a JOINTS / WEIGHTS or morph-target mismatch already was. With the count right, the
+/// same file imports.
+#[test]
+fn an_attribute_whose_count_differs_from_positions_is_an_error() {
+    let (json, _) = gltf_json(&TRI, Some(&[0, 1, 2]), false, "");
+    for (attr, ty, count) in
+        [("NORMAL", "VEC3", 2), ("TEXCOORD_0", "VEC2", 4), ("COLOR_0", "VEC4", 1), ("NORMAL", "VEC3", 3)]
+    {
+        let mut v: serde_json::Value = serde_json::from_str(&json).unwrap();
+        let accessors = v["accessors"].as_array_mut().unwrap();
+        accessors.push(serde_json::json!({"bufferView":0,"componentType":5126,"count":count,"type":ty}));
+        let ai = accessors.len() - 1;
+        v["meshes"][0]["primitives"][0]["attributes"][attr] = ai.into();
+        let r = load_mesh_from_bytes(Path::new("mem/a.gltf"), &serde_json::to_vec(&v).unwrap());
+        if count == 3 {
+            assert_eq!(r.expect("equal counts import").mesh.triangles, vec![[0, 1, 2]]);
+            continue;
+        }
+        let e = r.err().expect("a count mismatch");
+        let want = format!(
+            "mem/a.gltf: accessor {ai}: mesh 0 (\"m\") primitive 0: {attr} has {count} elements, POSITION 3 (the attributes of a primitive have one count, glTF §3.7.2.1)"
+        );
+        assert_eq!(e.to_string(), want);
+    }
+}
