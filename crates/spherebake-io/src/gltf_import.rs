@@ -968,7 +968,7 @@ impl Source<'_> {
             let node = nodes[ni].clone();
             let mesh = node.mesh().expect("instances have meshes");
             let mi = mesh.index();
-            for prim in live.get(&mi).into_iter().flatten().cloned() {
+            for prim in live.get(&mi).into_iter().flatten() {
                 let pi = prim.index();
                 let ctx_name = format!("mesh {mi} ({:?}) primitive {pi}", mesh.name().unwrap_or(""));
                 let mode = prim.mode();
@@ -996,7 +996,7 @@ impl Source<'_> {
                 let morphed = weights.iter().any(|&w| w != 0.0);
                 if morphed {
                     let mut sum: Vec<DVec3> = (0..n).map(|v| DVec3::from(pos.get::<3>(v))).collect();
-                    self.add_morph_deltas(&prim, weights, Semantic::Positions, &mut sum)?;
+                    self.add_morph_deltas(prim, weights, Semantic::Positions, &mut sum)?;
                     raw = sum.iter().map(|p| p.as_vec3()).collect();
                 }
                 if let Some((v, p)) = raw.iter().enumerate().find(|(_, p)| !p.is_finite()) {
@@ -1101,7 +1101,7 @@ impl Source<'_> {
                 };
                 if let (true, Some(ns)) = (morphed, normals.as_mut()) {
                     // The morphed normal is normalize(n + Σ wᵢ·Δnᵢ) (glTF §3.7.2.2).
-                    self.add_morph_deltas(&prim, weights, Semantic::Normals, ns)?;
+                    self.add_morph_deltas(prim, weights, Semantic::Normals, ns)?;
                     for nv in ns.iter_mut() {
                         *nv = nv.try_normalize().unwrap_or(*nv);
                     }
