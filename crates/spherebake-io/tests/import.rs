@@ -1738,6 +1738,15 @@ fn accessors_without_a_buffer_view_are_held_to_the_input_budget() {
     assert!(s.contains("2997 vertices") && s.contains("over the limit of 2000"), "{s}");
     let s = refused(load(10_000), "over the limit").to_string();
     assert!(s.contains("without a buffer view") && s.contains("17982"), "{s}");
+    // With the default budget (1 GiB) such values are also held to 4096 per byte of the JSON
+    // that declares them: the same file claiming 22 million vertices stops at once.
+    let bomb = json.replace(r#""count":2997,"type":"VEC3","sparse""#, r#""count":22369620,"type":"VEC3","sparse""#);
+    assert_ne!(bomb, json);
+    let e = refused(spherebake_io::load_mesh_from_bytes(Path::new("mem/v.gltf"), bomb.as_bytes()), "over the limit");
+    let s = e.to_string();
+    let by_json = bomb.len() as u64 * 4096;
+    assert!(matches!(e, IoError::OverLimit { limit, .. } if limit == by_json), "{s}");
+    assert!(s.contains("per byte of its") && s.contains("bytes of glTF JSON"), "{s}");
 }
 
 /// Skipped primitives are counted per kind, each once however often its mesh is placed: 1,000
