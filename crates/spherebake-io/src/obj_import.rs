@@ -26,7 +26,8 @@ type MtlRead = (PathBuf, Result<Vec<u8>, IoError>, Option<String>);
 /// vertices and line elements (`l`) with none, vertex / texture / normal indices out of range
 /// in either, face corners with more than three indices, `v` lines that are not x y z,
 /// x y z w (w finite, not 0) or x y z + three values, or whose position is not finite in f32
-/// (`1e39`, or divided by a tiny w), `vt` lines without two numbers, `vn` lines without three,
+/// (`1e39`, or divided by a tiny w), `vt` lines without a number u or with a second word that is
+/// not a number v (`vt u` is read with v = 0, as Blender reads it), `vn` lines without three,
 /// `usemtl` or `mtllib` without a name. Errors name the line (1-based; a continued
 /// line by its first line, see [`logical_lines`]). tobj is then given the text as checked
 /// ([`tobj_text`]), rewritten where the returned [`Rewrite`] says so.
@@ -48,7 +49,8 @@ fn check_lines(path: &Path, text: &str) -> Result<Rewrite, IoError> {
 #[derive(Clone, Debug, Default, PartialEq, Eq)]
 struct Rewrite {
     /// A data line (`v`, `vt`, `vn`, `f`, `l`) with a `#` comment, a continued line, an `l`
-    /// line, or a `usemtl` or `mtllib` line whose name tobj would read otherwise (it takes the
+    /// line, a `vt` line with one number (the OBJ specification's `vt u [v] [w]`; tobj needs
+    /// two), or a `usemtl` or `mtllib` line whose name tobj would read otherwise (it takes the
     /// text after the line's first space: a tab or a leading space gave another name).
     lines: bool,
     /// Vertex colours on some `v` lines only, or three values after x y z that are not all
@@ -312,9 +314,13 @@ fn check_piece(text: &str) -> PieceCheck {
                 }
             },
             Some("vt") => {
-                if tok.take(2).filter(|t| t.parse::<f32>().is_ok()).count() != 2 {
-                    return Err((at, "texture coordinate needs two numbers".into()));
+                // `vt u [v [w]]`: u, and v when given, are numbers; further words are not read.
+                let (u, v) = (tok.next(), tok.next());
+                if u.is_none_or(|u| u.parse::<f32>().is_err()) || v.is_some_and(|v| v.parse::<f32>().is_err()) {
+                    return Err((at, "texture coordinate needs one or two numbers (u [v])".into()));
                 }
+                // tobj needs two: `vt u` is given to it as `vt u 0` ([`tobj_text`]).
+                out.rewrite_lines |= v.is_none();
                 counts.vt += 1;
             }
             Some("vn") => {
@@ -424,7 +430,7 @@ fn vertex_values(tok: std::str::SplitWhitespace<'_>) -> Result<Vertex, String> {
 /// `rewrite` says so, tobj is given the text with: each continued line joined
 /// ([`logical_lines`]; then as many empty lines as it had physical lines after its first, so
 /// the line count stays), the `v`, `vt`, `vn` and `f` lines ended at `#`, the `l` lines empty,
-/// `usemtl` and `mtllib` lines as `KEYWORD NAME`, and, for [`Rewrite::colours`], every `v` line without its
+/// `usemtl` and `mtllib` lines as `KEYWORD NAME`, a `vt u` line as `vt u 0`, and, for [`Rewrite::colours`], every `v` line without its
 /// colour. Other lines are kept as they are (a name may hold `#`). Else it is `text` itself:
 /// the check found nothing to rewrite (a file's `#` header lines alone are read by tobj
 /// as comments).
@@ -458,6 +464,12 @@ fn tobj_text<'a>(text: &'a str, rewrite: &Rewrite) -> std::borrow::Cow<'a, str> 
                 out.push_str(kw);
                 out.push(' ');
                 out.push_str(names(line, kw).0);
+            }
+            // `vt u`: v is 0, as Blender reads it (the check has made sure u is a number).
+            Some("vt") if tok.clone().nth(1).is_none() => {
+                out.push_str("vt ");
+                out.push_str(tok.clone().next().unwrap_or("0"));
+                out.push_str(" 0");
             }
             k if is_data(k) => out.push_str(line.split('#').next().unwrap_or("")),
             _ => out.push_str(line),
@@ -1579,8 +1591,8 @@ mod tests {
                     defined[0] += 1;
                 }
                 Some("vt") => {
-                    if !numbers(1, 2) {
-                        return Err(format!("line {line}: texture coordinate needs two numbers"));
+                    if !numbers(1, 1) || (tokens.len() > 2 && !numbers(2, 1)) {
+                        return Err(format!("line {line}: texture coordinate needs one or two numbers (u [v])"));
                     }
                     defined[1] += 1;
                 }

@@ -480,9 +480,13 @@ fn obj_files_read_as_checked_and_tobjs_errors_name_the_line() {
     bom.extend_from_slice(t.as_bytes());
     let plain = load_mesh_from_bytes(p, t.as_bytes()).unwrap();
     assert_eq!(load_mesh_from_bytes(p, &bom).unwrap().mesh.positions, plain.mesh.positions);
-    assert_eq!(msg(&format!("{t}vt 0\n")), "line 5: texture coordinate needs two numbers");
+    assert_eq!(msg(&format!("{t}vt 0 y\n")), "line 5: texture coordinate needs one or two numbers (u [v])");
+    assert_eq!(msg(&format!("{t}vt\n")), "line 5: texture coordinate needs one or two numbers (u [v])");
     // Lines ended by `\r` alone are counted as an editor shows them (the file was one line).
-    assert_eq!(msg(&format!("{}\r\nvt 0\r", t.replace('\n', "\r"))), "line 6: texture coordinate needs two numbers");
+    assert_eq!(
+        msg(&format!("{}\r\nvt x\r", t.replace('\n', "\r"))),
+        "line 6: texture coordinate needs one or two numbers (u [v])"
+    );
     assert_eq!(msg(&format!("{t}vn 0 0 z\n")), "line 5: normal needs three numbers");
     assert_eq!(msg(&format!("{t}l\n")), "line 5: line element with no vertex");
     assert_eq!(msg(&format!("{t}l 1 7\n")), "line 5: vertex index 7 out of range (3 defined so far)");
@@ -795,6 +799,22 @@ fn obj_map_kd_with_options_and_spaces_in_the_name() {
     let tr = imp.mesh.materials[0].base_color_texture.as_ref().expect("the texture named with a space");
     assert_eq!(imp.mesh.textures[tr.texture].name, "my tex.png");
     assert_eq!((tr.transform.scale, tr.transform.offset), ([2.0, 2.0], [0.0, -1.0]));
+}
+
+/// `vt u` with one component (the OBJ specification's `vt u [v] [w]`) is read with v = 0, as
+/// Blender reads it (it was "texture coordinate needs two numbers"): UV (u, 1 − 0) after the
+/// flip to the glTF convention; `vt u v w` keeps u v.
+#[test]
+fn obj_vt_with_one_component_has_v_zero() {
+    let p = Path::new("mem/vt.obj");
+    let obj = "v 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0.25\nvt 0.5 0.75 0.125\nf 1/1 2/1 3/2\n";
+    let imp = load_mesh_from_bytes(p, obj.as_bytes()).unwrap();
+    assert!(imp.warnings.is_empty(), "{:?}", imp.warnings);
+    assert_eq!(imp.mesh.uvs, vec![vec![[0.25, 1.0], [0.25, 1.0], [0.5, 0.25]]]);
+    // A comment after it, and negative indices counting it.
+    let obj = "v 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0.5 # u only\nf 1/-1 2/-1 3/-1\n";
+    let imp = load_mesh_from_bytes(p, obj.as_bytes()).unwrap();
+    assert_eq!(imp.mesh.uvs, vec![vec![[0.5, 1.0]; 3]]);
 }
 
 /// An OBJ group whose faces mix `vt` and no `vt` cannot keep its UVs: the importer says so
