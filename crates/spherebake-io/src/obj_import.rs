@@ -24,7 +24,7 @@ type MtlRead = (PathBuf, Result<Vec<u8>, IoError>, Option<String>);
 
 /// Checks what tobj reports without a line number (or not at all): faces with fewer than three
 /// vertices and line elements (`l`) with none, vertex / texture / normal indices out of range
-/// in either, face corners with more than three indices, `v` lines that are not x y z,
+/// in either (normal indices in a file without `vn` lines are not read: [`Rewrite::unread_normals`]), face corners with more than three indices, `v` lines that are not x y z,
 /// x y z w (w finite, not 0) or x y z + three values, or whose position is not finite in f32
 /// (`1e39`, or divided by a tiny w), `vt` lines without a number u or with a second word that is
 /// not a number v (`vt u` is read with v = 0, as Blender reads it), `vn` lines without three,
@@ -57,6 +57,11 @@ struct Rewrite {
     /// numbers: tobj gives vertex i the i-th colour read, so it would fail on a later vertex
     /// or shift them. This importer does not use OBJ vertex colours; they are dropped.
     colours: bool,
+    /// Faces name normals (`f 1//1 2//2 3//3`) but the file has no `vn` line: the indices are
+    /// not read (tobj reads no normal when there are none), and the normals are computed, as
+    /// Blender does (its bug T98782: such files are written by some exporters); one warning.
+    /// With some `vn` lines, a normal index out of range stays an error.
+    unread_normals: bool,
     /// The distinct `usemtl` names as tobj is given them, each with whether an `mtllib` line
     /// came before it (tobj looks a name up in the libraries read so far), in the order of
     /// their first use: a name no library defines when it is used gets the default material,
@@ -81,9 +86,18 @@ fn check_lines_in(path: &Path, text: &str, piece: usize) -> Result<Rewrite, IoEr
     let mut rewrite = Rewrite::default();
     // Every piece's names, in file order, an `mtllib` in an earlier piece counting as before.
     let mut usemtl = UsemtlNames::default();
+    // Whether the file has no `vn` line: found when a normal index is first out of range.
+    let mut no_normals = None;
     for c in checks {
         let defined = [before.v, before.vt, before.vn];
-        if let Some(n) = c.needs.iter().find(|n| defined[n.kind] < n.need) {
+        let mut out_of_range = c.needs.iter().filter(|n| defined[n.kind] < n.need);
+        // Normal indices in a file without normals are not read ([`Rewrite::unread_normals`]).
+        let first = out_of_range.find(|n| {
+            let unread = n.kind == 2 && *no_normals.get_or_insert_with(|| !has_normals(text));
+            rewrite.unread_normals |= unread;
+            !unread
+        });
+        if let Some(n) = first {
             let count = defined[n.kind] + n.local;
             let what = ["vertex", "texture", "normal"][n.kind];
             return err(
@@ -112,6 +126,17 @@ fn check_lines_in(path: &Path, text: &str, piece: usize) -> Result<Rewrite, IoEr
     rewrite.colours |= coloured > 0 && plain > 0;
     rewrite.usemtl = usemtl.names;
     Ok(rewrite)
+}
+
+/// Whether `text` has a `vn` line (a logical line, comment removed: [`logical_lines`]).
+fn has_normals(text: &str) -> bool {
+    // No "vn" anywhere is no `vn` line (one fast search); else the lines are read.
+    text.contains("vn")
+        && logical_lines(
+            text,
+            |_, line, _| if keyword(line).0 == Some("vn") { Err((0, String::new())) } else { Ok(()) },
+        )
+        .is_err()
 }
 
 /// Lines and `v`, `vt`, `vn` lines (a continued line counts once as a logical line, its
@@ -557,6 +582,11 @@ pub(crate) fn import(ctx: &mut Ctx, bytes: &[u8]) -> Result<(Mesh, Vec<ImportedP
     let path = ctx.path.clone();
     let text = text_of(bytes);
     let rewrite = check_lines(&path, &text)?;
+    if rewrite.unread_normals {
+        ctx.warn(String::from(
+            "faces name normals (f v//vn) but the file defines no vn; the normal indices are ignored and the normals computed from the faces"
+        ));
+    }
     // MTL files read by tobj's callback: (resolved path, bytes or the read error).
     let mtl_reads: RefCell<Vec<MtlRead>> = RefCell::new(Vec::new());
     // The folder of each library tobj appends materials from, with their count, in order: a
@@ -1440,6 +1470,9 @@ mod tests {
         let coloured = seed % 3 == 0;
         let plain = if coloured { "v 0.5 1 -2 0.2 0.4 1" } else { "v 0.5 1 -2" };
         let first = if coloured { "v 0 0 0 0.2 0.4 1\nvn 0 0 1\n" } else { "v 0 0 0\nvn 0 0 1\n" };
+        // Every fifth file has no `vn` line (its normal indices are not checked).
+        let normals = seed % 5 != 4;
+        let first = if normals { first.to_string() } else { first.replace("vn 0 0 1", "vt 0 0") };
         let mut s = first.repeat(30);
         for _ in 0..lines {
             let line = match next(12) {
@@ -1466,7 +1499,8 @@ mod tests {
                     6..=8 => format!("l {} {} {}", 1 + next(30), 1 + next(30), 1 + next(30)),
                     9 => "f 1 2 3 # a face".to_string(),
                     10 => "v 1 2 3 #c".to_string(),
-                    _ => "vn 0 0 1".to_string(),
+                    _ if normals => "vn 0 0 1".to_string(),
+                    _ => "vt 1 0".to_string(),
                 },
                 6..=8 => {
                     let corners = if next(300) == 0 { 2 } else { 3 + next(2) };
@@ -1543,6 +1577,9 @@ mod tests {
             }
         }
         logical.extend(pending);
+        // A file without `vn` lines: its faces' normal indices are not checked.
+        let no_normals =
+            !logical.iter().any(|(_, l)| l.split('#').next().unwrap_or("").split_whitespace().next() == Some("vn"));
         let mut defined = [0i64; 3];
         let mut triangles = 0usize;
         for (line, text) in logical {
@@ -1629,6 +1666,9 @@ mod tests {
                             }
                             let what = ["vertex", "texture", "normal"][kind];
                             if kind > 0 && slot.is_empty() {
+                                continue;
+                            }
+                            if kind == 2 && no_normals && slot.parse::<i64>().is_ok() {
                                 continue;
                             }
                             let Ok(x) = slot.parse::<i64>() else {

@@ -817,6 +817,41 @@ fn obj_vt_with_one_component_has_v_zero() {
     assert_eq!(imp.mesh.uvs, vec![vec![[0.5, 1.0]; 3]]);
 }
 
+/// Faces that name normals in a file with no `vn` line are read without them, as Blender reads
+/// them (its bug T98782), with one warning, and get the normals computed from the faces (those
+/// of the same file without the normal indices); with a `vn` line, an index past it stays an
+/// error.
+#[test]
+fn obj_normal_indices_in_a_file_without_normals_are_ignored() {
+    let p = Path::new("mem/n.obj");
+    let v = "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\n";
+    let plain = load_mesh_from_bytes(p, format!("{v}f 1 3 2\nf 1 2 4\nf 1 4 3\nf 2 3 4\n").as_bytes()).unwrap();
+    let named = format!("{v}f 1//1 3//3 2//2\nf 1//1 2//2 4//4\nf 1//1 4//4 3//3\nf 2//-1 3//0 4//9\n");
+    let imp = load_mesh_from_bytes(p, named.as_bytes()).unwrap();
+    assert_eq!(imp.warnings.len(), 1, "{:?}", imp.warnings);
+    assert!(imp.warnings[0].0.contains("defines no vn; the normal indices are ignored"), "{:?}", imp.warnings);
+    assert_eq!(imp.mesh.triangles.len(), 4);
+    // The normals computed on the faces: at each position, those of the file without the indices.
+    let n = |v: usize| imp.mesh.normals[v];
+    for (i, p) in imp.mesh.positions.iter().enumerate() {
+        let j = plain.mesh.positions.iter().position(|q| q == p).unwrap();
+        assert!(
+            (n(i) - plain.mesh.normals[j]).length() < 1e-6,
+            "vertex {i}: {:?} vs {:?}",
+            n(i),
+            plain.mesh.normals[j]
+        );
+    }
+    // Vertex 1 (the origin) lies on the faces of normals −z, −y and −x, of equal area.
+    let origin = imp.mesh.positions.iter().position(|q| *q == Vec3::ZERO).unwrap();
+    assert!((n(origin) - Vec3::splat(-1.0).normalize()).length() < 1e-6, "{:?}", n(origin));
+    let e = load_mesh_from_bytes(p, format!("{v}vn 0 0 1\nf 1//1 3//1 2//2\n").as_bytes()).unwrap_err();
+    assert!(e.to_string().contains("line 6: normal index 2 out of range (1 defined so far)"), "{e}");
+    // A `vn` after the face counts too: the index was out of range where it was read.
+    let e = load_mesh_from_bytes(p, format!("{v}f 1//1 3//1 2//1\nvn 0 0 1\n").as_bytes()).unwrap_err();
+    assert!(e.to_string().contains("line 5: normal index 1 out of range (0 defined so far)"), "{e}");
+}
+
 /// An OBJ group whose faces mix `vt` and no `vt` cannot keep its UVs: the importer says so
 /// (it used to drop them silently); a group with `vt` on every face keeps them, unwarned.
 #[test]
