@@ -51,7 +51,9 @@
 //! per word. `mtllib` paths are relative to the OBJ's folder, and a material's texture paths
 //! (`map_Kd`, `map_d`) to the folder of the MTL file that defines it (`mtllib t1/a.mtl` then
 //! `mtllib t2/b.mtl`: a `map_Kd tex.png` of a.mtl is t1/tex.png), all confined to the model's
-//! folder tree as [`ImportOptions`] says.
+//! folder tree as [`ImportOptions`] says. A `usemtl` name is looked up in all the file's
+//! libraries, wherever their `mtllib` lines are (a `usemtl` before the `mtllib` that defines
+//! it finds it), as Blender reads them.
 
 mod error;
 mod gltf_ext;

@@ -62,11 +62,13 @@ struct Rewrite {
     /// Blender does (its bug T98782: such files are written by some exporters); one warning.
     /// With some `vn` lines, a normal index out of range stays an error.
     unread_normals: bool,
-    /// The distinct `usemtl` names as tobj is given them, each with whether an `mtllib` line
-    /// came before it (tobj looks a name up in the libraries read so far), in the order of
-    /// their first use: a name no library defines when it is used gets the default material,
-    /// with a warning.
-    usemtl: Vec<(String, bool)>,
+    /// A `usemtl` line comes before an `mtllib` line: tobj looks a name up in the libraries
+    /// read so far, so it is given every `mtllib` line first ([`tobj_text`]), and each name is
+    /// looked up in all the file's libraries, as Blender does (it reads them after the OBJ).
+    libraries_first: bool,
+    /// The distinct `usemtl` names as tobj is given them, in the order of their first use: a
+    /// name no library defines gets the default material, with a warning.
+    usemtl: Vec<String>,
 }
 
 /// Bytes per piece of [`check_lines`] (at least).
@@ -86,6 +88,8 @@ fn check_lines_in(path: &Path, text: &str, piece: usize) -> Result<Rewrite, IoEr
     let mut rewrite = Rewrite::default();
     // Every piece's names, in file order, an `mtllib` in an earlier piece counting as before.
     let mut usemtl = UsemtlNames::default();
+    // An `mtllib` line so far.
+    let mut mtllib = false;
     // Whether the file has no `vn` line: found when a normal index is first out of range.
     let mut no_normals = None;
     for c in checks {
@@ -112,10 +116,11 @@ fn check_lines_in(path: &Path, text: &str, piece: usize) -> Result<Rewrite, IoEr
         plain += c.plain;
         rewrite.lines |= c.rewrite_lines;
         rewrite.colours |= c.bad_colour;
-        for (name, after_library) in c.usemtl.names {
-            usemtl.add(name, after_library || usemtl.mtllib);
+        rewrite.libraries_first |= c.usemtl.unlibraried && !mtllib;
+        mtllib |= c.usemtl.mtllib;
+        for name in c.usemtl.names {
+            usemtl.add(name);
         }
-        usemtl.mtllib |= c.usemtl.mtllib;
         before = Counts {
             lines: before.lines + c.counts.lines,
             v: before.v + c.counts.v,
@@ -124,6 +129,8 @@ fn check_lines_in(path: &Path, text: &str, piece: usize) -> Result<Rewrite, IoEr
         };
     }
     rewrite.colours |= coloured > 0 && plain > 0;
+    // Libraries come first only when there are some.
+    rewrite.libraries_first &= mtllib;
     rewrite.usemtl = usemtl.names;
     Ok(rewrite)
 }
@@ -187,21 +194,21 @@ struct PieceCheck {
     usemtl: UsemtlNames,
 }
 
-/// The `usemtl` names of a piece in the order of first use, each with whether an `mtllib`
-/// line came before it in the piece, and whether the piece has an `mtllib` line.
+/// The distinct `usemtl` names of a piece in the order of first use, whether the piece has an
+/// `mtllib` line, and whether a `usemtl` line comes before its first.
 #[derive(Debug, Default)]
 struct UsemtlNames {
-    names: Vec<(String, bool)>,
-    seen: std::collections::HashSet<(String, bool)>,
+    names: Vec<String>,
+    seen: std::collections::HashSet<String>,
     mtllib: bool,
+    unlibraried: bool,
 }
 
 impl UsemtlNames {
-    /// Adds (name, whether an `mtllib` came before) unless already listed.
-    fn add(&mut self, name: String, after_library: bool) {
-        let key = (name, after_library);
-        if self.seen.insert(key.clone()) {
-            self.names.push(key);
+    /// Adds `name` unless already listed.
+    fn add(&mut self, name: String) {
+        if self.seen.insert(name.clone()) {
+            self.names.push(name);
         }
     }
 }
@@ -334,7 +341,8 @@ fn check_piece(text: &str) -> PieceCheck {
                     if kw == "mtllib" {
                         u.mtllib = true;
                     } else {
-                        u.add(ours.to_string(), u.mtllib);
+                        u.unlibraried |= !u.mtllib;
+                        u.add(ours.to_string());
                     }
                 }
             },
@@ -455,15 +463,28 @@ fn vertex_values(tok: std::str::SplitWhitespace<'_>) -> Result<Vertex, String> {
 /// `rewrite` says so, tobj is given the text with: each continued line joined
 /// ([`logical_lines`]; then as many empty lines as it had physical lines after its first, so
 /// the line count stays), the `v`, `vt`, `vn` and `f` lines ended at `#`, the `l` lines empty,
-/// `usemtl` and `mtllib` lines as `KEYWORD NAME`, a `vt u` line as `vt u 0`, and, for [`Rewrite::colours`], every `v` line without its
-/// colour. Other lines are kept as they are (a name may hold `#`). Else it is `text` itself:
+/// `usemtl` and `mtllib` lines as `KEYWORD NAME`, a `vt u` line as `vt u 0`, and, for
+/// [`Rewrite::colours`], every `v` line without its colour. For [`Rewrite::libraries_first`],
+/// the `mtllib` lines are moved to the start, in their order (the text has as many more lines
+/// as they are). Other lines are kept as they are (a name may hold `#`). Else it is `text` itself:
 /// the check found nothing to rewrite (a file's `#` header lines alone are read by tobj
 /// as comments).
 fn tobj_text<'a>(text: &'a str, rewrite: &Rewrite) -> std::borrow::Cow<'a, str> {
-    if !rewrite.lines && !rewrite.colours {
+    if !rewrite.lines && !rewrite.colours && !rewrite.libraries_first {
         return std::borrow::Cow::Borrowed(text);
     }
     let mut out = String::with_capacity(text.len());
+    if rewrite.libraries_first {
+        // The callback never fails.
+        let _ = logical_lines(text, |_, line, _| {
+            if keyword(line).0 == Some("mtllib") {
+                out.push_str("mtllib ");
+                out.push_str(names(line, "mtllib").0);
+                out.push('\n');
+            }
+            Ok(())
+        });
+    }
     let mut written = 0usize;
     let pad = |out: &mut String, written: &mut usize, to: usize| {
         while *written < to {
@@ -485,6 +506,7 @@ fn tobj_text<'a>(text: &'a str, rewrite: &Rewrite) -> std::borrow::Cow<'a, str> 
                     out.push_str(v);
                 }
             }
+            Some("mtllib") if rewrite.libraries_first => {}
             Some(kw @ ("usemtl" | "mtllib")) => {
                 out.push_str(kw);
                 out.push(' ');
@@ -705,17 +727,13 @@ pub(crate) fn import(ctx: &mut Ctx, bytes: &[u8]) -> Result<(Mesh, Vec<ImportedP
         *k = end;
     }
     let mtl_dir_of = |i: usize| libraries.get(libraries.partition_point(|(_, end)| *end <= i)).map(|(d, _)| d);
-    // A `usemtl` name that no library defines (a typo, another case, a library not shipped,
-    // or named before its `mtllib` line) gets the default material: said once, naming the
-    // first in the file, unless a library could not be read at all (warned about above).
+    // A `usemtl` name that no library defines (a typo, another case, a library not shipped)
+    // gets the default material: said once, naming the first in the file, unless a library
+    // could not be read at all (warned about above).
     if !library_failed {
         let defined: std::collections::HashSet<&str> = materials.iter().map(|m| m.name.as_str()).collect();
-        let (mut unknown, mut listed) = (Vec::new(), std::collections::HashSet::new());
-        for (name, after_library) in &rewrite.usemtl {
-            if (!after_library || !defined.contains(name.as_str())) && listed.insert(name.as_str()) {
-                unknown.push(name.as_str());
-            }
-        }
+        let unknown: Vec<&str> =
+            rewrite.usemtl.iter().map(String::as_str).filter(|name| !defined.contains(name)).collect();
         if let Some(first) = unknown.first() {
             let more = match unknown.len() {
                 1 => String::new(),
@@ -1730,7 +1748,10 @@ mod tests {
                     .unwrap_or_else(|e| panic!("seed {seed}: tobj: {e}"));
                     let got: usize = models.iter().flat_map(|m| faces(&m.mesh)).map(|f| f.len() - 2).sum();
                     assert_eq!(got, triangles, "seed {seed}: triangles");
-                    assert_eq!(fed.lines().count(), text.lines().count(), "seed {seed}: line count");
+                    // As many lines, and the `mtllib` lines again when they are moved first.
+                    let moved = text.lines().filter(|l| l.split_whitespace().next() == Some("mtllib")).count();
+                    let more = if rewrite.libraries_first { moved } else { 0 };
+                    assert_eq!(fed.lines().count(), text.lines().count() + more, "seed {seed}: line count");
                 }
                 other => panic!("seed {seed}: {other:?}"),
             }

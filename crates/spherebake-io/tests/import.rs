@@ -234,17 +234,27 @@ fn obj_usemtl_names_no_library_defines_are_warned_about() {
     let w = named(&imp);
     assert_eq!(w.len(), 1, "{w:?}");
     assert!(w[0].contains("b.mtl: cannot parse material library"), "{w:?}");
-    // A name used before and after its library: the use before is the one warned about.
-    let imp = load(format!("usemtl red\n{tri}mtllib m.mtl\nusemtl red\n{tri}"));
-    assert_eq!(named(&imp).len(), 1, "{:?}", imp.warnings);
-    assert_eq!(imp.mesh.materials.len(), 2, "default, then red");
+    // A name used before its library is looked up in it too (as Blender does: it reads the
+    // libraries after the OBJ): no warning, and the faces before and after are red.
+    for obj in [
+        format!("usemtl red\n{tri}mtllib m.mtl\nusemtl red\n{tri}"),
+        format!("usemtl red\n{tri}usemtl blue\nv 0 0 1\nf 1 2 4\nmtllib m.mtl\n"),
+    ] {
+        let imp = load(obj.clone());
+        assert!(named(&imp).is_empty(), "{obj:?}: {:?}", imp.warnings);
+        let colour = |t: usize| imp.mesh.materials[imp.mesh.triangle_materials[t] as usize].base_color_factor_linear;
+        assert_eq!(colour(0), [1.0, 0.0, 0.0, 1.0], "{obj:?}");
+        let last = if obj.contains("blue") { [0.0, 0.0, 1.0, 1.0] } else { [1.0, 0.0, 0.0, 1.0] };
+        assert_eq!(colour(imp.mesh.triangles.len() - 1), last, "{obj:?}");
+        assert!(imp.mesh.materials.iter().all(|m| m.name != "default"), "{obj:?}");
+    }
     let cases = [
         (format!("mtllib m.mtl\nusemtl Red\n{tri}"), "usemtl \"Red\": no material library defines it"),
         (format!("usemtl red\n{tri}"), "usemtl \"red\": no material library defines it"),
         // The first in the file is named.
         (format!("mtllib m.mtl\nusemtl x\n{tri}usemtl red\n{tri}usemtl w\n{tri}"), "usemtl \"x\" (and 1 more)"),
-        // tobj looks a name up in the libraries read so far: before its `mtllib`, unknown.
-        (format!("usemtl red\n{tri}mtllib m.mtl\nusemtl blue\n{tri}"), "usemtl \"red\": no material library"),
+        // A name used before the libraries that no library defines.
+        (format!("usemtl rot\n{tri}mtllib m.mtl\nusemtl blue\n{tri}"), "usemtl \"rot\": no material library"),
     ];
     for (obj, want) in cases {
         let imp = load(obj.clone());
