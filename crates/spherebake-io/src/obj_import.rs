@@ -11,7 +11,7 @@ use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 
 use glam::Vec3;
-use spherebake_geom::{Material, Mesh, TextureRef, UvTransform};
+use spherebake_geom::{Material, Mesh, TextureRef, UvTransform, NO_UV};
 
 use crate::polygon::{How, Triangulator, MAX_EAR_CLIP_CORNERS};
 use crate::texture::{
@@ -650,7 +650,7 @@ pub(crate) fn import(ctx: &mut Ctx, bytes: &[u8]) -> Result<(Mesh, Vec<ImportedP
         mtl_reads.borrow_mut().push((full, read, parse_error));
         result
     };
-    let (models, materials) = crate::obj_parse::load_obj(&text, |p: &Path| {
+    let obj = crate::obj_parse::load_obj(&text, |p: &Path| {
         // tobj gives the `mtllib` line's text after the keyword ([`tobj_text`]). One statement may
         // name several libraries (`mtllib a.mtl b.mtl`), but a file whose name has spaces
         // (`mtllib my lib.mtl`) is read whole when there is one, and a name in double quotes
@@ -683,6 +683,7 @@ pub(crate) fn import(ctx: &mut Ctx, bytes: &[u8]) -> Result<(Mesh, Vec<ImportedP
         merged.ok_or(error)
     })
     .map_err(|e| IoError::Obj { path: path.clone(), message: e.to_string() })?;
+    let (models, materials, uv_named) = (obj.models, obj.materials, obj.uv_named);
     let mut library_failed = materials.is_err();
     for (p, read, parse_error) in mtl_reads.into_inner() {
         match read {
@@ -812,17 +813,22 @@ pub(crate) fn import(ctx: &mut Ctx, bytes: &[u8]) -> Result<(Mesh, Vec<ImportedP
         } else {
             vec![Vec3::Z; n]
         };
-        // OBJ v runs bottom-up; glTF convention (row 0 = top) needs v' = 1 - v.
-        if !m.texcoords.is_empty() && m.texcoords.len() != 2 * n {
-            // Faces with and without `vt` in one group: tobj cannot pair them, so the group
-            // has no UVs (a textured material there shows its Kd). One warning for all groups.
+        // OBJ v runs bottom-up; glTF convention (row 0 = top) needs v' = 1 - v. A vertex
+        // without a texture coordinate holds NO_UV (a textured material shows its Kd there).
+        let flip = |c: &[f32]| [c[0], 1.0 - c[1]];
+        let named = uv_named.get(mi).map_or(&[][..], Vec::as_slice);
+        if !named.is_empty() {
+            // Faces with and without `vt` in one group: the corners without have no UV, the
+            // others keep theirs. One warning for all groups.
             mixed_vt.push(model.name.as_str());
-        }
-        if m.texcoords.len() == 2 * n && n > 0 {
             has_uv = true;
-            uvs.extend(m.texcoords.chunks_exact(2).map(|c| [c[0], 1.0 - c[1]]));
+            let mut t = m.texcoords.chunks_exact(2);
+            uvs.extend(named.iter().map(|&k| if k { t.next().map_or(NO_UV, flip) } else { NO_UV }));
+        } else if m.texcoords.len() == 2 * n && n > 0 {
+            has_uv = true;
+            uvs.extend(m.texcoords.chunks_exact(2).map(flip));
         } else {
-            uvs.resize(uvs.len() + n, spherebake_geom::mesh::NO_UV);
+            uvs.resize(uvs.len() + n, NO_UV);
         }
         let key = m.material_id.filter(|&i| i < materials.len());
         let material = match material_map.get(&key) {
@@ -866,7 +872,7 @@ pub(crate) fn import(ctx: &mut Ctx, bytes: &[u8]) -> Result<(Mesh, Vec<ImportedP
             k => format!(" (and {} more)", k - 1),
         };
         ctx.warn(format!(
-            "object {first:?}{more}: some faces have texture coordinates (vt) and some not; the group's UVs are dropped"
+            "object {first:?}{more}: some faces have no texture coordinates (vt); a texture does not reach them (their material's Kd is used)"
         ));
     }
     if let Some(first) = fanned.first {

@@ -44,13 +44,17 @@
 //!   loader once, with that name as a path, in file order. A library's materials are appended,
 //!   their names overriding earlier ones; a loader error is kept. The materials result is the
 //!   materials when there are any, else the last loader error, else none.
+//!
+//! Beyond tobj's result, [`Obj::uv_named`] says which vertices of a model have a texture
+//! coordinate when only some have one: tobj leaves the others out of the model's texture
+//! coordinates, which then do not pair with its vertices.
 
 use std::collections::hash_map::Entry;
 use std::collections::HashMap;
 use std::hash::Hasher;
 use std::path::Path;
 
-use tobj::{LoadError, LoadResult, MTLLoadResult, Material, Mesh, Model};
+use tobj::{LoadError, MTLLoadResult, Material, Mesh, Model};
 
 /// The name of a model before any `o` or `g` line, and of one whose line has no name (tobj's).
 const UNNAMED: &str = "unnamed_object";
@@ -184,12 +188,25 @@ pub(crate) fn tobj_options() -> tobj::LoadOptions {
     tobj::LoadOptions { triangulate: false, single_index: true, ignore_lines: true, ignore_points: true }
 }
 
+/// What [`load_obj`] reads.
+#[derive(Debug)]
+pub(crate) struct Obj {
+    /// tobj's models and materials result.
+    pub models: Vec<Model>,
+    pub materials: Result<Vec<Material>, LoadError>,
+    /// Per model, whether each vertex has a texture coordinate, when the file has some and the
+    /// model's corners name one only in part (a face without `vt` in a textured group); empty
+    /// otherwise. The model's `texcoords` hold those of the vertices marked, in vertex order.
+    pub uv_named: Vec<Vec<bool>>,
+}
+
 /// Reads the OBJ `text` as `tobj::load_obj_buf` 4.0.5 reads it with the options this importer uses
 /// (see the module doc): the models, and the materials of the libraries `material_loader`
-/// returns, called once per `mtllib` line, in order, with the line's name as a path. Errors are
+/// returns, called once per `mtllib` line, in order, with the line's name as a path; and which
+/// vertices have a texture coordinate where only some do ([`Obj::uv_named`]). Errors are
 /// tobj's, at the same lines (the first a line or a model end meets). Allocates in proportion
 /// to the text (its definitions, faces and vertices), no more; never panics.
-pub(crate) fn load_obj<F>(text: &str, mut material_loader: F) -> LoadResult
+pub(crate) fn load_obj<F>(text: &str, mut material_loader: F) -> Result<Obj, LoadError>
 where
     F: FnMut(&Path) -> MTLLoadResult,
 {
@@ -243,7 +260,7 @@ where
     }
     // The last model ends with the text, faces or not.
     p.end_model()?;
-    Ok((p.models, p.materials.into_result()))
+    Ok(Obj { models: p.models, materials: p.materials.into_result(), uv_named: p.uv_named })
 }
 
 /// The text after a line's first space, trimmed (`""` without a space): tobj's `usemtl` and
@@ -327,6 +344,8 @@ struct Parser {
     /// x y z per `vn` line.
     normals: Vec<f32>,
     models: Vec<Model>,
+    /// [`Obj::uv_named`] of the models ended.
+    uv_named: Vec<Vec<bool>>,
     materials: Materials,
     /// The current model's name and material.
     name: String,
@@ -362,6 +381,7 @@ impl Default for Parser {
             texcoords: Vec::new(),
             normals: Vec::new(),
             models: Vec::new(),
+            uv_named: Vec::new(),
             materials: Materials::default(),
             name: UNNAMED.to_string(),
             material_id: None,
@@ -509,6 +529,9 @@ impl Parser {
                 mesh.vertex_color.extend_from_slice(k.ok_or(LoadError::FaceColorOutOfBounds)?);
             }
         }
+        let named = self.unique.iter().filter(|c| c.vt != ABSENT).count();
+        let some = !self.texcoords.is_empty() && named > 0 && named < n;
+        self.uv_named.push(if some { self.unique.iter().map(|c| c.vt != ABSENT).collect() } else { Vec::new() });
         mesh.indices = std::mem::take(&mut self.indices);
         mesh.face_arities = std::mem::take(&mut self.arities);
         if self.all_triangles {

@@ -862,15 +862,24 @@ fn obj_normal_indices_in_a_file_without_normals_are_ignored() {
     assert!(e.to_string().contains("line 5: normal index 1 out of range (0 defined so far)"), "{e}");
 }
 
-/// An OBJ group whose faces mix `vt` and no `vt` cannot keep its UVs: the importer says so
-/// (it used to drop them silently); a group with `vt` on every face keeps them, unwarned.
+/// An OBJ group whose faces mix `vt` and no `vt` keeps its UVs per corner: the corners without
+/// one hold NO_UV, the others theirs (the whole group's UVs were dropped, so its textured faces
+/// lost their texture), with a warning; a group with `vt` on every face keeps them, unwarned.
 #[test]
-fn obj_group_mixing_faces_with_and_without_vt_is_warned_about() {
+fn obj_group_mixing_faces_with_and_without_vt_keeps_the_uvs_it_has() {
     let p = Path::new("mem/mix.obj");
-    let mixed = "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nvt 0 0\nf 1/1 2/1 3/1\nf 2 4 3\n";
+    let mixed = "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nvt 0.25 0.125\nvt 0.5 1\nf 1/1 2/2 3/1\nf 2 4 3\nf 1/2 4/2 2/2\n";
     let imp = load_mesh_from_bytes(p, mixed.as_bytes()).unwrap();
-    assert!(imp.mesh.uvs.is_empty());
-    assert!(imp.warnings.iter().any(|w| w.0.contains("some faces have texture coordinates")), "{:?}", imp.warnings);
+    // Vertices in the order of first use: 1/1 2/2 3/1, then 2 4 3 (no vt), then 1/2 4/2
+    // (2/2 is the second vertex again); v flipped to 1 − v.
+    assert_eq!(imp.mesh.positions.len(), 8);
+    assert_eq!(imp.mesh.uvs.len(), 1);
+    let uv = &imp.mesh.uvs[0];
+    assert_eq!(&uv[..3], &[[0.25, 0.875], [0.5, 0.0], [0.25, 0.875]]);
+    assert!(uv[3..6].iter().all(|u| u[0].is_nan() && u[1].is_nan()), "{uv:?}");
+    assert_eq!(&uv[6..], &[[0.5, 0.0], [0.5, 0.0]]);
+    assert_eq!(imp.mesh.triangles, vec![[0, 1, 2], [3, 4, 5], [6, 7, 1]]);
+    assert!(imp.warnings.iter().any(|w| w.0.contains("some faces have no texture coordinates")), "{:?}", imp.warnings);
     let all = "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nvt 0 0\nf 1/1 2/1 3/1\nf 2/1 4/1 3/1\n";
     let imp = load_mesh_from_bytes(p, all.as_bytes()).unwrap();
     assert_eq!(imp.mesh.uvs.len(), 1);
@@ -928,7 +937,8 @@ fn obj_map_kd_without_a_name_and_many_mixed_groups_warn_once() {
     let imp = load_mesh(&d.join("m.obj")).unwrap();
     assert!(imp.mesh.materials[0].base_color_texture.is_none());
     assert!(imp.warnings.iter().any(|w| w.0.contains("map_Kd names no file")), "{:?}", imp.warnings);
-    let mixed: Vec<_> = imp.warnings.iter().filter(|w| w.0.contains("some faces have texture coordinates")).collect();
+    let mixed: Vec<_> =
+        imp.warnings.iter().filter(|w| w.0.contains("some faces have no texture coordinates")).collect();
     assert_eq!(mixed.len(), 1, "{:?}", imp.warnings);
     assert!(mixed[0].0.contains("\"g0\" (and 2 more)"), "{:?}", mixed[0]);
 }

@@ -120,10 +120,13 @@ type Loader<'a> = &'a dyn Fn(&Path) -> tobj::MTLLoadResult;
 /// not panic).
 fn both(text: &str, mtl: Loader<'_>, label: &str, guard: bool) -> Option<Outcome> {
     let our_calls = RefCell::new(Vec::<PathBuf>::new());
-    let ours = outcome(load_obj(text, |p: &Path| {
-        our_calls.borrow_mut().push(p.to_path_buf());
-        mtl(p)
-    }));
+    let ours = outcome(
+        load_obj(text, |p: &Path| {
+            our_calls.borrow_mut().push(p.to_path_buf());
+            mtl(p)
+        })
+        .map(|o| (o.models, o.materials)),
+    );
     let their_calls = RefCell::new(Vec::<PathBuf>::new());
     let tobj_run = || {
         outcome(tobj::load_obj_buf(&mut std::io::Cursor::new(text.as_bytes()), &tobj_options(), |p: &Path| {
