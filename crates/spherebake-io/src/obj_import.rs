@@ -654,8 +654,9 @@ pub(crate) fn import(ctx: &mut Ctx, bytes: &[u8]) -> Result<(Mesh, Vec<ImportedP
         // tobj gives the `mtllib` line's text after the keyword ([`tobj_text`]). One statement may
         // name several libraries (`mtllib a.mtl b.mtl`), but a file whose name has spaces
         // (`mtllib my lib.mtl`) is read whole when there is one, and a name in double quotes
-        // (`mtllib "my lib.mtl"`, as some exporters write one with spaces) is one file.
-        let given = p.to_string_lossy();
+        // (`mtllib "my lib.mtl"`, as some exporters write one with spaces) is one file. A
+        // Windows path's `\` is a folder separator (`mtllib mats\m.mtl`), as in `map_Kd`.
+        let given = p.to_string_lossy().replace('\\', "/");
         let quoted =
             given.strip_prefix('"').and_then(|s| s.strip_suffix('"')).filter(|s| !s.is_empty() && !s.contains('"'));
         let name = quoted.unwrap_or(&given);

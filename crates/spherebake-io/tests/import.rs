@@ -862,6 +862,23 @@ fn obj_normal_indices_in_a_file_without_normals_are_ignored() {
     assert!(e.to_string().contains("line 5: normal index 1 out of range (0 defined so far)"), "{e}");
 }
 
+/// An `mtllib` path written with Windows separators (`mtllib mats\m.mtl`) is found, as a
+/// `map_Kd` path with them is (it was not, so the materials were the default).
+#[test]
+fn obj_mtllib_with_backslashes_is_found() {
+    let files = std::collections::BTreeMap::from([
+        (PathBuf::from("mem/mats/m.mtl"), b"newmtl red\nKd 1 0 0\n".to_vec()),
+        (PathBuf::from("mem/mats/sub/n.mtl"), b"newmtl blue\nKd 0 0 1\n".to_vec()),
+    ]);
+    let obj = "mtllib mats\\m.mtl\nmtllib \"mats\\sub\\n.mtl\"\nusemtl red\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\nusemtl blue\nv 0 0 1\nf 1 2 4\n";
+    let imp = load_mesh_from_memory(Path::new("mem/x.obj"), obj.as_bytes(), files, &ImportOptions::default()).unwrap();
+    assert!(imp.warnings.is_empty(), "{:?}", imp.warnings);
+    let colour = |t: usize| imp.mesh.materials[imp.mesh.triangle_materials[t] as usize].base_color_factor_linear;
+    assert_eq!((colour(0), colour(1)), ([1.0, 0.0, 0.0, 1.0], [0.0, 0.0, 1.0, 1.0]));
+    let inputs: Vec<String> = imp.inputs.iter().map(|p| p.display().to_string()).collect();
+    assert_eq!(inputs, ["mem/x.obj", "mem/mats/m.mtl", "mem/mats/sub/n.mtl"]);
+}
+
 /// An OBJ group whose faces mix `vt` and no `vt` keeps its UVs per corner: the corners without
 /// one hold NO_UV, the others theirs (the whole group's UVs were dropped, so its textured faces
 /// lost their texture), with a warning; a group with `vt` on every face keeps them, unwarned.
