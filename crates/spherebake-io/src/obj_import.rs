@@ -657,8 +657,7 @@ pub(crate) fn import(ctx: &mut Ctx, bytes: &[u8]) -> Result<(Mesh, Vec<ImportedP
         // (`mtllib "my lib.mtl"`, as some exporters write one with spaces) is one file. A
         // Windows path's `\` is a folder separator (`mtllib mats\m.mtl`), as in `map_Kd`.
         let given = p.to_string_lossy().replace('\\', "/");
-        let quoted =
-            given.strip_prefix('"').and_then(|s| s.strip_suffix('"')).filter(|s| !s.is_empty() && !s.contains('"'));
+        let quoted = unquoted(&given);
         let name = quoted.unwrap_or(&given);
         let whole = read(name);
         let several = quoted.is_none() && name.split_whitespace().nth(1).is_some();
@@ -1288,7 +1287,8 @@ fn read_image<T>(
 /// The arguments of an MTL texture statement (`map_Kd [options] file`).
 #[derive(Debug, PartialEq)]
 struct MapArgs<'a> {
-    /// The rest of the line after the options, inner spaces kept (`my texture.png`).
+    /// The rest of the line after the options, inner spaces kept (`my texture.png`), without
+    /// surrounding double quotes.
     file: &'a str,
     /// `-o u v`: the texture's origin offset, OBJ texture space (v up).
     offset: [f32; 2],
@@ -1311,9 +1311,16 @@ impl MapArgs<'_> {
     }
 }
 
+/// The name inside double quotes (`"my lib.mtl"`, as some exporters write a name with spaces),
+/// `None` when `s` is not one quoted name (an empty one, or one holding `"`, is not).
+fn unquoted(s: &str) -> Option<&str> {
+    s.strip_prefix('"').and_then(|s| s.strip_suffix('"')).filter(|s| !s.is_empty() && !s.contains('"'))
+}
+
 /// Splits `[options] file` by the options of the MTL specification, each with its argument
 /// count (`-o`, `-s`, `-t` take one to three numbers); anything else ends the options and the
-/// rest of the line is the file name, so a name with spaces survives. A missing `v` of `-o` or
+/// rest of the line is the file name, so a name with spaces survives, its double quotes removed
+/// as an `mtllib` name's are (`map_Kd "my tex.png"`). A missing `v` of `-o` or
 /// `-s` keeps its default (0 and 1).
 fn parse_map_args(line: &str) -> MapArgs<'_> {
     fn pop(s: &str) -> (&str, &str) {
@@ -1371,7 +1378,8 @@ fn parse_map_args(line: &str) -> MapArgs<'_> {
             }
         }
     }
-    args.file = rest.trim();
+    let file = rest.trim();
+    args.file = unquoted(file).unwrap_or(file);
     args
 }
 
@@ -1448,6 +1456,12 @@ mod tests {
         assert_eq!(parse_map_args("-weird x.png"), args("-weird x.png", [0.0, 0.0], [1.0, 1.0]));
         assert_eq!(parse_map_args("-o 1 2 3 4.png"), args("4.png", [1.0, 2.0], [1.0, 1.0]));
         assert_eq!(parse_map_args("-s"), args("", [0.0, 0.0], [1.0, 1.0]));
+        // A name in double quotes is the name inside them, as an `mtllib` name; an empty or
+        // unbalanced one is kept as written.
+        assert_eq!(parse_map_args("\"my red.png\""), args("my red.png", [0.0, 0.0], [1.0, 1.0]));
+        assert_eq!(parse_map_args("-s 2 \"a \\b.png\" "), args("a \\b.png", [0.0, 0.0], [2.0, 1.0]));
+        assert_eq!(parse_map_args("\"a.png"), args("\"a.png", [0.0, 0.0], [1.0, 1.0]));
+        assert_eq!(parse_map_args("\"\""), args("\"\"", [0.0, 0.0], [1.0, 1.0]));
         // -imfchan names the channel a scalar map reads (z and anything else: the default).
         for (c, want) in [
             ("r", MaskChannel::R),

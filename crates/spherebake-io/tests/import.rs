@@ -1947,4 +1947,19 @@ fn an_attribute_whose_count_differs_from_positions_is_an_error() {
         );
         assert_eq!(e.to_string(), want);
     }
+
+/// A `map_Kd` name in double quotes (`map_Kd "my red.png"`) is the file inside them, as an
+/// `mtllib` name in quotes is (the quotes were kept, so the texture was not found).
+#[test]
+fn obj_map_kd_in_quotes_is_the_name_inside() {
+    let files = std::collections::BTreeMap::from([
+        (PathBuf::from("mem/m.mtl"), b"newmtl t\nmap_Kd -s 1 1 \"my red.png\"\n".to_vec()),
+        (PathBuf::from("mem/my red.png"), flat_png(&[255, 0, 0])),
+    ]);
+    let obj = "mtllib m.mtl\nusemtl t\nv 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0.5 0.5\nf 1/1 2/1 3/1\n";
+    let imp = load_mesh_from_memory(Path::new("mem/x.obj"), obj.as_bytes(), files, &ImportOptions::default()).unwrap();
+    assert!(imp.warnings.is_empty(), "{:?}", imp.warnings);
+    let tr = imp.mesh.materials[0].base_color_texture.as_ref().expect("the texture in quotes");
+    let t = &imp.mesh.textures[tr.texture];
+    assert_eq!((t.name.as_str(), t.texels_linear[0]), ("my red.png", [1.0, 0.0, 0.0, 1.0]));
 }
