@@ -1120,13 +1120,13 @@ fn obj_material(
     let mut kd: Option<(PathBuf, Placement)> = None;
     if let Some(map) = map.filter(|a| !a.file.is_empty()) {
         let file = map.file;
-        let p = mtl_dir.join(file.replace('\\', "/"));
+        let p = texture_path(mtl_dir, file);
         kd = Some((p.clone(), (map.offset, map.scale)));
         let slot = match texture_map.get(&p) {
             Some(s) => *s,
             None => {
                 let read =
-                    read_image(ctx, &mut textures.refused, &m.name, ("", "texture", "using Kd"), file, &p, |b| {
+                    read_image(ctx, &mut textures.refused, &m.name, ("", "texture", "using Kd"), file, mtl_dir, |b| {
                         decode_srgb_texture(file.to_owned(), b, &mut textures.decode)
                     });
                 let s = read.map(|d| {
@@ -1194,16 +1194,21 @@ fn obj_cut_out(
         return;
     }
     let file = dmap.file;
-    let p = mtl_dir.join(file.replace('\\', "/"));
+    let p = texture_path(mtl_dir, file);
     let colour = out.base_color_texture.as_ref().map(|t| t.texture);
     let key = (kd_path.map(Path::to_path_buf), p.clone(), dmap.channel);
     let index = match textures.cut.get(&key) {
         Some(&index) => index,
         None => {
-            let read =
-                read_image(ctx, &mut textures.refused, &m.name, ("map_d ", "map_d", "no cut-out"), file, &p, |b| {
-                    decode_mask(file.to_owned(), b, dmap.channel, &mut textures.decode)
-                });
+            let read = read_image(
+                ctx,
+                &mut textures.refused,
+                &m.name,
+                ("map_d ", "map_d", "no cut-out"),
+                file,
+                mtl_dir,
+                |b| decode_mask(file.to_owned(), b, dmap.channel, &mut textures.decode),
+            );
             let mask = read.inspect(|mask| {
                 if let Some((w, h)) = mask.reduced_from {
                     ctx.warn(format!(
@@ -1249,22 +1254,59 @@ fn obj_cut_out(
     out.alpha_mask_cutoff = Some(OBJ_MASK_CUTOFF);
 }
 
-/// Reads the image `file` (resolved to `p`) a texture statement of material `material` names
-/// and decodes it with `decode`. On failure, warns and gives `None`: "material M: cannot
-/// decode {what}P: E; {fallback}" or "material M: {reading} E; {fallback}" (`labels` =
-/// (what, reading, fallback)); a reference that must not be read (outside the folder, not a
-/// regular file, over the input budget) is kept in `refused` instead, failing the import.
+/// Where a texture statement's `file` is: in `mtl_dir`, the folder of the library that
+/// defines the material, `\` read as a folder separator (a Windows path).
+fn texture_path(mtl_dir: &Path, file: &str) -> PathBuf {
+    mtl_dir.join(file.replace('\\', "/"))
+}
+
+/// The file name of a Windows absolute path (a drive letter, `:` and a separator:
+/// `C:\Users\bob\tex\red.png`), which elsewhere reads as a relative name; `None` for any other
+/// path, or when its last component is no file name (`C:\tex\..`).
+fn windows_file_name(file: &str) -> Option<&str> {
+    let b = file.as_bytes();
+    let absolute = b.len() > 3 && b[0].is_ascii_alphabetic() && b[1] == b':' && matches!(b[2], b'\\' | b'/');
+    let name = file.rsplit(['\\', '/']).next()?;
+    (absolute && !matches!(name, "" | "." | "..")).then_some(name)
+}
+
+/// Reads the image `file` (in `mtl_dir`: [`texture_path`]) a texture statement of material
+/// `material` names and decodes it with `decode`. A Windows absolute path that is not found is
+/// looked for by its file name alone in `mtl_dir`, as Blender's `load_texture_image` does (the
+/// textures of a model moved off the machine that wrote it often sit next to its MTL), with a
+/// warning naming both; still inside the model's folder as [`Ctx::read_referenced`] holds it.
+/// On failure, warns and gives `None`: "material M: cannot decode {what}P: E; {fallback}" or
+/// "material M: {reading} E; {fallback}" (`labels` = (what, reading, fallback)); a reference
+/// that must not be read (outside the folder, not a regular file, over the input budget) is
+/// kept in `refused` instead, failing the import.
 fn read_image<T>(
     ctx: &mut Ctx,
     refused: &mut Option<IoError>,
     material: &str,
     labels: (&str, &str, &str),
     file: &str,
-    p: &Path,
+    mtl_dir: &Path,
     decode: impl FnOnce(&[u8]) -> Result<T, String>,
 ) -> Option<T> {
     let (what, reading, fallback) = labels;
-    match ctx.read_referenced(file, p, ReadLimit::AtMost(MAX_IMAGE_BYTES)) {
+    let limit = ReadLimit::AtMost(MAX_IMAGE_BYTES);
+    let mut p = texture_path(mtl_dir, file);
+    let mut read = ctx.read_referenced(file, &p, limit);
+    if let (Err(IoError::ReferenceNotFound { .. }), Some(name)) = (&read, windows_file_name(file)) {
+        let near = mtl_dir.join(name);
+        read = ctx.read_referenced(file, &near, limit);
+        if read.is_ok() {
+            // Found: the path as written is no dependency.
+            ctx.missing.retain(|m| *m != p);
+            ctx.warn(format!(
+                "material {material:?}: {file:?} not found (looked for {}); read {}, its file name next to the material library",
+                p.display(),
+                near.display()
+            ));
+            p = near;
+        }
+    }
+    match read {
         Ok(bytes) => match decode(&bytes) {
             Ok(v) => Some(v),
             Err(e) if e == OVER_DECODE_BUDGET => None, // one warning for all (`DecodeBudget::warning`)

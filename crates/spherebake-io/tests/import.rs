@@ -1963,3 +1963,39 @@ fn obj_map_kd_in_quotes_is_the_name_inside() {
     let t = &imp.mesh.textures[tr.texture];
     assert_eq!((t.name.as_str(), t.texels_linear[0]), ("my red.png", [1.0, 0.0, 0.0, 1.0]));
 }
+
+/// A `map_Kd` that is a Windows absolute path (`C:\Users\bob\tex\red.png`, a relative name on
+/// other systems) and is not found is read by its file name next to the MTL, as Blender reads
+/// it, with a warning naming both (the texture was lost); a POSIX absolute path is still
+/// refused, and a Windows one whose file is not there either is a missing texture.
+#[test]
+fn obj_map_kd_windows_absolute_path_is_read_next_to_the_mtl() {
+    let load = |map: &str| {
+        let files = std::collections::BTreeMap::from([
+            (PathBuf::from("mem/mats/m.mtl"), format!("newmtl t\nmap_Kd {map}\n").into_bytes()),
+            (PathBuf::from("mem/mats/red.png"), flat_png(&[255, 0, 0])),
+            (PathBuf::from("/tex/red.png"), flat_png(&[255, 0, 0])),
+        ]);
+        let obj = "mtllib mats/m.mtl\nusemtl t\nv 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0.5 0.5\nf 1/1 2/1 3/1\n";
+        load_mesh_from_memory(Path::new("mem/x.obj"), obj.as_bytes(), files, &ImportOptions::default())
+    };
+    for map in ["C:\\Users\\bob\\tex\\red.png", "d:/tex/red.png"] {
+        let imp = load(map).unwrap();
+        assert_eq!(imp.warnings.len(), 1, "{map}: {:?}", imp.warnings);
+        let w = &imp.warnings[0].0;
+        let written = format!("{map:?} not found (looked for mem/mats/{})", map.replace('\\', "/"));
+        assert!(w.contains(&written) && w.contains("read mem/mats/red.png, its file name next to"), "{w}");
+        let tr = imp.mesh.materials[0].base_color_texture.as_ref().expect("the texture next to the MTL");
+        assert_eq!(imp.mesh.textures[tr.texture].texels_linear[0], [1.0, 0.0, 0.0, 1.0]);
+        let inputs: Vec<String> = imp.inputs.iter().map(|p| p.display().to_string()).collect();
+        assert_eq!(inputs, ["mem/x.obj", "mem/mats/m.mtl", "mem/mats/red.png"]);
+        assert!(imp.missing.is_empty(), "{:?}", imp.missing);
+    }
+    let e = load("/tex/red.png").unwrap_err();
+    assert!(matches!(e, IoError::OutsideAsset { .. }), "{e}");
+    let imp = load("C:\\tex\\blue.png").unwrap();
+    assert!(imp.mesh.materials[0].base_color_texture.is_none());
+    assert!(imp.warnings.iter().any(|w| w.0.contains("not found")), "{:?}", imp.warnings);
+    let missing: Vec<String> = imp.missing.iter().map(|p| p.display().to_string()).collect();
+    assert_eq!(missing, ["mem/mats/C:/tex/blue.png", "mem/mats/blue.png"]);
+}
