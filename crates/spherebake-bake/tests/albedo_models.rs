@@ -73,3 +73,47 @@ fn closed_models_are_covered_from_an_interior_point() {
         }
     }
 }
+
+/// OBJ vertex colours reach the albedo: a cube whose every vertex is red (`v x y z 1 0 0`)
+/// bakes the albedo of the same cube with `Kd 1 0 0`, whose DC term is red: √(4π) · (1, 0, 0)
+/// seen from the centre, every texel the cube's colour (the colours were dropped: white). A
+/// half-grey sRGB colour (0.5) bakes as `Kd` ((0.5 + 0.055) / 1.055)^2.4, its linear value.
+#[test]
+fn obj_vertex_colours_bake_as_the_same_kd() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let corners = [[-1, -1, -1], [1, -1, -1], [1, 1, -1], [-1, 1, -1], [-1, -1, 1], [1, -1, 1], [1, 1, 1], [-1, 1, 1]];
+    let quads = "f 1 4 3 2\nf 5 6 7 8\nf 1 2 6 5\nf 2 3 7 6\nf 3 4 8 7\nf 4 1 5 8\n";
+    let cube = |colour: &str| -> String {
+        corners.iter().map(|c| format!("v {} {} {}{colour}\n", c[0], c[1], c[2])).collect::<String>() + quads
+    };
+    let bake = |name: &str, obj: String, mtl: Option<&str>| {
+        if let Some(kd) = mtl {
+            std::fs::write(d.join(format!("{name}.mtl")), format!("newmtl m\nKd {kd}\n")).unwrap();
+        }
+        std::fs::write(d.join(format!("{name}.obj")), obj).unwrap();
+        let mesh = spherebake_io::load_mesh(&d.join(format!("{name}.obj"))).unwrap().mesh;
+        let flip = vec![false; mesh.triangles.len()];
+        let s = AlbedoSettings { cubemap_size: 8, ..Default::default() };
+        bake_albedo(&mesh, &flip, &[[0.0, 0.0, 0.0, 2.0]], &s).unwrap().0.coefficients
+    };
+    let dc = (4.0 * std::f64::consts::PI).sqrt();
+    let half = ((0.5f64 + 0.055) / 1.055).powf(2.4);
+    for (name, colour, kd, want) in [
+        ("red", " 1 0 0", "1 0 0", [1.0, 0.0, 0.0]),
+        ("grey", " 0.5 0.5 0.5", "0.214041140 0.214041140 0.214041140", [half; 3]),
+    ] {
+        let coloured = bake(&format!("{name}_v"), cube(colour), None);
+        let kd_obj = format!("mtllib {name}_kd.mtl\nusemtl m\n{}", cube(""));
+        let by_kd = bake(&format!("{name}_kd"), kd_obj, Some(kd));
+        for (k, w) in want.iter().enumerate() {
+            let got = f64::from(coloured[0][k]);
+            assert!((got - w * dc).abs() < 1e-5, "{name}: DC channel {k}: {got} vs {}", w * dc);
+        }
+        for (i, (a, b)) in coloured.iter().zip(&by_kd).enumerate() {
+            for k in 0..3 {
+                assert!((a[k] - b[k]).abs() < 1e-6, "{name}: coefficient {i} channel {k}: {} vs Kd {}", a[k], b[k]);
+            }
+        }
+    }
+}

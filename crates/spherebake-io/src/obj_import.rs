@@ -15,7 +15,7 @@ use spherebake_geom::{Material, Mesh, TextureRef, UvTransform, NO_UV};
 
 use crate::polygon::{How, Triangulator, MAX_EAR_CLIP_CORNERS};
 use crate::texture::{
-    decode_mask, decode_srgb_texture, DecodeBudget, Mask, MaskChannel, TexelBudget, OVER_DECODE_BUDGET,
+    decode_mask, decode_srgb_texture, srgb_to_linear, DecodeBudget, Mask, MaskChannel, TexelBudget, OVER_DECODE_BUDGET,
 };
 use crate::{Ctx, ImportedPart, IoError, ReadLimit, MAX_IMAGE_BYTES, MAX_MTL_BYTES};
 
@@ -55,7 +55,8 @@ struct Rewrite {
     lines: bool,
     /// Vertex colours on some `v` lines only, or three values after x y z that are not all
     /// numbers: tobj gives vertex i the i-th colour read, so it would fail on a later vertex
-    /// or shift them. This importer does not use OBJ vertex colours; they are dropped.
+    /// or shift them. It is given every `v` line with a colour instead, white (1 1 1) where
+    /// there is none or it is not three numbers ([`tobj_text`]).
     colours: bool,
     /// Faces name normals (`f 1//1 2//2 3//3`) but the file has no `vn` line: the indices are
     /// not read (tobj reads no normal when there are none), and the normals are computed, as
@@ -464,7 +465,9 @@ fn vertex_values(tok: std::str::SplitWhitespace<'_>) -> Result<Vertex, String> {
 /// ([`logical_lines`]; then as many empty lines as it had physical lines after its first, so
 /// the line count stays), the `v`, `vt`, `vn` and `f` lines ended at `#`, the `l` lines empty,
 /// `usemtl` and `mtllib` lines as `KEYWORD NAME`, a `vt u` line as `vt u 0`, and, for
-/// [`Rewrite::colours`], every `v` line without its colour. For [`Rewrite::libraries_first`],
+/// [`Rewrite::colours`], every `v` line as x y z r g b: its position (x y z divided by w as
+/// tobj divides it, in f32, written so it reads back to the same value) and its colour, or
+/// white. For [`Rewrite::libraries_first`],
 /// the `mtllib` lines are moved to the start, in their order (the text has as many more lines
 /// as they are). Other lines are kept as they are (a name may hold `#`). Else it is `text` itself:
 /// the check found nothing to rewrite (a file's `#` header lines alone are read by tobj
@@ -498,12 +501,30 @@ fn tobj_text<'a>(text: &'a str, rewrite: &Rewrite) -> std::borrow::Cow<'a, str> 
         match key {
             Some("l") => {}
             Some("v") if rewrite.colours => {
-                // x y z, or x y z w: the check has made sure of x y z, x y z w or x y z c c c.
+                // The check has made sure of x y z, x y z w (w finite, not 0, x / w finite) or
+                // x y z c c c.
                 let values: Vec<&str> = tok.take(7).collect();
                 out.push('v');
-                for v in &values[..if values.len() == 4 { 4 } else { values.len().min(3) }] {
-                    out.push(' ');
-                    out.push_str(v);
+                if let [x, y, z, w] = values[..] {
+                    let w: f32 = w.parse().unwrap_or(1.0);
+                    for x in [x, y, z] {
+                        // `Display` of an f32 is the shortest text that reads back to it.
+                        out.push_str(&format!(" {}", x.parse::<f32>().unwrap_or(0.0) / w));
+                    }
+                } else {
+                    for v in values.iter().take(3) {
+                        out.push(' ');
+                        out.push_str(v);
+                    }
+                }
+                match &values[..] {
+                    [_, _, _, c @ ..] if c.len() == 3 && c.iter().all(|t| t.parse::<f32>().is_ok()) => {
+                        for v in c {
+                            out.push(' ');
+                            out.push_str(v);
+                        }
+                    }
+                    _ => out.push_str(" 1 1 1"),
                 }
             }
             Some("mtllib") if rewrite.libraries_first => {}
@@ -757,6 +778,14 @@ pub(crate) fn import(ctx: &mut Ctx, bytes: &[u8]) -> Result<(Mesh, Vec<ImportedP
     let mut parts = Vec::new();
     let mut has_uv = false;
     let mut uvs = Vec::new();
+    // OBJ vertex colours (`v x y z r g b`, as scanners and Blender write them): sRGB, read as
+    // Blender's importer reads them (it converts them to linear, `srgb_to_linearrgb`, into a
+    // float colour attribute), alpha 1; a vertex without one is white (the rewrite gives it
+    // 1 1 1: [`Rewrite::colours`]). Values outside [0, 1] are clamped after, with a warning
+    // (`clamp_colours`: the conversion keeps 0 and 1, so that is clamping the sRGB values).
+    // Only a file with colours has them.
+    let coloured = models.iter().any(|m| !m.mesh.vertex_color.is_empty());
+    let mut colours: Vec<[f32; 4]> = Vec::new();
     let mut mixed_vt: Vec<&str> = Vec::new();
     let mut triangulator = Triangulator::default();
     let mut repeated = RepeatedPolygons::new(&models);
@@ -851,6 +880,11 @@ pub(crate) fn import(ctx: &mut Ctx, bytes: &[u8]) -> Result<(Mesh, Vec<ImportedP
         let t0 = mesh.triangles.len() as u32;
         mesh.positions.extend(positions);
         mesh.normals.extend(normals);
+        if coloured {
+            let srgb = m.vertex_color.chunks_exact(3).take(n);
+            colours.extend(srgb.map(|c| [srgb_to_linear(c[0]), srgb_to_linear(c[1]), srgb_to_linear(c[2]), 1.0]));
+            colours.resize(mesh.positions.len(), [1.0; 4]);
+        }
         mesh.triangles.extend(tris.iter().map(|t| [t[0] + v0, t[1] + v0, t[2] + v0]));
         mesh.triangle_materials.extend(std::iter::repeat_n(material, tris.len()));
         if !has_normals {
@@ -893,6 +927,9 @@ pub(crate) fn import(ctx: &mut Ctx, bytes: &[u8]) -> Result<(Mesh, Vec<ImportedP
     }
     if let Some(e) = texture_map.refused {
         return Err(e);
+    }
+    if coloured {
+        mesh.colors_linear = colours;
     }
     if has_uv {
         mesh.uvs = vec![uvs];

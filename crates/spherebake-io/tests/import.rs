@@ -453,8 +453,8 @@ fn obj_files_read_as_checked_and_tobjs_errors_name_the_line() {
         // A line element is no surface (tobj made it a zero-area triangle, and the closed
         // tetrahedron non-manifold).
         b"v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 1 3 2\nl 1 2 3\nf 1 2 4\nf 1 4 3\nf 2 3 4\nl 4 1\n",
-        // Colours on some vertices only (tobj would misplace them; this importer does not use
-        // OBJ vertex colours), and one that is not three numbers.
+        // Colours on some vertices only (tobj would misplace them: the others are given white),
+        // and one that is not three numbers.
         b"v 0 0 0 1 0 0\nv 1 0 0\nv 0 1 0 0.5 x 1\nv 0 0 1\nf 1 3 2\nf 1 2 4\nf 1 4 3\nf 2 3 4\n",
         // A comment's or a name's `\\` continues nothing; a data line continued into the end.
         b"# exported from C:\\work\\\nv 0 0 0\no part \\\nv 1 0 0\nv 0 1 0\nv 0 0 1 # a \\\nf 1 3 2\nf 1 2 4\nf 1 4 3\nf 2 3 \\\n4 \\",
@@ -1998,4 +1998,34 @@ fn obj_map_kd_windows_absolute_path_is_read_next_to_the_mtl() {
     assert!(imp.warnings.iter().any(|w| w.0.contains("not found")), "{:?}", imp.warnings);
     let missing: Vec<String> = imp.missing.iter().map(|p| p.display().to_string()).collect();
     assert_eq!(missing, ["mem/mats/C:/tex/blue.png", "mem/mats/blue.png"]);
+}
+
+/// OBJ vertex colours (`v x y z r g b`) are the mesh's vertex colours, read as sRGB and made
+/// linear as Blender reads them (they were dropped): a vertex without one is white, one whose
+/// values are not three numbers too, values outside [0, 1] are clamped with a warning, and a
+/// weighted vertex (`v x y z w`) among coloured ones keeps its position x/w y/w z/w.
+#[test]
+fn obj_vertex_colours_are_read_as_srgb() {
+    let p = Path::new("mem/c.obj");
+    let obj = "v 0 0 0 1 0.5 0\nv 2 0 0 2\nv 0 1 0 0 0 1.5\nv 0 0 1 0.5 x 1\nf 1 3 2\nf 1 2 4\nf 1 4 3\nf 2 3 4\n";
+    let imp = load_mesh_from_bytes(p, obj.as_bytes()).unwrap();
+    // Vertices in the order of first use: v1, v3, v2, v4. sRGB 0.5 is ((0.5 + 0.055) / 1.055)^2.4.
+    let half = 0.214_041_14;
+    let want = [[1.0, half, 0.0, 1.0], [0.0, 0.0, 1.0, 1.0], [1.0; 4], [1.0; 4]];
+    assert_eq!(imp.mesh.colors_linear.len(), 4);
+    for (got, want) in imp.mesh.colors_linear.iter().zip(want) {
+        assert!(got.iter().zip(want).all(|(g, w)| (g - w).abs() < 1e-6), "{:?}", imp.mesh.colors_linear);
+    }
+    assert_eq!(imp.mesh.positions[2], Vec3::new(1.0, 0.0, 0.0));
+    assert_eq!(imp.warnings.len(), 1, "{:?}", imp.warnings);
+    assert!(imp.warnings[0].0.contains("colours outside [0, 1] clamped: 0 material colour(s)"), "{:?}", imp.warnings);
+    assert!(imp.warnings[0].0.contains("1 vertex colour(s)"), "{:?}", imp.warnings);
+    // Every vertex coloured: no rewrite; no colour at all: none.
+    let all = "v 0 0 0 0 0 0\nv 1 0 0 1 1 1\nv 0 1 0 0.5 0.5 0.5\nf 1 2 3\n";
+    let imp = load_mesh_from_bytes(p, all.as_bytes()).unwrap();
+    let grey = [half, half, half, 1.0];
+    let close = |a: &[f32; 4], b: &[f32; 4]| a.iter().zip(b).all(|(x, y)| (x - y).abs() < 1e-6);
+    assert!(imp.mesh.colors_linear.iter().zip([[0.0, 0.0, 0.0, 1.0], [1.0; 4], grey]).all(|(a, b)| close(a, &b)));
+    let plain = load_mesh_from_bytes(p, b"v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n").unwrap();
+    assert!(plain.mesh.colors_linear.is_empty());
 }
