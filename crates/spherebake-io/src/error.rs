@@ -100,6 +100,10 @@ pub enum IoError {
     /// The OBJ parser failed.
     #[error("{}: cannot parse OBJ: {message}", path.display())]
     Obj { path: PathBuf, message: String },
+    /// An OBJ file that is not text this importer reads: UTF-16, binary, or bytes that are
+    /// not UTF-8 and read as no triangle (`why` says which).
+    #[error("{}: is not UTF-8 text ({why})", path.display())]
+    NotText { path: PathBuf, why: String },
     /// A position is beyond what f32 bounding spheres can bound.
     #[error("{}: coordinate {value:e} is beyond the supported range ±{limit:e} (f32 spheres could not bound the model)", path.display())]
     CoordinateRange { path: PathBuf, value: f32, limit: f32 },

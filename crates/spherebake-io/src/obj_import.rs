@@ -621,8 +621,27 @@ fn mtl_colours_ok(bytes: &[u8]) -> bool {
     })
 }
 
+/// Why `bytes` are plainly not OBJ text: a UTF-16 byte-order mark, or a NUL byte in the first
+/// KiB (UTF-16 text without a mark has one in each ASCII character, a binary file some). Read
+/// as UTF-8 they gave no line and were refused as "no triangles to import". Bytes that are
+/// merely not UTF-8 (a Latin-1 comment or name) are read as U+FFFD ([`utf8_lossy`]), and said
+/// to be no UTF-8 text only when they then give no triangle ([`import`]).
+fn not_text(bytes: &[u8]) -> Option<String> {
+    match bytes {
+        [0xFF, 0xFE, ..] => return Some("it starts with a UTF-16 little-endian byte-order mark".into()),
+        [0xFE, 0xFF, ..] => return Some("it starts with a UTF-16 big-endian byte-order mark".into()),
+        _ => {}
+    }
+    let first = &bytes[..bytes.len().min(1024)];
+    let nul = first.iter().position(|&b| b == 0)?;
+    Some(format!("a NUL byte at offset {nul}: UTF-16 or binary"))
+}
+
 pub(crate) fn import(ctx: &mut Ctx, bytes: &[u8]) -> Result<(Mesh, Vec<ImportedPart>), IoError> {
     let path = ctx.path.clone();
+    if let Some(why) = not_text(bytes) {
+        return Err(IoError::NotText { path, why });
+    }
     let text = text_of(bytes);
     let rewrite = check_lines(&path, &text)?;
     if rewrite.unread_normals {
@@ -930,6 +949,12 @@ pub(crate) fn import(ctx: &mut Ctx, bytes: &[u8]) -> Result<(Mesh, Vec<ImportedP
     }
     if coloured {
         mesh.colors_linear = colours;
+    }
+    // Bytes that are not UTF-8 and read as no triangle: said so, rather than "no triangles".
+    if let (true, Err(e)) = (mesh.triangles.is_empty(), std::str::from_utf8(bytes)) {
+        let at = e.valid_up_to();
+        let why = format!("byte 0x{:02x} at offset {at} is not UTF-8", bytes[at]);
+        return Err(IoError::NotText { path, why });
     }
     if has_uv {
         mesh.uvs = vec![uvs];

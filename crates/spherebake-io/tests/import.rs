@@ -2029,3 +2029,37 @@ fn obj_vertex_colours_are_read_as_srgb() {
     let plain = load_mesh_from_bytes(p, b"v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n").unwrap();
     assert!(plain.mesh.colors_linear.is_empty());
 }
+
+/// A UTF-16 or binary OBJ is refused as not UTF-8 text, saying why (it was "no triangles to
+/// import"); a Latin-1 byte in a comment of a file that has triangles still imports, and one
+/// where the bytes that are not UTF-8 leave no triangle is named by its first such byte.
+#[test]
+fn obj_that_is_not_utf8_text_says_so() {
+    let p = Path::new("mem/u.obj");
+    let t = "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n";
+    let utf16 = |bom: bool, big: bool| -> Vec<u8> {
+        let units = bom.then_some(0xFEFFu16).into_iter().chain(t.encode_utf16());
+        units.flat_map(|u| if big { u.to_be_bytes() } else { u.to_le_bytes() }).collect()
+    };
+    let cases: [(Vec<u8>, &str); 4] = [
+        (utf16(true, false), "mem/u.obj: is not UTF-8 text (it starts with a UTF-16 little-endian byte-order mark)"),
+        (utf16(true, true), "mem/u.obj: is not UTF-8 text (it starts with a UTF-16 big-endian byte-order mark)"),
+        (utf16(false, false), "mem/u.obj: is not UTF-8 text (a NUL byte at offset 1: UTF-16 or binary)"),
+        (
+            b"\x89PNG\r\n\x1a\n\0\0\0\rIHDR".to_vec(),
+            "mem/u.obj: is not UTF-8 text (a NUL byte at offset 8: UTF-16 or binary)",
+        ),
+    ];
+    for (bytes, want) in cases {
+        let e = load_mesh_from_bytes(p, &bytes).unwrap_err();
+        assert_eq!(e.to_string(), want);
+    }
+    let mut latin1 = b"# caf\xe9\n".to_vec();
+    latin1.extend_from_slice(t.as_bytes());
+    assert_eq!(load_mesh_from_bytes(p, &latin1).unwrap().mesh.triangles.len(), 1);
+    let e = load_mesh_from_bytes(p, b"# caf\xe9\nv 0 0 0\n").unwrap_err();
+    assert_eq!(e.to_string(), "mem/u.obj: is not UTF-8 text (byte 0xe9 at offset 5 is not UTF-8)");
+    // UTF-8 text with no triangle is what it was.
+    let e = load_mesh_from_bytes(p, b"# cafe\nv 0 0 0\n").unwrap_err();
+    assert!(matches!(e, IoError::EmptyMesh { .. }), "{e}");
+}
