@@ -1947,6 +1947,7 @@ fn an_attribute_whose_count_differs_from_positions_is_an_error() {
         );
         assert_eq!(e.to_string(), want);
     }
+}
 
 /// A `map_Kd` name in double quotes (`map_Kd "my red.png"`) is the file inside them, as an
 /// `mtllib` name in quotes is (the quotes were kept, so the texture was not found).
