@@ -113,6 +113,10 @@ pub enum IoError {
     /// raises it; `None`: a fixed cap.
     #[error("{}: {what}, over the limit of {limit}{}", path.display(), match per_budget_byte { Some(k) => format!(" ({k} per byte of the input budget; --max-input-mb raises it)"), None => " (a fixed cap)".into() })]
     OverLimit { path: PathBuf, what: String, limit: u64, per_budget_byte: Option<u64> },
+    /// Values of glTF accessors without a buffer view past `per_json_byte` per byte of the
+    /// file's JSON (nothing else in the file bounds them); the input budget does not raise it.
+    #[error("{}: {what}, over the limit of {limit} ({per_json_byte} per byte of its {json_bytes} bytes of glTF JSON; --max-input-mb does not raise it)", path.display())]
+    OverJsonLimit { path: PathBuf, what: String, limit: u64, per_json_byte: u64, json_bytes: u64 },
     /// The file imports but holds no triangles; `reason` says why when the importer knows (the
     /// scene used has no nodes, every primitive was points or lines).
     #[error("{}: no triangles to import{}", path.display(), reason.as_ref().map(|r| format!(": {r}")).unwrap_or_default())]

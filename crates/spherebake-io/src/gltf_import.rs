@@ -32,6 +32,22 @@ const MAX_VERTICES: usize = 1 << 27;
 /// before they are read, and `--max-input-mb` raises the limit with the budget.
 const VERTICES_PER_BUDGET_BYTE: u64 = 1;
 
+/// Most triangles one import may produce (all placements together), as [`MAX_VERTICES`].
+const MAX_TRIANGLES: usize = 1 << 27;
+
+/// Triangles one import may produce per byte of the input budget, up to [`MAX_TRIANGLES`], as
+/// [`VERTICES_PER_BUDGET_BYTE`]: checked before a primitive's indices are read.
+const TRIANGLES_PER_BUDGET_BYTE: u64 = 1;
+
+/// Triangles a primitive of `corners` indices (or vertices) makes: strips and fans one per
+/// corner after the second, lists one per three.
+fn triangles_of(mode: Mode, corners: usize) -> usize {
+    match mode {
+        Mode::TriangleStrip | Mode::TriangleFan => corners.saturating_sub(2),
+        _ => corners / 3,
+    }
+}
+
 /// Largest accessor (in components) accepted without a buffer view (zeros + sparse values).
 const MAX_VIEWLESS_VALUES: usize = 1 << 26;
 
@@ -609,26 +625,24 @@ impl Source<'_> {
                 let (limit, budget) =
                     budget_limit(self.ctx.opts.max_input_bytes, VIEWLESS_VALUES_PER_BUDGET_BYTE, usize::MAX);
                 let by_json = self.json_len.saturating_mul(VIEWLESS_VALUES_PER_JSON_BYTE);
-                if total > limit.min(by_json) {
-                    let (limit, per_budget_byte, why) = if by_json < limit {
-                        (
-                            by_json,
-                            None,
-                            format!(
-                                " ({VIEWLESS_VALUES_PER_JSON_BYTE} per byte of its {} bytes of glTF JSON)",
-                                self.json_len
-                            ),
-                        )
-                    } else {
-                        (limit, budget.then_some(VIEWLESS_VALUES_PER_BUDGET_BYTE), String::new())
-                    };
+                let what = format!(
+                    "accessor {ai}: {count} elements without a buffer view make {total} such values read in all"
+                );
+                if total > by_json && by_json < limit {
+                    return Err(IoError::OverJsonLimit {
+                        path: self.path(),
+                        what,
+                        limit: by_json as u64,
+                        per_json_byte: VIEWLESS_VALUES_PER_JSON_BYTE as u64,
+                        json_bytes: self.json_len as u64,
+                    });
+                }
+                if total > limit {
                     return Err(IoError::OverLimit {
                         path: self.path(),
-                        what: format!(
-                            "accessor {ai}: {count} elements without a buffer view make {total} such values read in all{why}"
-                        ),
+                        what,
                         limit: limit as u64,
-                        per_budget_byte,
+                        per_budget_byte: budget.then_some(VIEWLESS_VALUES_PER_BUDGET_BYTE),
                     });
                 }
                 self.viewless_values_read.set(total);
@@ -973,21 +987,72 @@ impl Source<'_> {
         // node ← instance), for meshes with primitives to import. Skinned nodes ignore
         // instancing (the extension excludes skins). Each placement of each live primitive adds
         // a vertex at least, so the vertex limit below bounds placements × primitives too.
+        // The vertices the placements will make are counted as they are listed (each node's
+        // instance count from its accessors, before the matrices are built), so a small file
+        // cannot list millions of instances of a mesh before the vertex limit is checked.
+        let vertex_limit = budget_limit(self.ctx.opts.max_input_bytes, VERTICES_PER_BUDGET_BYTE, MAX_VERTICES);
+        let over_vertices = |ni: usize, total: usize| IoError::OverLimit {
+            path: path.clone(),
+            what: format!("node {ni}: the scene expands to {total} vertices or more (every placement counted)"),
+            limit: vertex_limit.0 as u64,
+            per_budget_byte: vertex_limit.1.then_some(VERTICES_PER_BUDGET_BYTE),
+        };
+        // Triangles are held the same way ([`triangles_of`] the corners each placement reads):
+        // a short index accessor placed by many nodes or instances made billions of triangles
+        // from a 5 KB file, past u32 indices.
+        let triangle_limit = budget_limit(self.ctx.opts.max_input_bytes, TRIANGLES_PER_BUDGET_BYTE, MAX_TRIANGLES);
+        let over_triangles = |ni: usize, total: usize| IoError::OverLimit {
+            path: path.clone(),
+            what: format!("node {ni}: the scene expands to {total} triangles or more (every placement counted)"),
+            limit: triangle_limit.0 as u64,
+            per_budget_byte: triangle_limit.1.then_some(TRIANGLES_PER_BUDGET_BYTE),
+        };
+        let (mut planned, mut planned_tris) = (0usize, 0usize);
         let mut placements: Vec<(usize, DMat4)> = Vec::with_capacity(instances.len());
         for &ni in &instances {
-            if live.get(&nodes[ni].mesh().expect("instances have meshes").index()).is_none_or(Vec::is_empty) {
+            let Some(prims) = live.get(&nodes[ni].mesh().expect("instances have meshes").index()) else { continue };
+            if prims.is_empty() {
                 continue;
             }
+            let per_placement: usize = prims
+                .iter()
+                .filter_map(|p| p.get(&Semantic::Positions))
+                .map(|a| a.count())
+                .fold(0, usize::saturating_add);
+            let tris_per_placement: usize = prims
+                .iter()
+                .map(|p| {
+                    let corners = p.indices().or_else(|| p.get(&Semantic::Positions)).map_or(0, |a| a.count());
+                    triangles_of(p.mode(), corners)
+                })
+                .fold(0, usize::saturating_add);
+            let mut plan = |ni: usize, copies: usize| {
+                planned = planned.saturating_add(copies.saturating_mul(per_placement));
+                planned_tris = planned_tris.saturating_add(copies.saturating_mul(tris_per_placement));
+                if planned > vertex_limit.0 {
+                    Err(over_vertices(ni, planned))
+                } else if planned_tris > triangle_limit.0 {
+                    Err(over_triangles(ni, planned_tris))
+                } else {
+                    Ok(())
+                }
+            };
             match self.instancing.get(&ni).copied() {
                 Some(attrs) if nodes[ni].skin().is_none() => {
+                    let count =
+                        attrs.iter().flatten().find_map(|&ai| self.doc.accessors().nth(ai)).map_or(1, |a| a.count());
+                    plan(ni, count)?;
                     for m in self.instance_matrices(ni, attrs)? {
                         placements.push((ni, world[ni] * m));
                     }
                 }
-                _ => placements.push((ni, world[ni])),
+                _ => {
+                    plan(ni, 1)?;
+                    placements.push((ni, world[ni]));
+                }
             }
         }
-        let vertex_limit = budget_limit(self.ctx.opts.max_input_bytes, VERTICES_PER_BUDGET_BYTE, MAX_VERTICES);
+
         for &(ni, node_world) in &placements {
             let node = nodes[ni].clone();
             let mesh = node.mesh().expect("instances have meshes");
@@ -1031,6 +1096,18 @@ impl Source<'_> {
                         primitive: pi,
                         vertex: v,
                         value: p.to_array(),
+                    });
+                }
+                let corners = prim.indices().map_or(n, |acc| acc.count());
+                let tri_total = b.mesh.triangles.len().saturating_add(triangles_of(mode, corners));
+                if tri_total > triangle_limit.0 {
+                    return Err(IoError::OverLimit {
+                        path,
+                        what: format!(
+                            "{ctx_name} (node {ni}): the scene expands to {tri_total} triangles or more (every placement counted)"
+                        ),
+                        limit: triangle_limit.0 as u64,
+                        per_budget_byte: triangle_limit.1.then_some(TRIANGLES_PER_BUDGET_BYTE),
                     });
                 }
                 let indices: Vec<u32> = match prim.indices() {

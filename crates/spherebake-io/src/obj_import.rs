@@ -950,8 +950,15 @@ pub(crate) fn import(ctx: &mut Ctx, bytes: &[u8]) -> Result<(Mesh, Vec<ImportedP
     if coloured {
         mesh.colors_linear = colours;
     }
-    // Bytes that are not UTF-8 and read as no triangle: said so, rather than "no triangles".
-    if let (true, Err(e)) = (mesh.triangles.is_empty(), std::str::from_utf8(bytes)) {
+    // Bytes that are not UTF-8, read as no triangle and with no vertex or face line at all:
+    // said so, rather than "no triangles" (a point cloud with a Latin-1 comment is an OBJ
+    // without faces, and says that).
+    let objish = || {
+        bytes
+            .split(|&b| b == b'\n')
+            .any(|l| l.trim_ascii_start().starts_with(b"v ") || l.trim_ascii_start().starts_with(b"f "))
+    };
+    if let (true, Err(e)) = (mesh.triangles.is_empty() && !objish(), std::str::from_utf8(bytes)) {
         let at = e.valid_up_to();
         let why = format!("byte 0x{:02x} at offset {at} is not UTF-8", bytes[at]);
         return Err(IoError::NotText { path, why });

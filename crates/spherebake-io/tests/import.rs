@@ -1837,8 +1837,8 @@ fn accessors_without_a_buffer_view_are_held_to_the_input_budget() {
     let e = refused(spherebake_io::load_mesh_from_bytes(Path::new("mem/v.gltf"), bomb.as_bytes()), "over the limit");
     let s = e.to_string();
     let by_json = bomb.len() as u64 * 4096;
-    assert!(matches!(e, IoError::OverLimit { limit, .. } if limit == by_json), "{s}");
-    assert!(s.contains("per byte of its") && s.contains("bytes of glTF JSON"), "{s}");
+    assert!(matches!(e, IoError::OverJsonLimit { limit, .. } if limit == by_json), "{s}");
+    assert!(s.contains("4096 per byte of its") && s.contains("does not raise it"), "{s}");
 }
 
 /// Skipped primitives are counted per kind, each once however often its mesh is placed: 1,000
@@ -2026,6 +2026,7 @@ fn obj_vertex_colours_are_read_as_srgb() {
     let imp = load_mesh_from_bytes(p, all.as_bytes()).unwrap();
     let grey = [half, half, half, 1.0];
     let close = |a: &[f32; 4], b: &[f32; 4]| a.iter().zip(b).all(|(x, y)| (x - y).abs() < 1e-6);
+    assert_eq!(imp.mesh.colors_linear.len(), 3);
     assert!(imp.mesh.colors_linear.iter().zip([[0.0, 0.0, 0.0, 1.0], [1.0; 4], grey]).all(|(a, b)| close(a, &b)));
     let plain = load_mesh_from_bytes(p, b"v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n").unwrap();
     assert!(plain.mesh.colors_linear.is_empty());
@@ -2058,9 +2059,49 @@ fn obj_that_is_not_utf8_text_says_so() {
     let mut latin1 = b"# caf\xe9\n".to_vec();
     latin1.extend_from_slice(t.as_bytes());
     assert_eq!(load_mesh_from_bytes(p, &latin1).unwrap().mesh.triangles.len(), 1);
-    let e = load_mesh_from_bytes(p, b"# caf\xe9\nv 0 0 0\n").unwrap_err();
+    let e = load_mesh_from_bytes(p, b"# caf\xe9\nnothing of an OBJ\n").unwrap_err();
     assert_eq!(e.to_string(), "mem/u.obj: is not UTF-8 text (byte 0xe9 at offset 5 is not UTF-8)");
+    // A point cloud with a Latin-1 comment is read: it has no faces, and says that.
+    let e = load_mesh_from_bytes(p, b"# caf\xe9\nv 0 0 0\n").unwrap_err();
+    assert!(matches!(e, IoError::EmptyMesh { .. }), "{e}");
     // UTF-8 text with no triangle is what it was.
     let e = load_mesh_from_bytes(p, b"# cafe\nv 0 0 0\n").unwrap_err();
     assert!(matches!(e, IoError::EmptyMesh { .. }), "{e}");
+}
+
+/// A short index accessor placed many times (here by `EXT_mesh_gpu_instancing` with 5000
+/// instances from an accessor without a buffer view) is held to the triangle limit before the
+/// instances are listed: 5000 × 1000 triangles from a file of under 2 KB. With a budget of
+/// 10⁶ bytes (10⁶ triangles) it stops with an error naming triangles and `--max-input-mb`;
+/// 500 instances (500 000 triangles) import.
+#[test]
+fn triangles_placed_many_times_are_held_to_the_input_budget() {
+    let mut bin: Vec<u8> =
+        [0.0f32, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0].iter().flat_map(|x| x.to_le_bytes()).collect();
+    bin.extend(1u32.to_le_bytes());
+    bin.extend([0.0f32; 3].iter().flat_map(|x| x.to_le_bytes()));
+    bin.extend([0u8, 1, 2].repeat(1000));
+    let json = |instances: usize| {
+        format!(
+            r#"{{"asset":{{"version":"2.0"}},"extensionsUsed":["EXT_mesh_gpu_instancing"],"scene":0,"scenes":[{{"nodes":[0]}}],
+"nodes":[{{"mesh":0,"extensions":{{"EXT_mesh_gpu_instancing":{{"attributes":{{"TRANSLATION":2}}}}}}}}],
+"meshes":[{{"primitives":[{{"attributes":{{"POSITION":0}},"indices":1}}]}}],
+"buffers":[{{"byteLength":{},"uri":"data:application/octet-stream;base64,{}"}}],
+"bufferViews":[{{"buffer":0,"byteOffset":0,"byteLength":36}},{{"buffer":0,"byteOffset":52,"byteLength":3000}},{{"buffer":0,"byteOffset":36,"byteLength":4}},{{"buffer":0,"byteOffset":40,"byteLength":12}}],
+"accessors":[{{"bufferView":0,"componentType":5126,"count":3,"type":"VEC3","min":[0,0,0],"max":[1,1,0]}},{{"bufferView":1,"componentType":5121,"count":3000,"type":"SCALAR"}},
+{{"componentType":5126,"count":{instances},"type":"VEC3","sparse":{{"count":1,"indices":{{"bufferView":2,"componentType":5125}},"values":{{"bufferView":3}}}}}}]}}"#,
+            bin.len(),
+            b64(&bin)
+        )
+    };
+    let opts = ImportOptions { max_input_bytes: 1_000_000, ..Default::default() };
+    let load = |n: usize| spherebake_io::load_mesh_from_bytes_with(Path::new("mem/i.gltf"), json(n).as_bytes(), &opts);
+    let e = refused(load(5000), "over the triangle limit");
+    let s = e.to_string();
+    assert!(matches!(e, IoError::OverLimit { limit: 1_000_000, .. }), "{s}");
+    assert!(s.contains("5000000 triangles") && s.contains("--max-input-mb"), "{s}");
+    let imp = load(500).expect("within the budget");
+    // Every instance sits at the origin: 500 × 1000 copies of one triangle, one kept.
+    assert_eq!(imp.mesh.triangles.len(), 1);
+    assert!(imp.warnings.iter().any(|w| w.0.starts_with("499999 duplicate triangles")), "{:?}", imp.warnings);
 }
