@@ -985,27 +985,20 @@ impl Source<'_> {
         }
         // Mesh placements: one per node, or one per EXT_mesh_gpu_instancing instance (scene ←
         // node ← instance), for meshes with primitives to import. Skinned nodes ignore
-        // instancing (the extension excludes skins). Each placement of each live primitive adds
-        // a vertex at least, so the vertex limit below bounds placements × primitives too.
-        // The vertices the placements will make are counted as they are listed (each node's
-        // instance count from its accessors, before the matrices are built), so a small file
-        // cannot list millions of instances of a mesh before the vertex limit is checked.
-        let vertex_limit = budget_limit(self.ctx.opts.max_input_bytes, VERTICES_PER_BUDGET_BYTE, MAX_VERTICES);
-        let over_vertices = |ni: usize, total: usize| IoError::OverLimit {
+        // instancing (the extension excludes skins). The vertices and triangles ([`triangles_of`]
+        // the corners) the placements will make are counted as they are listed, each node's
+        // instance count taken from its accessors before the matrices are built, and held to
+        // the input budget: a 5 KB file placing a short index list millions of times asked for
+        // billions of triangles, past u32 indices.
+        let limits = [
+            ("vertices", budget_limit(self.ctx.opts.max_input_bytes, VERTICES_PER_BUDGET_BYTE, MAX_VERTICES)),
+            ("triangles", budget_limit(self.ctx.opts.max_input_bytes, TRIANGLES_PER_BUDGET_BYTE, MAX_TRIANGLES)),
+        ];
+        let over = |ni: usize, k: usize, total: usize| IoError::OverLimit {
             path: path.clone(),
-            what: format!("node {ni}: the scene expands to {total} vertices or more (every placement counted)"),
-            limit: vertex_limit.0 as u64,
-            per_budget_byte: vertex_limit.1.then_some(VERTICES_PER_BUDGET_BYTE),
-        };
-        // Triangles are held the same way ([`triangles_of`] the corners each placement reads):
-        // a short index accessor placed by many nodes or instances made billions of triangles
-        // from a 5 KB file, past u32 indices.
-        let triangle_limit = budget_limit(self.ctx.opts.max_input_bytes, TRIANGLES_PER_BUDGET_BYTE, MAX_TRIANGLES);
-        let over_triangles = |ni: usize, total: usize| IoError::OverLimit {
-            path: path.clone(),
-            what: format!("node {ni}: the scene expands to {total} triangles or more (every placement counted)"),
-            limit: triangle_limit.0 as u64,
-            per_budget_byte: triangle_limit.1.then_some(TRIANGLES_PER_BUDGET_BYTE),
+            what: format!("node {ni}: the scene expands to {total} {} or more (every placement counted)", limits[k].0),
+            limit: limits[k].1 .0 as u64,
+            per_budget_byte: limits[k].1 .1.then_some([VERTICES_PER_BUDGET_BYTE, TRIANGLES_PER_BUDGET_BYTE][k]),
         };
         let (mut planned, mut planned_tris) = (0usize, 0usize);
         let mut placements: Vec<(usize, DMat4)> = Vec::with_capacity(instances.len());
@@ -1029,10 +1022,10 @@ impl Source<'_> {
             let mut plan = |ni: usize, copies: usize| {
                 planned = planned.saturating_add(copies.saturating_mul(per_placement));
                 planned_tris = planned_tris.saturating_add(copies.saturating_mul(tris_per_placement));
-                if planned > vertex_limit.0 {
-                    Err(over_vertices(ni, planned))
-                } else if planned_tris > triangle_limit.0 {
-                    Err(over_triangles(ni, planned_tris))
+                if planned > limits[0].1 .0 {
+                    Err(over(ni, 0, planned))
+                } else if planned_tris > limits[1].1 .0 {
+                    Err(over(ni, 1, planned_tris))
                 } else {
                     Ok(())
                 }
@@ -1062,19 +1055,7 @@ impl Source<'_> {
                 let ctx_name = format!("mesh {mi} ({:?}) primitive {pi}", mesh.name().unwrap_or(""));
                 let mode = prim.mode();
                 let Some(pos_acc) = prim.get(&Semantic::Positions) else { continue };
-                // Checked before POSITION is read: the placements' vertices together are held to
-                // the input budget ([`VERTICES_PER_BUDGET_BYTE`]).
-                let total = b.mesh.positions.len().saturating_add(pos_acc.count());
-                if total > vertex_limit.0 {
-                    return Err(IoError::OverLimit {
-                        path,
-                        what: format!(
-                            "{ctx_name} (node {ni}): the scene expands to {total} vertices or more (every placement counted)"
-                        ),
-                        limit: vertex_limit.0 as u64,
-                        per_budget_byte: vertex_limit.1.then_some(VERTICES_PER_BUDGET_BYTE),
-                    });
-                }
+                // The placements' vertices and triangles were counted against the limits above.
                 let pos = self.read_vec(&pos_acc, &[3], "POSITION")?;
                 let n = pos.count();
                 let mut raw: Vec<Vec3> = (0..n).map(|v| Vec3::from(pos.get::<3>(v).map(|x| x as f32))).collect();
@@ -1096,18 +1077,6 @@ impl Source<'_> {
                         primitive: pi,
                         vertex: v,
                         value: p.to_array(),
-                    });
-                }
-                let corners = prim.indices().map_or(n, |acc| acc.count());
-                let tri_total = b.mesh.triangles.len().saturating_add(triangles_of(mode, corners));
-                if tri_total > triangle_limit.0 {
-                    return Err(IoError::OverLimit {
-                        path,
-                        what: format!(
-                            "{ctx_name} (node {ni}): the scene expands to {tri_total} triangles or more (every placement counted)"
-                        ),
-                        limit: triangle_limit.0 as u64,
-                        per_budget_byte: triangle_limit.1.then_some(TRIANGLES_PER_BUDGET_BYTE),
                     });
                 }
                 let indices: Vec<u32> = match prim.indices() {
