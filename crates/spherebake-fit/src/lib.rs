@@ -337,7 +337,24 @@ fn prepare(
         check_mesh(positions, surface_only)?;
     }
     let mut pos: Vec<DVec3> = positions.iter().map(|p| p.as_dvec3()).collect();
-    let mut tris = triangles.to_vec();
+    // A triangle with a repeated corner (two corners welded into one: the collapsed quads at a
+    // UV sphere's poles, or positions that f32 rounding merged) encloses nothing and its two
+    // edges cancel each other: it is covered as a surface (a segment) but left out of the
+    // solid, so it does not make a closed mesh "not closed" (which measured it on the voxel
+    // solid: a UV sphere moved by 10⁵, whose pole rings merged, E 0.0205 → 0.0301).
+    let is_degenerate = |t: &[u32; 3]| t[0] == t[1] || t[1] == t[2] || t[2] == t[0];
+    let collapsed = triangles.iter().filter(|t| is_degenerate(t)).count();
+    let (mut tris, surface_only_all);
+    let surface_only = if collapsed == 0 || collapsed == triangles.len() {
+        // None, or nothing else: the mesh as it is (the checks below name the latter).
+        tris = triangles.to_vec();
+        surface_only
+    } else {
+        let (bad, good): (Vec<[u32; 3]>, Vec<[u32; 3]>) = triangles.iter().partition(|t| is_degenerate(t));
+        tris = good;
+        surface_only_all = [surface_only, &bad[..]].concat();
+        &surface_only_all[..]
+    };
     let mut warnings = Vec::new();
     let (mut lo, mut hi) = (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY));
     for t in tris.iter().chain(surface_only) {

@@ -689,3 +689,30 @@ fn a_thin_rod_at_a_fine_grid_gets_every_sphere_asked_for() {
     assert!(r.stats.outside_ratio_e <= 1.5 * chain, "E {} vs chain {chain}", r.stats.outside_ratio_e);
     assert_triangles_covered(&p, &t, &r.spheres);
 }
+
+/// Triangles with a repeated corner (a quad collapsed at a pole, corners that rounding merged)
+/// enclose nothing and their edges cancel: a closed UV sphere with such a triangle beside each
+/// pole-fan triangle stays a closed mesh, with the exact volume of the sphere without them, and
+/// is bounded. Before, one of them made the mesh "not closed" and E came from the voxel solid.
+#[test]
+fn collapsed_triangles_leave_a_closed_mesh_closed() {
+    let (q, t) = spherebake_testkit::mesh::uv_sphere(12, 1.0);
+    let p: Vec<Vec3> = q.iter().map(|v| Vec3::new(v[0] as f32, v[1] as f32, v[2] as f32)).collect();
+    let s = FitSettings { spheres: 8, voxel_resolution: 48, ..Default::default() };
+    let plain = fit(&p, &t, &s, &|_| {}).unwrap();
+    assert_eq!(plain.stats.solid_source, SolidSource::ClosedMesh);
+    let poles = [0u32, q.len() as u32 - 1];
+    let mut with: Vec<[u32; 3]> = t.clone();
+    for f in &t {
+        if let Some(&pole) = f.iter().find(|v| poles.contains(v)) {
+            let other = *f.iter().find(|&&v| v != pole).unwrap();
+            with.push([pole, pole, other]);
+        }
+    }
+    assert_eq!(with.len() - t.len(), 2 * 2 * 12, "one per pole-fan triangle");
+    let r = fit(&p, &with, &s, &|_| {}).unwrap();
+    assert_eq!(r.stats.solid_source, SolidSource::ClosedMesh, "{:?}", r.warnings);
+    assert!((r.stats.object_volume - plain.stats.object_volume).abs() < 1e-12, "{}", r.stats.object_volume);
+    assert!(!r.warnings.iter().any(|w| w.contains("not closed")), "{:?}", r.warnings);
+    assert_triangles_covered(&p, &with, &r.spheres);
+}
