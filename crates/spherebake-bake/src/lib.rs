@@ -271,12 +271,7 @@ pub fn evaluate_mesh(
 /// at 32 spheres: E 0.47 at the origin, 0.66 moved by 10⁶, 6.75 by 10⁷, where an f32 step is a
 /// whole unit), and the spheres bound the positions as rounded, which differ from the file's
 /// decimal text by up to half a step.
-fn far_from_origin(positions: &[glam::Vec3], voxels: u32) -> Option<String> {
-    let (mut lo, mut hi) = (glam::Vec3::splat(f32::INFINITY), glam::Vec3::splat(f32::NEG_INFINITY));
-    for p in positions {
-        lo = lo.min(*p);
-        hi = hi.max(*p);
-    }
+fn far_from_origin((lo, hi): (glam::Vec3, glam::Vec3), voxels: u32) -> Option<String> {
     let far = lo.abs().max(hi.abs()).max_element();
     let extent = f64::from((hi - lo).max_element());
     if !(far.is_finite() && extent > 0.0) {
@@ -306,7 +301,7 @@ pub fn bake_imported(
         return Err(BakeError::EmptyMesh { path: path.to_path_buf() });
     }
     let positions = &mesh.welded_positions;
-    if let Some(w) = far_from_origin(positions, settings.voxels) {
+    if let Some(w) = mesh.bounds().and_then(|b| far_from_origin(b, settings.voxels)) {
         warnings.push(w);
     }
     // The surface-only triangles (`Mesh::surface_only`: double-sided faces, enclosing nothing)

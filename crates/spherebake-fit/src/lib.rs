@@ -1010,29 +1010,17 @@ fn finish(
 /// expected, one bounding pass of one sphere (surface only, [`bound_stage_over`]) and one exact
 /// E (for a closed mesh V(ball) − V(T), since the part lies inside the ball).
 fn enclosing_ball(prep: &Prepared, pts: &points::PointSet, plan: &FitPlan, k: usize, tr: &mut Tracer) -> Run {
-    let mut used = vec![false; prep.pos.len()];
-    for t in &prep.tris {
-        for &v in t {
-            used[v as usize] = true;
-        }
-    }
-    let verts: Vec<DVec3> = prep.pos.iter().zip(&used).filter(|(_, &u)| u).map(|(p, _)| *p).collect();
-    let (c, r) = spherebake_geom::sphere::min_enclosing_ball(&verts);
+    let (c, r) = spherebake_geom::sphere::min_enclosing_ball(&referenced_vertices(prep));
     let mut raw = vec![(c, r)];
     raw.resize(k.max(1), (c, 0.0));
     let proxy_e = proxy_e_of(&prep.solid, &raw);
     let (spheres, bound) = bound_stage_over(prep, pts, plan, &raw, &[]);
-    let outside = if prep.source == SolidSource::ClosedMesh {
-        let v = |s: &Sphere32| if s[3] > 0.0 { volume::ball_volume_f64(s[3] as f64) } else { 0.0 };
-        let total: f64 = spheres.iter().map(v).sum();
+    // The ball holds a closed mesh whole; every other sphere is empty unless the bounding pass
+    // grew one.
+    let outside = if prep.source == SolidSource::ClosedMesh && spheres.iter().skip(1).all(|s| s[3] <= 0.0) {
         let mut o = vec![0.0; spheres.len()];
-        // Every sphere but the ball is empty unless the bounding pass grew one.
-        if spheres.iter().skip(1).all(|s| s[3] <= 0.0) {
-            o[0] = (total - prep.object_volume).max(0.0);
-            o
-        } else {
-            exact_outside(prep, &spheres)
-        }
+        o[0] = (volume::ball_volume_f64(spheres[0][3] as f64) - prep.object_volume).max(0.0);
+        o
     } else {
         exact_outside(prep, &spheres)
     };
@@ -1199,6 +1187,17 @@ fn lattice_start(prep: &Prepared, pts: &points::PointSet, k: usize) -> (Vec<(DVe
     best
 }
 
+/// The part's vertices that a triangle uses, in index order.
+fn referenced_vertices(prep: &Prepared) -> Vec<DVec3> {
+    let mut referenced = vec![false; prep.pos.len()];
+    for t in &prep.tris {
+        for &v in t {
+            referenced[v as usize] = true;
+        }
+    }
+    prep.pos.iter().zip(&referenced).filter(|(_, &r)| r).map(|(p, _)| *p).collect()
+}
+
 /// Stage 4, descent points: the referenced vertices, a barycentric grid of spacing
 /// `plan.descent_grid_cells` voxel cells on triangles longer than that (beyond
 /// `plan.point_budget` surface points, one per cube of `plan.point_cell` voxel cells), and the
@@ -1207,13 +1206,7 @@ fn lattice_start(prep: &Prepared, pts: &points::PointSet, k: usize) -> (Vec<(DVe
 /// subdivided to 1.1 M triangles gives 574 000 descent points unthinned, 63 900 thinned (the
 /// 70 000-triangle bunny has 55 700), and its descent costs in proportion (8.3 s → 2.2 s).
 fn descent_points(prep: &Prepared, pts: &points::PointSet, plan: &FitPlan) -> Vec<DVec3> {
-    let mut referenced = vec![false; prep.pos.len()];
-    for t in &prep.tris {
-        for &v in t {
-            referenced[v as usize] = true;
-        }
-    }
-    let mut dpts: Vec<DVec3> = prep.pos.iter().zip(&referenced).filter(|(_, &r)| r).map(|(p, _)| *p).collect();
+    let mut dpts = referenced_vertices(prep);
     let spacing = plan.descent_grid_cells * prep.solid.h;
     let grid =
         points::grid_plan(&prep.pos, &prep.tris, |l| descent::grid_divisions(l, spacing, 1), 1, points::GRID_BUDGET);

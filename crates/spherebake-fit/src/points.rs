@@ -233,10 +233,11 @@ pub fn build(positions: &[DVec3], triangles: &[[u32; 3]], solid: &Solid, lo: DVe
         let [a, b, c] = t.map(|v| positions[v as usize]);
         [(a, b), (b, c), (c, a)].into_iter().max_by(|x, y| (x.1 - x.0).length().total_cmp(&(y.1 - y.0).length()))
     };
-    let mut edge: Vec<usize> = triangles
+    let longest_edges: Vec<Option<(DVec3, DVec3)>> = triangles.iter().map(longest).collect();
+    let mut edge: Vec<usize> = longest_edges
         .iter()
         .zip(&plan)
-        .map(|(t, &m)| longest(t).map_or(0, |(a, b)| want((b - a).length())).saturating_sub(m).min(256))
+        .map(|(l, &m)| l.map_or(0, |(a, b)| want((b - a).length())).saturating_sub(m).min(256))
         .map(|e| if e > 0 { e + 1 } else { 0 })
         .collect();
     let total: usize = plan.iter().map(|&m| grid_points(m)).sum::<usize>() + edge.iter().sum::<usize>();
@@ -244,7 +245,7 @@ pub fn build(positions: &[DVec3], triangles: &[[u32; 3]], solid: &Solid, lo: DVe
         let f = GRID_BUDGET as f64 / total as f64;
         edge.iter_mut().for_each(|e| *e = (*e as f64 * f).floor() as usize);
     }
-    for ((t, &m), &e) in triangles.iter().zip(&plan).zip(&edge) {
+    for (((t, &m), &e), l) in triangles.iter().zip(&plan).zip(&edge).zip(&longest_edges) {
         let a = positions[t[0] as usize];
         let b = positions[t[1] as usize];
         let c = positions[t[2] as usize];
@@ -254,7 +255,7 @@ pub fn build(positions: &[DVec3], triangles: &[[u32; 3]], solid: &Solid, lo: DVe
             samples.extend(spherebake_geom::triangle::triangle_grid(a, b, c, m).map(|(_, _, p)| p));
         }
         if e > 1 {
-            if let Some((p, q)) = longest(t) {
+            if let Some((p, q)) = *l {
                 samples.extend((0..e).map(|i| p.lerp(q, i as f64 / (e - 1) as f64)));
             }
         }
