@@ -19,7 +19,8 @@
 //! interpolation of the triangle's corners, model space, f32), the outward unit normal (the
 //! vertex shading normals interpolated at the hit and renormalised, negated when it points
 //! against the oriented geometric normal; the geometric normal when the mesh has no usable
-//! vertex normals there), the direction index and the rule (1 or 3). Samples are in increasing
+//! vertex normals there, as at a glTF primitive without NORMAL, which holds
+//! `spherebake_geom::normals::NO_NORMAL` and so is shaded flat), the direction index and the rule (1 or 3). Samples are in increasing
 //! direction order.
 //!
 //! Ties: hits at equal t are ordered by triangle index (a ray through a shared edge reports both

@@ -361,3 +361,58 @@ fn a_model_far_from_the_origin_for_its_size_is_warned_about() {
         assert_eq!(n, usize::from(warned), "offset {offset}: {:?}", out.report.warnings);
     }
 }
+
+/// A box whose file gives no normals keeps flat faces: every surface sample's normal is the
+/// outward normal of the face it lies on. From a glTF without NORMAL, as the spec requires
+/// (§3.7.2.1, "MUST calculate flat normals"); from an OBJ without `vn`, whose faces meet at 90°,
+/// past the crease angle. The normals were smoothed across the edges before, tilting the
+/// samples near each corner towards the diagonal (up to 55°).
+#[test]
+fn a_box_without_normals_gets_the_normals_of_its_faces() {
+    let dir = tempfile::tempdir().unwrap();
+    let quads = [[1, 3, 4, 2], [5, 6, 8, 7], [1, 2, 6, 5], [3, 7, 8, 4], [1, 5, 7, 3], [2, 4, 8, 6]];
+    let obj = dir.path().join("box.obj");
+    std::fs::write(&obj, unit_cube_obj(&quads)).unwrap();
+    // The same box as glTF: 8 shared vertices, 12 triangles, POSITION only.
+    let mut bin = Vec::new();
+    for i in 0..8u32 {
+        for c in [i & 1, (i >> 1) & 1, (i >> 2) & 1] {
+            bin.extend((c as f32).to_le_bytes());
+        }
+    }
+    for q in quads {
+        for v in [q[0], q[1], q[2], q[0], q[2], q[3]] {
+            bin.extend(((v - 1) as u16).to_le_bytes());
+        }
+    }
+    std::fs::write(dir.path().join("box.bin"), &bin).unwrap();
+    let gltf = r#"{"asset":{"version":"2.0"},"scene":0,"scenes":[{"nodes":[0]}],"nodes":[{"mesh":0}],
+        "meshes":[{"primitives":[{"attributes":{"POSITION":0},"indices":1}]}],
+        "buffers":[{"uri":"box.bin","byteLength":168}],
+        "bufferViews":[{"buffer":0,"byteOffset":0,"byteLength":96},{"buffer":0,"byteOffset":96,"byteLength":72}],
+        "accessors":[{"bufferView":0,"componentType":5126,"count":8,"type":"VEC3","min":[0,0,0],"max":[1,1,1]},
+                     {"bufferView":1,"componentType":5123,"count":36,"type":"SCALAR"}]}"#;
+    let gl = dir.path().join("box.gltf");
+    std::fs::write(&gl, gltf).unwrap();
+    for path in [obj, gl] {
+        let out = bake_path(&path, &BakeSettings { spheres: 8, voxels: 48, ..Default::default() }, &|_| {}).unwrap();
+        let samples = out.file.samples.as_ref().expect("samples");
+        let mut checked = 0;
+        for s in samples.per_sphere().flatten() {
+            let p = glam::Vec3::from_array(s.position) - glam::Vec3::splat(0.5);
+            // The face: the axis where the point is on the surface (|p| = 0.5); points within
+            // 10⁻³ of an edge are on two faces and left out.
+            let on: Vec<usize> = (0..3).filter(|&i| (p[i].abs() - 0.5).abs() < 1e-3).collect();
+            assert!(!on.is_empty(), "{path:?}: sample {p} off the box");
+            if on.len() > 1 {
+                continue;
+            }
+            let mut want = glam::Vec3::ZERO;
+            want[on[0]] = p[on[0]].signum();
+            let n = glam::Vec3::from_array(s.normal);
+            assert!((n - want).length() < 1e-5, "{path:?}: sample at {p}: normal {n}, face {want}");
+            checked += 1;
+        }
+        assert!(checked > 50, "{path:?}: {checked} samples checked");
+    }
+}

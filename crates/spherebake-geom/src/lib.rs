@@ -14,6 +14,7 @@ pub mod edges;
 pub mod mesh;
 pub mod motion;
 pub mod mvc;
+pub mod normals;
 pub mod orient;
 pub mod rng;
 pub mod sphere;

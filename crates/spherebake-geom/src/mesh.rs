@@ -208,12 +208,20 @@ pub fn has_uv(uv: [f32; 2]) -> bool {
     uv[0].is_finite() && uv[1].is_finite()
 }
 
+/// The key that welds positions: their f32 bits, `-0.0` read as `0.0` ([`Mesh::rebuild_weld`]).
+pub(crate) fn weld_key(p: Vec3) -> (u32, u32, u32) {
+    let f = |x: f32| if x == 0.0 { 0u32 } else { x.to_bits() };
+    (f(p.x), f(p.y), f(p.z))
+}
+
 /// The canonical triangle mesh.
 #[derive(Clone, Debug, Default)]
 pub struct Mesh {
     /// Per-vertex position, scene (model) space, rest pose.
     pub positions: Vec<Vec3>,
-    /// Per-vertex unit shading normal, scene space (computed when the input has none).
+    /// Per-vertex unit shading normal, scene space; where the file gives none, computed with a
+    /// crease angle (OBJ) or [`crate::normals::NO_NORMAL`], shade with the triangle's geometric
+    /// normal (glTF); see [`crate::normals`].
     pub normals: Vec<Vec3>,
     /// Per-vertex UV sets (`uvs[0]` = TEXCOORD_0, ...); each either empty or one per vertex.
     /// A vertex of a part (glTF primitive, OBJ group) that lacks the set holds [`NO_UV`], so a
@@ -268,10 +276,7 @@ impl Mesh {
     /// `-0.0` and `0.0` are treated as equal.
     pub fn rebuild_weld(&mut self) {
         use std::collections::HashMap;
-        let key = |p: Vec3| {
-            let f = |x: f32| if x == 0.0 { 0u32 } else { x.to_bits() };
-            (f(p.x), f(p.y), f(p.z))
-        };
+        let key = weld_key;
         let mut map: HashMap<(u32, u32, u32), u32> = HashMap::with_capacity(self.positions.len());
         self.weld.clear();
         self.welded_positions.clear();
@@ -458,21 +463,6 @@ impl Mesh {
                 *map.entry(key).or_insert(next)
             })
             .collect()
-    }
-
-    /// Computes area-weighted vertex normals over welded positions, for vertices whose normal is
-    /// missing (call when the input has no NORMAL attribute). Degenerate neighbourhoods get +Z.
-    pub fn compute_normals(&mut self) {
-        let mut acc = vec![Vec3::ZERO; self.welded_positions.len()];
-        for t in &self.triangles {
-            let [a, b, c] = [t[0] as usize, t[1] as usize, t[2] as usize];
-            let n = (self.positions[b] - self.positions[a]).cross(self.positions[c] - self.positions[a]);
-            for v in [a, b, c] {
-                acc[self.weld[v] as usize] += n;
-            }
-        }
-        self.normals =
-            (0..self.positions.len()).map(|v| acc[self.weld[v] as usize].try_normalize().unwrap_or(Vec3::Z)).collect();
     }
 
     /// Axis-aligned bounds over the corners of all triangles (unused vertices ignored).

@@ -1353,13 +1353,12 @@ impl Source<'_> {
                         t.swap(1, 2);
                     }
                 }
+                // No NORMAL: flat shading, as §3.7.2.1 requires ("client implementations MUST
+                // calculate flat normals"): each triangle shades with its geometric normal.
                 let normals: Vec<Vec3> = if normals.is_some() {
                     scene_normals.into_iter().map(|x| x.as_vec3().try_normalize().unwrap_or(Vec3::Z)).collect()
                 } else {
-                    let mut tmp = Mesh { positions: scene.clone(), triangles: tris.clone(), ..Default::default() };
-                    tmp.rebuild_weld();
-                    tmp.compute_normals();
-                    tmp.normals
+                    vec![spherebake_geom::normals::NO_NORMAL; scene.len()]
                 };
 
                 // Material.

@@ -549,7 +549,9 @@ pub fn read_input_file(path: &Path, max: u64) -> Option<Vec<u8>> {
 
 /// Clamps every material base colour factor and vertex colour component (RGBA, linear) into
 /// [0, 1], NaN to 0 (glTF bounds `baseColorFactor` to [0, 1]; OBJ `Kd` and float `COLOR_0` are not
-/// checked by their readers). Returns how many material and vertex colours changed.
+/// checked by their readers). Returns how many material and vertex colours changed; vertices
+/// count once per position and colour (the copies an OBJ vertex on a sharp edge gets,
+/// `spherebake_geom::normals::crease_normals`, are one colour of the file).
 fn clamp_colours(mesh: &mut Mesh) -> (usize, usize) {
     fn clamp(c: &mut [f32; 4]) -> bool {
         let before = *c;
@@ -559,8 +561,14 @@ fn clamp_colours(mesh: &mut Mesh) -> (usize, usize) {
         before.map(f32::to_bits) != c.map(f32::to_bits)
     }
     let materials = mesh.materials.iter_mut().map(|m| clamp(&mut m.base_color_factor_linear)).filter(|&b| b).count();
-    let vertices = mesh.colors_linear.iter_mut().map(clamp).filter(|&b| b).count();
-    (materials, vertices)
+    let mut changed = std::collections::HashSet::new();
+    for (v, c) in mesh.colors_linear.iter_mut().enumerate() {
+        let before = c.map(f32::to_bits);
+        if clamp(c) {
+            changed.insert((mesh.weld.get(v).map_or(v, |&w| w as usize), before));
+        }
+    }
+    (materials, changed.len())
 }
 
 #[cfg(test)]

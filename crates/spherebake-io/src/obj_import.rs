@@ -809,8 +809,6 @@ pub(crate) fn import(ctx: &mut Ctx, bytes: &[u8]) -> Result<(Mesh, Vec<ImportedP
     let mut triangulator = Triangulator::default();
     let mut repeated = RepeatedPolygons::new(&models);
     let mut fanned = Fanned::default();
-    // The groups whose normals are computed: (vertices, triangles) in `mesh`.
-    let mut computed_normals: Vec<(std::ops::Range<u32>, std::ops::Range<u32>)> = Vec::new();
     for (mi, model) in models.iter().enumerate() {
         let m = &model.mesh;
         let n = m.positions.len() / 3;
@@ -853,31 +851,58 @@ pub(crate) fn import(ctx: &mut Ctx, bytes: &[u8]) -> Result<(Mesh, Vec<ImportedP
                 fanned.first = Some(model.name.as_str());
             }
         }
-        // A group without normals (or with some missing) gets them from its triangles once the
-        // whole mesh is welded ([`group_normals`]); +Z until then.
-        let has_normals = m.normals.len() == 3 * n && n > 0;
-        let normals: Vec<Vec3> = if has_normals {
-            m.normals.chunks_exact(3).map(|c| Vec3::new(c[0], c[1], c[2]).try_normalize().unwrap_or(Vec3::Z)).collect()
-        } else {
-            vec![Vec3::Z; n]
-        };
         // OBJ v runs bottom-up; glTF convention (row 0 = top) needs v' = 1 - v. A vertex
         // without a texture coordinate holds NO_UV (a textured material shows its Kd there).
         let flip = |c: &[f32]| [c[0], 1.0 - c[1]];
         let named = uv_named.get(mi).map_or(&[][..], Vec::as_slice);
-        if !named.is_empty() {
+        let group_uvs: Vec<[f32; 2]> = if !named.is_empty() {
             // Faces with and without `vt` in one group: the corners without have no UV, the
             // others keep theirs. One warning for all groups.
             mixed_vt.push(model.name.as_str());
             has_uv = true;
             let mut t = m.texcoords.chunks_exact(2);
-            uvs.extend(named.iter().map(|&k| if k { t.next().map_or(NO_UV, flip) } else { NO_UV }));
+            named.iter().map(|&k| if k { t.next().map_or(NO_UV, flip) } else { NO_UV }).collect()
         } else if m.texcoords.len() == 2 * n && n > 0 {
             has_uv = true;
-            uvs.extend(m.texcoords.chunks_exact(2).map(flip));
+            m.texcoords.chunks_exact(2).map(flip).collect()
         } else {
-            uvs.resize(uvs.len() + n, NO_UV);
-        }
+            vec![NO_UV; n]
+        };
+        let group_colours: Vec<[f32; 4]> = if coloured {
+            let srgb = m.vertex_color.chunks_exact(3).take(n);
+            let mut c: Vec<[f32; 4]> =
+                srgb.map(|c| [srgb_to_linear(c[0]), srgb_to_linear(c[1]), srgb_to_linear(c[2]), 1.0]).collect();
+            c.resize(n, [1.0; 4]);
+            c
+        } else {
+            Vec::new()
+        };
+        // A group without normals (or with some missing) gets them from its faces, smoothed
+        // across edges of at most the crease angle and sharp across harder ones; a vertex on a
+        // sharp edge is split, its copies keeping its UV and colour
+        // (`spherebake_geom::normals::crease_normals`).
+        let has_normals = m.normals.len() == 3 * n && n > 0;
+        let (positions, tris, normals, group_uvs, group_colours) = if has_normals {
+            let normals = m
+                .normals
+                .chunks_exact(3)
+                .map(|c| Vec3::new(c[0], c[1], c[2]).try_normalize().unwrap_or(Vec3::Z))
+                .collect();
+            (positions, tris, normals, group_uvs, group_colours)
+        } else {
+            let r = spherebake_geom::normals::crease_normals(&positions, &tris);
+            fn gather<T: Copy>(v: &[T], source: &[u32]) -> Vec<T> {
+                if v.is_empty() {
+                    Vec::new()
+                } else {
+                    source.iter().map(|&i| v[i as usize]).collect()
+                }
+            }
+            let (p, uv, c) =
+                (gather(&positions, &r.source), gather(&group_uvs, &r.source), gather(&group_colours, &r.source));
+            (p, r.triangles, r.normals, uv, c)
+        };
+        let n_out = positions.len();
         let key = m.material_id.filter(|&i| i < materials.len());
         let material = match material_map.get(&key) {
             Some(&id) => id,
@@ -899,16 +924,11 @@ pub(crate) fn import(ctx: &mut Ctx, bytes: &[u8]) -> Result<(Mesh, Vec<ImportedP
         let t0 = mesh.triangles.len() as u32;
         mesh.positions.extend(positions);
         mesh.normals.extend(normals);
-        if coloured {
-            let srgb = m.vertex_color.chunks_exact(3).take(n);
-            colours.extend(srgb.map(|c| [srgb_to_linear(c[0]), srgb_to_linear(c[1]), srgb_to_linear(c[2]), 1.0]));
-            colours.resize(mesh.positions.len(), [1.0; 4]);
-        }
+        uvs.extend(group_uvs);
+        colours.extend(group_colours);
+        debug_assert_eq!(mesh.positions.len(), v0 as usize + n_out);
         mesh.triangles.extend(tris.iter().map(|t| [t[0] + v0, t[1] + v0, t[2] + v0]));
         mesh.triangle_materials.extend(std::iter::repeat_n(material, tris.len()));
-        if !has_normals {
-            computed_normals.push((v0..mesh.positions.len() as u32, t0..mesh.triangles.len() as u32));
-        }
         parts.push(ImportedPart {
             source_mesh: mi,
             primitive: 0,
@@ -967,38 +987,7 @@ pub(crate) fn import(ctx: &mut Ctx, bytes: &[u8]) -> Result<(Mesh, Vec<ImportedP
         mesh.uvs = vec![uvs];
     }
     mesh.rebuild_weld();
-    if !computed_normals.is_empty() {
-        let mut acc = vec![Vec3::ZERO; mesh.welded_positions.len()];
-        for (vertices, triangles) in computed_normals {
-            group_normals(&mut mesh, vertices, triangles, &mut acc);
-        }
-    }
     Ok((mesh, parts))
-}
-
-/// Sets the normals of the vertices `vertices` of `mesh` (one group, welded with the rest) to
-/// the area-weighted normals of the group's triangles `triangles`, as [`Mesh::compute_normals`]
-/// gives them on the group alone, bit for bit: the mesh's weld restricted to the group's
-/// vertices joins the same vertices as the group's own weld, and each joined corner sums the
-/// same triangle normals in the same order. Uses the mesh's weld instead of a copy of the group
-/// welded again (a second weld of every position of a file without normals). `acc` holds one
-/// zero per welded position and is left so (only the group's entries are touched).
-fn group_normals(mesh: &mut Mesh, vertices: std::ops::Range<u32>, triangles: std::ops::Range<u32>, acc: &mut [Vec3]) {
-    let (p, weld) = (&mesh.positions, &mesh.weld);
-    for t in &mesh.triangles[triangles.start as usize..triangles.end as usize] {
-        let [a, b, c] = [t[0] as usize, t[1] as usize, t[2] as usize];
-        let n = (p[b] - p[a]).cross(p[c] - p[a]);
-        for v in [a, b, c] {
-            acc[weld[v] as usize] += n;
-        }
-    }
-    let range = vertices.start as usize..vertices.end as usize;
-    for v in range.clone() {
-        mesh.normals[v] = acc[weld[v] as usize].try_normalize().unwrap_or(Vec3::Z);
-    }
-    for v in range {
-        acc[weld[v] as usize] = Vec3::ZERO;
-    }
 }
 
 /// Polygons of four or more corners given again, in any group of the file, with the same corner
@@ -1500,57 +1489,6 @@ mod differential;
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    /// [`group_normals`] on groups of a mesh welded whole gives, bit for bit, what
-    /// [`Mesh::compute_normals`] gives on each group alone (groups that share positions, seams
-    /// of repeated positions, a −0.0 corner, an unused vertex, a degenerate triangle).
-    #[test]
-    fn group_normals_are_each_group_welded_alone() {
-        let mut rng = spherebake_testkit::rng::SplitMix64::new(0x9E37_79B9_7F4A_7C15);
-        let mut next = |n: u64| rng.next_u64() % n;
-        for round in 0..30 {
-            // A small lattice of positions, so vertices repeat within and across groups.
-            let point = |next: &mut dyn FnMut(u64) -> u64| {
-                let [a, b, d, z] = [3, 3, 4, 2].map(&mut *next);
-                let c = |k: u64| if k == 0 && z == 0 { -0.0 } else { k as f32 * 0.37 - 0.5 };
-                Vec3::new(c(a), c(b), c(d))
-            };
-            let groups: Vec<(Vec<Vec3>, Vec<[u32; 3]>)> = (0..1 + round % 4)
-                .map(|_| {
-                    let n = 3 + next(12) as u32;
-                    let positions: Vec<Vec3> = (0..n).map(|_| point(&mut next)).collect();
-                    let tris = (0..next(15)).map(|_| [0; 3].map(|_| next(n as u64 - 1) as u32)).collect();
-                    (positions, tris)
-                })
-                .collect();
-            let mut mesh = Mesh::default();
-            let mut ranges = Vec::new();
-            for (positions, tris) in &groups {
-                let (v0, t0) = (mesh.positions.len() as u32, mesh.triangles.len() as u32);
-                mesh.positions.extend(positions);
-                mesh.normals.extend(positions.iter().map(|_| Vec3::Z));
-                mesh.triangles.extend(tris.iter().map(|t| t.map(|i| i + v0)));
-                ranges.push((v0..mesh.positions.len() as u32, t0..mesh.triangles.len() as u32));
-            }
-            mesh.rebuild_weld();
-            let mut acc = vec![Vec3::ZERO; mesh.welded_positions.len()];
-            for (v, t) in ranges.clone() {
-                group_normals(&mut mesh, v, t, &mut acc);
-            }
-            assert!(acc.iter().all(|a| *a == Vec3::ZERO), "round {round}: acc left zero");
-            for ((positions, tris), (v, _)) in groups.iter().zip(ranges) {
-                let mut alone = Mesh { positions: positions.clone(), triangles: tris.clone(), ..Default::default() };
-                alone.rebuild_weld();
-                alone.compute_normals();
-                let bits = |n: &[Vec3]| n.iter().map(|p| p.to_array().map(f32::to_bits)).collect::<Vec<_>>();
-                assert_eq!(
-                    bits(&mesh.normals[v.start as usize..v.end as usize]),
-                    bits(&alone.normals),
-                    "round {round}"
-                );
-            }
-        }
-    }
 
     #[test]
     fn map_arguments_are_split_by_the_mtl_options() {

@@ -106,7 +106,8 @@ fn built_gltf_and_glb_import() {
     let (json, _) = gltf_json(&TRI, Some(&[0, 1, 2]), false, "");
     let imp = load_mesh_from_bytes(Path::new("mem/tri.gltf"), json.as_bytes()).unwrap();
     assert_eq!(imp.mesh.triangles, vec![[0, 1, 2]]);
-    assert_eq!(imp.mesh.normals, vec![Vec3::Z; 3], "computed normals of a CCW triangle in z = 0");
+    // No NORMAL: flat shading (§3.7.2.1), each triangle by its geometric normal.
+    assert_eq!(imp.mesh.normals, vec![spherebake_geom::normals::NO_NORMAL; 3]);
     assert!(imp.mesh.skin.is_none());
     let (json, bin) = gltf_json(&TRI, None, true, "");
     let imp = load_mesh_from_bytes(Path::new("mem/tri.glb"), &glb(&json, &bin)).unwrap();
@@ -463,8 +464,12 @@ fn obj_files_read_as_checked_and_tobjs_errors_name_the_line() {
     ];
     for (i, v) in variants.iter().enumerate() {
         let got = load_mesh_from_bytes(p, v).unwrap_or_else(|e| panic!("variant {i}: {e}"));
-        assert_eq!(got.mesh.positions, want.mesh.positions, "variant {i}");
-        assert_eq!(got.mesh.triangles, want.mesh.triangles, "variant {i}");
+        // The same triangles over the same positions (a file with `vn` has no vertex split
+        // at the tetrahedron's sharp edges, so the vertices are compared through the corners).
+        let corners = |m: &spherebake_io::Mesh| -> Vec<[Vec3; 3]> {
+            m.triangles.iter().map(|t| t.map(|v| m.positions[v as usize])).collect()
+        };
+        assert_eq!(corners(&got.mesh), corners(&want.mesh), "variant {i}");
     }
     let msg = |src: &str| match load_mesh_from_bytes(p, src.as_bytes()) {
         Err(IoError::Obj { message, .. }) => message,
@@ -841,20 +846,27 @@ fn obj_normal_indices_in_a_file_without_normals_are_ignored() {
     assert_eq!(imp.warnings.len(), 1, "{:?}", imp.warnings);
     assert!(imp.warnings[0].0.contains("defines no vn; the normal indices are ignored"), "{:?}", imp.warnings);
     assert_eq!(imp.mesh.triangles.len(), 4);
-    // The normals computed on the faces: at each position, those of the file without the indices.
-    let n = |v: usize| imp.mesh.normals[v];
-    for (i, p) in imp.mesh.positions.iter().enumerate() {
-        let j = plain.mesh.positions.iter().position(|q| q == p).unwrap();
-        assert!(
-            (n(i) - plain.mesh.normals[j]).length() < 1e-6,
-            "vertex {i}: {:?} vs {:?}",
-            n(i),
-            plain.mesh.normals[j]
-        );
+    // The normals computed on the faces: at each corner, those of the file without the indices.
+    let corners = |m: &spherebake_io::Mesh| -> Vec<[(Vec3, Vec3); 3]> {
+        m.triangles.iter().map(|t| t.map(|v| (m.positions[v as usize], m.normals[v as usize]))).collect()
+    };
+    assert_eq!(corners(&imp.mesh), corners(&plain.mesh));
+    // The tetrahedron's faces meet at 90° or 54.7° at its corners... and 125°: each pair of
+    // faces at the origin (normals −x, −y, −z) meets at 90°, past the crease angle, so each
+    // corner there is its own face's normal.
+    for t in &imp.mesh.triangles {
+        let [a, b, c] = t.map(|v| imp.mesh.positions[v as usize]);
+        let face = (b - a).cross(c - a).normalize();
+        for &v in t {
+            if imp.mesh.positions[v as usize] == Vec3::ZERO {
+                assert!(
+                    (imp.mesh.normals[v as usize] - face).length() < 1e-6,
+                    "{:?} vs {face}",
+                    imp.mesh.normals[v as usize]
+                );
+            }
+        }
     }
-    // Vertex 1 (the origin) lies on the faces of normals −z, −y and −x, of equal area.
-    let origin = imp.mesh.positions.iter().position(|q| *q == Vec3::ZERO).unwrap();
-    assert!((n(origin) - Vec3::splat(-1.0).normalize()).length() < 1e-6, "{:?}", n(origin));
     let e = load_mesh_from_bytes(p, format!("{v}vn 0 0 1\nf 1//1 3//1 2//2\n").as_bytes()).unwrap_err();
     assert!(e.to_string().contains("line 6: normal index 2 out of range (1 defined so far)"), "{e}");
     // A `vn` after the face counts too: the index was out of range where it was read.
@@ -888,14 +900,16 @@ fn obj_group_mixing_faces_with_and_without_vt_keeps_the_uvs_it_has() {
     let mixed = "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nvt 0.25 0.125\nvt 0.5 1\nf 1/1 2/2 3/1\nf 2 4 3\nf 1/2 4/2 2/2\n";
     let imp = load_mesh_from_bytes(p, mixed.as_bytes()).unwrap();
     // Vertices in the order of first use: 1/1 2/2 3/1, then 2 4 3 (no vt), then 1/2 4/2
-    // (2/2 is the second vertex again); v flipped to 1 − v.
-    assert_eq!(imp.mesh.positions.len(), 8);
+    // and 2/2 again, which the third face (wound the other way: a normal 180° from the
+    // first's) splits off as a copy with its UV; v flipped to 1 − v.
+    assert_eq!(imp.mesh.positions.len(), 9);
     assert_eq!(imp.mesh.uvs.len(), 1);
     let uv = &imp.mesh.uvs[0];
     assert_eq!(&uv[..3], &[[0.25, 0.875], [0.5, 0.0], [0.25, 0.875]]);
     assert!(uv[3..6].iter().all(|u| u[0].is_nan() && u[1].is_nan()), "{uv:?}");
-    assert_eq!(&uv[6..], &[[0.5, 0.0], [0.5, 0.0]]);
-    assert_eq!(imp.mesh.triangles, vec![[0, 1, 2], [3, 4, 5], [6, 7, 1]]);
+    assert_eq!(&uv[6..], &[[0.5, 0.0], [0.5, 0.0], [0.5, 0.0]]);
+    assert_eq!(imp.mesh.triangles, vec![[0, 1, 2], [3, 4, 5], [6, 7, 8]]);
+    assert_eq!(imp.mesh.positions[8], imp.mesh.positions[1]);
     assert!(imp.warnings.iter().any(|w| w.0.contains("some faces have no texture coordinates")), "{:?}", imp.warnings);
     let all = "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nvt 0 0\nf 1/1 2/1 3/1\nf 2/1 4/1 3/1\n";
     let imp = load_mesh_from_bytes(p, all.as_bytes()).unwrap();
@@ -2010,11 +2024,15 @@ fn obj_vertex_colours_are_read_as_srgb() {
     let p = Path::new("mem/c.obj");
     let obj = "v 0 0 0 1 0.5 0\nv 2 0 0 2\nv 0 1 0 0 0 1.5\nv 0 0 1 0.5 x 1\nf 1 3 2\nf 1 2 4\nf 1 4 3\nf 2 3 4\n";
     let imp = load_mesh_from_bytes(p, obj.as_bytes()).unwrap();
-    // Vertices in the order of first use: v1, v3, v2, v4. sRGB 0.5 is ((0.5 + 0.055) / 1.055)^2.4.
+    // Vertices in the order of first use: v1, v3, v2, v4, then the copies the tetrahedron's
+    // sharp edges split off, each with its vertex's colour. sRGB 0.5 is
+    // ((0.5 + 0.055) / 1.055)^2.4.
     let half = 0.214_041_14;
     let want = [[1.0, half, 0.0, 1.0], [0.0, 0.0, 1.0, 1.0], [1.0; 4], [1.0; 4]];
-    assert_eq!(imp.mesh.colors_linear.len(), 4);
-    for (got, want) in imp.mesh.colors_linear.iter().zip(want) {
+    let at = [Vec3::ZERO, Vec3::new(0.0, 1.0, 0.0), Vec3::new(1.0, 0.0, 0.0), Vec3::new(0.0, 0.0, 1.0)];
+    assert_eq!(imp.mesh.colors_linear.len(), imp.mesh.positions.len());
+    for (got, p) in imp.mesh.colors_linear.iter().zip(&imp.mesh.positions) {
+        let want = want[at.iter().position(|q| q == p).unwrap()];
         assert!(got.iter().zip(want).all(|(g, w)| (g - w).abs() < 1e-6), "{:?}", imp.mesh.colors_linear);
     }
     assert_eq!(imp.mesh.positions[2], Vec3::new(1.0, 0.0, 0.0));
