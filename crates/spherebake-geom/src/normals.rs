@@ -68,23 +68,22 @@ pub fn crease_normals(positions: &[Vec3], triangles: &[[u32; 3]]) -> CreaseNorma
     let welded = ids.len();
     drop(ids);
     let valid = |v: u32| (v as usize) < n;
-    // Area-weighted (twice the area) and unit geometric normals, f64.
-    let area: Vec<DVec3> = triangles
+    // Area-weighted (twice the area) and unit geometric normals, computed in f64 and kept in
+    // f32 (24 bytes per triangle; zero for a triangle without area); sums are f64.
+    let (area, unit): (Vec<Vec3>, Vec<Vec3>) = triangles
         .iter()
         .map(|t| {
             if !t.iter().all(|&v| valid(v)) {
-                return DVec3::ZERO;
+                return (Vec3::ZERO, Vec3::ZERO);
             }
             let [a, b, c] = t.map(|v| positions[v as usize].as_dvec3());
             let x = (b - a).cross(c - a);
-            if x.is_finite() {
-                x
-            } else {
-                DVec3::ZERO
+            match x.try_normalize() {
+                Some(u) if x.as_vec3().is_finite() => (x.as_vec3(), u.as_vec3()),
+                _ => (Vec3::ZERO, Vec3::ZERO),
             }
         })
-        .collect();
-    let unit: Vec<Option<DVec3>> = area.iter().map(|x| x.try_normalize()).collect();
+        .unzip();
     // Triangles around each welded position (CSR; a triangle twice if it names the position
     // twice, which only a degenerate one does and it adds no area).
     let mut start = vec![0usize; welded + 1];
@@ -109,14 +108,16 @@ pub fn crease_normals(positions: &[Vec3], triangles: &[[u32; 3]]) -> CreaseNorma
     let corner_normal = |ti: usize, v: u32| -> Vec3 {
         let w = weld[v as usize] as usize;
         let near = &around[start[w]..start[w + 1]];
-        let sum: DVec3 = match unit[ti] {
-            None => near.iter().map(|&o| area[o as usize]).sum(),
-            Some(_) if near.len() > MAX_CREASE_VALENCE => area[ti],
-            Some(u) => near
-                .iter()
-                .filter(|&&o| unit[o as usize].is_some_and(|uo| uo.dot(u) >= cos_crease))
-                .map(|&o| area[o as usize])
-                .sum(),
+        let u = unit[ti].as_dvec3();
+        let sum: DVec3 = if u == DVec3::ZERO {
+            near.iter().map(|&o| area[o as usize].as_dvec3()).sum()
+        } else if near.len() > MAX_CREASE_VALENCE {
+            area[ti].as_dvec3()
+        } else {
+            near.iter()
+                .filter(|&&o| unit[o as usize].as_dvec3().dot(u) >= cos_crease)
+                .map(|&o| area[o as usize].as_dvec3())
+                .sum()
         };
         sum.try_normalize().map_or(Vec3::Z, |s| s.as_vec3())
     };
