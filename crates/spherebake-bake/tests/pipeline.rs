@@ -394,7 +394,19 @@ fn a_box_without_normals_gets_the_normals_of_its_faces() {
                      {"bufferView":1,"componentType":5123,"count":36,"type":"SCALAR"}]}"#;
     let gl = dir.path().join("box.gltf");
     std::fs::write(&gl, gltf).unwrap();
-    for path in [obj, gl] {
+    // The OBJ again with a normal of no direction at every corner (`vn 0 0 0`): no normal.
+    let zero = dir.path().join("zero.obj");
+    let with_vn = unit_cube_obj(&quads)
+        .replace("f ", "f_")
+        .split('\n')
+        .map(|l| match l.strip_prefix("f_") {
+            Some(f) => "f ".to_string() + &f.split(' ').map(|v| format!("{v}//1")).collect::<Vec<_>>().join(" "),
+            None => l.to_string(),
+        })
+        .collect::<Vec<_>>()
+        .join("\n");
+    std::fs::write(&zero, format!("vn 0 0 0\n{with_vn}")).unwrap();
+    for path in [obj, gl, zero] {
         let out = bake_path(&path, &BakeSettings { spheres: 8, voxels: 48, ..Default::default() }, &|_| {}).unwrap();
         let samples = out.file.samples.as_ref().expect("samples");
         let mut checked = 0;

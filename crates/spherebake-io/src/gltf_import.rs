@@ -1354,9 +1354,13 @@ impl Source<'_> {
                     }
                 }
                 // No NORMAL: flat shading, as §3.7.2.1 requires ("client implementations MUST
-                // calculate flat normals"): each triangle shades with its geometric normal.
+                // calculate flat normals"): each triangle shades with its geometric normal. So
+                // does a corner whose normal has no direction (zero, NaN).
                 let normals: Vec<Vec3> = if normals.is_some() {
-                    scene_normals.into_iter().map(|x| x.as_vec3().try_normalize().unwrap_or(Vec3::Z)).collect()
+                    scene_normals
+                        .into_iter()
+                        .map(|x| x.as_vec3().try_normalize().unwrap_or(spherebake_geom::normals::NO_NORMAL))
+                        .collect()
                 } else {
                     vec![spherebake_geom::normals::NO_NORMAL; scene.len()]
                 };

@@ -880,13 +880,14 @@ pub(crate) fn import(ctx: &mut Ctx, bytes: &[u8]) -> Result<(Mesh, Vec<ImportedP
         // A group without normals (or with some missing) gets them from its faces, smoothed
         // across edges of at most the crease angle and sharp across harder ones; a vertex on a
         // sharp edge is split, its copies keeping its UV and colour
-        // (`spherebake_geom::normals::crease_normals`).
+        // (`spherebake_geom::normals::crease_normals`). A `vn` without a direction (`vn 0 0 0`)
+        // is no normal: the corner shades with its face's (`NO_NORMAL`).
         let has_normals = m.normals.len() == 3 * n && n > 0;
         let (positions, tris, normals, group_uvs, group_colours) = if has_normals {
             let normals = m
                 .normals
                 .chunks_exact(3)
-                .map(|c| Vec3::new(c[0], c[1], c[2]).try_normalize().unwrap_or(Vec3::Z))
+                .map(|c| Vec3::new(c[0], c[1], c[2]).try_normalize().unwrap_or(spherebake_geom::normals::NO_NORMAL))
                 .collect();
             (positions, tris, normals, group_uvs, group_colours)
         } else {
