@@ -13,7 +13,8 @@
 //!
 //! Cost: O(corners × valence) with the valence held to [`MAX_CREASE_VALENCE`] (a position
 //! shared by more triangles, a fan's apex or a pole, gives its corners their own face's
-//! normal), so O(64 × corners) at worst; one hash per position and per split corner.
+//! normal), so O(64 × corners) at worst; corners of triangles without area take their
+//! position's whole sum, summed once per position; one hash per position and per split corner.
 
 use glam::{DVec3, Vec3};
 use std::collections::HashMap;
@@ -39,7 +40,7 @@ pub struct CreaseNormals {
     /// Per output vertex, the input vertex it copies: `0..n` first (each input vertex keeps its
     /// index), then one copy per extra normal a vertex needs, in the order first met.
     pub source: Vec<u32>,
-    /// Per output vertex, its unit normal (+Z where no triangle around it has an area).
+    /// Per output vertex, its unit normal (+Z where no triangle around it has a direction).
     pub normals: Vec<Vec3>,
 }
 
@@ -68,20 +69,22 @@ pub fn crease_normals(positions: &[Vec3], triangles: &[[u32; 3]]) -> CreaseNorma
     let welded = ids.len();
     drop(ids);
     let valid = |v: u32| (v as usize) < n;
-    // Area-weighted (twice the area) and unit geometric normals, computed in f64 and kept in
-    // f32 (24 bytes per triangle; zero for a triangle without area); sums are f64.
+    // Area-weighted and unit geometric normals, computed in f64 and kept in f32 (24 bytes per
+    // triangle; zero for a triangle without area). The area vectors are relative to the
+    // largest (so a model of any scale keeps them out of f32's underflow); sums are f64.
+    let cross = |t: &[u32; 3]| -> Option<DVec3> {
+        if !t.iter().all(|&v| valid(v)) {
+            return None;
+        }
+        let [a, b, c] = t.map(|v| positions[v as usize].as_dvec3());
+        Some((b - a).cross(c - a)).filter(|x| x.is_finite())
+    };
+    let largest = triangles.iter().filter_map(cross).map(DVec3::length).fold(0.0, f64::max);
     let (area, unit): (Vec<Vec3>, Vec<Vec3>) = triangles
         .iter()
-        .map(|t| {
-            if !t.iter().all(|&v| valid(v)) {
-                return (Vec3::ZERO, Vec3::ZERO);
-            }
-            let [a, b, c] = t.map(|v| positions[v as usize].as_dvec3());
-            let x = (b - a).cross(c - a);
-            match x.try_normalize() {
-                Some(u) if x.as_vec3().is_finite() => (x.as_vec3(), u.as_vec3()),
-                _ => (Vec3::ZERO, Vec3::ZERO),
-            }
+        .map(|t| match cross(t).and_then(|x| Some((x / largest, x.try_normalize()?))) {
+            Some((x, u)) => (x.as_vec3(), u.as_vec3()),
+            None => (Vec3::ZERO, Vec3::ZERO),
         })
         .unzip();
     // Triangles around each welded position (CSR; a triangle twice if it names the position
@@ -104,22 +107,28 @@ pub fn crease_normals(positions: &[Vec3], triangles: &[[u32; 3]]) -> CreaseNorma
             fill[w] += 1;
         }
     }
+    // Each position's whole area-weighted normal, for the corners of triangles without area
+    // (one pass, so a position shared by many of them costs no more than its triangles).
+    let whole: Vec<DVec3> = (0..welded)
+        .map(|w| around[start[w]..start[w + 1]].iter().map(|&o| area[o as usize].as_dvec3()).sum())
+        .collect();
     let cos_crease = CREASE_ANGLE_DEG.to_radians().cos();
     let corner_normal = |ti: usize, v: u32| -> Vec3 {
         let w = weld[v as usize] as usize;
         let near = &around[start[w]..start[w + 1]];
         let u = unit[ti].as_dvec3();
         let sum: DVec3 = if u == DVec3::ZERO {
-            near.iter().map(|&o| area[o as usize].as_dvec3()).sum()
+            whole[w]
         } else if near.len() > MAX_CREASE_VALENCE {
-            area[ti].as_dvec3()
+            u
         } else {
             near.iter()
                 .filter(|&&o| unit[o as usize].as_dvec3().dot(u) >= cos_crease)
                 .map(|&o| area[o as usize].as_dvec3())
                 .sum()
         };
-        sum.try_normalize().map_or(Vec3::Z, |s| s.as_vec3())
+        // A sum whose terms all underflowed (areas below 10⁻³⁸ of the largest) is the face's.
+        sum.try_normalize().or_else(|| u.try_normalize()).map_or(Vec3::Z, |s| s.as_vec3())
     };
     // Split vertices whose corners differ: the first normal keeps the vertex.
     let mut normals = vec![None::<Vec3>; n];
@@ -165,13 +174,21 @@ mod tests {
     }
 
     fn face_normal(p: &[Vec3], t: [u32; 3]) -> Vec3 {
-        let [a, b, c] = t.map(|v| p[v as usize]);
-        (b - a).cross(c - a).normalize()
+        let [a, b, c] = t.map(|v| p[v as usize].as_dvec3());
+        (b - a).cross(c - a).normalize().as_vec3()
     }
 
     #[test]
     fn a_cube_keeps_each_face_flat_with_three_copies_of_each_corner() {
+        // At any scale: areas of 10⁻⁴⁸ underflow f32, so they are kept relative to the largest.
+        for scale in [1.0, 1e-24, 1e18] {
+            cube_at(scale);
+        }
+    }
+
+    fn cube_at(scale: f32) {
         let (p, t) = cube();
+        let p: Vec<Vec3> = p.iter().map(|&q| q * scale).collect();
         let r = crease_normals(&p, &t);
         // Each corner position meets three faces at 90°: three normals, so 8 × 3 vertices.
         assert_eq!(r.normals.len(), 24);
@@ -181,7 +198,7 @@ mod tests {
             for k in 0..3 {
                 let v = new[k] as usize;
                 assert_eq!(r.source[v], orig[k], "a copy names its vertex");
-                assert!(r.normals[v].abs_diff_eq(want, 1e-6), "{} vs face {want}", r.normals[v]);
+                assert!(r.normals[v].abs_diff_eq(want, 1e-6), "scale {scale}: {} vs face {want}", r.normals[v]);
             }
         }
     }

@@ -1354,8 +1354,9 @@ impl Source<'_> {
                     }
                 }
                 // No NORMAL: flat shading, as §3.7.2.1 requires ("client implementations MUST
-                // calculate flat normals"): each triangle shades with its geometric normal. So
-                // does a corner whose normal has no direction (zero, NaN).
+                // calculate flat normals"): each triangle shades with its geometric normal. A corner
+                // whose normal has no direction (zero, NaN) is no normal either: it drops out of
+                // the interpolation (a triangle with none at any corner shades flat).
                 let normals: Vec<Vec3> = if normals.is_some() {
                     scene_normals
                         .into_iter()

@@ -806,6 +806,7 @@ pub(crate) fn import(ctx: &mut Ctx, bytes: &[u8]) -> Result<(Mesh, Vec<ImportedP
     let coloured = models.iter().any(|m| !m.mesh.vertex_color.is_empty());
     let mut colours: Vec<[f32; 4]> = Vec::new();
     let mut mixed_vt: Vec<&str> = Vec::new();
+    let mut mixed_vn: Vec<&str> = Vec::new();
     let mut triangulator = Triangulator::default();
     let mut repeated = RepeatedPolygons::new(&models);
     let mut fanned = Fanned::default();
@@ -881,8 +882,12 @@ pub(crate) fn import(ctx: &mut Ctx, bytes: &[u8]) -> Result<(Mesh, Vec<ImportedP
         // across edges of at most the crease angle and sharp across harder ones; a vertex on a
         // sharp edge is split, its copies keeping its UV and colour
         // (`spherebake_geom::normals::crease_normals`). A `vn` without a direction (`vn 0 0 0`)
-        // is no normal: the corner shades with its face's (`NO_NORMAL`).
+        // is no normal (`NO_NORMAL`): it drops out of the interpolation of its triangle's
+        // corners, and a triangle with none at any corner shades with its face's normal.
         let has_normals = m.normals.len() == 3 * n && n > 0;
+        if !has_normals && !m.normals.is_empty() {
+            mixed_vn.push(model.name.as_str());
+        }
         let (positions, tris, normals, group_uvs, group_colours) = if has_normals {
             let normals = m
                 .normals
@@ -939,6 +944,15 @@ pub(crate) fn import(ctx: &mut Ctx, bytes: &[u8]) -> Result<(Mesh, Vec<ImportedP
             vertices: v0..mesh.positions.len() as u32,
             triangles: t0..mesh.triangles.len() as u32,
         });
+    }
+    if let Some(first) = mixed_vn.first() {
+        let more = match mixed_vn.len() {
+            1 => String::new(),
+            k => format!(" (and {} more)", k - 1),
+        };
+        ctx.warn(format!(
+            "object {first:?}{more}: some faces have no normals (vn); the group's normals are all computed from its faces (60° crease), the vn it gives are not used"
+        ));
     }
     if let Some(first) = mixed_vt.first() {
         let more = match mixed_vt.len() {

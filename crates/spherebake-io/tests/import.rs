@@ -2123,3 +2123,19 @@ fn triangles_placed_many_times_are_held_to_the_input_budget() {
     assert_eq!(imp.mesh.triangles.len(), 1);
     assert!(imp.warnings.iter().any(|w| w.0.starts_with("499999 duplicate triangles")), "{:?}", imp.warnings);
 }
+
+/// An OBJ group whose faces mix `vn` and no `vn` gets all its normals from its faces, and says
+/// so (the `vn` it gives were dropped silently); a group with `vn` on every face keeps them.
+#[test]
+fn obj_group_mixing_faces_with_and_without_vn_is_warned() {
+    let p = Path::new("mem/tilt.obj");
+    let v = "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nvn 0.3 0.3 1\n";
+    let mixed = load_mesh_from_bytes(p, format!("{v}f 1 2 4\nf 1//1 4//1 3//1\n").as_bytes()).unwrap();
+    assert!(mixed.warnings.iter().any(|w| w.0.contains("some faces have no normals (vn)")), "{:?}", mixed.warnings);
+    // Computed: the plane's normal, not the tilted vn.
+    assert!(mixed.mesh.normals.iter().all(|n| (*n - Vec3::Z).length() < 1e-6), "{:?}", mixed.mesh.normals);
+    let all = load_mesh_from_bytes(p, format!("{v}f 1//1 2//1 4//1\nf 1//1 4//1 3//1\n").as_bytes()).unwrap();
+    assert!(all.warnings.is_empty(), "{:?}", all.warnings);
+    let tilted = Vec3::new(0.3, 0.3, 1.0).normalize();
+    assert!(all.mesh.normals.iter().all(|n| (*n - tilted).length() < 1e-6), "{:?}", all.mesh.normals);
+}
