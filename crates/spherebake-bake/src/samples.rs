@@ -20,8 +20,8 @@
 //! vertex shading normals interpolated at the hit and renormalised, negated when it points
 //! against the oriented geometric normal; the geometric normal when the mesh has no usable
 //! vertex normals there, as at a glTF primitive without NORMAL, which holds
-//! `spherebake_geom::normals::NO_NORMAL` and so is shaded flat), the direction index and the rule (1 or 3). Samples are in increasing
-//! direction order.
+//! `spherebake_geom::normals::NO_NORMAL` and so is shaded flat), the direction index and the
+//! rule (1 or 3). Samples are in increasing direction order.
 //!
 //! Ties: hits at equal t are ordered by triangle index (a ray through a shared edge reports both
 //! triangles); rule 1 takes the last of the farthest, rule 3 the first of the nearest.

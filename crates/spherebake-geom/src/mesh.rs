@@ -219,9 +219,9 @@ pub(crate) fn weld_key(p: Vec3) -> (u32, u32, u32) {
 pub struct Mesh {
     /// Per-vertex position, scene (model) space, rest pose.
     pub positions: Vec<Vec3>,
-    /// Per-vertex unit shading normal, scene space; where the file gives none, computed with a
-    /// crease angle (OBJ) or [`crate::normals::NO_NORMAL`], shade with the triangle's geometric
-    /// normal (glTF); see [`crate::normals`].
+    /// Per-vertex unit shading normal, scene space. Where the file gives none: computed per
+    /// corner with a crease angle (OBJ), or [`crate::normals::NO_NORMAL`] (glTF: flat, each
+    /// triangle shades with its geometric normal); see [`crate::normals`].
     pub normals: Vec<Vec3>,
     /// Per-vertex UV sets (`uvs[0]` = TEXCOORD_0, ...); each either empty or one per vertex.
     /// A vertex of a part (glTF primitive, OBJ group) that lacks the set holds [`NO_UV`], so a
@@ -276,13 +276,12 @@ impl Mesh {
     /// `-0.0` and `0.0` are treated as equal.
     pub fn rebuild_weld(&mut self) {
         use std::collections::HashMap;
-        let key = weld_key;
         let mut map: HashMap<(u32, u32, u32), u32> = HashMap::with_capacity(self.positions.len());
         self.weld.clear();
         self.welded_positions.clear();
         for &p in &self.positions {
             let next = self.welded_positions.len() as u32;
-            let id = *map.entry(key(p)).or_insert(next);
+            let id = *map.entry(weld_key(p)).or_insert(next);
             if id == next {
                 self.welded_positions.push(p);
             }

@@ -52,8 +52,9 @@ pub struct CreaseNormals {
 /// split: the first normal keeps the vertex, each further one a copy (`source` names what
 /// to copy: UVs, colours).
 ///
-/// Degenerate triangles (no area) get the mean of every triangle around each corner, as
-/// positions shared by more than [`MAX_CREASE_VALENCE`] triangles get their own face's normal.
+/// The corners of a degenerate triangle (no area) get the mean of every triangle around their
+/// positions; the corners at a position shared by more than [`MAX_CREASE_VALENCE`] triangles
+/// get their own face's normal.
 /// Deterministic: only the input's order decides.
 pub fn crease_normals(positions: &[Vec3], triangles: &[[u32; 3]]) -> CreaseNormals {
     let n = positions.len();

@@ -908,7 +908,6 @@ pub(crate) fn import(ctx: &mut Ctx, bytes: &[u8]) -> Result<(Mesh, Vec<ImportedP
                 (gather(&positions, &r.source), gather(&group_uvs, &r.source), gather(&group_colours, &r.source));
             (p, r.triangles, r.normals, uv, c)
         };
-        let n_out = positions.len();
         let key = m.material_id.filter(|&i| i < materials.len());
         let material = match material_map.get(&key) {
             Some(&id) => id,
@@ -932,7 +931,6 @@ pub(crate) fn import(ctx: &mut Ctx, bytes: &[u8]) -> Result<(Mesh, Vec<ImportedP
         mesh.normals.extend(normals);
         uvs.extend(group_uvs);
         colours.extend(group_colours);
-        debug_assert_eq!(mesh.positions.len(), v0 as usize + n_out);
         mesh.triangles.extend(tris.iter().map(|t| [t[0] + v0, t[1] + v0, t[2] + v0]));
         mesh.triangle_materials.extend(std::iter::repeat_n(material, tris.len()));
         parts.push(ImportedPart {
