@@ -943,22 +943,22 @@ pub(crate) fn import(ctx: &mut Ctx, bytes: &[u8]) -> Result<(Mesh, Vec<ImportedP
             triangles: t0..mesh.triangles.len() as u32,
         });
     }
-    if let Some(first) = mixed_vn.first() {
-        let more = match mixed_vn.len() {
-            1 => String::new(),
-            k => format!(" (and {} more)", k - 1),
-        };
+    // "object "a"" or "object "a" (and 2 more)" for the groups named.
+    let objects = |names: &[&str]| -> Option<String> {
+        let first = names.first()?;
+        Some(match names.len() {
+            1 => format!("object {first:?}"),
+            k => format!("object {first:?} (and {} more)", k - 1),
+        })
+    };
+    if let Some(objects) = objects(&mixed_vn) {
         ctx.warn(format!(
-            "object {first:?}{more}: some faces have no normals (vn); the group's normals are all computed from its faces (60° crease), the vn it gives are not used"
+            "{objects}: some faces have no normals (vn); the group's normals are all computed from its faces (60° crease), the vn it gives are not used"
         ));
     }
-    if let Some(first) = mixed_vt.first() {
-        let more = match mixed_vt.len() {
-            1 => String::new(),
-            k => format!(" (and {} more)", k - 1),
-        };
+    if let Some(objects) = objects(&mixed_vt) {
         ctx.warn(format!(
-            "object {first:?}{more}: some faces have no texture coordinates (vt); a texture does not reach them (their material's Kd is used)"
+            "{objects}: some faces have no texture coordinates (vt); a texture does not reach them (their material's Kd is used)"
         ));
     }
     if let Some(first) = fanned.first {
