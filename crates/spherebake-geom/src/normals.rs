@@ -5,11 +5,13 @@
 //!   consumer (the bake's surface samples, the reference renderer) shades a triangle whose
 //!   corners hold it with the triangle's geometric normal.
 //! - **OBJ**: the format has no rule for faces without `vn`, and tools differ (Blender and
-//!   three.js shade them flat, MeshLab smooth). [`crease_normals`] smooths across edges whose
-//!   faces meet at up to [`CREASE_ANGLE_DEG`] and keeps harder edges sharp, as Unity's and 3ds
-//!   Max's importers do with their smoothing angle: a scan or a tessellated curve stays smooth,
-//!   a box keeps its faces flat (smoothing a cube's corners tilts its sample normals by up to
-//!   55°, and lights it from the wrong side).
+//!   three.js shade them flat, MeshLab smooth). Where the file has smoothing groups (`s`),
+//!   they decide, as the format defines them (`s off` flat, `s N` smooth within group N).
+//!   Else [`crease_normals`] smooths across edges whose faces meet at up to
+//!   [`CREASE_ANGLE_DEG`] and keeps harder edges sharp, as Unity's and 3ds Max's importers do
+//!   with their smoothing angle: a scan or a tessellated curve stays smooth, a box keeps its
+//!   faces flat (smoothing a cube's corners tilts its sample normals by up to 55°, and lights
+//!   it from the wrong side).
 //!
 //! Cost: O(corners × valence) with the valence held to [`MAX_CREASE_VALENCE`] (a position
 //! shared by more triangles, a fan's apex or a pole, gives its corners their own face's
@@ -27,6 +29,10 @@ pub const NO_NORMAL: Vec3 = Vec3::ZERO;
 /// Faces meeting at up to this angle (degrees) share smoothed normals at their common
 /// positions; harder edges stay sharp ([`crease_normals`]). Unity's import default.
 pub const CREASE_ANGLE_DEG: f64 = 60.0;
+
+/// The smoothing group of a triangle no group speaks for ([`crease_normals`]: the crease angle
+/// decides).
+pub const NO_GROUP: u32 = u32::MAX;
 
 /// Positions shared by more triangles than this give each corner its own face's normal
 /// (bounds the per-corner comparison of [`crease_normals`]).
@@ -55,8 +61,14 @@ pub struct CreaseNormals {
 /// The corners of a degenerate triangle (no area) get the mean of every triangle around their
 /// positions; the corners at a position shared by more than [`MAX_CREASE_VALENCE`] triangles
 /// get their own face's normal.
+/// With `groups` (one per triangle, an OBJ file's `s` lines), a triangle's group decides
+/// instead: group 0 is flat (each corner its own face's normal), a group N > 0 is smooth
+/// across every edge to triangles of group N whatever the angle, and [`NO_GROUP`] keeps the
+/// crease angle among the triangles of no group.
+///
 /// Deterministic: only the input's order decides.
-pub fn crease_normals(positions: &[Vec3], triangles: &[[u32; 3]]) -> CreaseNormals {
+pub fn crease_normals(positions: &[Vec3], triangles: &[[u32; 3]], groups: Option<&[u32]>) -> CreaseNormals {
+    let group = |t: usize| groups.and_then(|g| g.get(t).copied()).unwrap_or(NO_GROUP);
     let n = positions.len();
     // Welded position per vertex.
     let mut ids: HashMap<(u32, u32, u32), u32> = HashMap::with_capacity(n);
@@ -118,15 +130,17 @@ pub fn crease_normals(positions: &[Vec3], triangles: &[[u32; 3]]) -> CreaseNorma
         let w = weld[v as usize] as usize;
         let near = &around[start[w]..start[w + 1]];
         let u = unit[ti].as_dvec3();
+        let g = group(ti);
         let sum: DVec3 = if u == DVec3::ZERO {
             whole[w]
-        } else if near.len() > MAX_CREASE_VALENCE {
+        } else if near.len() > MAX_CREASE_VALENCE || g == 0 {
             u
         } else {
-            near.iter()
-                .filter(|&&o| unit[o as usize].as_dvec3().dot(u) >= cos_crease)
-                .map(|&o| area[o as usize].as_dvec3())
-                .sum()
+            let joins = |o: usize| match g {
+                NO_GROUP => group(o) == NO_GROUP && unit[o].as_dvec3().dot(u) >= cos_crease,
+                _ => group(o) == g,
+            };
+            near.iter().filter(|&&o| joins(o as usize)).map(|&o| area[o as usize].as_dvec3()).sum()
         };
         // A sum whose terms all underflowed (areas below 10⁻³⁸ of the largest) is the face's.
         sum.try_normalize().or_else(|| u.try_normalize()).map_or(Vec3::Z, |s| s.as_vec3())
@@ -190,7 +204,7 @@ mod tests {
     fn cube_at(scale: f32) {
         let (p, t) = cube();
         let p: Vec<Vec3> = p.iter().map(|&q| q * scale).collect();
-        let r = crease_normals(&p, &t);
+        let r = crease_normals(&p, &t, None);
         // Each corner position meets three faces at 90°: three normals, so 8 × 3 vertices.
         assert_eq!(r.normals.len(), 24);
         assert_eq!(r.source.len(), 24);
@@ -226,7 +240,7 @@ mod tests {
             t.push([2 * m, j, i]);
             t.push([2 * m + 1, m + i, m + j]);
         }
-        let r = crease_normals(&p, &t);
+        let r = crease_normals(&p, &t, None);
         // Each rim vertex: one side normal (the input vertex) and one cap normal (a copy).
         assert_eq!(r.normals.len(), p.len() + 2 * m as usize);
         for (orig, new) in t.iter().zip(&r.triangles) {
@@ -271,7 +285,7 @@ mod tests {
                 .collect();
             let nt = 1 + rng.next_u64() % 40;
             let t: Vec<[u32; 3]> = (0..nt).map(|_| [0; 3].map(|_| (rng.next_u64() % nv as u64) as u32)).collect();
-            let r = crease_normals(&p, &t);
+            let r = crease_normals(&p, &t, None);
             assert_eq!(r.triangles.len(), t.len());
             assert_eq!(r.source.len(), r.normals.len());
             for (orig, new) in t.iter().zip(&r.triangles) {
@@ -300,7 +314,7 @@ mod tests {
             .collect();
         p.push(Vec3::new(0.0, 0.0, 0.2));
         let t: Vec<[u32; 3]> = (0..m).map(|i| [i, (i + 1) % m, m]).collect();
-        let r = crease_normals(&p, &t);
+        let r = crease_normals(&p, &t, None);
         for (orig, new) in t.iter().zip(&r.triangles) {
             let v = new[2] as usize;
             assert!(r.normals[v].abs_diff_eq(face_normal(&p, *orig), 1e-6));

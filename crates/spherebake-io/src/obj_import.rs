@@ -723,7 +723,7 @@ pub(crate) fn import(ctx: &mut Ctx, bytes: &[u8]) -> Result<(Mesh, Vec<ImportedP
         merged.ok_or(error)
     })
     .map_err(|e| IoError::Obj { path: path.clone(), message: e.to_string() })?;
-    let (models, materials, uv_named) = (obj.models, obj.materials, obj.uv_named);
+    let (models, materials, uv_named, smoothing) = (obj.models, obj.materials, obj.uv_named, obj.smoothing);
     let mut library_failed = materials.is_err();
     for (p, read, parse_error) in mtl_reads.into_inner() {
         match read {
@@ -837,8 +837,15 @@ pub(crate) fn import(ctx: &mut Ctx, bytes: &[u8]) -> Result<(Mesh, Vec<ImportedP
         // n − 2 triangles per face of n corners.
         let faces_n = if m.face_arities.is_empty() { m.indices.len() / 3 } else { m.face_arities.len() };
         let mut tris = Vec::with_capacity(m.indices.len().saturating_sub(2 * faces_n));
-        for face in faces(m) {
-            if repeated.mirror(&positions, face, &mut tris) {
+        // Each triangle's smoothing group (`s`), when the file has any.
+        let face_groups = smoothing.get(mi).map_or(&[][..], Vec::as_slice);
+        let mut tri_groups: Vec<u32> = Vec::new();
+        for (fi, face) in faces(m).enumerate() {
+            let mirrored = repeated.mirror(&positions, face, &mut tris);
+            if let Some(&g) = face_groups.get(fi) {
+                tri_groups.resize(tris.len(), g);
+            }
+            if mirrored {
                 continue;
             }
             let first = tris.len();
@@ -846,6 +853,9 @@ pub(crate) fn import(ctx: &mut Ctx, bytes: &[u8]) -> Result<(Mesh, Vec<ImportedP
                 How::Fan | How::EarClipped => {}
                 How::FanOverCap => fanned.over_cap += 1,
                 How::FanNoEar => fanned.no_ear += 1,
+            }
+            if let Some(&g) = face_groups.get(fi) {
+                tri_groups.resize(tris.len(), g);
             }
             repeated.remember(&positions, face, &tris[first..]);
             if fanned.first.is_none() && fanned.over_cap + fanned.no_ear > 0 {
@@ -896,7 +906,8 @@ pub(crate) fn import(ctx: &mut Ctx, bytes: &[u8]) -> Result<(Mesh, Vec<ImportedP
                 .collect();
             (positions, tris, normals, group_uvs, group_colours)
         } else {
-            let r = spherebake_geom::normals::crease_normals(&positions, &tris);
+            let groups = (tri_groups.len() == tris.len() && !tris.is_empty()).then_some(&tri_groups[..]);
+            let r = spherebake_geom::normals::crease_normals(&positions, &tris, groups);
             fn gather<T: Copy>(v: &[T], source: &[u32]) -> Vec<T> {
                 if v.is_empty() {
                     Vec::new()

@@ -47,7 +47,8 @@
 //!
 //! Beyond tobj's result, [`Obj::uv_named`] says which vertices of a model have a texture
 //! coordinate when only some have one: tobj leaves the others out of the model's texture
-//! coordinates, which then do not pair with its vertices.
+//! coordinates, which then do not pair with its vertices; and [`Obj::smoothing`] gives each
+//! face its smoothing group (`s`), which tobj ignores.
 
 use std::collections::hash_map::Entry;
 use std::collections::HashMap;
@@ -198,7 +199,13 @@ pub(crate) struct Obj {
     /// model's corners name one only in part (a face without `vt` in a textured group); empty
     /// otherwise. The model's `texcoords` hold those of the vertices marked, in vertex order.
     pub uv_named: Vec<Vec<bool>>,
+    /// Per model, the smoothing group of each face of three or more corners (`s N`: N; `s off`
+    /// or `s 0`: 0, flat; before any `s` line or after one that is not a number:
+    /// [`NO_SMOOTHING_GROUP`]); empty for every model when the file has no `s` line.
+    pub smoothing: Vec<Vec<u32>>,
 }
+
+use spherebake_geom::normals::NO_GROUP as NO_SMOOTHING_GROUP;
 
 /// Reads the OBJ `text` as `tobj::load_obj_buf` 4.0.5 reads it with the options this importer uses
 /// (see the module doc): the models, and the materials of the libraries `material_loader`
@@ -229,6 +236,14 @@ where
             "vt" => read_floats::<2>(&mut w, &mut p.texcoords).ok_or(LoadError::TexcoordParseError)?,
             "vn" => read_floats::<3>(&mut w, &mut p.normals).ok_or(LoadError::NormalParseError)?,
             "f" | "l" => p.face(w)?,
+            "s" => {
+                p.any_smoothing = true;
+                p.smoothing_group = match w.next() {
+                    Some("off") => 0,
+                    Some(n) => n.parse::<u32>().map_or(NO_SMOOTHING_GROUP, |n| n.min(NO_SMOOTHING_GROUP - 1)),
+                    None => NO_SMOOTHING_GROUP,
+                };
+            }
             "o" | "g" => {
                 if p.faces > 0 {
                     p.end_model()?;
@@ -260,7 +275,8 @@ where
     }
     // The last model ends with the text, faces or not.
     p.end_model()?;
-    Ok(Obj { models: p.models, materials: p.materials.into_result(), uv_named: p.uv_named })
+    let smoothing = if p.any_smoothing { p.smoothing } else { vec![Vec::new(); p.models.len()] };
+    Ok(Obj { models: p.models, materials: p.materials.into_result(), uv_named: p.uv_named, smoothing })
 }
 
 /// The text after a line's first space, trimmed (`""` without a space): tobj's `usemtl` and
@@ -371,6 +387,12 @@ struct Parser {
     ahead: bool,
     /// The corners of the face being read (reused).
     face: Vec<Corner>,
+    /// The `s` group in force, per face of the current model, per model ended
+    /// ([`Obj::smoothing`]), and whether the file had an `s` line.
+    smoothing_group: u32,
+    face_groups: Vec<u32>,
+    smoothing: Vec<Vec<u32>>,
+    any_smoothing: bool,
 }
 
 impl Default for Parser {
@@ -382,6 +404,10 @@ impl Default for Parser {
             normals: Vec::new(),
             models: Vec::new(),
             uv_named: Vec::new(),
+            smoothing_group: NO_SMOOTHING_GROUP,
+            face_groups: Vec::new(),
+            smoothing: Vec::new(),
+            any_smoothing: false,
             materials: Materials::default(),
             name: UNNAMED.to_string(),
             material_id: None,
@@ -461,6 +487,7 @@ impl Parser {
         }
         self.all_triangles &= n == 3;
         self.arities.push(n as u32);
+        self.face_groups.push(self.smoothing_group);
         Ok(())
     }
 
@@ -534,6 +561,7 @@ impl Parser {
         self.uv_named.push(if some { self.unique.iter().map(|c| c.vt != ABSENT).collect() } else { Vec::new() });
         mesh.indices = std::mem::take(&mut self.indices);
         mesh.face_arities = std::mem::take(&mut self.arities);
+        self.smoothing.push(std::mem::take(&mut self.face_groups));
         if self.all_triangles {
             mesh.face_arities = Vec::new();
         }

@@ -2139,3 +2139,70 @@ fn obj_group_mixing_faces_with_and_without_vn_is_warned() {
     let tilted = Vec3::new(0.3, 0.3, 1.0).normalize();
     assert!(all.mesh.normals.iter().all(|n| (*n - tilted).length() < 1e-6), "{:?}", all.mesh.normals);
 }
+
+/// OBJ smoothing groups (`s`) decide the computed normals when the file has them: `s off` /
+/// `s 0` faces are flat, faces of one group `s N` are smooth across every edge between them
+/// whatever its angle, and not across to another group; without `s` lines the 60° crease
+/// decides (a cube flat, a 16-sided prism smooth around its sides).
+#[test]
+fn obj_smoothing_groups_decide_the_computed_normals() {
+    let p = Path::new("mem/s.obj");
+    // The unit cube, outward quads.
+    let v: String = (0..8).map(|i| format!("v {} {} {}\n", i & 1, (i >> 1) & 1, (i >> 2) & 1)).collect();
+    let quads = [[1, 3, 4, 2], [5, 6, 8, 7], [1, 2, 6, 5], [3, 7, 8, 4], [1, 5, 7, 3], [2, 4, 8, 6]];
+    let f: String = quads.iter().map(|q| format!("f {} {} {} {}\n", q[0], q[1], q[2], q[3])).collect();
+    let normal_at = |imp: &spherebake_io::Imported, t: usize, k: usize| {
+        let tri = imp.mesh.triangles[t];
+        (imp.mesh.positions[tri[k] as usize], imp.mesh.normals[tri[k] as usize])
+    };
+    let face = |imp: &spherebake_io::Imported, t: usize| {
+        let [a, b, c] = imp.mesh.triangles[t].map(|v| imp.mesh.positions[v as usize]);
+        (b - a).cross(c - a).normalize()
+    };
+    // The area-weighted mean of the triangles `which` at position q (taken from the import's
+    // triangles by construction, not by angle).
+    let mean = |imp: &spherebake_io::Imported, q: Vec3, which: &dyn Fn(usize) -> bool| {
+        let sum: Vec3 = (0..imp.mesh.triangles.len())
+            .filter(|&t| which(t) && imp.mesh.triangles[t].iter().any(|&v| imp.mesh.positions[v as usize] == q))
+            .map(|t| {
+                let [a, b, c] = imp.mesh.triangles[t].map(|v| imp.mesh.positions[v as usize]);
+                (b - a).cross(c - a)
+            })
+            .sum();
+        sum.normalize()
+    };
+    // One group: each corner is the mean of every triangle there (leaning to the diagonal).
+    let smooth = load_mesh_from_bytes(p, format!("{v}s 1\n{f}").as_bytes()).unwrap();
+    for t in 0..smooth.mesh.triangles.len() {
+        for k in 0..3 {
+            let (q, n) = normal_at(&smooth, t, k);
+            let want = mean(&smooth, q, &|_| true);
+            assert!((n - want).length() < 1e-5, "corner {q}: {n} vs {want}");
+            assert!(n.dot((q - Vec3::splat(0.5)).normalize()) > 0.9, "corner {q}: {n}");
+        }
+    }
+    // `s off`, `s 0`, and no `s` line (the crease): every corner its face's normal.
+    for text in [format!("{v}s off\n{f}"), format!("{v}s 0\n{f}"), format!("{v}{f}")] {
+        let flat = load_mesh_from_bytes(p, text.as_bytes()).unwrap();
+        for t in 0..flat.mesh.triangles.len() {
+            for k in 0..3 {
+                let (q, n) = normal_at(&flat, t, k);
+                assert!((n - face(&flat, t)).length() < 1e-5, "corner {q}: {n}");
+            }
+        }
+    }
+    // Two groups: the bottom and top faces (z = 0, z = 1) in group 2, the sides in group 1.
+    // A side corner is the mean of the side triangles there (horizontal), a cap corner its
+    // cap's normal.
+    let caps: String = quads[..2].iter().map(|q| format!("f {} {} {} {}\n", q[0], q[1], q[2], q[3])).collect();
+    let sides: String = quads[2..].iter().map(|q| format!("f {} {} {} {}\n", q[0], q[1], q[2], q[3])).collect();
+    let two = load_mesh_from_bytes(p, format!("{v}s 2\n{caps}s 1\n{sides}").as_bytes()).unwrap();
+    for t in 0..two.mesh.triangles.len() {
+        for k in 0..3 {
+            let (q, n) = normal_at(&two, t, k);
+            let want = if t < 4 { face(&two, t) } else { mean(&two, q, &|o| o >= 4) };
+            assert!(t < 4 || want.z.abs() < 1e-6, "a side corner is horizontal: {want}");
+            assert!((n - want).length() < 1e-5, "triangle {t} corner {q}: {n} vs {want}");
+        }
+    }
+}
