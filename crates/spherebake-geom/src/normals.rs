@@ -63,8 +63,10 @@ pub struct CreaseNormals {
 /// get their own face's normal.
 /// With `groups` (one per triangle, an OBJ file's `s` lines), a triangle's group decides
 /// instead: group 0 is flat (each corner its own face's normal), a group N > 0 is smooth
-/// across every edge to triangles of group N whatever the angle, and [`NO_GROUP`] keeps the
-/// crease angle among the triangles of no group.
+/// across every edge to triangles of group N whatever the angle (a triangle wound the other
+/// way adds its area turned to this side), and [`NO_GROUP`] keeps the crease angle among the
+/// triangles of no group. Smoothing joins triangles by shared position, so two that touch
+/// only at a corner are averaged there too.
 ///
 /// Deterministic: only the input's order decides.
 pub fn crease_normals(positions: &[Vec3], triangles: &[[u32; 3]], groups: Option<&[u32]>) -> CreaseNormals {
@@ -136,11 +138,17 @@ pub fn crease_normals(positions: &[Vec3], triangles: &[[u32; 3]], groups: Option
         } else if near.len() > MAX_CREASE_VALENCE || g == 0 {
             u
         } else {
-            let joins = |o: usize| match g {
-                NO_GROUP => group(o) == NO_GROUP && unit[o].as_dvec3().dot(u) >= cos_crease,
-                _ => group(o) == g,
+            // Within a group, a neighbour wound the other way (an inconsistently wound or
+            // double-sided mesh: the bake orients triangles only later) adds its area turned
+            // to this side, so opposite faces do not cancel.
+            let part = |o: usize| -> Option<DVec3> {
+                let (a, d) = (area[o].as_dvec3(), unit[o].as_dvec3().dot(u));
+                match g {
+                    NO_GROUP => (group(o) == NO_GROUP && d >= cos_crease).then_some(a),
+                    _ => (group(o) == g).then_some(if d < 0.0 { -a } else { a }),
+                }
             };
-            near.iter().filter(|&&o| joins(o as usize)).map(|&o| area[o as usize].as_dvec3()).sum()
+            near.iter().filter_map(|&o| part(o as usize)).sum()
         };
         // A sum whose terms all underflowed (areas below 10⁻³⁸ of the largest) is the face's.
         sum.try_normalize().or_else(|| u.try_normalize()).map_or(Vec3::Z, |s| s.as_vec3())

@@ -238,10 +238,15 @@ where
             "f" | "l" => p.face(w)?,
             "s" => {
                 p.any_smoothing = true;
-                p.smoothing_group = match w.next() {
+                // `off`, or a number (a comment may follow it: `s 1#c`); digits past u32 are
+                // a group too (the largest).
+                let word = w.next().map(|n| n.split('#').next().unwrap_or(""));
+                p.smoothing_group = match word {
                     Some("off") => 0,
-                    Some(n) => n.parse::<u32>().map_or(NO_SMOOTHING_GROUP, |n| n.min(NO_SMOOTHING_GROUP - 1)),
-                    None => NO_SMOOTHING_GROUP,
+                    Some(n) if !n.is_empty() && n.bytes().all(|b| b.is_ascii_digit()) => n
+                        .parse::<u64>()
+                        .map_or(NO_SMOOTHING_GROUP - 1, |n| n.min(u64::from(NO_SMOOTHING_GROUP - 1)) as u32),
+                    _ => NO_SMOOTHING_GROUP,
                 };
             }
             "o" | "g" => {

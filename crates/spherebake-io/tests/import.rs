@@ -2181,6 +2181,44 @@ fn obj_smoothing_groups_decide_the_computed_normals() {
             assert!(n.dot((q - Vec3::splat(0.5)).normalize()) > 0.9, "corner {q}: {n}");
         }
     }
+    // Any number is a group: one past u32, one followed by a comment.
+    for line in ["s 99999999999", "s 1#c"] {
+        let same = load_mesh_from_bytes(p, format!("{v}{line}\n{f}").as_bytes()).unwrap();
+        assert_eq!(same.mesh.normals, smooth.mesh.normals, "{line}");
+    }
+    // Faces wound the other way (an inconsistent file; the bake orients them later): each
+    // corner keeps the smooth normal, turned to its own face's side, instead of opposite faces
+    // cancelling. The side wall of an 8-sided prism (faces 45° apart), as triangles, every
+    // third reversed; against the same triangles all wound outward.
+    let ring: String = (0..16)
+        .map(|i| {
+            let a = (i % 8) as f32 * std::f32::consts::TAU / 8.0;
+            format!("v {} {} {}\n", a.cos(), a.sin(), (i / 8) as f32)
+        })
+        .collect();
+    let wall = |flip: bool| -> String {
+        (0..8u32)
+            .flat_map(|i| {
+                let j = (i + 1) % 8;
+                [[i + 1, j + 1, j + 9], [i + 1, j + 9, i + 9]]
+            })
+            .enumerate()
+            .map(|(n, t)| if flip && n % 3 == 0 { [t[0], t[2], t[1]] } else { t })
+            .map(|t| format!("f {} {} {}\n", t[0], t[1], t[2]))
+            .collect()
+    };
+    let outward = load_mesh_from_bytes(p, format!("{ring}s 1\n{}", wall(false)).as_bytes()).unwrap();
+    let mixed = load_mesh_from_bytes(p, format!("{ring}s 1\n{}", wall(true)).as_bytes()).unwrap();
+    assert_eq!(mixed.mesh.triangles.len(), outward.mesh.triangles.len());
+    for t in 0..mixed.mesh.triangles.len() {
+        for k in 0..3 {
+            let (q, n) = normal_at(&mixed, t, k);
+            let want = mean(&outward, q, &|_| true);
+            assert!(want.z.abs() < 1e-6 && want.dot(Vec3::new(q.x, q.y, 0.0)) > 0.0, "{want}");
+            let side = if face(&mixed, t).dot(want) < 0.0 { -want } else { want };
+            assert!((n - side).length() < 1e-5, "triangle {t} corner {q}: {n} vs {side}");
+        }
+    }
     // `s off`, `s 0`, and no `s` line (the crease): every corner its face's normal.
     for text in [format!("{v}s off\n{f}"), format!("{v}s 0\n{f}"), format!("{v}{f}")] {
         let flat = load_mesh_from_bytes(p, text.as_bytes()).unwrap();
