@@ -208,10 +208,29 @@ pub fn has_uv(uv: [f32; 2]) -> bool {
     uv[0].is_finite() && uv[1].is_finite()
 }
 
-/// The key that welds positions: their f32 bits, `-0.0` read as `0.0` ([`Mesh::rebuild_weld`]).
-pub(crate) fn weld_key(p: Vec3) -> (u32, u32, u32) {
-    let f = |x: f32| if x == 0.0 { 0u32 } else { x.to_bits() };
-    (f(p.x), f(p.y), f(p.z))
+/// Welds `positions`: bit-identical f32 positions (`-0.0` read as `0.0`) share an id, ids in
+/// order of first appearance. Returns the id per position and the first position of each id
+/// ([`Mesh::rebuild_weld`], `normals::crease_normals`).
+pub(crate) fn weld(positions: &[Vec3]) -> (Vec<u32>, Vec<Vec3>) {
+    use std::collections::HashMap;
+    let key = |p: Vec3| {
+        let f = |x: f32| if x == 0.0 { 0u32 } else { x.to_bits() };
+        (f(p.x), f(p.y), f(p.z))
+    };
+    let mut map: HashMap<(u32, u32, u32), u32> = HashMap::with_capacity(positions.len());
+    let mut welded = Vec::new();
+    let ids = positions
+        .iter()
+        .map(|&p| {
+            let next = welded.len() as u32;
+            let id = *map.entry(key(p)).or_insert(next);
+            if id == next {
+                welded.push(p);
+            }
+            id
+        })
+        .collect();
+    (ids, welded)
 }
 
 /// The canonical triangle mesh.
@@ -275,18 +294,7 @@ impl Mesh {
     /// share an id (ids in order of first appearance, so the result is deterministic).
     /// `-0.0` and `0.0` are treated as equal.
     pub fn rebuild_weld(&mut self) {
-        use std::collections::HashMap;
-        let mut map: HashMap<(u32, u32, u32), u32> = HashMap::with_capacity(self.positions.len());
-        self.weld.clear();
-        self.welded_positions.clear();
-        for &p in &self.positions {
-            let next = self.welded_positions.len() as u32;
-            let id = *map.entry(weld_key(p)).or_insert(next);
-            if id == next {
-                self.welded_positions.push(p);
-            }
-            self.weld.push(id);
-        }
+        (self.weld, self.welded_positions) = weld(&self.positions);
     }
 
     /// Removes every triangle whose three welded corners are those of an earlier triangle, in

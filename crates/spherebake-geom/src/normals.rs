@@ -61,6 +61,7 @@ pub struct CreaseNormals {
 /// The corners of a degenerate triangle (no area) get the mean of every triangle around their
 /// positions; the corners at a position shared by more than [`MAX_CREASE_VALENCE`] triangles
 /// get their own face's normal.
+///
 /// With `groups` (one per triangle, an OBJ file's `s` lines), a triangle's group decides
 /// instead: group 0 is flat (each corner its own face's normal), a group N > 0 is smooth
 /// across every edge to triangles of group N whatever the angle (a triangle wound the other
@@ -73,16 +74,9 @@ pub fn crease_normals(positions: &[Vec3], triangles: &[[u32; 3]], groups: Option
     let group = |t: usize| groups.and_then(|g| g.get(t).copied()).unwrap_or(NO_GROUP);
     let n = positions.len();
     // Welded position per vertex.
-    let mut ids: HashMap<(u32, u32, u32), u32> = HashMap::with_capacity(n);
-    let weld: Vec<u32> = positions
-        .iter()
-        .map(|&p| {
-            let next = ids.len() as u32;
-            *ids.entry(crate::mesh::weld_key(p)).or_insert(next)
-        })
-        .collect();
-    let welded = ids.len();
-    drop(ids);
+    let (weld, firsts) = crate::mesh::weld(positions);
+    let welded = firsts.len();
+    drop(firsts);
     let valid = |v: u32| (v as usize) < n;
     // Area-weighted and unit geometric normals, computed in f64 and kept in f32 (24 bytes per
     // triangle; zero for a triangle without area). The area vectors are relative to the
@@ -123,10 +117,13 @@ pub fn crease_normals(positions: &[Vec3], triangles: &[[u32; 3]], groups: Option
         }
     }
     // Each position's whole area-weighted normal, for the corners of triangles without area
-    // (one pass, so a position shared by many of them costs no more than its triangles).
-    let whole: Vec<DVec3> = (0..welded)
-        .map(|w| around[start[w]..start[w + 1]].iter().map(|&o| area[o as usize].as_dvec3()).sum())
-        .collect();
+    // (one pass, so a position shared by many of them costs no more than its triangles; none
+    // when every triangle has an area).
+    let whole: Vec<DVec3> = if unit.contains(&Vec3::ZERO) {
+        (0..welded).map(|w| around[start[w]..start[w + 1]].iter().map(|&o| area[o as usize].as_dvec3()).sum()).collect()
+    } else {
+        Vec::new()
+    };
     let cos_crease = CREASE_ANGLE_DEG.to_radians().cos();
     let corner_normal = |ti: usize, v: u32| -> Vec3 {
         let w = weld[v as usize] as usize;
