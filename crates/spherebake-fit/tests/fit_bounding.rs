@@ -395,6 +395,52 @@ fn a_closed_mesh_thinner_than_a_cell_is_named_as_such_and_bounded() {
     assert!(!fine.warnings.iter().any(|w| w.contains("thinner") || w.contains("no volume")), "{:?}", fine.warnings);
 }
 
+/// A closed hollow box (an outer cube and an inward-wound inner one, walls w thick) at 64
+/// cells: with walls of one or two cells its solid is all surface cells, and the warning says
+/// E is relative to a thin solid; with walls of 4 or 16 cells it is not thin, and neither is
+/// the solid cube. The share itself is tested in `spherebake_geom::voxel`.
+#[test]
+fn a_thin_walled_solid_is_named_and_a_thick_one_is_not() {
+    let hollow = |wall: f32| {
+        let cube = |lo: f32, hi: f32| -> Vec<Vec3> {
+            (0..8).map(|i| Vec3::new([lo, hi][i & 1], [lo, hi][(i >> 1) & 1], [lo, hi][(i >> 2) & 1])).collect()
+        };
+        let faces: [[u32; 3]; 12] = [
+            [0, 2, 3],
+            [0, 3, 1],
+            [4, 5, 7],
+            [4, 7, 6],
+            [0, 1, 5],
+            [0, 5, 4],
+            [2, 6, 7],
+            [2, 7, 3],
+            [0, 4, 6],
+            [0, 6, 2],
+            [1, 3, 7],
+            [1, 7, 5],
+        ];
+        let mut p = cube(0.0, 1.0);
+        let mut t: Vec<[u32; 3]> = faces.to_vec();
+        if wall > 0.0 {
+            p.extend(cube(wall, 1.0 - wall));
+            t.extend(faces.iter().map(|f| [f[0] + 8, f[2] + 8, f[1] + 8]));
+        }
+        (p, t)
+    };
+    let thin_warning = |wall: f32| {
+        let (p, t) = hollow(wall);
+        let r = fit(&p, &t, &FitSettings { spheres: 8, voxel_resolution: 64, ..Default::default() }, &|_| {}).unwrap();
+        r.warnings.iter().any(|w| w.contains("only a few voxel cells thick"))
+    };
+    // Walls of 1 or 2 cells: every cell on a surface (share 1); of 4 cells about half (2 / 4,
+    // below `THIN_SOLID_SHARE`).
+    assert!(thin_warning(1.0 / 64.0));
+    assert!(thin_warning(2.0 / 64.0));
+    assert!(!thin_warning(4.0 / 64.0));
+    assert!(!thin_warning(16.0 / 64.0));
+    assert!(!thin_warning(0.0));
+}
+
 #[test]
 fn voxel_proxy_agrees_with_exact_volume() {
     use spherebake_geom::volume::ball_mesh_intersection_volume;

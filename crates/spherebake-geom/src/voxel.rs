@@ -223,6 +223,9 @@ pub enum Neighbourhood {
     Mixed,
 }
 
+/// Most cells [`VoxelGrid::boundary_share`] looks at.
+pub const BOUNDARY_SHARE_PROBES: usize = 1 << 18;
+
 /// A solid voxel grid (cubic cells, x fastest): cell (i, j, k) is solid when its centre is
 /// inside (see the module docs).
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -333,6 +336,62 @@ impl VoxelGrid {
         self.solid_count() as f64 * self.cell_size.powi(3)
     }
 
+    /// Cell (i, j, k) of linear index `idx`. Precondition: `idx < cell_count()`.
+    fn cell_coords(&self, idx: usize) -> [u32; 3] {
+        let (nx, ny) = (self.dims[0] as usize, self.dims[1] as usize);
+        let (i, r) = (idx % nx, idx / nx);
+        [i as u32, (r % ny) as u32, (r / ny) as u32]
+    }
+
+    /// Whether the neighbour of cell `c` across its face on `axis` (the + side when
+    /// `positive`) is solid; cells outside the grid are not.
+    fn face_neighbour_solid(&self, c: [u32; 3], axis: usize, positive: bool) -> bool {
+        let mut nb = c;
+        if positive {
+            nb[axis] += 1;
+            if nb[axis] >= self.dims[axis] {
+                return false;
+            }
+        } else if nb[axis] == 0 {
+            return false;
+        } else {
+            nb[axis] -= 1;
+        }
+        self.solid.get(self.index(nb[0], nb[1], nb[2]))
+    }
+
+    /// Share of the solid cells that lie on the solid's boundary (at least one of their six
+    /// face neighbours empty or outside the grid); 0 for an empty solid. Exact when the grid
+    /// has at most [`BOUNDARY_SHARE_PROBES`] cells, else estimated from that many cells drawn
+    /// at random (a fixed seed: deterministic; a regular stride aliases with the rows). A slab
+    /// t cells thick has 2 / t of its cells there, a solid ball of radius R cells about 3 / R.
+    /// Cost: O(min(cells, probes)).
+    pub fn boundary_share(&self) -> f64 {
+        let n = self.cell_count();
+        let on_boundary = |idx: usize| {
+            let c = self.cell_coords(idx);
+            (0..3).any(|axis| [false, true].iter().any(|&p| !self.face_neighbour_solid(c, axis, p)))
+        };
+        let (mut solid, mut boundary) = (0usize, 0usize);
+        let mut probe = |idx: usize| {
+            if self.solid.get(idx) {
+                solid += 1;
+                boundary += on_boundary(idx) as usize;
+            }
+        };
+        if n <= BOUNDARY_SHARE_PROBES {
+            (0..n).for_each(&mut probe);
+        } else {
+            let mut rng = crate::rng::SplitMix64::new(0x5eed);
+            (0..BOUNDARY_SHARE_PROBES).for_each(|_| probe(rng.below(n as u64) as usize));
+        }
+        if solid == 0 {
+            0.0
+        } else {
+            boundary as f64 / solid as f64
+        }
+    }
+
     /// The boundary of the solid cell set as a closed, outward-oriented triangle mesh: two
     /// triangles per cell face between a solid cell and an empty (or outside-the-grid) cell,
     /// vertices shared on the grid lattice, so it is watertight (every directed edge has its
@@ -341,7 +400,6 @@ impl VoxelGrid {
     /// triangle, the linear index of the solid cell it bounds (ascending: cells are visited in
     /// index order). Deterministic vertex order.
     pub fn boundary_mesh(&self) -> (Vec<DVec3>, Vec<[u32; 3]>, Vec<u32>) {
-        let [nx, ny, nz] = self.dims;
         let mut verts = Vec::new();
         let mut tris = Vec::new();
         let mut cells = Vec::new();
@@ -352,21 +410,11 @@ impl VoxelGrid {
                 (verts.len() - 1) as u32
             })
         };
-        let solid_at = |i: i64, j: i64, k: i64| -> bool {
-            if i < 0 || j < 0 || k < 0 || i >= nx as i64 || j >= ny as i64 || k >= nz as i64 {
-                return false;
-            }
-            self.solid.get(self.index(i as u32, j as u32, k as u32))
-        };
         for idx in self.solid.ones() {
-            let (i, r) = ((idx % nx as usize) as u32, idx / nx as usize);
-            let (j, k) = ((r % ny as usize) as u32, (r / ny as usize) as u32);
-            let c = [i, j, k];
+            let c = self.cell_coords(idx);
             for axis in 0..3 {
                 for positive in [false, true] {
-                    let mut nb = [i as i64, j as i64, k as i64];
-                    nb[axis] += if positive { 1 } else { -1 };
-                    if solid_at(nb[0], nb[1], nb[2]) {
+                    if self.face_neighbour_solid(c, axis, positive) {
                         continue;
                     }
                     // Face in the plane axis = c[axis] (+1 if positive); corners in the
@@ -1669,5 +1717,106 @@ mod flood_tests {
             assert!(decided > 20, "case {case}: only {decided} blocks decided whole");
             assert!(grid.solid_count() > 0, "case {case}");
         }
+    }
+}
+
+#[cfg(test)]
+mod boundary_share_tests {
+    use super::*;
+    use crate::rng::SplitMix64;
+
+    fn grid(dims: [u32; 3], solid: impl Fn(i64, i64, i64) -> bool) -> VoxelGrid {
+        let n = dims.iter().map(|&d| d as usize).product();
+        let mut bits = Bits::new(n);
+        let mut c = 0;
+        for k in 0..dims[2] as i64 {
+            for j in 0..dims[1] as i64 {
+                for i in 0..dims[0] as i64 {
+                    if solid(i, j, k) {
+                        bits.set(c);
+                    }
+                    c += 1;
+                }
+            }
+        }
+        VoxelGrid { origin: DVec3::ZERO, cell_size: 1.0, dims, solid: bits, covered_twice: 0 }
+    }
+
+    /// Small random grids (every cell probed) against a count written apart: a solid cell is on
+    /// the boundary unless its six face neighbours are inside the grid and solid.
+    #[test]
+    fn small_grids_give_the_exact_share() {
+        let mut rng = SplitMix64::new(7);
+        for case in 0..40 {
+            let dims = [1 + rng.below(9) as u32, 1 + rng.below(9) as u32, 1 + rng.below(9) as u32];
+            let fill = [0.3, 0.7, 0.95, 1.0][case % 4];
+            let cells: Vec<bool> = (0..dims.iter().product::<u32>()).map(|_| rng.next_f64() < fill).collect();
+            let at = |i: i64, j: i64, k: i64| {
+                let inside = (0..3).all(|t| [i, j, k][t] >= 0 && [i, j, k][t] < dims[t] as i64);
+                inside && cells[(i + dims[0] as i64 * (j + dims[1] as i64 * k)) as usize]
+            };
+            let g = grid(dims, at);
+            let (mut solid, mut boundary) = (0, 0);
+            for k in 0..dims[2] as i64 {
+                for j in 0..dims[1] as i64 {
+                    for i in 0..dims[0] as i64 {
+                        if at(i, j, k) {
+                            solid += 1;
+                            let nbs = [(1, 0, 0), (-1, 0, 0), (0, 1, 0), (0, -1, 0), (0, 0, 1), (0, 0, -1)];
+                            boundary += nbs.iter().any(|&(a, b, c)| !at(i + a, j + b, k + c)) as usize;
+                        }
+                    }
+                }
+            }
+            let want = if solid == 0 { 0.0 } else { boundary as f64 / solid as f64 };
+            assert_eq!(g.boundary_share(), want, "case {case}, dims {dims:?}");
+        }
+    }
+
+    /// Grids past the probe budget, against their analytic shares: a full 128³ grid
+    /// ((128³ − 126³) / 128³), slabs t cells thick (2 / t), a solid ball (its shell's share).
+    #[test]
+    fn large_grids_are_estimated_within_a_percent() {
+        let full = grid([128; 3], |_, _, _| true);
+        assert!(full.cell_count() > 4 * BOUNDARY_SHARE_PROBES);
+        let want = (128f64.powi(3) - 126f64.powi(3)) / 128f64.powi(3);
+        assert!((full.boundary_share() - want).abs() < 0.01 * want + 1e-3, "{} against {want}", full.boundary_share());
+        // The same box with empty cells around it, in grids of several sizes.
+        for n in [129, 130, 131, 133, 136, 140] {
+            let lo = (n - 128) / 2;
+            let boxed = grid([n as u32; 3], |i, j, k| [i, j, k].iter().all(|&x| (lo..lo + 128).contains(&x)));
+            let got = boxed.boundary_share();
+            assert!((got - want).abs() < 0.05 * want, "box in {n}³: {got} against {want}");
+        }
+        for t in [1, 2, 3, 5] {
+            let slab = grid([160, 160, 40], |i, j, k| {
+                (1..159).contains(&i) && (1..159).contains(&j) && (10..10 + t).contains(&k)
+            });
+            // Its two faces (158² cells each) and, in each of the t − 2 layers between, its rim
+            // (4 × 157 cells) are on the boundary, of 158² × t cells.
+            let want = if t <= 2 {
+                1.0
+            } else {
+                (2.0 * 158.0 * 158.0 + 4.0 * 157.0 * (t - 2) as f64) / (158.0 * 158.0 * t as f64)
+            };
+            let got = slab.boundary_share();
+            assert!((got - want).abs() < 0.02 * want, "slab {t}: {got} against {want}");
+        }
+        let ball = grid([96; 3], |i, j, k| {
+            let d = |x: i64| x as f64 + 0.5 - 48.0;
+            d(i) * d(i) + d(j) * d(j) + d(k) * d(k) <= 40.0 * 40.0
+        });
+        let (solid, boundary) = (ball.solid_count(), {
+            let b = &ball;
+            b.solid
+                .ones()
+                .filter(|&idx| {
+                    let c = b.cell_coords(idx);
+                    (0..3).any(|a| [false, true].iter().any(|&p| !b.face_neighbour_solid(c, a, p)))
+                })
+                .count()
+        });
+        let want = boundary as f64 / solid as f64;
+        assert!((ball.boundary_share() - want).abs() < 0.05 * want, "ball {} against {want}", ball.boundary_share());
     }
 }
