@@ -325,3 +325,47 @@ fn overlap_correction_undoes_duplicate_spheres() {
         Err(ShadowError::OrderMismatch { built: 4, context: 3 })
     ));
 }
+
+/// A pile of n coincident unit spheres 1.5 from the receiver (a valid file can hold 4096 of
+/// them). Each blocks the same 41.8° cone, so the log vector is n times one sphere's, and the
+/// exponentials' squarings break down past a norm of a few hundred: uncapped, PS*-4 gave a
+/// shaded value of 330 (uniform light: at most 1) at n = 1000 and NaN at 4096. With the log
+/// scaled down to `MAX_LOG_NORM` the value stays finite, in [0, the single sphere's], no higher
+/// than at n = 64 (where PS* still falls with n), and about the same for every n past the cap.
+#[test]
+fn a_pile_of_coincident_spheres_shades_finite_and_saturates() {
+    let p = [0.0f32, 0.0, 0.0];
+    let shade_of = |n: usize, exp: ExpMethod| {
+        let ctx = ShadowContext::new(4, exp).unwrap();
+        let spheres = vec![Sphere { center: [0.0, 1.5, 0.0], radius: 1.0 }; n];
+        let mut cb = ClusterBlockers::new();
+        cb.build(4, &spheres, None, p, 0.0, 0.4363323).unwrap();
+        let mut log = [0.0f32; 16];
+        accumulate_log_visibility(cb.blockers(), 4, p, None, &mut log).unwrap();
+        let norm = log.iter().map(|&v| f64::from(v).powi(2)).sum::<f64>().sqrt();
+        let mut g = [0.0f64; 16];
+        ctx.visibility(&log, &mut g).unwrap();
+        let mut t = [0.0f64; 16];
+        let mut light = [0.0f64; 16];
+        uniform_light(4, &mut light);
+        ctx.shading_vector(&light, [0.0, 1.0, 0.0], &mut t).unwrap();
+        (shade(&t, &g), norm)
+    };
+    for exp in [ExpMethod::PsStar { degree: 4 }, ExpMethod::Hyb { ol_norm_bound: 2.0 }] {
+        let (one, _) = shade_of(1, exp);
+        let (at64, norm64) = shade_of(64, exp);
+        assert!(norm64 < spherebake_runtime::shadow::MAX_LOG_NORM, "n = 64 is below the cap: {norm64}");
+        assert!(one > 0.4 && one < 0.7, "{exp:?}: one sphere {one}");
+        let mut past = Vec::new();
+        for n in [128, 1000, 4096, 20_000] {
+            let (v, norm) = shade_of(n, exp);
+            assert!(norm > spherebake_runtime::shadow::MAX_LOG_NORM, "n = {n} is past the cap: {norm}");
+            assert!(v.is_finite() && v >= 0.0 && v <= at64 + 1e-9, "{exp:?}: n = {n}: {v} (n = 64: {at64})");
+            past.push(v);
+        }
+        for v in &past {
+            // The same vector up to the f32 sums of n logs (about 1 % apart at n = 20 000).
+            assert!((v - past[0]).abs() <= 0.02 * past[0], "{exp:?}: saturated values differ: {past:?}");
+        }
+    }
+}
