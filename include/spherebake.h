@@ -219,13 +219,14 @@ typedef struct {
   float inverse_bind[16];
 } SphbBone;
 
-// One metadata pair; both strings point into the proxy (UTF-8, not NUL-terminated).
+// One metadata pair; both strings point into the proxy (UTF-8, not NUL-terminated; never NULL,
+// also for an empty value).
 typedef struct {
-  // Key bytes.
+  // Key bytes (never NULL).
   const uint8_t *key;
   // Key length.
   size_t key_len;
-  // Value bytes.
+  // Value bytes (never NULL, also when `value_len` is 0).
   const uint8_t *value;
   // Value length.
   size_t value_len;
@@ -358,7 +359,9 @@ int32_t sphb_pose(const SphbProxy *proxy,
 int32_t sphb_rest_nodes(const SphbProxy *proxy, SphbSphere *out, size_t out_len, SphbError *err);
 
 // Recomputes every node sphere bottom-up from `leaf_count` posed leaves (sphere-pair merges,
-// allocation-free) into `nodes_out` (`node_len` at least the node count). Thread-safe.
+// allocation-free) into `nodes_out` (`node_len` at least the node count). `leaf_count` must
+// equal the proxy's sphere count, and a leaf without a finite centre and a finite radius ≥ 0 is
+// `SPHB_ERR_INVALID_ARGUMENT` (as for the shadow cluster's build). Thread-safe.
 int32_t sphb_refit(const SphbProxy *proxy,
                    const SphbSphere *leaves,
                    size_t leaf_count,
@@ -380,7 +383,8 @@ int32_t sphb_pose_and_refit(const SphbProxy *proxy,
 
 // The hierarchy cut for the receiver ball (`receiver_center` 3 floats, `receiver_radius`): nodes
 // subtending less than `theta_max_rad` and leaves (Ren 2006 eq. 36), over the node spheres `nodes`
-// (refitted or rest, `node_count` = the proxy's). Writes `*len_out` entries into `out`
+// (refitted or rest, `node_count` = the proxy's; a node without a finite centre and a finite
+// radius ≥ 0 is `SPHB_ERR_INVALID_ARGUMENT`). Writes `*len_out` entries into `out`
 // (capacity `out_cap`); when too small returns `SPHB_ERR_BUFFER_TOO_SMALL` with `*len_out` = the
 // needed count. A centre that is not finite, a radius that is not finite and ≥ 0, or a θmax
 // outside [0, π] is `SPHB_ERR_INVALID_ARGUMENT` (as for the shadow cluster's build; above π/2 the
@@ -459,6 +463,7 @@ int32_t sphb_shadow_cluster_correct_overlap(SphbShadowCluster *cluster,
 // Adds the log-SH visibility of the cluster's blockers seen from receiver `p` (3 floats) to
 // `log_inout[0..order²]` (f32; zero it first), with the self-shadowing rules about `normal` (3
 // floats, scaled to unit length; NULL skips them). `*used_out` (optional) = blockers accumulated.
+// A `p` that is not finite is `SPHB_ERR_INVALID_ARGUMENT` (as for `sphb_shade_point`).
 // Allocation-free; does not modify the cluster: concurrent calls on one cluster are safe.
 int32_t sphb_accumulate_log_visibility(const SphbShadowCluster *cluster,
                                        const float *p,
@@ -479,7 +484,8 @@ int32_t sphb_visibility(const SphbShadowContext *ctx,
 
 // The shading vector T = L ∗ H(N) (Ren 2006 §7) for lighting `light` (order² SH radiance
 // coefficients, f64, one channel: monochrome radiance; T is linear in it, so a coloured light
-// takes one shading vector per channel) and normal `normal` (3 doubles; scaled to unit length, zero or non-finite is
+// takes one shading vector per channel; a NaN or an infinity in it is `SPHB_ERR_INVALID_ARGUMENT`)
+// and normal `normal` (3 doubles; scaled to unit length, zero or non-finite is
 // `SPHB_ERR_INVALID_ARGUMENT`) into `out[0..order²]`; the shaded value
 // is `sphb_shade(T, g)`. For uniform white light (`sphb_uniform_light`) and g = 1 it is 1.
 // Thread-safe.
@@ -554,7 +560,9 @@ int32_t sphb_sphere_lights_leaf(const SphbSphereLights *lights,
 // `rest_joints` are the joint matrices world(joint) × inverse bind of the glTF scene with no
 // animation applied (each node's own TRS), computed as the engine computes `joints`; they are
 // not the identity, which is the bind pose (CesiumMan's bind and rest poses differ by a
-// rotation). The file does not store them: compute them once per model from its glTF.
+// rotation). The file does not store them: compute them once per model from its glTF. A NaN or
+// an infinity in a matrix (of `joints` or `rest_joints`) the bone table uses is
+// `SPHB_ERR_INVALID_ARGUMENT`.
 int32_t sphb_sphere_rotations(const SphbProxy *proxy,
                               const float *joints,
                               const float *rest_joints,
@@ -574,8 +582,9 @@ SphbPass1Settings sphb_pass1_settings_default(void);
 // linear in `env`, but for clamping each sample's radiance at 0). `others` (`other_count`
 // posed proxies, NULL with 0 for none) are further proxies whose spheres block the environment
 // (their lights are not needed). `settings` NULL means `sphb_pass1_settings_default()`.
-// `*stats_out` (optional) receives the counts. The proxy needs samples and albedo SH
-// (`SPHB_ERR_MISSING_DATA`). One thread at a time per `lights`.
+// `*stats_out` (optional) receives the counts. A NaN or an infinity in `env[0..order²]` is
+// `SPHB_ERR_INVALID_ARGUMENT`. The proxy needs samples and albedo SH (`SPHB_ERR_MISSING_DATA`).
+// One thread at a time per `lights`.
 int32_t sphb_light_spheres(const SphbLightContext *ctx,
                            const SphbPosed *posed,
                            const double *env,
@@ -589,9 +598,9 @@ int32_t sphb_light_spheres(const SphbLightContext *ctx,
 
 // **Pass 1 with given sample radiance** (e.g. an engine's own direct lighting or a ray tracer):
 // `radiance` holds L_pj per unit albedo for each of the proxy's samples (`radiance_len` = the
-// sample count, in the order of `SphbViews::samples`; negative values count as 0); the
-// projection, albedo product and node lights are those of `sphb_light_spheres`. One thread at a
-// time per `lights`.
+// sample count, in the order of `SphbViews::samples`; negative values count as 0, a NaN or an
+// infinity is `SPHB_ERR_INVALID_ARGUMENT`); the projection, albedo product and node lights are
+// those of `sphb_light_spheres`. One thread at a time per `lights`.
 int32_t sphb_light_spheres_from_radiance(const SphbLightContext *ctx,
                                          const SphbPosed *posed,
                                          const float *radiance,

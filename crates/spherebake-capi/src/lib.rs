@@ -277,15 +277,16 @@ pub struct SphbBone {
     pub inverse_bind: [f32; 16],
 }
 
-/// One metadata pair; both strings point into the proxy (UTF-8, not NUL-terminated).
+/// One metadata pair; both strings point into the proxy (UTF-8, not NUL-terminated; never NULL,
+/// also for an empty value).
 #[repr(C)]
 #[derive(Clone, Copy, Debug)]
 pub struct SphbMetadataEntry {
-    /// Key bytes.
+    /// Key bytes (never NULL).
     pub key: *const u8,
     /// Key length.
     pub key_len: usize,
-    /// Value bytes.
+    /// Value bytes (never NULL, also when `value_len` is 0).
     pub value: *const u8,
     /// Value length.
     pub value_len: usize,
@@ -481,6 +482,47 @@ fn disjoint(out: (&str, (usize, usize)), others: &[(&str, (usize, usize))]) -> R
         }
     }
     Ok(())
+}
+
+/// Runs the build `build` on `target` and, when it fails (an error, or a panic on its way to
+/// `run`'s `catch_unwind`), replaces `target` by `empty()`: a failed build leaves its object empty
+/// and not built, whichever check refused it (the module's conventions), never the previous
+/// build's state.
+fn build_or_empty<T>(target: &mut T, empty: fn() -> T, build: impl FnOnce(&mut T) -> Res<()>) -> Res<()> {
+    struct Guard<'a, T> {
+        target: &'a mut T,
+        empty: fn() -> T,
+        built: bool,
+    }
+    impl<T> Drop for Guard<'_, T> {
+        fn drop(&mut self) {
+            if !self.built {
+                *self.target = (self.empty)();
+            }
+        }
+    }
+    let mut guard = Guard { target, empty, built: false };
+    let result = build(guard.target);
+    guard.built = result.is_ok();
+    result
+}
+
+/// `SPHB_ERR_INVALID_ARGUMENT` naming `what` unless every sphere has a finite centre and a finite
+/// radius ≥ 0 (the rule of the shadow cluster's build).
+fn check_spheres(spheres: &[SphbSphere], what: &str) -> Res<()> {
+    let ok = |s: &SphbSphere| s.center.iter().all(|v| v.is_finite()) && s.radius.is_finite() && s.radius >= 0.0;
+    match spheres.iter().position(|s| !ok(s)) {
+        None => Ok(()),
+        Some(i) => Err(invalid(format!("{what}[{i}] has no finite centre and finite radius ≥ 0"))),
+    }
+}
+
+/// `SPHB_ERR_INVALID_ARGUMENT` naming `what` unless every value of `values` is finite.
+fn check_finite<T: Copy + Into<f64>>(values: &[T], what: &str) -> Res<()> {
+    match values.iter().position(|&v| !v.into().is_finite()) {
+        None => Ok(()),
+        Some(i) => Err(invalid(format!("{what}[{i}] is not finite"))),
+    }
 }
 
 /// A borrowed input array; NULL with `len == 0` is empty.
@@ -774,6 +816,17 @@ fn ptr_or_null<T, U>(s: &[T]) -> *const U {
     }
 }
 
+/// The first byte of `s`, or of a static empty string when `s` is empty: never NULL (C's `memcpy`
+/// and the like need a valid pointer even for 0 bytes).
+fn str_ptr(s: &str) -> *const u8 {
+    static EMPTY: u8 = 0;
+    if s.is_empty() {
+        &EMPTY
+    } else {
+        s.as_ptr()
+    }
+}
+
 /// Pointers to the proxy's arrays into `*out` (no copy; valid until `sphb_proxy_free`). Thread-safe.
 #[no_mangle]
 pub unsafe extern "C" fn sphb_proxy_views(proxy: *const SphbProxy, out: *mut SphbViews, err: *mut SphbError) -> i32 {
@@ -846,12 +899,7 @@ pub unsafe extern "C" fn sphb_proxy_metadata(
             .metadata
             .get(index as usize)
             .ok_or_else(|| invalid(format!("metadata entry {index} of {}", p.metadata.len())))?;
-        *o = SphbMetadataEntry {
-            key: ptr_or_null(k.as_bytes()),
-            key_len: k.len(),
-            value: ptr_or_null(v.as_bytes()),
-            value_len: v.len(),
-        };
+        *o = SphbMetadataEntry { key: str_ptr(k), key_len: k.len(), value: str_ptr(v), value_len: v.len() };
         Ok(())
     })
 }
@@ -911,7 +959,9 @@ fn plan_of(p: &SphbProxy) -> Res<&HierarchyPlan> {
 }
 
 /// Recomputes every node sphere bottom-up from `leaf_count` posed leaves (sphere-pair merges,
-/// allocation-free) into `nodes_out` (`node_len` at least the node count). Thread-safe.
+/// allocation-free) into `nodes_out` (`node_len` at least the node count). `leaf_count` must
+/// equal the proxy's sphere count, and a leaf without a finite centre and a finite radius ≥ 0 is
+/// `SPHB_ERR_INVALID_ARGUMENT` (as for the shadow cluster's build). Thread-safe.
 #[no_mangle]
 pub unsafe extern "C" fn sphb_refit(
     proxy: *const SphbProxy,
@@ -926,6 +976,14 @@ pub unsafe extern "C" fn sphb_refit(
         let plan = plan_of(p)?;
         disjoint(("nodes_out", span(nodes_out, node_len)), &[("leaves", span(leaves, leaf_count))])?;
         let l = unsafe { input(leaves, leaf_count, "leaves")? };
+        if l.len() != p.proxy.sphere_count() {
+            return Err(invalid(format!(
+                "leaf_count {} but the proxy has {} spheres",
+                l.len(),
+                p.proxy.sphere_count()
+            )));
+        }
+        check_spheres(l, "leaves")?;
         let o = unsafe { output(nodes_out, node_len, plan.node_count(), "nodes_out")? };
         spherebake_runtime::refit(plan, spheres_of(l), spheres_of_mut(o)).map_err(invalid)
     })
@@ -960,7 +1018,8 @@ pub unsafe extern "C" fn sphb_pose_and_refit(
 
 /// The hierarchy cut for the receiver ball (`receiver_center` 3 floats, `receiver_radius`): nodes
 /// subtending less than `theta_max_rad` and leaves (Ren 2006 eq. 36), over the node spheres `nodes`
-/// (refitted or rest, `node_count` = the proxy's). Writes `*len_out` entries into `out`
+/// (refitted or rest, `node_count` = the proxy's; a node without a finite centre and a finite
+/// radius ≥ 0 is `SPHB_ERR_INVALID_ARGUMENT`). Writes `*len_out` entries into `out`
 /// (capacity `out_cap`); when too small returns `SPHB_ERR_BUFFER_TOO_SMALL` with `*len_out` = the
 /// needed count. A centre that is not finite, a radius that is not finite and ≥ 0, or a θmax
 /// outside [0, π] is `SPHB_ERR_INVALID_ARGUMENT` (as for the shadow cluster's build; above π/2 the
@@ -985,6 +1044,7 @@ pub unsafe extern "C" fn sphb_cut(
         disjoint(("out", span(out, out_cap)), &inputs)?;
         disjoint(("len_out", span(len_out, 1)), &[inputs[0], inputs[1], ("out", span(out, out_cap))])?;
         let n = unsafe { input(nodes, node_count, "nodes")? };
+        check_spheres(n, "nodes")?;
         let c = unsafe { vec3(receiver_center, "receiver_center")? };
         // The receiver ball and θmax under the rules of the shadow cluster's build.
         spherebake_runtime::shadow::check_receiver(c, receiver_radius, theta_max_rad).map_err(invalid)?;
@@ -1033,7 +1093,11 @@ pub unsafe extern "C" fn sphb_shadow_context_free(ctx: *mut SphbShadowContext) {
 /// `sphb_shadow_cluster_free`.
 #[no_mangle]
 pub extern "C" fn sphb_shadow_cluster_new() -> *mut SphbShadowCluster {
-    new_object(|| SphbShadowCluster { cb: ClusterBlockers::new(), cut: Vec::new() })
+    new_object(empty_shadow_cluster)
+}
+
+fn empty_shadow_cluster() -> SphbShadowCluster {
+    SphbShadowCluster { cb: ClusterBlockers::new(), cut: Vec::new() }
 }
 
 /// Frees a cluster; NULL does nothing.
@@ -1068,20 +1132,30 @@ pub unsafe extern "C" fn sphb_shadow_cluster_build(
 ) -> i32 {
     run(err, || {
         let cl = unsafe { object_mut(cluster, "cluster")? };
-        let p = unsafe { object(proxy, "proxy")? };
-        let l = unsafe { input(leaves, leaf_count, "leaves")? };
-        if l.len() != p.proxy.sphere_count() {
-            return Err(invalid(format!(
-                "leaf_count {} but the proxy has {} spheres",
-                l.len(),
-                p.proxy.sphere_count()
-            )));
-        }
-        let c = unsafe { vec3(receiver_center, "receiver_center")? };
-        let hierarchy = unsafe { hierarchy_of(p, nodes, node_count, "nodes")? };
-        cl.cut.clear();
-        cl.cb.build(order as usize, spheres_of(l), hierarchy, c, receiver_radius, theta_max_rad).map_err(invalid)?;
-        unsafe { put_opt(blocker_count_out, cl.cb.blockers().len(), "blocker_count_out") }
+        build_or_empty(cl, empty_shadow_cluster, |cl| {
+            let p = unsafe { object(proxy, "proxy")? };
+            let inputs = [
+                ("leaves", span(leaves, leaf_count)),
+                ("nodes", span(nodes, node_count)),
+                ("receiver_center", span(receiver_center, 3)),
+            ];
+            disjoint(("blocker_count_out", span(blocker_count_out, 1)), &inputs)?;
+            let l = unsafe { input(leaves, leaf_count, "leaves")? };
+            if l.len() != p.proxy.sphere_count() {
+                return Err(invalid(format!(
+                    "leaf_count {} but the proxy has {} spheres",
+                    l.len(),
+                    p.proxy.sphere_count()
+                )));
+            }
+            let c = unsafe { vec3(receiver_center, "receiver_center")? };
+            let hierarchy = unsafe { hierarchy_of(p, nodes, node_count, "nodes")? };
+            cl.cut.clear();
+            cl.cb
+                .build(order as usize, spheres_of(l), hierarchy, c, receiver_radius, theta_max_rad)
+                .map_err(invalid)?;
+            unsafe { put_opt(blocker_count_out, cl.cb.blockers().len(), "blocker_count_out") }
+        })
     })
 }
 
@@ -1111,6 +1185,7 @@ pub unsafe extern "C" fn sphb_shadow_cluster_correct_overlap(
     run(err, || {
         let cl = unsafe { object_mut(cluster, "cluster")? };
         let c = unsafe { object(ctx, "ctx")? };
+        disjoint(("scale_out", span(scale_out, 1)), &[("p_star", span(p_star, 3)), ("normal", span(normal, 3))])?;
         let p = unsafe { vec3(p_star, "p_star")? };
         let n = unsafe { vec3(normal, "normal")? };
         if cl.cb.order() == 0 {
@@ -1124,6 +1199,7 @@ pub unsafe extern "C" fn sphb_shadow_cluster_correct_overlap(
 /// Adds the log-SH visibility of the cluster's blockers seen from receiver `p` (3 floats) to
 /// `log_inout[0..order²]` (f32; zero it first), with the self-shadowing rules about `normal` (3
 /// floats, scaled to unit length; NULL skips them). `*used_out` (optional) = blockers accumulated.
+/// A `p` that is not finite is `SPHB_ERR_INVALID_ARGUMENT` (as for `sphb_shade_point`).
 /// Allocation-free; does not modify the cluster: concurrent calls on one cluster are safe.
 #[no_mangle]
 pub unsafe extern "C" fn sphb_accumulate_log_visibility(
@@ -1145,6 +1221,7 @@ pub unsafe extern "C" fn sphb_accumulate_log_visibility(
         disjoint(("log_inout", span(log_inout, log_len)), &inputs)?;
         disjoint(("used_out", span(used_out, 1)), &[inputs[0], inputs[1], ("log_inout", span(log_inout, log_len))])?;
         let pt = unsafe { vec3(p, "p")? };
+        check_finite(&pt, "p")?;
         let n = unsafe { opt_vec3(normal, "normal")? };
         let log = unsafe { output(log_inout, log_len, order * order, "log_inout")? };
         let used = accumulate_log_visibility(cl.cb.blockers(), order, pt, n, log).map_err(invalid)?;
@@ -1178,7 +1255,8 @@ pub unsafe extern "C" fn sphb_visibility(
 
 /// The shading vector T = L ∗ H(N) (Ren 2006 §7) for lighting `light` (order² SH radiance
 /// coefficients, f64, one channel: monochrome radiance; T is linear in it, so a coloured light
-/// takes one shading vector per channel) and normal `normal` (3 doubles; scaled to unit length, zero or non-finite is
+/// takes one shading vector per channel; a NaN or an infinity in it is `SPHB_ERR_INVALID_ARGUMENT`)
+/// and normal `normal` (3 doubles; scaled to unit length, zero or non-finite is
 /// `SPHB_ERR_INVALID_ARGUMENT`) into `out[0..order²]`; the shaded value
 /// is `sphb_shade(T, g)`. For uniform white light (`sphb_uniform_light`) and g = 1 it is 1.
 /// Thread-safe.
@@ -1197,6 +1275,7 @@ pub unsafe extern "C" fn sphb_shading_vector(
         let nc = c.ctx.order() * c.ctx.order();
         disjoint(("out", span(out, out_len)), &[("light", span(light, light_len)), ("normal", span(normal, 3))])?;
         let l = unsafe { input_min(light, light_len, nc, "light")? };
+        check_finite(l, "light")?;
         let nv = unsafe { input(normal, 3, "normal")? };
         let o = unsafe { output(out, out_len, nc, "out")? };
         c.ctx.shading_vector(l, [nv[0], nv[1], nv[2]], o).map_err(invalid)
@@ -1359,7 +1438,9 @@ unsafe fn posed_of<'a>(posed: &'a SphbPosed) -> Res<PosedProxy<'a>> {
 /// `rest_joints` are the joint matrices world(joint) × inverse bind of the glTF scene with no
 /// animation applied (each node's own TRS), computed as the engine computes `joints`; they are
 /// not the identity, which is the bind pose (CesiumMan's bind and rest poses differ by a
-/// rotation). The file does not store them: compute them once per model from its glTF.
+/// rotation). The file does not store them: compute them once per model from its glTF. A NaN or
+/// an infinity in a matrix (of `joints` or `rest_joints`) the bone table uses is
+/// `SPHB_ERR_INVALID_ARGUMENT`.
 #[no_mangle]
 pub unsafe extern "C" fn sphb_sphere_rotations(
     proxy: *const SphbProxy,
@@ -1377,6 +1458,17 @@ pub unsafe extern "C" fn sphb_sphere_rotations(
         disjoint(("out", span(out, out_len)), &inputs)?;
         let m = unsafe { matrices_in(joints, joint_count, "joints")? };
         let r = unsafe { matrices_in(rest_joints, joint_count, "rest_joints")? };
+        if p.proxy.skin().is_some() {
+            // As `sphb_pose`: the matrices the bone table uses must be finite (a short palette is
+            // left to the count check below).
+            let bones = p.proxy.bones().len();
+            for (what, palette) in [("joints", m), ("rest_joints", r)] {
+                let used = palette.get(..bones).unwrap_or(&[]);
+                if let Some(j) = used.iter().position(|mat| !mat.iter().all(|v| v.is_finite())) {
+                    return Err(invalid(format!("{what}: matrix {j} holds a NaN or an infinity")));
+                }
+            }
+        }
         let n = p.proxy.sphere_count();
         let o = unsafe { output(out, out_len, n * 9, "out")? };
         // SAFETY: [f32; 9] has f32's alignment and no padding; `o` has exactly n·9 floats.
@@ -1417,8 +1509,9 @@ pub extern "C" fn sphb_pass1_settings_default() -> SphbPass1Settings {
 /// linear in `env`, but for clamping each sample's radiance at 0). `others` (`other_count`
 /// posed proxies, NULL with 0 for none) are further proxies whose spheres block the environment
 /// (their lights are not needed). `settings` NULL means `sphb_pass1_settings_default()`.
-/// `*stats_out` (optional) receives the counts. The proxy needs samples and albedo SH
-/// (`SPHB_ERR_MISSING_DATA`). One thread at a time per `lights`.
+/// `*stats_out` (optional) receives the counts. A NaN or an infinity in `env[0..order²]` is
+/// `SPHB_ERR_INVALID_ARGUMENT`. The proxy needs samples and albedo SH (`SPHB_ERR_MISSING_DATA`).
+/// One thread at a time per `lights`.
 #[no_mangle]
 pub unsafe extern "C" fn sphb_light_spheres(
     ctx: *const SphbLightContext,
@@ -1434,9 +1527,18 @@ pub unsafe extern "C" fn sphb_light_spheres(
 ) -> i32 {
     run(err, || {
         let c = unsafe { object(ctx, "ctx")? };
+        let inputs = [
+            ("posed", span(posed, 1)),
+            ("env", span(env, env_len)),
+            ("others", span(others, other_count)),
+            ("settings", span(settings, 1)),
+        ];
+        disjoint(("stats_out", span(stats_out, 1)), &inputs)?;
         let pd = unsafe { object(posed, "posed")? };
         let pp = unsafe { posed_of(pd)? };
         let e = unsafe { input(env, env_len, "env")? };
+        let nc = c.ctx.order() * c.ctx.order();
+        check_finite(e.get(..nc).unwrap_or(e), "env")?;
         let o = unsafe { input(others, other_count, "others")? };
         let others: Vec<PosedProxy<'_>> = o.iter().map(|x| unsafe { posed_of(x) }).collect::<Res<_>>()?;
         let SphbPass1Settings { theta_max_rad } =
@@ -1451,9 +1553,9 @@ pub unsafe extern "C" fn sphb_light_spheres(
 
 /// **Pass 1 with given sample radiance** (e.g. an engine's own direct lighting or a ray tracer):
 /// `radiance` holds L_pj per unit albedo for each of the proxy's samples (`radiance_len` = the
-/// sample count, in the order of `SphbViews::samples`; negative values count as 0); the
-/// projection, albedo product and node lights are those of `sphb_light_spheres`. One thread at a
-/// time per `lights`.
+/// sample count, in the order of `SphbViews::samples`; negative values count as 0, a NaN or an
+/// infinity is `SPHB_ERR_INVALID_ARGUMENT`); the projection, albedo product and node lights are
+/// those of `sphb_light_spheres`. One thread at a time per `lights`.
 #[no_mangle]
 pub unsafe extern "C" fn sphb_light_spheres_from_radiance(
     ctx: *const SphbLightContext,
@@ -1467,6 +1569,7 @@ pub unsafe extern "C" fn sphb_light_spheres_from_radiance(
         let c = unsafe { object(ctx, "ctx")? };
         let pp = unsafe { posed_of(object(posed, "posed")?)? };
         let r = unsafe { input(radiance, radiance_len, "radiance")? };
+        check_finite(r, "radiance")?;
         let l = unsafe { object_mut(lights, "lights")? };
         light_spheres_from_radiance(&c.ctx, &pp, r, &mut l.lights).map_err(|e| light_fail(&e))
     })
@@ -1539,7 +1642,11 @@ pub unsafe extern "C" fn sphb_sphere_lights_sample_radiance(
 /// `sphb_indirect_cluster_free`.
 #[no_mangle]
 pub extern "C" fn sphb_indirect_cluster_new() -> *mut SphbIndirectCluster {
-    new_object(|| SphbIndirectCluster { ic: IndirectCluster::new() })
+    new_object(empty_indirect_cluster)
+}
+
+fn empty_indirect_cluster() -> SphbIndirectCluster {
+    SphbIndirectCluster { ic: IndirectCluster::new() }
 }
 
 /// Frees an indirect-light cluster; NULL does nothing.
@@ -1622,13 +1729,15 @@ pub unsafe extern "C" fn sphb_indirect_cluster_build(
 ) -> i32 {
     run(err, || {
         let cl = unsafe { object_mut(cluster, "cluster")? };
-        let c = unsafe { object(ctx, "ctx")? };
-        let spec = cluster_spec_of(unsafe { object(spec, "spec")? })?;
-        unsafe {
-            with_sources(sources, lights, source_count, |srcs| {
-                cl.ic.build(&c.ctx, srcs, &spec).map_err(|e| light_fail(&e))
-            })
-        }
+        build_or_empty(cl, empty_indirect_cluster, |cl| {
+            let c = unsafe { object(ctx, "ctx")? };
+            let spec = cluster_spec_of(unsafe { object(spec, "spec")? })?;
+            unsafe {
+                with_sources(sources, lights, source_count, |srcs| {
+                    cl.ic.build(&c.ctx, srcs, &spec).map_err(|e| light_fail(&e))
+                })
+            }
+        })
     })
 }
 
