@@ -584,6 +584,7 @@ SphbPass1Settings sphb_pass1_settings_default(void);
 // (their lights are not needed). `settings` NULL means `sphb_pass1_settings_default()`.
 // `*stats_out` (optional) receives the counts. A NaN or an infinity in `env[0..order²]` is
 // `SPHB_ERR_INVALID_ARGUMENT`. The proxy needs samples and albedo SH (`SPHB_ERR_MISSING_DATA`).
+// A call that fails leaves `lights` empty (as new), never the previous pass 1's lights.
 // One thread at a time per `lights`.
 int32_t sphb_light_spheres(const SphbLightContext *ctx,
                            const SphbPosed *posed,
@@ -600,7 +601,8 @@ int32_t sphb_light_spheres(const SphbLightContext *ctx,
 // `radiance` holds L_pj per unit albedo for each of the proxy's samples (`radiance_len` = the
 // sample count, in the order of `SphbViews::samples`; negative values count as 0, a NaN or an
 // infinity is `SPHB_ERR_INVALID_ARGUMENT`); the projection, albedo product and node lights are
-// those of `sphb_light_spheres`. One thread at a time per `lights`.
+// those of `sphb_light_spheres`; a call that fails leaves `lights` empty, as there. One thread
+// at a time per `lights`.
 int32_t sphb_light_spheres_from_radiance(const SphbLightContext *ctx,
                                          const SphbPosed *posed,
                                          const float *radiance,

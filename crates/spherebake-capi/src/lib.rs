@@ -1511,6 +1511,7 @@ pub extern "C" fn sphb_pass1_settings_default() -> SphbPass1Settings {
 /// (their lights are not needed). `settings` NULL means `sphb_pass1_settings_default()`.
 /// `*stats_out` (optional) receives the counts. A NaN or an infinity in `env[0..order²]` is
 /// `SPHB_ERR_INVALID_ARGUMENT`. The proxy needs samples and albedo SH (`SPHB_ERR_MISSING_DATA`).
+/// A call that fails leaves `lights` empty (as new), never the previous pass 1's lights.
 /// One thread at a time per `lights`.
 #[no_mangle]
 pub unsafe extern "C" fn sphb_light_spheres(
@@ -1526,28 +1527,33 @@ pub unsafe extern "C" fn sphb_light_spheres(
     err: *mut SphbError,
 ) -> i32 {
     run(err, || {
-        let c = unsafe { object(ctx, "ctx")? };
-        let inputs = [
-            ("posed", span(posed, 1)),
-            ("env", span(env, env_len)),
-            ("others", span(others, other_count)),
-            ("settings", span(settings, 1)),
-        ];
-        disjoint(("stats_out", span(stats_out, 1)), &inputs)?;
-        let pd = unsafe { object(posed, "posed")? };
-        let pp = unsafe { posed_of(pd)? };
-        let e = unsafe { input(env, env_len, "env")? };
-        let nc = c.ctx.order() * c.ctx.order();
-        check_finite(e.get(..nc).unwrap_or(e), "env")?;
-        let o = unsafe { input(others, other_count, "others")? };
-        let others: Vec<PosedProxy<'_>> = o.iter().map(|x| unsafe { posed_of(x) }).collect::<Res<_>>()?;
-        let SphbPass1Settings { theta_max_rad } =
-            if settings.is_null() { sphb_pass1_settings_default() } else { *unsafe { object(settings, "settings")? } };
         let l = unsafe { object_mut(lights, "lights")? };
-        let Pass1Stats { samples, blocker_accumulations } =
-            light_spheres(&c.ctx, &pp, e, &others, &Pass1Settings { theta_max_rad }, &mut l.lights)
-                .map_err(|e| light_fail(&e))?;
-        unsafe { put_opt(stats_out, SphbPass1Stats { samples, blocker_accumulations }, "stats_out") }
+        build_or_empty(&mut l.lights, SphereLights::new, |out| {
+            let c = unsafe { object(ctx, "ctx")? };
+            let inputs = [
+                ("posed", span(posed, 1)),
+                ("env", span(env, env_len)),
+                ("others", span(others, other_count)),
+                ("settings", span(settings, 1)),
+            ];
+            disjoint(("stats_out", span(stats_out, 1)), &inputs)?;
+            let pd = unsafe { object(posed, "posed")? };
+            let pp = unsafe { posed_of(pd)? };
+            let e = unsafe { input(env, env_len, "env")? };
+            let nc = c.ctx.order() * c.ctx.order();
+            check_finite(e.get(..nc).unwrap_or(e), "env")?;
+            let o = unsafe { input(others, other_count, "others")? };
+            let others: Vec<PosedProxy<'_>> = o.iter().map(|x| unsafe { posed_of(x) }).collect::<Res<_>>()?;
+            let SphbPass1Settings { theta_max_rad } = if settings.is_null() {
+                sphb_pass1_settings_default()
+            } else {
+                *unsafe { object(settings, "settings")? }
+            };
+            let Pass1Stats { samples, blocker_accumulations } =
+                light_spheres(&c.ctx, &pp, e, &others, &Pass1Settings { theta_max_rad }, out)
+                    .map_err(|e| light_fail(&e))?;
+            unsafe { put_opt(stats_out, SphbPass1Stats { samples, blocker_accumulations }, "stats_out") }
+        })
     })
 }
 
@@ -1555,7 +1561,8 @@ pub unsafe extern "C" fn sphb_light_spheres(
 /// `radiance` holds L_pj per unit albedo for each of the proxy's samples (`radiance_len` = the
 /// sample count, in the order of `SphbViews::samples`; negative values count as 0, a NaN or an
 /// infinity is `SPHB_ERR_INVALID_ARGUMENT`); the projection, albedo product and node lights are
-/// those of `sphb_light_spheres`. One thread at a time per `lights`.
+/// those of `sphb_light_spheres`; a call that fails leaves `lights` empty, as there. One thread
+/// at a time per `lights`.
 #[no_mangle]
 pub unsafe extern "C" fn sphb_light_spheres_from_radiance(
     ctx: *const SphbLightContext,
@@ -1566,12 +1573,14 @@ pub unsafe extern "C" fn sphb_light_spheres_from_radiance(
     err: *mut SphbError,
 ) -> i32 {
     run(err, || {
-        let c = unsafe { object(ctx, "ctx")? };
-        let pp = unsafe { posed_of(object(posed, "posed")?)? };
-        let r = unsafe { input(radiance, radiance_len, "radiance")? };
-        check_finite(r, "radiance")?;
         let l = unsafe { object_mut(lights, "lights")? };
-        light_spheres_from_radiance(&c.ctx, &pp, r, &mut l.lights).map_err(|e| light_fail(&e))
+        build_or_empty(&mut l.lights, SphereLights::new, |out| {
+            let c = unsafe { object(ctx, "ctx")? };
+            let pp = unsafe { posed_of(object(posed, "posed")?)? };
+            let r = unsafe { input(radiance, radiance_len, "radiance")? };
+            check_finite(r, "radiance")?;
+            light_spheres_from_radiance(&c.ctx, &pp, r, out).map_err(|e| light_fail(&e))
+        })
     })
 }
 

@@ -585,3 +585,39 @@ fn refit_and_cut_refuse_what_the_shadow_build_refuses() {
     }
     unsafe { sphb_proxy_free(p) };
 }
+
+/// A pass 1 that fails leaves its sphere lights empty, as a failed cluster build leaves its
+/// cluster: reading a leaf light afterwards is an error, not the previous pass's light.
+#[test]
+fn a_failed_pass_one_leaves_the_lights_empty() {
+    let p = load("skinned-arm-16.sphb");
+    let lit = Lit::new(p);
+    let posed = lit.posed(p);
+    let mut e = new_err();
+    let mut out = [0.0f32; 48];
+    let leaf = |e: &mut SphbError, out: &mut [f32; 48]| unsafe {
+        sphb_sphere_lights_leaf(lit.lights, 0, out.as_mut_ptr(), 48, e)
+    };
+    let mut env = [0.0f64; 16];
+    assert_eq!(unsafe { sphb_uniform_light(4, env.as_mut_ptr(), 16, &mut e) }, SPHB_OK);
+    for from_radiance in [false, true] {
+        let s = unsafe {
+            sphb_light_spheres(lit.ctx, &posed, env.as_ptr(), 16, null(), 0, null(), lit.lights, null_mut(), &mut e)
+        };
+        assert_eq!(s, SPHB_OK, "{}", message(&e));
+        assert_eq!(leaf(&mut e, &mut out), SPHB_OK, "{}", message(&e));
+        assert!(out.iter().any(|&v| v != 0.0));
+        let s = if from_radiance {
+            let radiance = [f32::NAN];
+            unsafe { sphb_light_spheres_from_radiance(lit.ctx, &posed, radiance.as_ptr(), 1, lit.lights, &mut e) }
+        } else {
+            let mut bad = env;
+            bad[3] = f64::NAN;
+            unsafe {
+                sphb_light_spheres(lit.ctx, &posed, bad.as_ptr(), 16, null(), 0, null(), lit.lights, null_mut(), &mut e)
+            }
+        };
+        assert_ne!(s, SPHB_OK);
+        assert_ne!(leaf(&mut e, &mut out), SPHB_OK, "from_radiance {from_radiance}: the previous lights answered");
+    }
+}
