@@ -507,6 +507,15 @@ fn build_or_empty<T>(target: &mut T, empty: fn() -> T, build: impl FnOnce(&mut T
     result
 }
 
+/// `SPHB_ERR_INVALID_ARGUMENT` unless `leaf_count` is the proxy's sphere count (one leaf per sphere).
+fn check_leaf_count(p: &SphbProxy, leaf_count: usize) -> Res<()> {
+    if leaf_count == p.proxy.sphere_count() {
+        Ok(())
+    } else {
+        Err(invalid(format!("leaf_count {leaf_count} but the proxy has {} spheres", p.proxy.sphere_count())))
+    }
+}
+
 /// `SPHB_ERR_INVALID_ARGUMENT` naming `what` unless every sphere has a finite centre and a finite
 /// radius ≥ 0 (the rule of the shadow cluster's build).
 fn check_spheres(spheres: &[SphbSphere], what: &str) -> Res<()> {
@@ -976,13 +985,7 @@ pub unsafe extern "C" fn sphb_refit(
         let plan = plan_of(p)?;
         disjoint(("nodes_out", span(nodes_out, node_len)), &[("leaves", span(leaves, leaf_count))])?;
         let l = unsafe { input(leaves, leaf_count, "leaves")? };
-        if l.len() != p.proxy.sphere_count() {
-            return Err(invalid(format!(
-                "leaf_count {} but the proxy has {} spheres",
-                l.len(),
-                p.proxy.sphere_count()
-            )));
-        }
+        check_leaf_count(p, l.len())?;
         check_spheres(l, "leaves")?;
         let o = unsafe { output(nodes_out, node_len, plan.node_count(), "nodes_out")? };
         spherebake_runtime::refit(plan, spheres_of(l), spheres_of_mut(o)).map_err(invalid)
@@ -1141,13 +1144,7 @@ pub unsafe extern "C" fn sphb_shadow_cluster_build(
             ];
             disjoint(("blocker_count_out", span(blocker_count_out, 1)), &inputs)?;
             let l = unsafe { input(leaves, leaf_count, "leaves")? };
-            if l.len() != p.proxy.sphere_count() {
-                return Err(invalid(format!(
-                    "leaf_count {} but the proxy has {} spheres",
-                    l.len(),
-                    p.proxy.sphere_count()
-                )));
-            }
+            check_leaf_count(p, l.len())?;
             let c = unsafe { vec3(receiver_center, "receiver_center")? };
             let hierarchy = unsafe { hierarchy_of(p, nodes, node_count, "nodes")? };
             cl.cut.clear();

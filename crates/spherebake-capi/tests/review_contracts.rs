@@ -422,44 +422,16 @@ fn optional_scalar_outputs_that_overlap_an_input_are_refused() {
     let n = leaves.len();
     let mut e = new_err();
     let cl = sphb_shadow_cluster_new();
+    let build = |leaves: *const SphbSphere, count_out: *mut usize, e: &mut SphbError| unsafe {
+        sphb_shadow_cluster_build(cl, p, 4, leaves, n, null(), 0, RECEIVER.as_ptr(), 0.5, 0.4, count_out, e)
+    };
     // The blocker count written over the leaves it reads.
     let count_in_leaves = leaves.as_mut_ptr().cast::<usize>();
-    let s = unsafe {
-        sphb_shadow_cluster_build(
-            cl,
-            p,
-            4,
-            leaves.as_ptr(),
-            n,
-            null(),
-            0,
-            RECEIVER.as_ptr(),
-            0.5,
-            0.4,
-            count_in_leaves,
-            &mut e,
-        )
-    };
-    assert_eq!(s, SPHB_ERR_INVALID_ARGUMENT);
+    assert_eq!(build(leaves.as_ptr(), count_in_leaves, &mut e), SPHB_ERR_INVALID_ARGUMENT);
     assert!(message(&e).contains("blocker_count_out overlaps leaves"), "{}", message(&e));
     assert_eq!(leaves, leaves_of(p), "nothing written over the leaves");
     let mut count = 0usize;
-    let s = unsafe {
-        sphb_shadow_cluster_build(
-            cl,
-            p,
-            4,
-            leaves.as_ptr(),
-            n,
-            null(),
-            0,
-            RECEIVER.as_ptr(),
-            0.5,
-            0.4,
-            &mut count,
-            &mut e,
-        )
-    };
+    let s = build(leaves.as_ptr(), &mut count, &mut e);
     assert_eq!(s, SPHB_OK, "{}", message(&e));
     // The overlap scale written over p_star.
     let mut sctx = null_mut();

@@ -348,6 +348,22 @@ fn flat_sheet_is_bounded() {
     }
 }
 
+/// Outward-wound faces of a box whose corner i is at (x, y, z) = the bits of i (i = x + 2y + 4z).
+const BOX_FACES: [[u32; 3]; 12] = [
+    [0, 2, 3],
+    [0, 3, 1],
+    [4, 5, 7],
+    [4, 7, 6],
+    [0, 1, 5],
+    [0, 5, 4],
+    [2, 6, 7],
+    [2, 7, 3],
+    [0, 4, 6],
+    [0, 6, 2],
+    [1, 3, 7],
+    [1, 7, 5],
+];
+
 /// A closed box thinner than a cell encloses volume, but no cell centre: the warning says so
 /// (not "encloses no volume"), E is measured against the box's exact volume, and the box is
 /// still bounded; at a resolution that puts cell centres inside it, the warning is gone.
@@ -356,21 +372,8 @@ fn a_closed_mesh_thinner_than_a_cell_is_named_as_such_and_bounded() {
     let (a, b, c) = (10.0f32, 1.0f32, 0.05f32);
     let p: Vec<Vec3> =
         (0..8).map(|i| Vec3::new(a * (i & 1) as f32, b * ((i >> 1) & 1) as f32, c * (i >> 2) as f32)).collect();
-    // Outward-wound faces of the box [0,a]×[0,b]×[0,c] (corner i = x + 2y + 4z).
-    let t = vec![
-        [0, 2, 3],
-        [0, 3, 1],
-        [4, 5, 7],
-        [4, 7, 6],
-        [0, 1, 5],
-        [0, 5, 4],
-        [2, 6, 7],
-        [2, 7, 3],
-        [0, 4, 6],
-        [0, 6, 2],
-        [1, 3, 7],
-        [1, 7, 5],
-    ];
+    // The box [0,a]×[0,b]×[0,c].
+    let t = BOX_FACES.to_vec();
     let thin = fit(&p, &t, &FitSettings { spheres: 8, voxel_resolution: 32, ..Default::default() }, &|_| {}).unwrap();
     let w = thin.warnings.iter().find(|w| w.contains("thinner than a voxel cell")).expect("the thin-box warning");
     assert!(!thin.warnings.iter().any(|w| w.contains("encloses no volume")), "{:?}", thin.warnings);
@@ -405,20 +408,7 @@ fn a_thin_walled_solid_is_named_and_a_thick_one_is_not() {
         let cube = |lo: f32, hi: f32| -> Vec<Vec3> {
             (0..8).map(|i| Vec3::new([lo, hi][i & 1], [lo, hi][(i >> 1) & 1], [lo, hi][(i >> 2) & 1])).collect()
         };
-        let faces: [[u32; 3]; 12] = [
-            [0, 2, 3],
-            [0, 3, 1],
-            [4, 5, 7],
-            [4, 7, 6],
-            [0, 1, 5],
-            [0, 5, 4],
-            [2, 6, 7],
-            [2, 7, 3],
-            [0, 4, 6],
-            [0, 6, 2],
-            [1, 3, 7],
-            [1, 7, 5],
-        ];
+        let faces = BOX_FACES;
         let mut p = cube(0.0, 1.0);
         let mut t: Vec<[u32; 3]> = faces.to_vec();
         if wall > 0.0 {
