@@ -293,6 +293,71 @@ pub fn lattices_at_most(lo: DVec3, hi: DVec3, points: &[DVec3], k: usize) -> Vec
     out
 }
 
+/// The split start: `points` (surface samples and interior lattice points) cut by recursive
+/// bisection into at most `k` cells, each cell's sphere the smallest ball around its points
+/// ([`spherebake_geom::sphere::min_enclosing_ball`]), in the order the cells were made. The
+/// cell whose ball is largest (the earliest on a tie) is cut next, at the middle of its points'
+/// extent along the axis whose two balls hold the least volume together (a slab of a round
+/// rod shorter than it is wide is still cut across the rod: halving the disc would not shrink
+/// its balls); a cell whose points all coincide is not cut. On a long round part this is
+/// a chain of spheres along its axis (a 10 : 1 cylinder at 32 spheres: the balls of 32 equal
+/// slabs), which neither the cover start nor the lattices of [`lattices_at_most`] (cells'
+/// circumspheres) give. Empty for no points or `k` = 0. Cost O(points × depth) for the cuts
+/// (depth about log₂ k) and three pairs of balls per cut, expected O(the cell's points) each.
+pub fn split_start(points: &[DVec3], k: usize) -> Vec<(DVec3, f64)> {
+    let pts: Vec<DVec3> = points.iter().copied().filter(|p| p.is_finite()).collect();
+    if pts.is_empty() || k == 0 {
+        return Vec::new();
+    }
+    let ball_of = |idx: &[u32]| {
+        let members: Vec<DVec3> = idx.iter().map(|&i| pts[i as usize]).collect();
+        spherebake_geom::sphere::min_enclosing_ball(&members)
+    };
+    // A cell: its points' indices and their smallest ball.
+    type Cell = (Vec<u32>, (DVec3, f64));
+    let all: Vec<u32> = (0..pts.len() as u32).collect();
+    let mut cells: Vec<Cell> = vec![(all.clone(), ball_of(&all))];
+    // Max-heap on (radius as ordered bits, earliest cell first).
+    let mut heap: BinaryHeap<(u64, std::cmp::Reverse<usize>)> = BinaryHeap::new();
+    heap.push((cells[0].1 .1.to_bits(), std::cmp::Reverse(0)));
+    let mut count = 1;
+    while count < k {
+        let Some((_, std::cmp::Reverse(ci))) = heap.pop() else { break };
+        let idx = std::mem::take(&mut cells[ci].0);
+        let (mut lo, mut hi) = (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY));
+        for &i in &idx {
+            lo = lo.min(pts[i as usize]);
+            hi = hi.max(pts[i as usize]);
+        }
+        // The cut (at the middle of one axis's extent) whose two balls hold the least volume
+        // together; the lowest axis on a tie.
+        let mut best: Option<(f64, [Cell; 2])> = None;
+        for axis in 0..3 {
+            let mid = 0.5 * (lo[axis] + hi[axis]);
+            let (a, b): (Vec<u32>, Vec<u32>) = idx.iter().partition(|&&i| pts[i as usize][axis] < mid);
+            if a.is_empty() || b.is_empty() {
+                continue;
+            }
+            let (ba, bb) = (ball_of(&a), ball_of(&b));
+            let volume = ba.1.powi(3) + bb.1.powi(3);
+            if best.as_ref().is_none_or(|(v, _)| volume < *v) {
+                best = Some((volume, [(a, ba), (b, bb)]));
+            }
+        }
+        let Some((_, parts)) = best else {
+            // Every point at one place (or each middle rounded onto an end): keep the cell whole.
+            cells[ci].0 = idx;
+            continue;
+        };
+        for (part, ball) in parts {
+            heap.push((ball.1.to_bits(), std::cmp::Reverse(cells.len())));
+            cells.push((part, ball));
+        }
+        count += 1;
+    }
+    cells.iter().filter(|(idx, _)| !idx.is_empty()).map(|(_, ball)| *ball).collect()
+}
+
 #[cfg(test)]
 mod kmeanspp_tests {
     use super::*;
@@ -416,5 +481,54 @@ mod kmeanspp_tests {
         }
         let f = far as f64 / from_zero as f64;
         assert!(from_zero > 1100 && (f - 0.9).abs() < 0.04, "{far} / {from_zero}");
+    }
+
+    /// Points on and inside a round rod (radius 0.5, length 10, along z): 32 cells are the 32
+    /// equal slabs, each ball centred on the axis with radius √(0.5² + (10 / 64)²) (the slab's
+    /// rim circles lie on it). Every point lies in its cell's ball. A unit cube's lattice at 8
+    /// gives the octants.
+    #[test]
+    fn the_split_start_chains_a_rod_and_halves_a_cube() {
+        let mut pts = Vec::new();
+        for iz in 0..=640 {
+            let z = 10.0 * iz as f64 / 640.0;
+            for ia in 0..24 {
+                let t = std::f64::consts::TAU * ia as f64 / 24.0;
+                for r in [0.5, 0.25] {
+                    pts.push(DVec3::new(r * t.cos(), r * t.sin(), z));
+                }
+            }
+            pts.push(DVec3::new(0.0, 0.0, z));
+        }
+        let balls = split_start(&pts, 32);
+        assert_eq!(balls.len(), 32);
+        let want = (0.25f64 + (10.0f64 / 64.0).powi(2)).sqrt();
+        let mut zs: Vec<f64> = balls.iter().map(|(c, _)| c.z).collect();
+        zs.sort_by(f64::total_cmp);
+        for (i, z) in zs.iter().enumerate() {
+            assert!((z - (i as f64 + 0.5) * 10.0 / 32.0).abs() < 0.02, "slab {i} centred at {z}");
+        }
+        for (c, r) in &balls {
+            assert!(c.x.abs() < 1e-6 && c.y.abs() < 1e-6, "off the axis: {c}");
+            assert!((r - want).abs() < 0.01 * want, "radius {r}, a slab's ball {want}");
+        }
+        for p in &pts {
+            assert!(balls.iter().any(|(c, r)| p.distance(*c) <= r * (1.0 + 1e-9)), "{p} in no ball");
+        }
+        let cube: Vec<DVec3> =
+            (0..1000).map(|i| DVec3::new((i % 10) as f64, (i / 10 % 10) as f64, (i / 100) as f64) / 9.0).collect();
+        let oct = split_start(&cube, 8);
+        assert_eq!(oct.len(), 8);
+        for (c, r) in &oct {
+            for a in 0..3 {
+                assert!((c[a] - 0.5).abs() > 0.2, "not an octant: {c}");
+            }
+            // An octant's points fill a cube of side 4/9 (j / 9, j = 0..=4 or 5..=9).
+            let want = 3f64.sqrt() * 2.0 / 9.0;
+            assert!((r - want).abs() < 1e-9 * want, "radius {r}, the octant's ball {want}");
+        }
+        assert!(split_start(&[], 8).is_empty() && split_start(&cube, 0).is_empty());
+        // Points that all coincide are one cell whatever k asks.
+        assert_eq!(split_start(&[DVec3::ONE; 5], 4).len(), 1);
     }
 }

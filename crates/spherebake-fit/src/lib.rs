@@ -23,7 +23,10 @@
 //!    lattice's cells (at most k, the candidate of lowest proxy E) replace Lloyd's spheres,
 //!    and the polish is skipped, when their proxy E is lower (box-like solids); at a near
 //!    tie ([`FitPlan::start_tie`]) the stages below run from both and the lower exact E is
-//!    kept;
+//!    kept; and the **split start** (recursive bisection of the points, each cell's smallest
+//!    ball, [`baselines::split_start`]): when its proxy E is below the lattice's and within
+//!    [`FitPlan::split_start_tie`] of Lloyd's, stages 4–8 run from it too and the lowest
+//!    exact E of all runs is kept;
 //! 3. **polish** on the dense points: assignment, joint radius shrinking (farthest members
 //!    handed to neighbouring spheres where that lowers the summed outside volume), centre
 //!    update ignoring members that another sphere already covers (all but the last round);
@@ -761,7 +764,8 @@ pub struct TraceEntry {
     pub seed: u64,
     /// `dense_points`, `lloyd`, `lattice_start`, `polish`, `descent_points`, `descent`, `seam`,
     /// `band`, `gap`, `bound`, `exact_e`, and `start_kept` after a lattice start (E: the start's exact
-    /// E once bounded; iterations 1 when it was returned instead), then `enclosing_ball` (E: the
+    /// E once bounded; iterations 1 when it was returned instead), `split_start` (E: its proxy
+    /// E; iterations 1 when it ran, followed by its own `descent_points` … `exact_e`), then `enclosing_ball` (E: the
     /// exact E of the minimal enclosing ball; iterations 1 when it was returned instead; at one
     /// sphere the only stage). When both starts run
     /// (`lattice_start` iterations 2, see [`FitPlan::start_tie`]) the stages from `polish` to
@@ -889,7 +893,9 @@ struct LloydInfo {
 /// the descent starts from the one of lower proxy E, or from both when their proxy E are
 /// within [`FitPlan::start_tie`] of each other (Lloyd's first), keeping the run of lower exact
 /// E (Lloyd's on a tie): before the descent the two proxies do not tell which start ends
-/// lower (see `lattice_start`).
+/// lower (see `lattice_start`). The split start (2c) runs as a third when its proxy E is
+/// below the lattice's and within [`FitPlan::split_start_tie`] of Lloyd's; the lowest exact E
+/// of the runs is returned (the earliest on a tie), so it can only lower E.
 fn variational_run(prep: &Prepared, pts: &points::PointSet, settings: &FitSettings, k: usize, tr: &mut Tracer) -> Run {
     let (plan, solid) = (&settings.plan, &prep.solid);
     // Without polish rounds (the fast plan) nothing reads the dense points.
@@ -928,21 +934,32 @@ fn variational_run(prep: &Prepared, pts: &points::PointSet, settings: &FitSettin
     let lattice_run = from_lattice.then(|| {
         tr.record("polish", Some(e_start), |_| {});
         let raw = descend(prep, pts, plan, start.clone(), tr);
-        let run = finish(prep, pts, plan, &raw, info, tr);
+        let run = finish(prep, pts, plan, &raw, info.clone(), tr);
         keep_the_better_start(prep, pts, plan, run, &start, tr)
     });
-    match (lloyd_run, lattice_run) {
-        (Some(a), Some(b)) => {
-            if b.outside_total() < a.outside_total() {
-                b
-            } else {
-                a
-            }
-        }
-        (Some(a), None) | (None, Some(a)) => a,
-        // from_lloyd || from_lattice always holds; Lloyd's spheres as the fallback.
-        (None, None) => finish(prep, pts, plan, &sp, LloydInfo::default(), tr),
-    }
+    let (split, e_split) = split_start(prep, pts, k);
+    let from_split = e_split < e_start && e_split <= (1.0 + plan.split_start_tie) * e_lloyd;
+    tr.record("split_start", Some(e_split), |x| x.iterations = usize::from(from_split));
+    let split_run = from_split.then(|| {
+        let raw = descend(prep, pts, plan, split, tr);
+        finish(prep, pts, plan, &raw, info, tr)
+    });
+    // The lowest exact E, the earliest run (Lloyd's, the lattice's, the split's) on a tie.
+    let runs = [lloyd_run, lattice_run, split_run];
+    let best = runs.into_iter().flatten().reduce(|a, b| if b.outside_total() < a.outside_total() { b } else { a });
+    // from_lloyd || from_lattice always holds; Lloyd's spheres as the fallback.
+    best.unwrap_or_else(|| finish(prep, pts, plan, &sp, LloydInfo::default(), tr))
+}
+
+/// Stage 2c, the split start ([`baselines::split_start`] on the clustering points, padded
+/// with empty spheres to `k`) and its proxy E (infinite when it has no sphere). Cost
+/// O(points × log k) and one proxy evaluation of k spheres.
+fn split_start(prep: &Prepared, pts: &points::PointSet, k: usize) -> (Vec<(DVec3, f64)>, f64) {
+    let mut sp = baselines::split_start(&pts.points, k);
+    let Some(&(c0, _)) = sp.first() else { return (sp, f64::INFINITY) };
+    sp.resize(k, (c0, 0.0));
+    let e = proxy_e_of(&prep.solid, &sp);
+    (sp, e)
 }
 
 /// Stages 4–6c from a start: descent points, the exclusive descent, the seam rounds, the band

@@ -578,11 +578,16 @@ fn target_mode_warns_once_and_keeps_its_stage_times_and_trace() {
         let secs = fit_stages.iter().find(|t| t["stage"] == st).and_then(|t| t["seconds"].as_f64());
         assert!(secs.is_some_and(|s| s > 0.0), "{st}: {fit_stages:?}");
     }
-    // And the JSON trace has one exact E per count tried, the first at 8 spheres.
+    // And the JSON trace has an exact E for every count tried (two where a second start ran),
+    // the first at 8 spheres.
     let trace = rep["fit_trace"].as_array().unwrap();
     let runs: Vec<&serde_json::Value> = trace.iter().filter(|e| e["stage"] == "exact_e").collect();
     assert!(!runs.is_empty() && runs[0]["spheres"] == 8, "{trace:?}");
-    assert!(trace.iter().filter(|e| e["stage"] == "dense_points").count() == runs.len());
+    let counts = |stage: &str| -> std::collections::BTreeSet<u64> {
+        trace.iter().filter(|e| e["stage"] == stage).filter_map(|e| e["spheres"].as_u64()).collect()
+    };
+    assert_eq!(counts("dense_points"), counts("exact_e"), "{trace:?}");
+    assert_eq!(trace.iter().filter(|e| e["stage"] == "dense_points").count(), counts("dense_points").len());
 }
 
 #[test]
