@@ -765,11 +765,13 @@ pub struct TraceEntry {
     /// `dense_points`, `lloyd`, `lattice_start`, `polish`, `descent_points`, `descent`, `seam`,
     /// `band`, `gap`, `bound`, `exact_e`, and `start_kept` after a lattice start (E: the start's exact
     /// E once bounded; iterations 1 when it was returned instead), `split_start` (E: its proxy
-    /// E; iterations 1 when it ran, followed by its own `descent_points` … `exact_e`), then `enclosing_ball` (E: the
+    /// E; iterations 1 when it ran, followed by its own `descent_points` … `exact_e`), then `enclosing_ball` (computed first, listed last; E: the
     /// exact E of the minimal enclosing ball; iterations 1 when it was returned instead; at one
     /// sphere the only stage). When both starts run
     /// (`lattice_start` iterations 2, see [`FitPlan::start_tie`]) the stages from `polish` to
-    /// `exact_e` appear twice, Lloyd's run first. The baselines record `kmeans` or `octree`,
+    /// `exact_e` appear twice, Lloyd's run first. When Lloyd's proxy E reaches
+    /// [`FitPlan::ball_bar`] × the enclosing ball's E, `bound` and `exact_e` follow `lloyd`
+    /// directly (a round part). The baselines record `kmeans` or `octree`,
     /// then `bound` and `exact_e`.
     pub stage: &'static str,
     /// Round (1, 2, ...) for `seam` and `gap`, else 0.
@@ -809,6 +811,12 @@ impl Tracer {
     /// Ends the stage that started at the previous `record` (or at `new`).
     fn record(&mut self, stage: &'static str, e: Option<f64>, f: impl FnOnce(&mut TraceEntry)) {
         let seconds = self.t.elapsed().as_secs_f64();
+        self.record_took(stage, e, seconds, f);
+    }
+
+    /// Records a stage that took `seconds` elsewhere (computed before the stages it is listed
+    /// after), and starts the next stage now.
+    fn record_took(&mut self, stage: &'static str, e: Option<f64>, seconds: f64, f: impl FnOnce(&mut TraceEntry)) {
         let mut entry = TraceEntry {
             part: self.part,
             spheres: self.spheres,
@@ -853,14 +861,20 @@ fn run_once(prep: &Prepared, pts: &points::PointSet, settings: &FitSettings, k: 
     let baseline = |sp: Vec<(DVec3, f64)>, tr: &mut Tracer| finish(prep, pts, plan, &sp, LloydInfo::default(), tr);
     match settings.method {
         // One sphere: the minimal enclosing ball is the optimum (stage 10).
-        Method::Variational if k == 1 => enclosing_ball(prep, pts, plan, 1, tr),
+        Method::Variational if k == 1 => {
+            let ball = enclosing_ball(prep, pts, plan, 1);
+            tr.record("enclosing_ball", Some(ball.outside_total() / prep.object_volume), |_| {});
+            ball
+        }
         Method::Variational => {
-            let run = variational_run(prep, pts, settings, k, tr);
-            let ball = enclosing_ball(prep, pts, plan, k, tr);
+            // Stage 10 first (it bounds what the fit is worth, see `FitPlan::ball_bar`), listed last.
+            let t = Instant::now();
+            let ball = enclosing_ball(prep, pts, plan, k);
+            let (ball_seconds, ball_e) = (t.elapsed().as_secs_f64(), ball.outside_total() / prep.object_volume);
+            tr.t = Instant::now();
+            let run = variational_run(prep, pts, settings, k, ball_e, tr);
             let kept = ball.outside_total() < run.outside_total();
-            if let Some(x) = tr.entries.last_mut() {
-                x.iterations = usize::from(kept);
-            }
+            tr.record_took("enclosing_ball", Some(ball_e), ball_seconds, |x| x.iterations = usize::from(kept));
             if kept {
                 ball
             } else {
@@ -896,7 +910,14 @@ struct LloydInfo {
 /// lower (see `lattice_start`). The split start (2c) runs as a third when its proxy E is
 /// below the lattice's and within [`FitPlan::split_start_tie`] of Lloyd's; the lowest exact E
 /// of the runs is returned (the earliest on a tie), so it can only lower E.
-fn variational_run(prep: &Prepared, pts: &points::PointSet, settings: &FitSettings, k: usize, tr: &mut Tracer) -> Run {
+fn variational_run(
+    prep: &Prepared,
+    pts: &points::PointSet,
+    settings: &FitSettings,
+    k: usize,
+    ball_e: f64,
+    tr: &mut Tracer,
+) -> Run {
     let (plan, solid) = (&settings.plan, &prep.solid);
     // Without polish rounds (the fast plan) nothing reads the dense points.
     let all = if plan.polish_rounds > 0 { dense_points(prep, pts, plan) } else { Vec::new() };
@@ -915,6 +936,11 @@ fn variational_run(prep: &Prepared, pts: &points::PointSet, settings: &FitSettin
         x.iterations = out.iterations;
         x.trials = out.teleports_tried;
     });
+    if e_lloyd >= plan.ball_bar * ball_e {
+        // A round part: its enclosing ball is far below what the stages below can reach from
+        // here, so Lloyd's spheres are only made bounding (and lose to the ball in stage 10).
+        return finish(prep, pts, plan, &sp, info, tr);
+    }
     let (start, e_start) = lattice_start(prep, pts, k);
     let lower = e_start < e_lloyd;
     let tie = (e_start / e_lloyd - 1.0).abs() < plan.start_tie;
@@ -1041,7 +1067,7 @@ fn finish(
 /// enclosing ball). Made bounding in f32 by the bounding pass (stage 7). Cost O(vertices)
 /// expected, one bounding pass of one sphere (surface only, [`bound_stage_over`]) and one exact
 /// E (for a closed mesh V(ball) − V(T), since the part lies inside the ball).
-fn enclosing_ball(prep: &Prepared, pts: &points::PointSet, plan: &FitPlan, k: usize, tr: &mut Tracer) -> Run {
+fn enclosing_ball(prep: &Prepared, pts: &points::PointSet, plan: &FitPlan, k: usize) -> Run {
     let (c, r) = spherebake_geom::sphere::min_enclosing_ball(&referenced_vertices(prep));
     let mut raw = vec![(c, r)];
     raw.resize(k.max(1), (c, 0.0));
@@ -1056,7 +1082,6 @@ fn enclosing_ball(prep: &Prepared, pts: &points::PointSet, plan: &FitPlan, k: us
     } else {
         exact_outside(prep, &spheres)
     };
-    tr.record("enclosing_ball", Some(outside.iter().sum::<f64>() / prep.object_volume), |_| {});
     Run { spheres, outside, proxy_e, iterations: 0, teleports: (0, 0), history: Vec::new(), bound }
 }
 

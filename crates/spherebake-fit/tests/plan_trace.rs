@@ -126,7 +126,10 @@ fn the_descent_does_not_raise_e_when_the_polish_already_covers_its_points() {
         .map(|(a, b)| p[a as usize].distance(p[b as usize]))
         .fold(0.0f32, f32::max);
     assert!(longest < 0.125, "{longest}");
-    let s = FitSettings { spheres: 10, voxel_resolution: 32, ..FitSettings::default() };
+    // A sphere is a round part: without the bar out of reach its enclosing ball would end the
+    // fit after Lloyd (`FitPlan::ball_bar`).
+    let plan = FitPlan { ball_bar: f64::INFINITY, ..FitPlan::default() };
+    let s = FitSettings { spheres: 10, voxel_resolution: 32, plan, ..FitSettings::default() };
     let r = fit(&p, &t, &s, &|_| {}).expect("fits");
     let e = |stage: &str| r.stats.trace.iter().find(|x| x.stage == stage).and_then(|x| x.e).expect(stage);
     let (polish, descent) = (e("polish"), e("descent"));
@@ -188,7 +191,8 @@ fn presets_do_the_work_they_document_and_all_bound() {
 #[test]
 fn target_mode_keeps_every_runs_trace_and_times() {
     let (p, t) = uv_sphere(16);
-    let plan = FitPlan { descent_trials: 8, seam_rounds: 1, ..FitPlan::default() };
+    // (The descent must run on this round part: the ball's bar out of reach.)
+    let plan = FitPlan { descent_trials: 8, seam_rounds: 1, ball_bar: f64::INFINITY, ..FitPlan::default() };
     let target = 0.05;
     let s = FitSettings { max_outside_ratio: Some(target), voxel_resolution: 32, plan, ..FitSettings::default() };
     let r = fit(&p, &t, &s, &|_| {}).expect("fits");
@@ -218,7 +222,12 @@ fn target_mode_keeps_every_runs_trace_and_times() {
 
 /// The descent point set's size for a fit, from its trace.
 fn descent_points(r: &FitResult) -> usize {
-    r.stats.trace.iter().find(|e| e.stage == "descent_points").expect("descent points traced").points
+    r.stats
+        .trace
+        .iter()
+        .find(|e| e.stage == "descent_points")
+        .unwrap_or_else(|| panic!("descent points traced: {:?}", stages(r)))
+        .points
 }
 
 #[test]
@@ -228,7 +237,8 @@ fn a_mesh_finer_than_the_grid_is_thinned_to_it_and_still_bound() {
     let (p, t) = uv_sphere(256);
     // The default cube (one voxel cell) with a budget this mesh exceeds (the default budget,
     // 400 000 points, is for meshes of a million triangles; the cost is what is tested).
-    let plan = FitPlan { point_budget: 100_000, ..FitPlan::default() };
+    // (The descent must run on this round part: the ball's bar out of reach.)
+    let plan = FitPlan { point_budget: 100_000, ball_bar: f64::INFINITY, ..FitPlan::default() };
     assert_eq!(plan.point_cell, 1.0, "the default this test measures");
     let s = FitSettings { spheres: 8, voxel_resolution: 32, plan, ..FitSettings::default() };
     let thin = fit(&p, &t, &s, &|_| {}).expect("fits");
@@ -257,8 +267,10 @@ fn a_mesh_finer_than_the_grid_is_thinned_to_it_and_still_bound() {
 fn a_point_set_within_the_budget_is_not_thinned() {
     // 96 rings: 18 200 vertices, 36 500 triangles.
     let (p, t) = uv_sphere(96);
-    let s = FitSettings { spheres: 8, voxel_resolution: 32, ..FitSettings::default() };
-    let all = FitSettings { plan: FitPlan { point_cell: 0.0, ..FitPlan::default() }, ..s.clone() };
+    // (The descent must run on this round part: the ball's bar out of reach.)
+    let plan = FitPlan { ball_bar: f64::INFINITY, ..FitPlan::default() };
+    let s = FitSettings { spheres: 8, voxel_resolution: 32, plan, ..FitSettings::default() };
+    let all = FitSettings { plan: FitPlan { point_cell: 0.0, ..s.plan.clone() }, ..s.clone() };
     let (a, b) = (fit(&p, &t, &s, &|_| {}).expect("fits"), fit(&p, &t, &all, &|_| {}).expect("fits"));
     let dense = |r: &FitResult| r.stats.trace.iter().find(|e| e.stage == "dense_points").expect("traced").points;
     assert!(
@@ -367,4 +379,34 @@ fn a_near_tie_of_the_starts_runs_from_both_and_keeps_the_lower_exact_e() {
     }
     // One case of each: a fit that always kept one side fails one of them.
     assert_eq!(lattice_won, [false, true]);
+}
+
+/// A round part: Lloyd's proxy E is several times its enclosing ball's exact E, so the stages
+/// after Lloyd are skipped (`FitPlan::ball_bar`) and the ball is returned. With the bar out of
+/// reach every stage runs, and the ball is still returned: the skipped stages could not have
+/// beaten it (the fit's own end is above twice the ball's E either way).
+#[test]
+fn a_round_part_skips_the_stages_its_enclosing_ball_beats() {
+    let (p, t) = uv_sphere(24);
+    let run = |ball_bar: f64| {
+        let plan = FitPlan { ball_bar, ..FitPlan::default() };
+        fit(&p, &t, &FitSettings { spheres: 32, voxel_resolution: 64, plan, ..FitSettings::default() }, &|_| {})
+            .expect("fits")
+    };
+    let (skipped, full) = (run(2.0), run(f64::INFINITY));
+    let has = |r: &FitResult, st: &str| stages(r).contains(&st);
+    assert!(!has(&skipped, "descent") && !has(&skipped, "polish"), "{:?}", stages(&skipped));
+    assert!(has(&full, "descent") && has(&full, "seam"), "{:?}", stages(&full));
+    let e_of = |r: &FitResult, st: &str| {
+        r.stats.trace.iter().filter(|e| e.stage == st).filter_map(|e| e.e).collect::<Vec<f64>>()
+    };
+    let ball = e_of(&full, "enclosing_ball")[0];
+    for r in [&skipped, &full] {
+        assert_eq!(r.stats.outside_ratio_e.to_bits(), ball.to_bits(), "the ball is returned");
+        assert!(
+            e_of(r, "exact_e").iter().all(|&e| e > 2.0 * ball),
+            "{:?} against the ball's {ball}",
+            e_of(r, "exact_e")
+        );
+    }
 }
