@@ -2,7 +2,8 @@
 //! cluster about the centroid) and adaptive-octree leaf-cube spheres (Ren et al. 2006 Fig. 4).
 //! Both pass through the same exactness rules as the variational fit afterwards. The box
 //! lattices here ([`lattices_at_most`]) are no baseline: with the octree stopped at most k
-//! they are the candidates of the variational fit's lattice start.
+//! they are the candidates of the variational fit's lattice start; nor is [`split_start`],
+//! the variational fit's third start.
 
 use crate::rng::SplitMix64;
 use crate::solid::Solid;
@@ -316,7 +317,8 @@ pub fn split_start(points: &[DVec3], k: usize) -> Vec<(DVec3, f64)> {
     // A cell: its points' indices and their smallest ball.
     type Cell = (Vec<u32>, (DVec3, f64));
     let all: Vec<u32> = (0..pts.len() as u32).collect();
-    let mut cells: Vec<Cell> = vec![(all.clone(), ball_of(&all))];
+    let whole = ball_of(&all);
+    let mut cells: Vec<Cell> = vec![(all, whole)];
     // Max-heap on (radius as ordered bits, earliest cell first).
     let mut heap: BinaryHeap<(u64, std::cmp::Reverse<usize>)> = BinaryHeap::new();
     heap.push((cells[0].1 .1.to_bits(), std::cmp::Reverse(0)));
