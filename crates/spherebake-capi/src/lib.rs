@@ -519,8 +519,7 @@ fn check_leaf_count(p: &SphbProxy, leaf_count: usize) -> Res<()> {
 /// `SPHB_ERR_INVALID_ARGUMENT` naming `what` unless every sphere has a finite centre and a finite
 /// radius ≥ 0 (the rule of the shadow cluster's build).
 fn check_spheres(spheres: &[SphbSphere], what: &str) -> Res<()> {
-    let ok = |s: &SphbSphere| s.center.iter().all(|v| v.is_finite()) && s.radius.is_finite() && s.radius >= 0.0;
-    match spheres.iter().position(|s| !ok(s)) {
+    match spherebake_runtime::shadow::first_unusable_sphere(spheres_of(spheres)) {
         None => Ok(()),
         Some(i) => Err(invalid(format!("{what}[{i}] has no finite centre and finite radius ≥ 0"))),
     }

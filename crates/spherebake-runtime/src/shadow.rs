@@ -797,12 +797,19 @@ pub fn check_receiver(center: [f32; 3], radius: f32, theta_max_rad: f32) -> Resu
 /// `Err(Argument)` unless every sphere has a finite centre and a finite radius ≥ 0 (a posed proxy from a joint
 /// matrix with a NaN, or a caller's own spheres, would otherwise give plausible-looking values).
 pub(crate) fn check_spheres(argument: &'static str, spheres: &[Sphere]) -> Result<(), ShadowError> {
-    let ok = |s: &Sphere| s.center.iter().all(|v| v.is_finite()) && s.radius.is_finite() && s.radius >= 0.0;
-    if spheres.iter().all(ok) {
-        Ok(())
-    } else {
-        Err(ShadowError::Argument { argument, expected: "spheres with finite centres and finite radii ≥ 0" })
+    match first_unusable_sphere(spheres) {
+        None => Ok(()),
+        Some(_) => {
+            Err(ShadowError::Argument { argument, expected: "spheres with finite centres and finite radii ≥ 0" })
+        }
     }
+}
+
+/// The index of the first sphere without a finite centre and a finite radius ≥ 0 (the rule every
+/// cluster build, refit and cut applies to its spheres), or `None` when all are usable.
+#[must_use]
+pub fn first_unusable_sphere(spheres: &[Sphere]) -> Option<usize> {
+    spheres.iter().position(|s| !(s.center.iter().all(|v| v.is_finite()) && s.radius.is_finite() && s.radius >= 0.0))
 }
 
 /// `n` at unit length: as it is when |n|² is within 10⁻⁶ of 1 (so unit normals keep their bits), else divided by
