@@ -298,14 +298,17 @@ pub fn lattices_at_most(lo: DVec3, hi: DVec3, points: &[DVec3], k: usize) -> Vec
 /// bisection into at most `k` cells, each cell's sphere the smallest ball around its points
 /// ([`spherebake_geom::sphere::min_enclosing_ball`]), in the order the cells were made. The
 /// cell whose ball is largest (the earliest on a tie) is cut next, at the middle of its points'
-/// extent along the axis whose two balls hold the least volume together (a slab of a round
-/// rod shorter than it is wide is still cut across the rod: halving the disc would not shrink
-/// its balls); a cell whose points all coincide is not cut. On a long round part this is
-/// a chain of spheres along its axis (a 10 : 1 cylinder at 32 spheres: the balls of 32 equal
-/// slabs), which neither the cover start nor the lattices of [`lattices_at_most`] (cells'
-/// circumspheres) give. Empty for no points or `k` = 0. Cost O(points × depth) for the cuts
-/// (depth about log₂ k) and three pairs of balls per cut, expected O(the cell's points) each.
-pub fn split_start(points: &[DVec3], k: usize) -> Vec<(DVec3, f64)> {
+/// extent along the direction whose two balls hold the least volume together: x, y or z, and
+/// with `oblique` also the cell's three principal axes
+/// ([`spherebake_geom::sphere::principal_axes`]), which win only where strictly tighter (a
+/// slab of a round rod shorter than it is wide is still cut across the rod: halving the disc
+/// would not shrink its balls); a cell whose points all coincide is not cut. On a long round
+/// part this is a chain of spheres along its axis (a 10 : 1 cylinder at 32 spheres: the balls
+/// of 32 equal slabs), along an oblique axis too with `oblique`, which neither the cover start
+/// nor the lattices of [`lattices_at_most`] (cells' circumspheres) give. Empty for no points
+/// or `k` = 0. Cost O(points × depth) for the cuts (depth about log₂ k) and three pairs of
+/// balls per cut (six with `oblique`, plus the covariance), expected O(the cell's points) each.
+pub fn split_start(points: &[DVec3], k: usize, oblique: bool) -> Vec<(DVec3, f64)> {
     let pts: Vec<DVec3> = points.iter().copied().filter(|p| p.is_finite()).collect();
     if pts.is_empty() || k == 0 {
         return Vec::new();
@@ -331,12 +334,31 @@ pub fn split_start(points: &[DVec3], k: usize) -> Vec<(DVec3, f64)> {
             lo = lo.min(pts[i as usize]);
             hi = hi.max(pts[i as usize]);
         }
-        // The cut (at the middle of one axis's extent) whose two balls hold the least volume
-        // together; the lowest axis on a tie.
+        // The cut (at the middle of the extent along x, y, z or one of the cell's principal
+        // axes) whose two balls hold the least volume together; the earliest on a tie, so a
+        // principal axis wins only where it is strictly tighter (an oblique part; a slab of
+        // an oblique rod is cut across the rod by its least-spread axis).
+        let members: Vec<DVec3> = idx.iter().map(|&i| pts[i as usize]).collect();
+        let principal = if oblique { spherebake_geom::sphere::principal_axes(&members) } else { None };
         let mut best: Option<(f64, [Cell; 2])> = None;
-        for axis in 0..3 {
-            let mid = 0.5 * (lo[axis] + hi[axis]);
-            let (a, b): (Vec<u32>, Vec<u32>) = idx.iter().partition(|&&i| pts[i as usize][axis] < mid);
+        for axis in 0..6 {
+            let dir = match (axis, principal) {
+                (0..=2, _) => DVec3::AXES[axis],
+                // A principal axis within 0.08° of x, y or z (the eigenvectors of a box's
+                // slab, up to rounding) would repeat that axis's cut, or tilt it by rounding.
+                (_, Some(p)) if p[axis - 3].abs().max_element() < 1.0 - 1e-6 => p[axis - 3],
+                _ => continue,
+            };
+            let (plo, phi) = if axis < 3 {
+                (lo[axis], hi[axis])
+            } else {
+                members
+                    .iter()
+                    .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), p| (l.min(p.dot(dir)), h.max(p.dot(dir))))
+            };
+            let mid = 0.5 * (plo + phi);
+            let key = |p: DVec3| if axis < 3 { p[axis] } else { p.dot(dir) };
+            let (a, b): (Vec<u32>, Vec<u32>) = idx.iter().partition(|&&i| key(pts[i as usize]) < mid);
             if a.is_empty() || b.is_empty() {
                 continue;
             }
@@ -502,7 +524,9 @@ mod kmeanspp_tests {
             }
             pts.push(DVec3::new(0.0, 0.0, z));
         }
-        let balls = split_start(&pts, 32);
+        let balls = split_start(&pts, 32, false);
+        // The same with the principal axes: the same chain (x, y and z win their ties).
+        assert_eq!(split_start(&pts, 32, true), balls);
         assert_eq!(balls.len(), 32);
         let want = (0.25f64 + (10.0f64 / 64.0).powi(2)).sqrt();
         let mut zs: Vec<f64> = balls.iter().map(|(c, _)| c.z).collect();
@@ -517,9 +541,28 @@ mod kmeanspp_tests {
         for p in &pts {
             assert!(balls.iter().any(|(c, r)| p.distance(*c) <= r * (1.0 + 1e-9)), "{p} in no ball");
         }
+        // The same rod turned oblique (its axis along (1, 2, 2) / 3) and moved: cut across its
+        // own axis (the points' principal axis), it is the same chain, where cuts along x, y
+        // and z alone would slice it at a slant into larger balls.
+        let rot = glam::DQuat::from_rotation_arc(DVec3::Z, DVec3::new(1.0, 2.0, 2.0) / 3.0);
+        let shift = DVec3::new(3.0, -1.0, 0.5);
+        let turned: Vec<DVec3> = pts.iter().map(|p| rot * *p + shift).collect();
+        let balls = split_start(&turned, 32, true);
+        assert_eq!(balls.len(), 32);
+        let axis = DVec3::new(1.0, 2.0, 2.0) / 3.0;
+        let mut along: Vec<f64> = balls.iter().map(|(c, _)| (*c - shift).dot(axis)).collect();
+        along.sort_by(f64::total_cmp);
+        for (i, t) in along.iter().enumerate() {
+            assert!((t - (i as f64 + 0.5) * 10.0 / 32.0).abs() < 0.02, "oblique slab {i} centred at {t}");
+        }
+        for (c, r) in &balls {
+            let off = (*c - shift) - axis * (*c - shift).dot(axis);
+            assert!(off.length() < 0.01, "off the oblique axis by {}", off.length());
+            assert!((r - want).abs() < 0.01 * want, "oblique radius {r}, a slab's ball {want}");
+        }
         let cube: Vec<DVec3> =
             (0..1000).map(|i| DVec3::new((i % 10) as f64, (i / 10 % 10) as f64, (i / 100) as f64) / 9.0).collect();
-        let oct = split_start(&cube, 8);
+        let oct = split_start(&cube, 8, true);
         assert_eq!(oct.len(), 8);
         for (c, r) in &oct {
             for a in 0..3 {
@@ -529,8 +572,8 @@ mod kmeanspp_tests {
             let want = 3f64.sqrt() * 2.0 / 9.0;
             assert!((r - want).abs() < 1e-9 * want, "radius {r}, the octant's ball {want}");
         }
-        assert!(split_start(&[], 8).is_empty() && split_start(&cube, 0).is_empty());
+        assert!(split_start(&[], 8, true).is_empty() && split_start(&cube, 0, true).is_empty());
         // Points that all coincide are one cell whatever k asks.
-        assert_eq!(split_start(&[DVec3::ONE; 5], 4).len(), 1);
+        assert_eq!(split_start(&[DVec3::ONE; 5], 4, true).len(), 1);
     }
 }

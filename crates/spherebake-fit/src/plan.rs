@@ -129,8 +129,10 @@ pub struct FitPlan {
     /// 10–70 × worse. Cost up to 2× the descent and bound of those. Range [0, 10].
     pub start_tie: f64,
 
-    /// The split start ([`crate::baselines::split_start`]) runs too, and the lowest exact E is
-    /// kept, when its proxy E is at most (1 + this) × Lloyd's and below the lattice start's.
+    /// The split starts ([`crate::baselines::split_start`], along x, y and z and then with the
+    /// cells' principal axes, the second only when its proxy E is below the first's) run too,
+    /// and the lowest exact E is kept, when a proxy E is at most (1 + this) × Lloyd's and
+    /// below the lattice start's.
     /// At 0 (the default and `fast`) it runs where its proxy is at most Lloyd's. Above that it
     /// wins on some generated shapes (the capsule chain at 32 spheres, E 0.351 → 0.308 within
     /// 50 %) but mostly costs without winning on the shared models, the unit cube among them

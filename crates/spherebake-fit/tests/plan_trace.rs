@@ -64,13 +64,25 @@ fn the_trace_lists_each_stage_once_in_order() {
     for (i, e) in seams.iter().enumerate() {
         assert_eq!((e.stage, e.round), ("seam", i + 1));
     }
-    let split_run = &all[split_at + 1..all.len() - 1];
-    if r.stats.trace[split_at].iterations == 1 {
-        assert_eq!(&split_run[..2], ["descent_points", "descent"], "{all:?}");
-        assert_eq!(&split_run[split_run.len() - 2..], ["bound", "exact_e"], "{all:?}");
-    } else {
-        assert!(split_run.is_empty(), "{all:?}");
+    // One or two split starts (trials 0: along x, y and z; 1: with the principal axes), each
+    // followed by its own run when it ran, then the enclosing ball.
+    let mut at = split_at;
+    let mut variants = Vec::new();
+    while all[at] == "split_start" {
+        let e = &r.stats.trace[at];
+        variants.push(e.trials);
+        at += 1;
+        if e.iterations == 1 {
+            assert_eq!(&all[at..at + 2], ["descent_points", "descent"], "{all:?}");
+            let end = at + all[at..].iter().position(|s| *s == "exact_e").expect("the run's exact E");
+            assert_eq!(all[end - 1], "bound", "{all:?}");
+            at = end + 1;
+        } else {
+            assert_eq!(e.iterations, 0, "{e:?}");
+        }
     }
+    assert!(variants == [0] || variants == [0, 1], "{variants:?} in {all:?}");
+    assert_eq!(at, all.len() - 1, "{all:?}");
     assert_eq!(all.last(), Some(&"enclosing_ball"), "{all:?}");
     for e in &r.stats.trace {
         assert_eq!((e.part, e.spheres), (0, 12));

@@ -179,6 +179,88 @@ pub fn icosphere(levels: usize) -> (Vec<[f32; 3]>, Vec<[u32; 3]>) {
     (v, f)
 }
 
+/// The principal axes of points: the unit eigenvectors of their covariance matrix, largest
+/// eigenvalue (the direction of largest spread) first, by cyclic Jacobi rotations on the
+/// 3 × 3 matrix (at most 32 sweeps; quadratic convergence, so 4–6 in practice); orthonormal.
+/// Deterministic; each axis's sign is fixed so that its largest-magnitude component is
+/// positive. `None` for fewer than two finite points or when they all coincide (no spread).
+/// Covariance terms off the diagonal below 1e-12 of its trace count as zero, so a box's
+/// points (along x, y, z) give x, y and z; where eigenvalues are equal otherwise (a sphere's
+/// points) any basis of that eigenspace may come back.
+pub fn principal_axes(points: &[DVec3]) -> Option<[DVec3; 3]> {
+    let (mut n, mut sum) = (0usize, DVec3::ZERO);
+    for p in points.iter().filter(|p| p.is_finite()) {
+        n += 1;
+        sum += *p;
+    }
+    if n < 2 {
+        return None;
+    }
+    let mean = sum / n as f64;
+    let (mut sq, mut cross) = (DVec3::ZERO, DVec3::ZERO);
+    for p in points.iter().filter(|p| p.is_finite()) {
+        let d = *p - mean;
+        sq += d * d;
+        cross += DVec3::new(d.x * d.y, d.x * d.z, d.y * d.z);
+    }
+    let mut a = [[sq.x, cross.x, cross.y], [cross.x, sq.y, cross.z], [cross.y, cross.z, sq.z]];
+    let trace = sq.x + sq.y + sq.z;
+    if trace.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) || !trace.is_finite() {
+        return None;
+    }
+    // Columns of v: the eigenvectors.
+    let mut v = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
+    // Off-diagonal terms below 1e-12 of the trace count as zero: a box's or a symmetric
+    // cell's covariance is diagonal up to rounding, and rotating on rounding between equal
+    // eigenvalues would turn its axes by 45° at random.
+    let tiny = 1e-12 * trace;
+    for _sweep in 0..32 {
+        let off = a[0][1].abs() + a[0][2].abs() + a[1][2].abs();
+        if off <= tiny {
+            break;
+        }
+        for (p, q) in [(0usize, 1usize), (0, 2), (1, 2)] {
+            if a[p][q].abs() <= tiny {
+                continue;
+            }
+            // The rotation that zeroes a[p][q] (Golub & Van Loan, the symmetric Schur step).
+            let theta = (a[q][q] - a[p][p]) / (2.0 * a[p][q]);
+            let t = theta.signum() / (theta.abs() + (theta * theta + 1.0).sqrt());
+            let c = 1.0 / (t * t + 1.0).sqrt();
+            let s = t * c;
+            for row in &mut a {
+                let (akp, akq) = (row[p], row[q]);
+                row[p] = c * akp - s * akq;
+                row[q] = s * akp + c * akq;
+            }
+            let (row_p, row_q) = (a[p], a[q]);
+            for (k, (apk, aqk)) in row_p.into_iter().zip(row_q).enumerate() {
+                a[p][k] = c * apk - s * aqk;
+                a[q][k] = s * apk + c * aqk;
+            }
+            for row in &mut v {
+                let (vp, vq) = (row[p], row[q]);
+                row[p] = c * vp - s * vq;
+                row[q] = s * vp + c * vq;
+            }
+        }
+    }
+    // Largest eigenvalue first (the earliest column on a tie).
+    let mut order = [0usize, 1, 2];
+    order.sort_by(|&i, &j| a[j][j].total_cmp(&a[i][i]));
+    let mut axes = [DVec3::ZERO; 3];
+    for (axis, &col) in axes.iter_mut().zip(&order) {
+        let e = DVec3::new(v[0][col], v[1][col], v[2][col]).normalize_or_zero();
+        if e == DVec3::ZERO {
+            return None;
+        }
+        let arr = e.to_array();
+        let big = (0..3).fold(0, |b, i| if arr[i].abs() > arr[b].abs() { i } else { b });
+        *axis = if arr[big] < 0.0 { -e } else { e };
+    }
+    Some(axes)
+}
+
 /// Minimal enclosing ball of points (Welzl 1991, Gärtner's move-to-front form: recursion depth
 /// ≤ 4 whatever the number of points). Deterministic: one shuffle with a fixed seed.
 /// Returns (centre, radius); empty input → (0, 0). The radius is finally raised to the largest
@@ -372,6 +454,69 @@ pub fn tangent_balls(balls: &[(DVec3, f64)], sub: &[usize]) -> Vec<(DVec3, f64)>
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_principal_axes_are_eigenvectors_largest_spread_first() {
+        let mut rng = crate::rng::SplitMix64::new(3);
+        // A box of half-sides 5, 2, 1 rotated to an oblique frame: its covariance's top
+        // eigenvector is the rotated long side (the half-sides' variances a²/3 differ).
+        let u = DVec3::new(1.0, 2.0, -2.0).normalize();
+        let w0 = DVec3::new(2.0, -1.0, 0.0).normalize();
+        let w = (w0 - u * u.dot(w0)).normalize();
+        let z = u.cross(w);
+        let pts: Vec<DVec3> = (0..4000)
+            .map(|_| {
+                let f = |h: f64, r: &mut crate::rng::SplitMix64| (2.0 * r.next_f64() - 1.0) * h;
+                DVec3::new(7.0, -3.0, 1.5) + u * f(5.0, &mut rng) + w * f(2.0, &mut rng) + z * f(1.0, &mut rng)
+            })
+            .collect();
+        let axes = principal_axes(&pts).expect("spread");
+        let a = axes[0];
+        assert!((a.length() - 1.0).abs() < 1e-12);
+        assert!(a.dot(u).abs() > 0.999, "axis {a} against {u}");
+        assert!(axes[1].dot(w).abs() > 0.99 && axes[2].dot(z).abs() > 0.999, "{axes:?}");
+        for i in 0..3 {
+            for j in 0..3 {
+                let want = if i == j { 1.0 } else { 0.0 };
+                assert!((axes[i].dot(axes[j]) - want).abs() < 1e-12, "not orthonormal: {axes:?}");
+            }
+        }
+        // Sign convention: the largest component positive.
+        let big = a.to_array().into_iter().fold(0.0f64, |m, x| if x.abs() > m.abs() { x } else { m });
+        assert!(big > 0.0);
+        // Against the covariance by brute force: an eigenvector, and no direction spreads more.
+        let mean = pts.iter().copied().sum::<DVec3>() / pts.len() as f64;
+        let spread = |d: DVec3| pts.iter().map(|p| (*p - mean).dot(d).powi(2)).sum::<f64>();
+        let cov_times = |d: DVec3| pts.iter().map(|p| (*p - mean) * (*p - mean).dot(d)).sum::<DVec3>();
+        let lambda = spread(a);
+        for (i, e) in axes.iter().enumerate() {
+            let l = spread(*e);
+            assert!((cov_times(*e) - *e * l).length() < 1e-9 * lambda, "axis {i} not an eigenvector");
+            assert!(i == 0 || l <= spread(axes[i - 1]), "axis {i} spreads more than axis {}", i - 1);
+        }
+        for _ in 0..2000 {
+            let d = DVec3::new(rng.next_f64() - 0.5, rng.next_f64() - 0.5, rng.next_f64() - 0.5).normalize();
+            assert!(spread(d) <= lambda * (1.0 + 1e-12), "{d} spreads more");
+        }
+        // Points on a line: the line; degenerate inputs: none.
+        let line: Vec<DVec3> =
+            (0..10).map(|i| DVec3::new(1.0, 1.0, 1.0) + DVec3::new(0.0, 3.0, -4.0) * i as f64).collect();
+        let l = principal_axes(&line).unwrap()[0];
+        assert!((l - DVec3::new(0.0, -0.6, 0.8)).length() < 1e-12, "{l}");
+        // A cube's lattice, moved off the origin (its covariance diagonal up to rounding, its
+        // eigenvalues equal): x, y and z, not a rotation decided by rounding.
+        let cube: Vec<DVec3> = (0..1000)
+            .map(|i| {
+                DVec3::new((i % 10) as f64, (i / 10 % 10) as f64, (i / 100) as f64) * 0.37 + DVec3::splat(1e3 / 7.0)
+            })
+            .collect();
+        let axes = principal_axes(&cube).unwrap();
+        assert!(axes.iter().all(|e| e.abs().max_element() == 1.0), "{axes:?}");
+        assert_eq!(principal_axes(&[]), None);
+        assert_eq!(principal_axes(&[DVec3::ONE]), None);
+        assert_eq!(principal_axes(&[DVec3::ONE; 7]), None);
+        assert_eq!(principal_axes(&[DVec3::NAN, DVec3::ONE]), None);
+    }
 
     /// Enclosed volume of a closed mesh by the divergence theorem (f64).
     fn mesh_volume(v: &[[f32; 3]], f: &[[u32; 3]]) -> f64 {
