@@ -1009,8 +1009,9 @@ fn variational_run(
     });
     // The split starts, each run when its proxy E is below the lattice's and within the tie
     // of Lloyd's: along x, y and z (the trace's `split_start` trials 0), then along the
-    // principal axes too (trials 1; listed only when its spheres differ, run only when its
-    // proxy E is also below the first's). Neither contains the other: where a principal axis
+    // principal axes too (trials 1; made only with `plan.split_start_oblique`, not in `fast`;
+    // listed only when its spheres differ, run only when its proxy E is also below the
+    // first's). Neither contains the other: where a principal axis
     // wins a cut the later cells differ, and the greedy sequence can end looser (a 10 : 1
     // cylinder along z at 32 spheres: proxy E 0.083 along x, y and z, 0.195 with the principal
     // axes, a rounding-level tilt having won one cut), while an oblique rod gets its chain
@@ -1019,6 +1020,9 @@ fn variational_run(
     let mut split_runs = Vec::with_capacity(2);
     let (mut first, mut e_first): (Vec<(DVec3, f64)>, f64) = (Vec::new(), f64::INFINITY);
     for oblique in [false, true] {
+        if oblique && !plan.split_start_oblique {
+            break;
+        }
         let (split, e_split) = split_start(prep, pts, k, oblique);
         if oblique && split == first {
             continue;
