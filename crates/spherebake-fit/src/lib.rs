@@ -767,8 +767,10 @@ pub struct TraceEntry {
     /// `dense_points`, `lloyd`, `lattice_start`, `polish`, `descent_points`, `descent`, `seam`,
     /// `band`, `gap`, `bound`, `exact_e`, and `start_kept` after a lattice start (E: the start's exact
     /// E once bounded; iterations 1 when it was returned instead), `split_start` (E: its proxy
-    /// E; iterations 1 when it ran, followed by its own `descent_points` … `exact_e`; trials 0 for the cuts along x, y and z, 1 for the second split start, with the principal axes, listed when its spheres differ), then `enclosing_ball` (computed first, listed last; E: the
-    /// exact E of the minimal enclosing ball; iterations 1 when it was returned instead; at one
+    /// E; iterations 1 when it ran, followed by its own `descent_points` … `exact_e`; trials 0
+    /// for the cuts along x, y and z, 1 for the second split start, with the principal axes,
+    /// listed when its spheres differ), then `enclosing_ball` (computed first, listed last; E:
+    /// the exact E of the minimal enclosing ball; iterations 1 when it was returned instead; at one
     /// sphere the only stage). When both starts run
     /// (`lattice_start` iterations 2, see [`FitPlan::start_tie`]) the stages from `polish` to
     /// `exact_e` appear twice, Lloyd's run first. When Lloyd's proxy E reaches
@@ -1011,12 +1013,11 @@ fn variational_run(
     // of Lloyd's: along x, y and z (the trace's `split_start` trials 0), then along the
     // principal axes too (trials 1; made only with `plan.split_start_oblique`, not in `fast`;
     // listed only when its spheres differ, run only when its proxy E is also below the
-    // first's). Neither contains the other: where a principal axis
-    // wins a cut the later cells differ, and the greedy sequence can end looser (a 10 : 1
-    // cylinder along z at 32 spheres: proxy E 0.083 along x, y and z, 0.195 with the principal
-    // axes, a rounding-level tilt having won one cut), while an oblique rod gets its chain
-    // only from them (a 20 : 1 oblique rod at 16 spheres: 2.60 → 0.59). Running the first
-    // whenever it qualifies keeps E at most what it alone gives.
+    // first's). Neither contains the other: where a principal axis wins a cut the later cells
+    // differ, and the greedy sequence can end looser (a 10 : 1 cylinder along z at 32
+    // spheres: proxy E 0.083 along x, y and z, 0.195 with the principal axes), while an
+    // oblique rod gets its chain only from them (a 20 : 1 oblique rod at 16 spheres: 2.60 →
+    // 0.59). Running the first whenever it qualifies keeps E at most what it alone gives.
     let mut split_runs = Vec::with_capacity(2);
     let (mut first, mut e_first): (Vec<(DVec3, f64)>, f64) = (Vec::new(), f64::INFINITY);
     for oblique in [false, true] {

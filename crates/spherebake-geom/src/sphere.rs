@@ -205,7 +205,7 @@ pub fn principal_axes(points: &[DVec3]) -> Option<[DVec3; 3]> {
     }
     let mut a = [[sq.x, cross.x, cross.y], [cross.x, sq.y, cross.z], [cross.y, cross.z, sq.z]];
     let trace = sq.x + sq.y + sq.z;
-    if trace.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) || !trace.is_finite() {
+    if !trace.is_finite() || trace <= 0.0 {
         return None;
     }
     // Columns of v: the eigenvectors.
