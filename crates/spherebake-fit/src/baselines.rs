@@ -338,7 +338,7 @@ pub fn split_start(points: &[DVec3], k: usize, oblique: bool) -> Vec<(DVec3, f64
         // axes) whose two balls hold the least volume together; the earliest on a tie, so a
         // principal axis wins only where it is strictly tighter (an oblique part; a slab of
         // an oblique rod is cut across the rod by its least-spread axis).
-        let members: Vec<DVec3> = idx.iter().map(|&i| pts[i as usize]).collect();
+        let members: Vec<DVec3> = if oblique { idx.iter().map(|&i| pts[i as usize]).collect() } else { Vec::new() };
         let principal = if oblique { spherebake_geom::sphere::principal_axes(&members) } else { None };
         let mut best: Option<(f64, [Cell; 2])> = None;
         for axis in 0..6 {
