@@ -122,22 +122,25 @@ pub struct FitTraceEntry {
     pub spheres: usize,
     /// The seed of the run (restarts of the `best` preset run other seeds).
     pub seed: u64,
-    /// `dense_points`, `lloyd`, `lattice_start`, `polish`, `descent_points`, `descent`, `seam`, `bound`,
-    /// `exact_e` (baselines: `kmeans`, `octree`).
+    /// The stage, as `spherebake_fit::TraceEntry::stage` lists them: `dense_points`, `lloyd`,
+    /// `lattice_start`, `polish`, `descent_points`, `descent`, `seam`, `band`, `gap`, `bound`,
+    /// `exact_e`, `start_kept`, `split_start`, `enclosing_ball` (baselines: `kmeans`, `octree`).
     pub stage: &'static str,
-    /// Seam round (1, 2, ...) for `seam`, else 0.
+    /// Round (1, 2, ...) for `seam` and `gap`, else 0.
     pub round: usize,
     /// Proxy E after the stage (after `exact_e`: the exact E of the part); none for point stages.
     pub e: Option<f64>,
     /// Points built or worked on.
     pub points: usize,
-    /// Lloyd iterations, polish rounds or descent sweeps.
+    /// Lloyd iterations, polish rounds or descent sweeps; for the starts and `enclosing_ball`
+    /// which one ran or was kept (`spherebake_fit::TraceEntry::iterations`).
     pub iterations: usize,
-    /// Teleportation or split/delete trials tried.
+    /// Teleportation or split/delete trials tried; for `split_start` 1 when it cut along the
+    /// cells' principal axes too.
     pub trials: usize,
     /// Descent work, voxel rows read.
     pub work: u64,
-    /// Wall seconds.
+    /// Wall seconds (0 for a run a later restart of `best` reused).
     pub seconds: f64,
 }
 

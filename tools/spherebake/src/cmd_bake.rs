@@ -729,26 +729,83 @@ fn print_trace(trace: &[spherebake_bake::FitTraceEntry]) {
             who = format!("{who} seed {}", e.seed);
         }
         let e_txt = e.e.map_or_else(|| "-".to_string(), |x| format!("{x:.4}"));
-        let mut work = Vec::new();
-        if e.points > 0 {
-            work.push(format!("{} points", e.points));
+        println!("  trace     {who:<8} {name:<15} E {e_txt:>7}  {:>7.3} s  {}", e.seconds, trace_work(e));
+    }
+}
+
+/// What a `bake -v` trace line says after its time: the work of a stage (points, iterations,
+/// trials, voxel rows), or in words which start ran and which result was kept, where the
+/// trace's counters encode a choice (`spherebake_fit::TraceEntry`).
+fn trace_work(e: &spherebake_bake::FitTraceEntry) -> String {
+    let kept = if e.iterations == 1 { "kept" } else { "not kept" };
+    match e.stage {
+        "lattice_start" => match e.iterations {
+            0 => "not run (Lloyd's start is lower)".to_string(),
+            1 => "ran instead of Lloyd's start".to_string(),
+            _ => "ran beside Lloyd's start (a near tie)".to_string(),
+        },
+        "split_start" => {
+            let cuts = if e.trials == 1 { "cuts along principal axes too" } else { "cuts along x, y, z" };
+            format!("{cuts}, {}", if e.iterations == 1 { "ran" } else { "not run" })
         }
-        if e.iterations > 0 {
-            work.push(format!("{} iterations", e.iterations));
+        "start_kept" | "enclosing_ball" => kept.to_string(),
+        _ => {
+            let mut work = Vec::new();
+            if e.points > 0 {
+                work.push(format!("{} points", e.points));
+            }
+            if e.iterations > 0 {
+                work.push(format!("{} iterations", e.iterations));
+            }
+            if e.trials > 0 {
+                work.push(format!("{} trials", e.trials));
+            }
+            if e.work > 0 {
+                work.push(format!("work {:.1}M", e.work as f64 * 1e-6));
+            }
+            work.join(", ")
         }
-        if e.trials > 0 {
-            work.push(format!("{} trials", e.trials));
-        }
-        if e.work > 0 {
-            work.push(format!("work {:.1}M", e.work as f64 * 1e-6));
-        }
-        println!("  trace     {who:<8} {name:<15} E {e_txt:>7}  {:>7.3} s  {}", e.seconds, work.join(", "));
     }
 }
 
 #[cfg(test)]
 mod job_tests {
     use super::*;
+
+    #[test]
+    fn the_trace_names_the_starts_choices_in_words() {
+        let entry = |stage: &'static str, iterations: usize, trials: usize| spherebake_bake::FitTraceEntry {
+            part: 0,
+            spheres: 16,
+            seed: 1,
+            stage,
+            round: 0,
+            e: Some(0.5),
+            points: 0,
+            iterations,
+            trials,
+            work: 0,
+            seconds: 0.01,
+        };
+        // Written out, one per encoded choice.
+        let cases = [
+            (entry("lattice_start", 0, 0), "not run (Lloyd's start is lower)"),
+            (entry("lattice_start", 1, 0), "ran instead of Lloyd's start"),
+            (entry("lattice_start", 2, 0), "ran beside Lloyd's start (a near tie)"),
+            (entry("split_start", 0, 0), "cuts along x, y, z, not run"),
+            (entry("split_start", 1, 1), "cuts along principal axes too, ran"),
+            (entry("start_kept", 1, 0), "kept"),
+            (entry("enclosing_ball", 0, 0), "not kept"),
+            (
+                spherebake_bake::FitTraceEntry { points: 4000, work: 2_500_000, ..entry("descent", 3, 12) },
+                "4000 points, 3 iterations, 12 trials, work 2.5M",
+            ),
+            (entry("bound", 0, 0), ""),
+        ];
+        for (e, want) in cases {
+            assert_eq!(trace_work(&e), want, "{} {} {}", e.stage, e.iterations, e.trials);
+        }
+    }
 
     #[test]
     fn the_default_is_one_bake_per_core_within_half_the_memory() {
