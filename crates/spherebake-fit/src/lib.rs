@@ -194,7 +194,9 @@ pub struct FitStats {
     /// every count tried.
     pub timings: Vec<(&'static str, f64)>,
     /// Every stage of every run in the order run: part, count, proxy E after the stage, the
-    /// work it did, its time. One run per part, or in target mode one per count tried.
+    /// work it did, its time. One run per part, or in target mode one per count tried; with
+    /// [`FitPlan::restarts`] one per restart (its seed in each entry), where a run a later
+    /// restart reused is listed again with 0 seconds (and left out of `timings`).
     pub trace: Vec<TraceEntry>,
     pub sphere_count: usize,
     /// Each part's counts and E (one entry unless the mesh splits, see [`parts`]).
@@ -1026,6 +1028,9 @@ fn variational_run(
         }
         let (split, e_split) = split_start(prep, pts, k, oblique);
         if oblique && split == first {
+            // Not listed (the first's spheres again), but its cuts took time.
+            add_timing(&mut tr.timings, "split_start", tr.t.elapsed().as_secs_f64());
+            tr.t = Instant::now();
             continue;
         }
         let from_split =

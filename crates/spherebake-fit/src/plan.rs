@@ -119,8 +119,9 @@ pub struct FitPlan {
     /// Whole-fit runs (every stage, bound and exact E included) from this many seeds, the first
     /// being the fit's own seed; the lowest exact E is kept, so the result is never worse than
     /// one run's. The runs that read no random numbers (the descents from the lattice start
-    /// and the split starts) run once and are reused by the later restarts. Cost ∝ restarts
-    /// for Lloyd's run. Range 1..=16.
+    /// and the split starts) run once and are reused by the later restarts (the starts
+    /// themselves, a few milliseconds, are made again). Cost ∝ restarts for Lloyd's run.
+    /// Range 1..=16.
     pub restarts: usize,
 
     /// When the lattice start's proxy E and Lloyd's differ by less than this share (|ratio − 1|),

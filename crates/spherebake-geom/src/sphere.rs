@@ -193,7 +193,8 @@ pub fn principal_axes(points: &[DVec3]) -> Option<[DVec3; 3]> {
         n += 1;
         sum += *p;
     }
-    if n < 2 {
+    let first = points.iter().find(|p| p.is_finite());
+    if n < 2 || points.iter().filter(|p| p.is_finite()).all(|p| Some(p) == first) {
         return None;
     }
     let mean = sum / n as f64;
@@ -515,6 +516,8 @@ mod tests {
         assert_eq!(principal_axes(&[]), None);
         assert_eq!(principal_axes(&[DVec3::ONE]), None);
         assert_eq!(principal_axes(&[DVec3::ONE; 7]), None);
+        // Coincident points whose mean rounds off them (0.1 + 0.1 + 0.1 ≠ 0.3): still none.
+        assert_eq!(principal_axes(&[DVec3::splat(0.1); 3]), None);
         assert_eq!(principal_axes(&[DVec3::NAN, DVec3::ONE]), None);
     }
 

@@ -738,9 +738,23 @@ fn print_trace(trace: &[spherebake_bake::FitTraceEntry]) {
 /// trace's counters encode a choice (`spherebake_fit::TraceEntry`).
 fn trace_work(e: &spherebake_bake::FitTraceEntry) -> String {
     let kept = if e.iterations == 1 { "kept" } else { "not kept" };
+    let said = trace_choice(e, kept);
+    // 0 seconds: a run a later restart of `best` took from the first (`FitTraceEntry::seconds`).
+    if e.seconds == 0.0 && !said.is_empty() {
+        format!("{said} (reused)")
+    } else if e.seconds == 0.0 {
+        "(reused)".to_string()
+    } else {
+        said
+    }
+}
+
+fn trace_choice(e: &spherebake_bake::FitTraceEntry, kept: &str) -> String {
     match e.stage {
+        // At one sphere the enclosing ball is the whole fit (no other run to keep it against).
+        "enclosing_ball" if e.spheres == 1 => "the fit (one sphere: the minimal enclosing ball)".to_string(),
         "lattice_start" => match e.iterations {
-            0 => "not run (Lloyd's start is lower)".to_string(),
+            0 => "not run (Lloyd's start is as low)".to_string(),
             1 => "ran instead of Lloyd's start".to_string(),
             _ => "ran beside Lloyd's start (a near tie)".to_string(),
         },
@@ -749,6 +763,7 @@ fn trace_work(e: &spherebake_bake::FitTraceEntry) -> String {
             format!("{cuts}, {}", if e.iterations == 1 { "ran" } else { "not run" })
         }
         "start_kept" | "enclosing_ball" => kept.to_string(),
+        "polish" if e.iterations == 0 => "none (a lattice start, or a plan without polish)".to_string(),
         _ => {
             let mut work = Vec::new();
             if e.points > 0 {
@@ -789,7 +804,7 @@ mod job_tests {
         };
         // Written out, one per encoded choice.
         let cases = [
-            (entry("lattice_start", 0, 0), "not run (Lloyd's start is lower)"),
+            (entry("lattice_start", 0, 0), "not run (Lloyd's start is as low)"),
             (entry("lattice_start", 1, 0), "ran instead of Lloyd's start"),
             (entry("lattice_start", 2, 0), "ran beside Lloyd's start (a near tie)"),
             (entry("split_start", 0, 0), "cuts along x, y, z, not run"),
@@ -801,6 +816,18 @@ mod job_tests {
                 "4000 points, 3 iterations, 12 trials, work 2.5M",
             ),
             (entry("bound", 0, 0), ""),
+            (
+                spherebake_bake::FitTraceEntry { spheres: 1, ..entry("enclosing_ball", 0, 0) },
+                "the fit (one sphere: the minimal enclosing ball)",
+            ),
+            (entry("polish", 0, 0), "none (a lattice start, or a plan without polish)"),
+            (entry("polish", 4, 0), "4 iterations"),
+            // Reused by a later restart: 0 seconds.
+            (
+                spherebake_bake::FitTraceEntry { seconds: 0.0, ..entry("split_start", 1, 0) },
+                "cuts along x, y, z, ran (reused)",
+            ),
+            (spherebake_bake::FitTraceEntry { seconds: 0.0, ..entry("bound", 0, 0) }, "(reused)"),
         ];
         for (e, want) in cases {
             assert_eq!(trace_work(&e), want, "{} {} {}", e.stage, e.iterations, e.trials);
