@@ -350,21 +350,11 @@ fn flat_sheet_is_bounded() {
     }
 }
 
-/// Outward-wound faces of a box whose corner i is at (x, y, z) = the bits of i (i = x + 2y + 4z).
-const BOX_FACES: [[u32; 3]; 12] = [
-    [0, 2, 3],
-    [0, 3, 1],
-    [4, 5, 7],
-    [4, 7, 6],
-    [0, 1, 5],
-    [0, 5, 4],
-    [2, 6, 7],
-    [2, 7, 3],
-    [0, 4, 6],
-    [0, 6, 2],
-    [1, 3, 7],
-    [1, 7, 5],
-];
+/// Outward-wound faces of a box whose corner i is at (x, y, z) = the bits of i (i = x + 2y + 4z):
+/// the unit cube's triangles (`spherebake_testkit::mesh::unit_cube`, the same corner order).
+fn box_faces() -> Vec<[u32; 3]> {
+    spherebake_testkit::mesh::unit_cube().1
+}
 
 /// A closed box thinner than a cell encloses volume, but no cell centre: the warning says so
 /// (not "encloses no volume"), E is measured against the box's exact volume, and the box is
@@ -375,7 +365,7 @@ fn a_closed_mesh_thinner_than_a_cell_is_named_as_such_and_bounded() {
     let p: Vec<Vec3> =
         (0..8).map(|i| Vec3::new(a * (i & 1) as f32, b * ((i >> 1) & 1) as f32, c * (i >> 2) as f32)).collect();
     // The box [0,a]×[0,b]×[0,c].
-    let t = BOX_FACES.to_vec();
+    let t = box_faces();
     let thin = fit(&p, &t, &FitSettings { spheres: 8, voxel_resolution: 32, ..Default::default() }, &|_| {}).unwrap();
     let w = thin.warnings.iter().find(|w| w.contains("thinner than a voxel cell")).expect("the thin-box warning");
     assert!(!thin.warnings.iter().any(|w| w.contains("encloses no volume")), "{:?}", thin.warnings);
@@ -410,7 +400,7 @@ fn a_thin_walled_solid_is_named_and_a_thick_one_is_not() {
         let cube = |lo: f32, hi: f32| -> Vec<Vec3> {
             (0..8).map(|i| Vec3::new([lo, hi][i & 1], [lo, hi][(i >> 1) & 1], [lo, hi][(i >> 2) & 1])).collect()
         };
-        let faces = BOX_FACES;
+        let faces = box_faces();
         let mut p = cube(0.0, 1.0);
         let mut t: Vec<[u32; 3]> = faces.to_vec();
         if wall > 0.0 {
