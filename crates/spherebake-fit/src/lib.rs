@@ -98,7 +98,7 @@ use rayon::prelude::*;
 use solid::Solid;
 use spherebake_geom::bvh::TriangleBvh;
 use spherebake_geom::edges::{directed_ids, group_edges, id_ends, EdgeClasses};
-use spherebake_geom::triangle::triangle_grid;
+use spherebake_geom::triangle::{grid_or_rows, triangle_grid};
 use spherebake_geom::{volume, voxel};
 use std::f64::consts::PI;
 use std::time::Instant;
@@ -1338,7 +1338,10 @@ fn referenced_vertices(prep: &Prepared) -> Vec<DVec3> {
 }
 
 /// Stage 4, descent points: the referenced vertices, a barycentric grid of spacing
-/// `plan.descent_grid_cells` voxel cells on triangles longer than that (beyond
+/// `plan.descent_grid_cells` voxel cells on triangles longer than that, rows at that spacing
+/// on slivers ([`grid_or_rows`]: a grid over a sliver's long edges crowds its points across
+/// the short one; a 3 : 1 capsule of 1024 triangles had 75 000 descent points, 19 000 with
+/// the rows, and its bake took 10.6 s of CPU instead of 5.5 s at about the same E) (beyond
 /// `plan.point_budget` surface points, one per cube of `plan.point_cell` voxel cells), and the
 /// interior lattice points. Cost O(vertices + triangles + grid points), held to
 /// `points::GRID_BUDGET`; the set is at most the budget or the surface's cubes: the bunny
@@ -1352,8 +1355,11 @@ fn descent_points(prep: &Prepared, pts: &points::PointSet, plan: &FitPlan) -> Ve
     for (t, &m) in prep.tris.iter().zip(&grid) {
         let (a, b, c) = (prep.pos[t[0] as usize], prep.pos[t[1] as usize], prep.pos[t[2] as usize]);
         // The corners are vertices, already in.
-        let corner = |i: usize, j: usize| (i == 0 || i == m) && j == 0 || i == 0 && j == m;
-        dpts.extend(triangle_grid(a, b, c, m).filter(|&(i, j, _)| !corner(i, j)).map(|(_, _, p)| p));
+        grid_or_rows(a, b, c, m, |p, corner| {
+            if !corner {
+                dpts.push(p)
+            }
+        });
     }
     thin_surface(&mut dpts, prep, plan);
     dpts.extend(pts.points[pts.surface_count..].iter().copied());

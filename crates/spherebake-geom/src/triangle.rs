@@ -1,7 +1,8 @@
-//! Triangle primitives, written once: the barycentric grid (the fit's dense, descent and seam
-//! points and its sparse sample patches all lay it), the covering samples of a triangle (the
-//! voxel solid's surface cells) and the closest point on a triangle (the albedo's coverage test
-//! and the geom and bake tests).
+//! Triangle primitives, written once: the barycentric grid (the fit's seam points and its
+//! sparse sample patches lay it), the covering samples of a triangle (the voxel solid's
+//! surface cells), the choice between the two on slivers (the fit's dense and descent points)
+//! and the closest point on a triangle (the albedo's coverage test and the geom and bake
+//! tests).
 
 use glam::DVec3;
 
@@ -34,29 +35,111 @@ pub fn triangle_grid(a: DVec3, b: DVec3, c: DVec3, m: usize) -> impl Iterator<It
 /// slivers spent 21 s in such a grid). At most 4096 rows and 4096 points per row; non-finite
 /// input or spacing gives the apex alone.
 pub fn cover_samples(a: DVec3, b: DVec3, c: DVec3, spacing: f64, mut f: impl FnMut(DVec3)) {
-    // Apex opposite the shortest edge.
-    let (ab, bc, ca) = ((b - a).length(), (c - b).length(), (a - c).length());
-    let (apex, p, q, base) = if bc <= ab && bc <= ca {
-        (a, b, c, bc)
-    } else if ca <= ab {
-        (b, c, a, ca)
-    } else {
-        (c, a, b, ab)
-    };
-    let long = (p - apex).length().max((q - apex).length());
-    if !(long.is_finite() && base.is_finite() && spacing > 0.0) {
-        f(apex);
-        return;
+    match Rows::new(a, b, c, spacing) {
+        Some(rows) => rows.for_each(|p, _| f(p)),
+        None => f(Rows::apex(a, b, c).0),
     }
-    let rows = (long / spacing).ceil().clamp(1.0, 4096.0) as usize;
-    for r in 0..=rows {
-        let s = r as f64 / rows as f64;
-        let (u, v) = (apex + (p - apex) * s, apex + (q - apex) * s);
-        let n = (s * base / spacing).ceil().clamp(1.0, 4096.0) as usize;
-        for k in 0..=n {
-            f(u + (v - u) * (k as f64 / n as f64));
+}
+
+/// The rows of [`cover_samples`]: the apex (the corner opposite the shortest edge), the two
+/// other corners `p` and `q`, the base |pq|, and `rows` + 1 rows from the apex (row 0) to the
+/// base (row `rows`).
+struct Rows {
+    apex: DVec3,
+    p: DVec3,
+    q: DVec3,
+    base: f64,
+    spacing: f64,
+    rows: usize,
+}
+
+impl Rows {
+    /// The apex and the other two corners, and the base's length.
+    fn apex(a: DVec3, b: DVec3, c: DVec3) -> (DVec3, DVec3, DVec3, f64) {
+        let (ab, bc, ca) = ((b - a).length(), (c - b).length(), (a - c).length());
+        if bc <= ab && bc <= ca {
+            (a, b, c, bc)
+        } else if ca <= ab {
+            (b, c, a, ca)
+        } else {
+            (c, a, b, ab)
         }
     }
+
+    /// `None` for non-finite corners or spacing.
+    fn new(a: DVec3, b: DVec3, c: DVec3, spacing: f64) -> Option<Self> {
+        let (apex, p, q, base) = Self::apex(a, b, c);
+        let long = (p - apex).length().max((q - apex).length());
+        if !(long.is_finite() && base.is_finite() && spacing > 0.0) {
+            return None;
+        }
+        let rows = (long / spacing).ceil().clamp(1.0, 4096.0) as usize;
+        Some(Self { apex, p, q, base, spacing, rows })
+    }
+
+    /// Divisions of row `r` (it holds one point more).
+    fn divisions(&self, r: usize) -> usize {
+        let s = r as f64 / self.rows as f64;
+        (s * self.base / self.spacing).ceil().clamp(1.0, 4096.0) as usize
+    }
+
+    /// Points in all rows.
+    fn count(&self) -> usize {
+        (0..=self.rows).map(|r| self.divisions(r) + 1).sum()
+    }
+
+    /// Calls `f` on every row's points, in order, with whether the point is a corner's (row 0
+    /// holds the apex twice; the last row's ends are `p` and `q`, given exactly).
+    fn for_each(&self, mut f: impl FnMut(DVec3, bool)) {
+        let (apex, p, q) = (self.apex, self.p, self.q);
+        for r in 0..=self.rows {
+            let s = r as f64 / self.rows as f64;
+            let (u, v) = (apex + (p - apex) * s, apex + (q - apex) * s);
+            let n = self.divisions(r);
+            for k in 0..=n {
+                let corner = r == 0 || r == self.rows && (k == 0 || k == n);
+                f(u + (v - u) * (k as f64 / n as f64), corner);
+            }
+        }
+    }
+}
+
+/// How many times the points of [`cover_samples`] a triangle's barycentric grid may hold
+/// before [`grid_or_rows`] lays the rows instead.
+pub const SLIVER_FACTOR: usize = 2;
+
+/// Points on triangle (a, b, c) at `m` divisions of its longest edge, each with whether it is
+/// one of the corners: the barycentric grid ([`triangle_grid`], corners at `(0, 0)`, `(m, 0)`
+/// and `(0, m)`) unless it holds more than [`SLIVER_FACTOR`] times the points of
+/// [`cover_samples`] at the grid's spacing (longest edge / m); then those rows. Both leave
+/// every point of the triangle within about the spacing of one; on a well-shaped triangle the
+/// two sets are about as large (a right isosceles triangle at m = 64: 2145 against 2208), but a
+/// sliver's grid crowds (m + 1)(m + 2) / 2 points across its short edge where the rows need a
+/// few: a cylinder's 20 : 1 side triangle at m = 43 gets 114 points instead of 990. The rows'
+/// corners are given exactly (`p`, `q` and the apex as the triangle's own corners). `m` ≤ 1
+/// gives the grid.
+pub fn grid_or_rows(a: DVec3, b: DVec3, c: DVec3, m: usize, mut f: impl FnMut(DVec3, bool)) {
+    let grid = (m + 1) * (m + 2) / 2;
+    if m > 1 {
+        let spacing = (b - a).length().max((c - b).length()).max((a - c).length()) / m as f64;
+        if let Some(rows) = Rows::new(a, b, c, spacing) {
+            if grid > SLIVER_FACTOR * rows.count() {
+                let corners = [rows.apex, rows.p, rows.q];
+                rows.for_each(|x, corner| if corner { f(snap(x, corners), true) } else { f(x, false) });
+                return;
+            }
+        }
+    }
+    let corner = |i: usize, j: usize| (i == 0 || i == m) && j == 0 || i == 0 && j == m;
+    for (i, j, x) in triangle_grid(a, b, c, m) {
+        f(x, corner(i, j));
+    }
+}
+
+/// The corner of `corners` nearest `x` (the rows' end points, computed as apex + (p − apex)·1,
+/// can miss the corner's bits).
+fn snap(x: DVec3, corners: [DVec3; 3]) -> DVec3 {
+    corners.into_iter().fold(corners[0], |m, y| if x.distance_squared(y) < x.distance_squared(m) { y } else { m })
 }
 
 /// Closest point of triangle `t` to `p` (Ericson, Real-Time Collision Detection §5.1.5): the
@@ -177,5 +260,51 @@ mod tests {
         let mut n = 0;
         cover_samples(tris[1][0], tris[1][1], tris[1][2], spacing, |_| n += 1);
         assert!(n <= 2 * (2.0 / spacing) as usize + 4, "a sliver of length 2: {n} samples");
+    }
+
+    #[test]
+    fn grid_or_rows_keeps_the_grid_on_well_shaped_triangles_and_lays_rows_on_slivers() {
+        let corner_of = |m: usize, i: usize, j: usize| (i == 0 || i == m) && j == 0 || i == 0 && j == m;
+        let collect = |t: [DVec3; 3], m: usize| {
+            let mut v = Vec::new();
+            grid_or_rows(t[0], t[1], t[2], m, |p, k| v.push((p, k)));
+            v
+        };
+        // Well-shaped triangles: the grid itself, point for point, corners flagged as (i, j) says.
+        let shapely = [
+            [DVec3::new(0.3, -1.0, 0.5), DVec3::new(-0.7, 0.4, 1.0), DVec3::new(1.1, 0.9, -0.2)],
+            [DVec3::ZERO, DVec3::X, DVec3::Y],
+        ];
+        for t in shapely {
+            for m in [0, 1, 2, 7, 64] {
+                let want: Vec<(DVec3, bool)> =
+                    triangle_grid(t[0], t[1], t[2], m).map(|(i, j, p)| (p, corner_of(m, i, j))).collect();
+                assert_eq!(collect(t, m), want, "m = {m}");
+            }
+        }
+        // A cylinder's side triangle: 2 long, 0.098 across (32 sides of radius 0.5).
+        // (Corners where apex + (p − apex)·1 misses p's bits: 2.021 + 0.47 ≠ 2.491.)
+        let t = [DVec3::new(0.47, 0.34, -0.38), DVec3::new(2.491, 0.342, -0.38), DVec3::new(2.491, 0.44, -0.38)];
+        let m = 43;
+        let spacing = t[0].distance(t[2]) / m as f64;
+        let pts = collect(t, m);
+        let grid = (m + 1) * (m + 2) / 2;
+        assert!(pts.len() * SLIVER_FACTOR < grid, "{} points against the grid's {grid}", pts.len());
+        // Rows about `spacing` apart along the length, a few points each.
+        assert!(pts.len() <= 3 * (2.0 / spacing).ceil() as usize + 6, "{} points", pts.len());
+        for &(p, _) in &pts {
+            assert!(closest_point_on_triangle(p, &t).distance(p) < 1e-12, "{p} is off the triangle");
+        }
+        for (_, _, x) in triangle_grid(t[0], t[1], t[2], 400) {
+            let d = pts.iter().map(|(p, _)| p.distance(x)).fold(f64::INFINITY, f64::min);
+            assert!(d <= spacing, "{x} is {d} from the nearest point");
+        }
+        // The corners: each given exactly and flagged, and nothing else flagged.
+        for c in t {
+            assert!(pts.contains(&(c, true)), "corner {c} missing");
+        }
+        for &(p, k) in &pts {
+            assert_eq!(k, t.contains(&p), "{p} flagged {k}");
+        }
     }
 }
