@@ -21,7 +21,7 @@
 use crate::lloyd::FarQuery;
 use crate::solid::Solid;
 use glam::DVec3;
-use spherebake_geom::triangle::triangle_grid;
+use spherebake_geom::triangle::grid_or_rows;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::Arc;
 
@@ -1022,14 +1022,19 @@ fn meeting_box(balls: &[(DVec3, f64)], t: &[DVec3; 3], w: f64) -> Vec<(DVec3, f6
     balls.iter().copied().filter(|s| s.0.clamp(lo, hi).distance_squared(s.0) <= s.1 * s.1).collect()
 }
 
-/// The points of `t`'s barycentric grid with `m` divisions that no ball of `near` holds, and
-/// with `band` = `Some(w)` also those within `w` of a ball's surface.
+/// The points of `t`'s barycentric grid with `m` divisions (rows at its spacing on a sliver,
+/// [`grid_or_rows`]) that no ball of `near` holds, and with `band` = `Some(w)` also those
+/// within `w` of a ball's surface.
 fn grid_keep(t: [DVec3; 3], m: usize, near: &[(DVec3, f64)], band: Option<f64>, out: &mut Vec<DVec3>) {
     let keep = |p: &DVec3| match band {
         None => !near.iter().any(|s| inside(*p, s)),
         Some(w) => !near.iter().any(|s| inside(*p, s)) || near.iter().any(|s| (p.distance(s.0) - s.1).abs() <= w),
     };
-    out.extend(triangle_grid(t[0], t[1], t[2], m).map(|(_, _, p)| p).filter(keep));
+    grid_or_rows(t[0], t[1], t[2], m, |p, _| {
+        if keep(&p) {
+            out.push(p)
+        }
+    });
 }
 
 /// Divisions per edge a piece needs for the seam spacing (NaN and overflow give 0).
@@ -1268,6 +1273,7 @@ fn pattern_search(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use spherebake_geom::triangle::triangle_grid;
 
     /// The grid's ball query against a brute-force filter: the same points, in the grid's
     /// order (cell key, then index), for balls inside, across and beyond the points, on a
@@ -1711,6 +1717,31 @@ mod tests {
     }
 
     #[test]
+    fn a_slivers_seam_points_are_rows_across_its_gap() {
+        // One sliver, 2 long and 0.1 across, under two balls that leave the strip
+        // 0.95 < x < 1.05 (within 0.002 across the sliver's 0.1). At spacing 0.01 it wants 200
+        // divisions, split into pieces of at most 64; their barycentric grids crowd their
+        // points across the sliver (the strip held 1272 of them), rows at the spacing need a
+        // few per step along it (144). The same strip is found either way.
+        let pos = vec![DVec3::ZERO, DVec3::new(2.0, 0.0, 0.0), DVec3::new(2.0, 0.1, 0.0)];
+        let tris = vec![[0, 1, 2]];
+        let spheres = vec![(DVec3::new(-1000.0, 0.0, 0.0), 1000.95), (DVec3::new(1001.05, 0.0, 0.0), 1000.0)];
+        let spacing = 0.01;
+        let missed = |p: &DVec3| spheres.iter().all(|s| p.distance(s.0) > s.1);
+        let seam = seam_points(&spheres, &pos, &tris, spacing, usize::MAX);
+        for p in &seam {
+            assert!(missed(p), "{p} is covered");
+            assert!(p.x > 0.94 && p.x < 1.06 && p.z == 0.0 && p.y >= -1e-12 && p.y <= 0.05 * p.x + 1e-12, "{p}");
+        }
+        // Every point of the strip lies within the spacing of a seam point.
+        for (_, _, x) in triangle_grid(pos[0], pos[1], pos[2], 400).filter(|(_, _, x)| missed(x)) {
+            let d = seam.iter().map(|p| p.distance(x)).fold(f64::INFINITY, f64::min);
+            assert!(d <= spacing, "{x} is {d} from the nearest seam point");
+        }
+        assert!(seam.len() <= 200, "{} seam points", seam.len());
+    }
+
+    #[test]
     fn seams_narrower_than_a_large_triangles_grid_are_found() {
         // A 4 × 4 square (two triangles) and two huge spheres leaving the strip 2.01 < x < 2.05
         // (nearly flat boundaries; wider by ≤ 0.01 at the square's edges). At spacing 0.005 the
@@ -1753,7 +1784,8 @@ mod tests {
     fn band_points_are_the_seam_points_and_the_grid_points_near_a_sphere_surface() {
         // A 4 × 1 strip (two triangles, at most 41 divisions per edge at spacing 0.1, so no
         // triangle is split) and three spheres: two crossing it with a gap between them, one
-        // holding a corner. Reference: every grid point of every triangle that no sphere holds
+        // holding a corner. Reference: every grid point (the rows of `grid_or_rows` on these
+        // 4 : 1 triangles) of every triangle that no sphere holds
         // with margin w, kept when it is outside every sphere or within w of some sphere's
         // surface, scanning all spheres (the search asks only those near each triangle).
         let pos = vec![DVec3::ZERO, DVec3::X * 4.0, DVec3::new(4.0, 1.0, 0.0), DVec3::Y];
@@ -1772,7 +1804,9 @@ mod tests {
                 let held = sp.iter().any(|s| c.iter().all(|p| p.distance(s.0) <= s.1 - w));
                 let l = (c[1] - c[0]).length().max((c[2] - c[1]).length()).max((c[0] - c[2]).length());
                 let m = grid_divisions(l, spacing, 1);
-                triangle_grid(c[0], c[1], c[2], m).map(|(_, _, p)| p).filter(move |p| {
+                let mut grid = Vec::new();
+                grid_or_rows(c[0], c[1], c[2], m, |p, _| grid.push(p));
+                grid.into_iter().filter(move |p| {
                     !held
                         && (sp.iter().all(|s| p.distance(s.0) > s.1)
                             || sp.iter().any(|s| (p.distance(s.0) - s.1).abs() <= w))
