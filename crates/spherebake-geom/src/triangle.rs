@@ -1,8 +1,8 @@
-//! Triangle primitives, written once: the barycentric grid (the fit's seam points and its
-//! sparse sample patches lay it), the covering samples of a triangle (the voxel solid's
-//! surface cells), the choice between the two on slivers (the fit's dense and descent points)
-//! and the closest point on a triangle (the albedo's coverage test and the geom and bake
-//! tests).
+//! Triangle primitives, written once: the barycentric grid (the fit's dense and clustering
+//! points and its sparse sample patches lay it), the covering samples of a triangle (the voxel
+//! solid's surface cells), the choice between the two on slivers (the fit's descent, seam and
+//! band points) and the closest point on a triangle (the albedo's coverage test and the geom
+//! and bake tests).
 
 use glam::DVec3;
 
@@ -112,12 +112,12 @@ pub const SLIVER_FACTOR: usize = 2;
 /// one of the corners: the barycentric grid ([`triangle_grid`], corners at `(0, 0)`, `(m, 0)`
 /// and `(0, m)`) unless it holds more than [`SLIVER_FACTOR`] times the points of
 /// [`cover_samples`] at the grid's spacing (longest edge / m); then those rows. Both leave
-/// every point of the triangle within about the spacing of one; on a well-shaped triangle the
-/// two sets are about as large (a right isosceles triangle at m = 64: 2145 against 2208), but a
-/// sliver's grid crowds (m + 1)(m + 2) / 2 points across its short edge where the rows need a
-/// few: a cylinder's 20 : 1 side triangle at m = 43 gets 114 points instead of 990. The rows'
-/// corners are given exactly (`p`, `q` and the apex as the triangle's own corners). `m` ≤ 1
-/// gives the grid.
+/// every point of the triangle within about the spacing of one. On a well-shaped triangle the
+/// two sets are of a size (a right isosceles triangle at m = 64: the grid's 2145 points against
+/// the rows' 1569, so it keeps the grid), but a sliver's grid crowds (m + 1)(m + 2) / 2 points
+/// across its short edge where the rows need a few: a cylinder's 20 : 1 side triangle at
+/// m = 43 gets 114 points instead of 990. The rows' corners are given exactly (`p`, `q` and
+/// the apex as the triangle's own corners). `m` ≤ 1 gives the grid.
 pub fn grid_or_rows(a: DVec3, b: DVec3, c: DVec3, m: usize, mut f: impl FnMut(DVec3, bool)) {
     let grid = (m + 1) * (m + 2) / 2;
     if m > 1 {
