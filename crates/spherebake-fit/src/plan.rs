@@ -171,7 +171,8 @@ pub struct FitPlan {
     /// Gauss–Seidel sweeps over all spheres before the split/delete trials at most (they stop
     /// earlier when a sweep gains < 0.01 %). Range 0..=100.
     pub descent_sweeps: usize,
-    /// Split/delete trials of the first descent at most. Range 0..=1000.
+    /// Split/delete rounds of the first descent at most; a round tries the two best pairs
+    /// that share no sphere at once, so up to twice as many trials. Range 0..=1000.
     pub descent_trials: usize,
     /// The first descent's trials stop after this many rejections in a row. Range 1..=1000.
     pub descent_max_fails: usize,
@@ -192,7 +193,8 @@ pub struct FitPlan {
     pub seam_rounds: usize,
     /// Seam search spacing on the triangles, in voxel cells. Range (0, 64].
     pub seam_spacing_cells: f64,
-    /// Split/delete trials per seam round at most. Range 0..=1000.
+    /// Split/delete rounds per seam round at most (up to two trials each, as
+    /// [`FitPlan::descent_trials`]). Range 0..=1000.
     pub seam_trials: usize,
     /// A seam round's trials stop after this many rejections in a row. Range 1..=1000.
     pub seam_max_fails: usize,
