@@ -734,6 +734,7 @@ const TRIAL_THRESHOLD_FROM: usize = 64;
 fn trial_threshold(total: f64, k: usize) -> f64 {
     TRIAL_THRESHOLD * total * (TRIAL_THRESHOLD_FROM as f64 / k.max(1) as f64).max(1.0)
 }
+
 /// Above this sphere count the trials are skipped (their first evaluation splits every sphere).
 const MAX_TRIAL_SPHERES: usize = 1024;
 /// Barycentric grid (points per edge − 1) of the seam search, at least.
