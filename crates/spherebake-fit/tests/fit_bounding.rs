@@ -745,11 +745,23 @@ fn collapsed_triangles_leave_a_closed_mesh_closed() {
     assert_triangles_covered(&p, &with, &r.spheres);
 }
 
+/// E of the chain of `k` equal spheres along the axis of a round rod (radius `a`, length `l`),
+/// each holding a slab of length 2h = l / k (radius R = √(a² + h²)): a sphere meets the
+/// infinite cylinder in (4π/3)(R³ − h³), and each end sphere loses the part beyond the rod's
+/// end, (2π/3)(R³ − h³) − π a² h; so E = Σ (4π/3 R³ − inside) / (π a² l).
+fn chain_e(a: f64, l: f64, k: usize) -> f64 {
+    let pi = std::f64::consts::PI;
+    let h = l / (2.0 * k as f64);
+    let r = (a * a + h * h).sqrt();
+    let inner = 4.0 * pi / 3.0 * (r.powi(3) - h.powi(3));
+    let beyond_end = 2.0 * pi / 3.0 * (r.powi(3) - h.powi(3)) - pi * a * a * h;
+    let inside = k as f64 * inner - 2.0 * beyond_end;
+    (k as f64 * 4.0 * pi / 3.0 * r.powi(3) - inside) / (pi * a * a * l)
+}
+
 /// A closed round rod (radius a = 0.5, length L = 10, 64 sides) against the chain of k equal
 /// spheres along its axis, each holding a slab of length 2h = L / k (radius R = √(a² + h²)).
-/// The chain's E, derived here: a sphere meets the infinite cylinder in (4π/3)(R³ − h³), and
-/// each end sphere loses the part beyond the rod's end, (2π/3)(R³ − h³) − π a² h; so
-/// E = Σ (4π/3 R³ − inside) / (π a² L). The cover start spent 8 spheres on each end's rim and
+/// The chain's E is [`chain_e`]. The cover start spent 8 spheres on each end's rim and
 /// ended at 0.487 (16 spheres) and 0.292 (32) against the chain's 0.291 and 0.109; from the
 /// split start 0.316 and 0.131. Ceilings: the chain × 1.25 (the bounding pass's margin on a
 /// 64-gon, measured 1.08 and 1.21).
@@ -771,15 +783,7 @@ fn a_long_round_rod_is_fitted_about_as_well_as_a_chain() {
         let j = (i + 1) % n32;
         t.extend([[i, j, n32 + j], [i, n32 + j, n32 + i], [2 * n32, j, i], [2 * n32 + 1, n32 + i, n32 + j]]);
     }
-    let pi = std::f64::consts::PI;
-    let chain = |k: usize| {
-        let h = l / (2.0 * k as f64);
-        let r = (a * a + h * h).sqrt();
-        let inner = 4.0 * pi / 3.0 * (r.powi(3) - h.powi(3));
-        let beyond_end = 2.0 * pi / 3.0 * (r.powi(3) - h.powi(3)) - pi * a * a * h;
-        let inside = k as f64 * inner - 2.0 * beyond_end;
-        (k as f64 * 4.0 * pi / 3.0 * r.powi(3) - inside) / (pi * a * a * l)
-    };
+    let chain = |k: usize| chain_e(a, l, k);
     for k in [16, 32] {
         let r = fit(&p, &t, &FitSettings { spheres: k, ..Default::default() }, &|_| {}).unwrap();
         let e = r.stats.outside_ratio_e;
@@ -810,7 +814,7 @@ fn a_long_round_rod_is_fitted_about_as_well_as_a_chain() {
 /// is a chain. Their proxies before the descent are close (here the split's is 6.8 % above
 /// Lloyd's: 0.545 against 0.510), and only the chain ends low, so the default plan runs the
 /// split start at such a near tie (`FitPlan::split_start_tie`, 25 %). Asserted against the
-/// chain of 16 equal spheres along the axis, its E derived as in the long rod's test above
+/// chain of 16 equal spheres along the axis, its E from [`chain_e`]
 /// (0.288): measured E 0.25 with the near tie taken, 0.411 without.
 #[test]
 fn a_short_cylinder_takes_the_split_start_at_a_near_tie() {
@@ -818,12 +822,7 @@ fn a_short_cylinder_takes_the_split_start_at_a_near_tie() {
     // Along z, centred at the origin (a cyclic permutation of the axes keeps the winding).
     let (p, t) = cylinder(a, l, 64);
     let p: Vec<Vec3> = p.iter().map(|q| Vec3::new(q.y, q.z, q.x - 1.0)).collect();
-    let pi = std::f64::consts::PI;
-    let h = l / (2.0 * k as f64);
-    let r = (a * a + h * h).sqrt();
-    let inside = k as f64 * 4.0 * pi / 3.0 * (r.powi(3) - h.powi(3))
-        - 2.0 * (2.0 * pi / 3.0 * (r.powi(3) - h.powi(3)) - pi * a * a * h);
-    let chain = (k as f64 * 4.0 * pi / 3.0 * r.powi(3) - inside) / (pi * a * a * l);
+    let chain = chain_e(a, l, k);
     assert!((chain - 0.2884).abs() < 1e-3, "{chain}");
     let out = fit(&p, &t, &FitSettings { spheres: k, ..Default::default() }, &|_| {}).unwrap();
     let e = out.stats.outside_ratio_e;
