@@ -89,6 +89,7 @@ fn main() {
             set!(plan.descent_work_budget, "SB_BUDGET");
             set!(plan.seam_work_budget, "SB_SEAM_BUDGET");
             set!(plan.descent_grid_cells, "SB_DGRID");
+            set!(plan.descent_block, "SB_DBLOCK");
             set!(plan.seam_spacing_cells, "SB_SEAM_SPACING");
             set!(plan.point_cell, "SB_PCELL");
             set!(plan.point_budget, "SB_PBUDGET");

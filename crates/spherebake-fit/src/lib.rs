@@ -844,6 +844,29 @@ impl Tracer {
     }
 }
 
+/// The largest share of a solid's cells on its boundary
+/// ([`spherebake_geom::voxel::VoxelGrid::boundary_share`]) for which the descent reads blocks
+/// ([`FitPlan::descent_block`]). A slab t cells thick has 2 / t of its cells there, so 0.2 asks
+/// for parts about 10 cells (5 blocks of two) thick on average: the thin limbs of the animated
+/// characters (CesiumMan 0.281, the Fox 0.221) and the 10 : 1 rod of `tests/fit_bounding.rs`
+/// (0.279) are above it and keep the cells (on blocks: E +2.0 %, +0.5 % and +31 %), the
+/// armadillo (0.145), spot, the bunny, the teapot and the Duck (0.06–0.09) are below it.
+const DESCENT_BLOCK_MAX_SHARE: f64 = 0.2;
+
+/// The proxy of the exclusive descent and the seam rounds (stages 5–6) from Lloyd's and the
+/// lattice start: the voxel solid in blocks of [`FitPlan::descent_block`]³ cells, a block solid
+/// when at least half its cells are ([`spherebake_geom::voxel::VoxelGrid::coarsened`]);
+/// `None` (the solid itself) for blocks of one cell, exact ball volumes
+/// (`solid::exact_is_cheaper`), or a thin solid ([`DESCENT_BLOCK_MAX_SHARE`]). Cost
+/// O(cells).
+fn descent_solid(solid: &Solid, plan: &FitPlan) -> Option<Solid> {
+    let b = plan.descent_block;
+    if b <= 1 || solid.is_exact() || solid.grid.boundary_share() > DESCENT_BLOCK_MAX_SHARE {
+        return None;
+    }
+    Some(Solid::from_grid(solid.grid.coarsened(b, (b * b * b).div_ceil(2))))
+}
+
 /// Proxy E of a sphere set: Σ proxy V(S_i − T) / proxy V(T). Cost O(Σ r_i² / h²) row reads.
 fn proxy_e_of(solid: &Solid, spheres: &[(DVec3, f64)]) -> f64 {
     spheres.iter().map(|(c, r)| solid.outside(*c, *r)).sum::<f64>() / solid.volume()
@@ -965,6 +988,8 @@ fn variational_run(
     tr: &mut Tracer,
 ) -> Run {
     let (plan, solid) = (&settings.plan, &prep.solid);
+    let coarse = descent_solid(solid, plan);
+    let dsolid = coarse.as_ref().unwrap_or(solid);
     // Without polish rounds (the fast plan) nothing reads the dense points.
     let all = if plan.polish_rounds > 0 { dense_points(prep, pts, plan) } else { Vec::new() };
     tr.record("dense_points", None, |x| x.points = all.len());
@@ -999,14 +1024,14 @@ fn variational_run(
             x.points = all.len();
             x.iterations = plan.polish_rounds;
         });
-        let raw = descend(prep, pts, plan, sp, tr);
+        let raw = descend(prep, dsolid, pts, plan, sp, tr);
         finish(prep, pts, plan, &raw, info.clone(), tr)
     });
     drop(all);
     let lattice_run = from_lattice.then(|| {
         reuse.run("lattice", &info, tr, |tr| {
             tr.record("polish", Some(e_start), |_| {});
-            let raw = descend(prep, pts, plan, start.clone(), tr);
+            let raw = descend(prep, dsolid, pts, plan, start.clone(), tr);
             let run = finish(prep, pts, plan, &raw, info.clone(), tr);
             keep_the_better_start(prep, pts, plan, run, &start, tr)
         })
@@ -1020,6 +1045,10 @@ fn variational_run(
     // spheres: proxy E 0.083 along x, y and z, 0.195 with the principal axes), while an
     // oblique rod gets its chain only from them (a 20 : 1 oblique rod at 16 spheres: 2.60 →
     // 0.59). Running the first whenever it qualifies keeps E at most what it alone gives.
+    // Their descents read the cells, not `dsolid`'s blocks: a split start is a chain of slab
+    // spheres as thick as the round part it runs on, and on blocks the 10 : 1 rod of
+    // `tests/fit_bounding.rs` ended at 0.170 instead of 0.130 at 32 spheres (a 16-sided long
+    // cylinder 0.179 instead of 0.162), every seed.
     let mut split_runs = Vec::with_capacity(2);
     let (mut first, mut e_first): (Vec<(DVec3, f64)>, f64) = (Vec::new(), f64::INFINITY);
     for oblique in [false, true] {
@@ -1046,7 +1075,7 @@ fn variational_run(
         if from_split {
             let key = if oblique { "split_oblique" } else { "split" };
             split_runs.push(reuse.run(key, &info, tr, |tr| {
-                let raw = descend(prep, pts, plan, split, tr);
+                let raw = descend(prep, solid, pts, plan, split, tr);
                 finish(prep, pts, plan, &raw, info.clone(), tr)
             }));
         }
@@ -1074,15 +1103,16 @@ fn split_start(prep: &Prepared, pts: &points::PointSet, k: usize, oblique: bool)
 /// and the gap rounds, each recorded in `tr`. Returns the spheres before the bounding pass.
 fn descend(
     prep: &Prepared,
+    dsolid: &Solid,
     pts: &points::PointSet,
     plan: &FitPlan,
     mut sp: Vec<(DVec3, f64)>,
     tr: &mut Tracer,
 ) -> Vec<(DVec3, f64)> {
     let solid = &prep.solid;
-    let mut dpts = descent_points(prep, pts, plan);
+    let mut dpts = descent_points(prep, dsolid.h, pts, plan);
     tr.record("descent_points", None, |x| x.points = dpts.len());
-    let d = descent_stage(prep, &dpts, &mut sp, plan);
+    let d = descent_stage(dsolid, &dpts, &mut sp, plan);
     tr.record("descent", Some(proxy_e_of(solid, &sp)), |x| {
         x.points = dpts.len();
         x.iterations = d.sweeps;
@@ -1090,7 +1120,7 @@ fn descend(
         x.work = d.work;
     });
     for round in 1..=plan.seam_rounds {
-        let Some(d) = seam_round(prep, &mut dpts, &mut sp, plan) else { break };
+        let Some(d) = seam_round(prep, dsolid, &mut dpts, &mut sp, plan) else { break };
         tr.record("seam", Some(proxy_e_of(solid, &sp)), |x| {
             x.round = round;
             x.points = dpts.len();
@@ -1348,9 +1378,9 @@ fn referenced_vertices(prep: &Prepared) -> Vec<DVec3> {
 /// `points::GRID_BUDGET`; the set is at most the budget or the surface's cubes: the bunny
 /// subdivided to 1.1 M triangles gives 574 000 descent points unthinned, 63 900 thinned (the
 /// 70 000-triangle bunny has 55 700), and its descent costs in proportion (8.3 s → 2.2 s).
-fn descent_points(prep: &Prepared, pts: &points::PointSet, plan: &FitPlan) -> Vec<DVec3> {
+fn descent_points(prep: &Prepared, h: f64, pts: &points::PointSet, plan: &FitPlan) -> Vec<DVec3> {
     let mut dpts = referenced_vertices(prep);
-    let spacing = plan.descent_grid_cells * prep.solid.h;
+    let spacing = plan.descent_grid_cells * h;
     let grid =
         points::grid_plan(&prep.pos, &prep.tris, |l| descent::grid_divisions(l, spacing, 1), 1, points::GRID_BUDGET);
     for (t, &m) in prep.tris.iter().zip(&grid) {
@@ -1383,7 +1413,7 @@ fn scaled_budget(per_64: u64, k: usize) -> u64 {
 /// trials under `plan.descent_trials`, `plan.descent_max_fails` and the deterministic
 /// `plan.descent_work_budget` ([`scaled_budget`]). Cost per sweep O(points × spheres per cell + spheres × pattern
 /// search evaluations); the trials are bounded by the work budget.
-fn descent_stage(prep: &Prepared, dpts: &[DVec3], sp: &mut [(DVec3, f64)], plan: &FitPlan) -> descent::DescentStats {
+fn descent_stage(solid: &Solid, dpts: &[DVec3], sp: &mut [(DVec3, f64)], plan: &FitPlan) -> descent::DescentStats {
     let opts = descent::Options {
         sweeps: plan.descent_sweeps,
         trials: plan.descent_trials,
@@ -1392,7 +1422,7 @@ fn descent_stage(prep: &Prepared, dpts: &[DVec3], sp: &mut [(DVec3, f64)], plan:
         pair_first_cut: 0.0,
         search: plan.search(),
     };
-    descent::exclusive_descent(&prep.solid, dpts, sp, &opts)
+    descent::exclusive_descent(solid, dpts, sp, &opts)
 }
 
 /// Seam points one round adds at most, as a share of the descent points it joins (at least
@@ -1402,9 +1432,15 @@ const SEAM_MAX_SHARE: f64 = 0.25;
 /// The seam search of stages 6 and 6c: the surface points at the seam spacing that no sphere
 /// covers (at most [`SEAM_MAX_SHARE`] of the points, at least 1024) join `dpts`. Returns how
 /// many, `None` when there are none.
-fn add_seam_points(prep: &Prepared, dpts: &mut Vec<DVec3>, sp: &[(DVec3, f64)], plan: &FitPlan) -> Option<usize> {
+fn add_seam_points(
+    prep: &Prepared,
+    h: f64,
+    dpts: &mut Vec<DVec3>,
+    sp: &[(DVec3, f64)],
+    plan: &FitPlan,
+) -> Option<usize> {
     let max_points = ((SEAM_MAX_SHARE * dpts.len() as f64) as usize).max(1024);
-    let seam = descent::seam_points(sp, &prep.pos, &prep.tris, plan.seam_spacing_cells * prep.solid.h, max_points);
+    let seam = descent::seam_points(sp, &prep.pos, &prep.tris, plan.seam_spacing_cells * h, max_points);
     if seam.is_empty() {
         return None;
     }
@@ -1421,11 +1457,12 @@ fn add_seam_points(prep: &Prepared, dpts: &mut Vec<DVec3>, sp: &[(DVec3, f64)], 
 /// O(triangles × nearby spheres + grid points), then a descent as stage 5.
 fn seam_round(
     prep: &Prepared,
+    solid: &Solid,
     dpts: &mut Vec<DVec3>,
     sp: &mut [(DVec3, f64)],
     plan: &FitPlan,
 ) -> Option<descent::DescentStats> {
-    add_seam_points(prep, dpts, sp, plan)?;
+    add_seam_points(prep, solid.h, dpts, sp, plan)?;
     let opts = descent::Options {
         sweeps: plan.descent_sweeps,
         trials: plan.seam_trials,
@@ -1434,7 +1471,7 @@ fn seam_round(
         pair_first_cut: plan.pair_first_cut,
         search: plan.search(),
     };
-    Some(descent::exclusive_descent(&prep.solid, dpts, sp, &opts))
+    Some(descent::exclusive_descent(solid, dpts, sp, &opts))
 }
 
 /// Band points the band stage adds at most, as a multiple of the descent points (more are
@@ -1503,7 +1540,7 @@ fn gap_round(
     sp: &mut [(DVec3, f64)],
     plan: &FitPlan,
 ) -> Option<(usize, descent::DescentStats)> {
-    let n = add_seam_points(prep, dpts, sp, plan)?;
+    let n = add_seam_points(prep, prep.solid.h, dpts, sp, plan)?;
     let opts = descent::Options {
         sweeps: 0,
         trials: 0,

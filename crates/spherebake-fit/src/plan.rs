@@ -172,6 +172,31 @@ pub struct FitPlan {
     /// Descent point set: triangles longer than this many voxel cells get a barycentric grid
     /// of that spacing. Range (0, 64].
     pub descent_grid_cells: f64,
+    /// The exclusive descent and the seam rounds (stages 5–6) from Lloyd's and the lattice start
+    /// read the voxel proxy in blocks of this many cells per axis, a block solid when at least
+    /// half its cells are (`VoxelGrid::coarsened`); Lloyd, the polish, the band, the gap rounds
+    /// and the bounding pass read the cells themselves. Those two stages' point spacings and
+    /// search steps, set in voxel cells, are then in blocks too. 1: the cells. The cells are
+    /// read anyway where ball volumes are exact (closed meshes of a few dozen triangles), on
+    /// thin solids (more than a fifth of the cells on the boundary: parts under about ten
+    /// cells thick, such as an animated character's limbs) and from the split starts (chains
+    /// of slab spheres as thick as the part). Range 1..=4.
+    ///
+    /// The descent's moves are decided by proxy differences of a cell or more, which blocks
+    /// of two resolve; the band and gap rounds then settle the boundaries on the cells. Measured
+    /// at 2 against 1 (whole bake, one thread, 64 spheres unless noted, seeds 1–4, mean E,
+    /// median CPU; 2026-12-07): bunny E 0.2218 → 0.2212 (CPU −22 %), armadillo 0.3936 →
+    /// 0.3865 (−27 %), spot 0.1507 → 0.1513 (−40 %), Duck 0.1024 → 0.0987 (−46 %), teapot
+    /// 0.1713 → 0.1598 (−40 %), the capsule 0.0508 → 0.0509 (−17 %), the bunny at 128
+    /// spheres 0.1411 → 0.1416 (−19 %), spot at 16 0.4883 → 0.4742, the armadillo at 32
+    /// 0.6072 → 0.6072. On blocks CesiumMan went 0.6578 → 0.6712 and the Fox 0.4862 → 0.4888,
+    /// and the 10 : 1 rod's split run 0.130 → 0.170, hence the cells there. A block solid only
+    /// when more than half its cells are lost the armadillo's thin limbs (0.4092); a second,
+    /// coarser voxelization of the mesh instead of blocks gave the armadillo 0.4061 with Lloyd
+    /// and the polish on it too, 0.3950 without. `fast` keeps 1: on its 96-cell grid blocks
+    /// cost the bunny 19 % more CPU (its budgets, in rows, buy more trials) and the armadillo
+    /// E 0.4365 → 0.4500 (`docs/benchmarks.md`, "The descent on blocks of two cells").
+    pub descent_block: u32,
     /// Gauss–Seidel sweeps over all spheres before the split/delete trials at most (they stop
     /// earlier when a sweep gains < 0.01 %). Range 0..=100.
     pub descent_sweeps: usize,
@@ -278,9 +303,8 @@ pub struct FitPlan {
 }
 
 impl Default for FitPlan {
-    /// The measured default (bunny at 64 spheres, whole bake: E 0.2289 at seed 1, mean
-    /// 0.2226 over seeds 1–4; `docs/benchmarks.md`, "The pattern search polls the moves its
-    /// sphere's surface predicts").
+    /// The measured default (bunny at 64 spheres, whole bake: E 0.2243 at seed 1, mean
+    /// 0.2212 over seeds 1–4; `docs/benchmarks.md`, "The descent on blocks of two cells").
     fn default() -> Self {
         Self {
             point_resolution: 40,
@@ -301,6 +325,7 @@ impl Default for FitPlan {
             ball_bar: 2.0,
             polish_rounds: 4,
             descent_grid_cells: 2.0,
+            descent_block: 2,
             descent_sweeps: 8,
             descent_trials: 64,
             descent_max_fails: 20,
@@ -333,7 +358,8 @@ impl FitPlan {
     /// points from the Lloyd result directly), a quarter of the descent's trials and a
     /// thirtieth of its budget, two seam rounds with a quarter of their trials on a grid of
     /// half a voxel cell (not a quarter), half the band's sweeps, no boundary moves and no gap
-    /// round; and, through [`Preset::voxels`], a voxel grid of 96 cells instead of 128.
+    /// round; and, through [`Preset::voxels`], a voxel grid of 96 cells instead of 128, whose
+    /// cells its descent reads directly ([`FitPlan::descent_block`] 1, see there).
     ///
     /// The coarser grid was measured first (fit alone, CPU, one thread, load ≈ 2, 64 spheres):
     /// with three seam rounds at a quarter cell, 96 cells gave the bunny E 0.2372 over seeds
@@ -385,6 +411,7 @@ impl FitPlan {
             band_sweeps: 4,
             gap_rounds: 0,
             pair_first_cut: 0.0,
+            descent_block: 1,
             ..Self::default()
         }
     }
@@ -434,6 +461,7 @@ impl FitPlan {
         range("ball_bar", self.ball_bar, 1.0, f64::INFINITY, "[1, ∞] (∞: never)")?;
         range("polish_rounds", self.polish_rounds, 0, 100, "0..=100")?;
         positive("descent_grid_cells", self.descent_grid_cells, 64.0, "(0, 64]")?;
+        range("descent_block", self.descent_block, 1, 4, "1..=4")?;
         range("descent_sweeps", self.descent_sweeps, 0, 100, "0..=100")?;
         range("descent_trials", self.descent_trials, 0, 1000, "0..=1000")?;
         range("descent_max_fails", self.descent_max_fails, 1, 1000, "1..=1000")?;

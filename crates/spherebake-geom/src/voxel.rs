@@ -360,6 +360,37 @@ impl VoxelGrid {
         self.solid.get(self.index(nb[0], nb[1], nb[2]))
     }
 
+    /// The grid of `block`³-cell blocks (same origin, cells `block` times as wide, dims rounded
+    /// up): a block is solid when at least `min_solid` of its cells are (clamped to
+    /// 1..=`block`³; cells past the fine grid's edge count as empty). A sampling of this solid,
+    /// not a second solid: every block is decided by the cells it holds. `covered_twice` is 0.
+    /// `block` 1 is a copy. Cost O(cells).
+    pub fn coarsened(&self, block: u32, min_solid: u32) -> VoxelGrid {
+        let b = block.max(1);
+        let min_solid = min_solid.clamp(1, b * b * b);
+        let dims = self.dims.map(|d| d.div_ceil(b));
+        let (nx, ny) = (dims[0] as usize, dims[1] as usize);
+        let mut count = vec![0u32; dims.iter().map(|&d| d as usize).product()];
+        for k in 0..self.dims[2] {
+            for j in 0..self.dims[1] {
+                let row = (j / b) as usize * nx + (k / b) as usize * nx * ny;
+                let base = self.index(0, j, k);
+                for i in 0..self.dims[0] {
+                    if self.solid.get(base + i as usize) {
+                        count[row + (i / b) as usize] += 1;
+                    }
+                }
+            }
+        }
+        VoxelGrid {
+            origin: self.origin,
+            cell_size: self.cell_size * b as f64,
+            dims,
+            solid: count.iter().map(|&c| c >= min_solid).collect(),
+            covered_twice: 0,
+        }
+    }
+
     /// Share of the solid cells that lie on the solid's boundary (at least one of their six
     /// face neighbours empty or outside the grid); 0 for an empty solid. Exact when the grid
     /// has at most [`BOUNDARY_SHARE_PROBES`] cells, else estimated from that many cells drawn
@@ -1818,5 +1849,51 @@ mod boundary_share_tests {
         });
         let want = boundary as f64 / solid as f64;
         assert!((ball.boundary_share() - want).abs() < 0.05 * want, "ball {} against {want}", ball.boundary_share());
+    }
+
+    /// Each block of a coarsened grid against a count of the fine cells whose centres lie in
+    /// it (random grids of odd and even sizes, blocks 1–3, every threshold).
+    #[test]
+    fn a_coarsened_block_is_solid_when_enough_of_the_cells_it_holds_are() {
+        let mut rng = SplitMix64::new(11);
+        for case in 0..60 {
+            let dims = [1 + rng.below(11) as u32, 1 + rng.below(11) as u32, 1 + rng.below(11) as u32];
+            let fill = [0.2, 0.5, 0.8][case % 3];
+            let cells: Vec<bool> = (0..dims.iter().product::<u32>()).map(|_| rng.next_f64() < fill).collect();
+            let mut g = grid(dims, |i, j, k| cells[(i + dims[0] as i64 * (j + dims[1] as i64 * k)) as usize]);
+            g.origin = DVec3::new(-1.5, 0.25, 3.0);
+            g.cell_size = 0.1;
+            let b = 1 + (case / 3 % 3) as u32;
+            for min in 1..=b * b * b {
+                let c = g.coarsened(b, min);
+                assert_eq!(c.cell_size, 0.1 * b as f64);
+                assert_eq!(c.origin, g.origin);
+                // Blocks cover the fine grid, and no block lies wholly past it.
+                for (a, (&cd, &d)) in c.dims.iter().zip(&dims).enumerate() {
+                    assert!(cd * b >= d && (cd - 1) * b < d, "case {case} axis {a}");
+                }
+                let mut count = vec![0u32; c.cell_count()];
+                for k in 0..dims[2] {
+                    for j in 0..dims[1] {
+                        for i in 0..dims[0] {
+                            if g.solid.get(g.index(i, j, k)) {
+                                let [ci, cj, ck] =
+                                    c.cell_of(g.cell_center(i, j, k)).expect("a fine centre lies in a block");
+                                count[c.index(ci, cj, ck)] += 1;
+                            }
+                        }
+                    }
+                }
+                for (n, &m) in count.iter().enumerate() {
+                    assert_eq!(c.solid.get(n), m >= min, "case {case}, block {b}, at least {min}: block {n} holds {m}");
+                }
+            }
+        }
+        // Thresholds beyond 1..=b³ are clamped: 0 does not make empty blocks solid.
+        let g = grid([4, 4, 4], |i, _, _| i == 0);
+        let ones = |c: VoxelGrid| c.solid.ones().collect::<Vec<_>>();
+        assert_eq!(ones(g.coarsened(2, 0)), ones(g.coarsened(2, 1)));
+        assert_eq!(ones(g.coarsened(2, 1)).len(), 4, "the blocks at x = 0");
+        assert_eq!(g.coarsened(2, 99).solid.count_ones(), 0);
     }
 }
