@@ -156,6 +156,10 @@ pub struct SkinSummary {
     /// Spheres none of whose kept bones has an invertible rest joint matrix: their terms do not
     /// sum to the rest centre (Σ b ≠ 1; warned). 0 in every other case.
     pub remainder_dropped: usize,
+    /// Spheres whose centre's mean value coordinates could not be normalised (a rest pose that
+    /// folds the mesh onto itself), which follow the bones of their nearest surface point
+    /// instead (warned). 0 in every other case.
+    pub nearest_surface_centres: usize,
     /// What `--pose-margin auto` did ([`MarginResult`]).
     pub pose_margin: Option<MarginResult>,
 }
@@ -380,6 +384,12 @@ pub fn bake_imported(
                 st.remainder_dropped
             ));
         }
+        if st.nearest_surface > 0 {
+            warnings.push(format!(
+                "skin: the mean value coordinates of {} sphere centre(s) could not be normalised (does the stored pose fold the mesh onto itself?); they follow the bones of their nearest surface point instead",
+                st.nearest_surface
+            ));
+        }
     }
     if skin.is_none() && settings.pose_margin == PoseMargin::Auto {
         warnings.push(
@@ -535,6 +545,7 @@ pub fn bake_imported(
             linear_residual_max_relative: st.linear_residual_max_relative,
             dropped_weight_max: st.dropped_weight_max,
             remainder_dropped: st.remainder_dropped,
+            nearest_surface_centres: st.nearest_surface,
             pose_margin: margin,
         }),
         hierarchy: HierarchySummary {

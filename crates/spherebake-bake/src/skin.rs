@@ -94,6 +94,11 @@ pub struct SkinStats {
     pub remainder_dropped: usize,
     /// Degenerate triangles skipped by MVC (per sphere count, max).
     pub degenerate_triangles: usize,
+    /// Centres whose MVC could not be normalised (raw weights summing to about 0: a rest pose
+    /// that folds the mesh onto itself, or a point far outside an open mesh), which took the
+    /// weights of their nearest surface point instead ([`mvc::nearest_surface_weights`]); the
+    /// kept bones carry the offset to it, so their rest centres stay exact.
+    pub nearest_surface: usize,
     /// Seconds spent.
     pub seconds: f64,
 }
@@ -246,6 +251,14 @@ fn bbox_diagonal(p: &[DVec3]) -> f64 {
     }
 }
 
+/// The largest Σ |λ_v| of a centre's normalised mean value coordinates the bake keeps. Beyond
+/// it the raw weights nearly cancel (a stored pose that folds the mesh onto itself: the folded
+/// arm of `tests/skin_fixture.rs` gave terms of 10¹¹), the f32 terms would lose the centre, and
+/// the centre takes its nearest surface point's weights instead. The shared skinned models'
+/// centres reach at most 3.8 (CesiumMan, the Fox, RiggedFigure, RiggedSimple and the arm at 16,
+/// 64 and 256 spheres); 1 inside a convex mesh.
+const MAX_WEIGHT_SUM: f64 = 64.0;
+
 /// Bakes the skin section: per sphere the `k` bones of largest `|b_j|` with their terms
 /// (see [`spherebake_geom::mvc::truncate_terms`]), and the bone table. `spheres` are
 /// `[x, y, z, radius]`, rest pose, model space. `Ok(None)` when the mesh has no skin (or a skin
@@ -291,14 +304,32 @@ pub fn bake_skin(
         dropped: f64,
         remainder_dropped: bool,
         degenerate: usize,
+        nearest: bool,
     }
     let per: Vec<Result<PerSphere, SkinError>> = spheres
         .par_iter()
         .enumerate()
         .map(|(i, s)| {
             let c = DVec3::new(f64::from(s[0]), f64::from(s[1]), f64::from(s[2]));
-            let m = mvc::mean_value_coordinates(c, &ws.positions, &ws.triangles)
-                .map_err(|source| SkinError::Mvc { sphere: i, source })?;
+            // A centre whose MVC cannot be normalised, or only into weights that cancel
+            // (`MAX_WEIGHT_SUM`), takes its nearest surface point's weights.
+            let ill = |m: &mvc::Mvc| m.weights.iter().map(|w| w.abs()).sum::<f64>() > MAX_WEIGHT_SUM;
+            let (m, nearest) = match mvc::mean_value_coordinates(c, &ws.positions, &ws.triangles) {
+                Ok(m) if !ill(&m) => (m, false),
+                Ok(mvc::Mvc { raw_sum: sum, .. }) | Err(MvcError::DegenerateSum { sum }) => {
+                    let (weights, distance) = mvc::nearest_surface_weights(c, &ws.positions, &ws.triangles)
+                        .ok_or(SkinError::Mvc { sphere: i, source: MvcError::DegenerateSum { sum } })?;
+                    let m = mvc::Mvc {
+                        weights,
+                        raw_sum: sum,
+                        linear_residual: distance,
+                        location: MvcLocation::OffSurface,
+                        degenerate_triangles: 0,
+                    };
+                    (m, true)
+                }
+                Err(source) => return Err(SkinError::Mvc { sphere: i, source }),
+            };
             let full = mvc::fold_into_bones(&m.weights, &ws.bind, &ws.rows, bone_count);
             let kept_idx = mvc::largest_terms(&full, k);
             let dropped: f64 =
@@ -311,6 +342,7 @@ pub fn bake_skin(
                 dropped,
                 remainder_dropped: tr.remainder_dropped,
                 degenerate: m.degenerate_triangles,
+                nearest,
             })
         })
         .collect();
@@ -329,6 +361,7 @@ pub fn bake_skin(
         dropped_weight_mean: 0.0,
         remainder_dropped: 0,
         degenerate_triangles: 0,
+        nearest_surface: 0,
         seconds: 0.0,
     };
     for (i, r) in per.into_iter().enumerate() {
@@ -349,6 +382,7 @@ pub fn bake_skin(
         stats.dropped_weight_mean += p.dropped;
         stats.remainder_dropped += usize::from(p.remainder_dropped);
         stats.degenerate_triangles = stats.degenerate_triangles.max(p.degenerate);
+        stats.nearest_surface += usize::from(p.nearest);
     }
     let n = spheres.len().max(1) as f64;
     stats.linear_residual_mean /= n;

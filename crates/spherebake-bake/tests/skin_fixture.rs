@@ -264,3 +264,52 @@ fn open_mesh_residual_is_measured_and_carried_by_the_bones() {
         assert!((*c - e).length() <= 1e-6 * d, "sphere {i}");
     }
 }
+
+/// The arm stored with its elbow at the shoulder (translation (0, −1, 0) instead of (0, 1, 0)):
+/// valid glTF whose stored pose, the rest pose the bake fits, folds the forearm onto the upper
+/// arm, so the mean value weights of centres there sum to about 0 and cannot be normalised
+/// (found by a review: the bake failed with "skin stage failed"). Such centres take their nearest
+/// surface point's weights; their terms must still reproduce the rest centres and move them with
+/// a rigid motion of every joint, and without the fallback the stage fails.
+#[test]
+fn a_stored_pose_that_folds_the_mesh_skins_its_centres_by_the_nearest_surface() {
+    let p = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../fixtures/skinned-arm.gltf");
+    let text = std::fs::read_to_string(&p).unwrap();
+    let from = "\"name\": \"elbow\",\n   \"translation\": [\n    0.0,\n    1.0,";
+    assert_eq!(text.matches(from).count(), 1, "the fixture's elbow block");
+    let folded = text.replace(from, "\"name\": \"elbow\",\n   \"translation\": [\n    0.0,\n    -1.0,");
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("folded-arm.gltf");
+    std::fs::write(&path, folded).unwrap();
+    let m = spherebake_io::load_mesh(&path).expect("the folded arm loads").mesh;
+    let d = diag(&m);
+    let s = spheres();
+    let positions: Vec<DVec3> = m.positions.iter().map(|p| p.as_dvec3()).collect();
+    let failing = s
+        .iter()
+        .filter(|c| {
+            let x = DVec3::new(c[0].into(), c[1].into(), c[2].into());
+            matches!(mvc::mean_value_coordinates(x, &positions, &m.triangles), Err(mvc::MvcError::DegenerateSum { .. }))
+        })
+        .count();
+    assert!(failing > 0, "some centre's mean value weights cannot be normalised on the folded arm");
+    for k in [1, 3] {
+        let (terms, _, stats) =
+            bake_skin(&m, &s, &SkinSettings { bones_per_sphere: k, ..Default::default() }).unwrap().unwrap();
+        // Those, and any whose weights nearly cancel (`skin::MAX_WEIGHT_SUM`).
+        assert!((failing..=s.len()).contains(&stats.nearest_surface), "k={k}: {}", stats.nearest_surface);
+        let rest = rest_joint_matrices(&m.skin.as_ref().unwrap().skeleton);
+        let g = DMat4::from_rotation_translation(
+            DQuat::from_axis_angle(DVec3::new(-0.4, 0.2, 1.0).normalize(), 1.3),
+            DVec3::new(-2.0, 3.0, 0.5),
+        );
+        let moved: Vec<DMat4> = rest.iter().map(|j| g * *j).collect();
+        let (at_rest, after) = (posed(&terms, s.len(), &rest), posed(&terms, s.len(), &moved));
+        for (i, c) in s.iter().enumerate() {
+            let e = DVec3::new(c[0].into(), c[1].into(), c[2].into());
+            assert!((at_rest[i] - e).length() <= 1e-6 * d, "k={k} sphere {i} at rest: {} vs {e}", at_rest[i]);
+            let moved_e = g.transform_point3(e);
+            assert!((after[i] - moved_e).length() <= 1e-6 * d, "k={k} sphere {i} moved: {} vs {moved_e}", after[i]);
+        }
+    }
+}

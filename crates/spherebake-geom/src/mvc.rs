@@ -212,6 +212,52 @@ impl BoneTerm {
     }
 }
 
+/// Where [`mean_value_coordinates`] cannot normalise ([`MvcError::DegenerateSum`]: a rest
+/// pose that folds a closed mesh onto itself, so the solid angles cancel, or a point far
+/// outside an open mesh), the barycentric weights of the surface point nearest to `x` (Σ λ = 1,
+/// at most three non-zero, on the first nearest triangle in order) and that point's distance
+/// to `x`, which is then `|Σ λ_v p_v − x|`. A degenerate nearest triangle gives its corner
+/// nearest to `x` weight 1. `None` when no triangle has in-range ids and finite corners.
+/// Cost O(triangles).
+#[must_use]
+pub fn nearest_surface_weights(x: DVec3, positions: &[DVec3], triangles: &[[u32; 3]]) -> Option<(Vec<f64>, f64)> {
+    let mut best: Option<(f64, [u32; 3], DVec3)> = None;
+    for t in triangles {
+        let Some(c) = t.iter().map(|&v| positions.get(v as usize).copied()).collect::<Option<Vec<DVec3>>>() else {
+            continue;
+        };
+        let c = [c[0], c[1], c[2]];
+        if !c.iter().all(|p| p.is_finite()) {
+            continue;
+        }
+        let q = crate::triangle::closest_point_on_triangle(x, &c);
+        let d2 = x.distance_squared(q);
+        if best.is_none_or(|(b, ..)| d2 < b) {
+            best = Some((d2, *t, q));
+        }
+    }
+    let (d2, t, q) = best?;
+    let [a, b, c] = t.map(|v| positions[v as usize]);
+    let mut weights = vec![0.0; positions.len()];
+    // Barycentrics of q (Ericson §3.4); q lies on the closed triangle, so they are in [0, 1]
+    // up to rounding.
+    let (e0, e1, e2) = (b - a, c - a, q - a);
+    let (d00, d01, d11, d20, d21) = (e0.dot(e0), e0.dot(e1), e1.dot(e1), e2.dot(e0), e2.dot(e1));
+    let denom = d00 * d11 - d01 * d01;
+    if denom > 1e-30 * (d00 * d11).max(f64::MIN_POSITIVE) && denom.is_finite() {
+        let v = ((d11 * d20 - d01 * d21) / denom).clamp(0.0, 1.0);
+        let w = ((d00 * d21 - d01 * d20) / denom).clamp(0.0, 1.0 - v);
+        weights[t[0] as usize] += 1.0 - v - w;
+        weights[t[1] as usize] += v;
+        weights[t[2] as usize] += w;
+    } else {
+        let corner =
+            (0..3).min_by(|&i, &j| x.distance_squared([a, b, c][i]).total_cmp(&x.distance_squared([a, b, c][j])))?;
+        weights[t[corner] as usize] = 1.0;
+    }
+    Some((weights, d2.sqrt()))
+}
+
 /// Folds mean value coordinates λ (one per vertex) with per-vertex skin rows into per-bone
 /// terms: `b_j = Σ_v λ_v s_vj`, `q_j = Σ_v λ_v s_vj p_v` with `p_v = bind_positions[v]`
 /// (math reference §7). Returns one term per bone `0..bone_count` (index = bone); influences
@@ -346,6 +392,42 @@ pub fn pose_terms(terms: &[BoneTerm], joints: &[DMat4]) -> DVec3 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The box [0, 2] × [0, 1] × [0, 3] as 12 triangles, and random points inside and outside
+    /// it: the fallback's point Σ λ_v p_v lies on the box's surface, at the box's analytic
+    /// distance from the query (outside: the clamped offset; inside: the nearest face), with
+    /// Σ λ = 1, weights in [0, 1] on at most three vertices.
+    #[test]
+    fn the_nearest_surface_weights_give_the_box_point_at_its_analytic_distance() {
+        let hi = DVec3::new(2.0, 1.0, 3.0);
+        let p: Vec<DVec3> =
+            (0..8).map(|i| DVec3::new((i & 1) as f64, (i >> 1 & 1) as f64, (i >> 2) as f64) * hi).collect();
+        let quads = [[0, 2, 3, 1], [4, 5, 7, 6], [0, 1, 5, 4], [2, 6, 7, 3], [0, 4, 6, 2], [1, 3, 7, 5]];
+        let tris: Vec<[u32; 3]> = quads.iter().flat_map(|q| [[q[0], q[1], q[2]], [q[0], q[2], q[3]]]).collect();
+        let mut rng = crate::rng::SplitMix64::new(5);
+        for n in 0..500 {
+            let x = DVec3::new(rng.next_f64() * 6.0 - 2.0, rng.next_f64() * 5.0 - 2.0, rng.next_f64() * 7.0 - 2.0);
+            let outside = (x - x.clamp(DVec3::ZERO, hi)).length();
+            let inside = x.min_element().min((hi - x).min_element());
+            let want = if outside > 0.0 { outside } else { inside };
+            let (w, d) = nearest_surface_weights(x, &p, &tris).unwrap();
+            assert!((d - want).abs() < 1e-12, "{n}: {x}: distance {d}, box {want}");
+            assert!((w.iter().sum::<f64>() - 1.0).abs() < 1e-12);
+            assert!(w.iter().all(|&l| (0.0..=1.0).contains(&l)) && w.iter().filter(|&&l| l != 0.0).count() <= 3);
+            let q: DVec3 = w.iter().zip(&p).map(|(&l, &v)| l * v).sum();
+            assert!(((q - x).length() - want).abs() < 1e-9, "{n}: the weights' point {q} is not at the distance");
+            let on_face = (0..3).any(|a| q[a].abs() < 1e-9 || (q[a] - hi[a]).abs() < 1e-9);
+            assert!(
+                on_face && q.cmpge(DVec3::splat(-1e-9)).all() && q.cmple(hi + 1e-9).all(),
+                "{n}: {q} not on the box"
+            );
+        }
+        // A point off a lone degenerate triangle (collinear corners) takes its nearest corner.
+        let line = [DVec3::ZERO, DVec3::X, DVec3::X * 2.0];
+        let (w, d) = nearest_surface_weights(DVec3::new(2.5, 0.0, 0.0), &line, &[[0, 1, 2]]).unwrap();
+        assert_eq!((w, d), (vec![0.0, 0.0, 1.0], 0.5));
+        assert!(nearest_surface_weights(DVec3::ZERO, &line, &[[0, 1, 9]]).is_none());
+    }
 
     fn check(x: DVec3, expected_vertex: Option<u32>) {
         let p = [DVec3::ZERO, DVec3::X, DVec3::Y];
