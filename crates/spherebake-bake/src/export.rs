@@ -21,6 +21,37 @@ pub struct ExportSummary {
     pub nodes: usize,
 }
 
+/// The most bytes [`export_glb`] writes (1 GiB). The export is a viewing aid, and a file of a
+/// million spheres would need a 2.6 GB `.glb` and about three times that in memory while it
+/// is built (a GLB cannot pass 4 GiB at all: its lengths are 32-bit).
+pub const MAX_GLB_BYTES: u64 = 1 << 30;
+
+/// Bytes of the binary chunk per sphere drawn (an icosphere of 42 vertices with position,
+/// normal and colour, 80 triangles of u32 indices) and per sample marker (an octahedron: 6
+/// vertices, 8 triangles).
+const SPHERE_BYTES: u64 = 42 * (12 + 12 + 16) + 80 * 3 * 4;
+const MARKER_BYTES: u64 = 6 * (12 + 12 + 16) + 8 * 3 * 4;
+/// JSON bytes per mesh and node written (name, four accessors, four views; measured 3 500 in
+/// compact JSON), a generous bound.
+const MESH_JSON_BYTES: u64 = 4096;
+
+/// The most hierarchy levels [`export_glb`] draws, one glTF mesh each. The bake's hierarchies
+/// have about log₄ of the sphere count (at most 7 for 4 096 spheres); a valid file may chain
+/// its nodes one below another, and 200 000 levels took 6 GB to write as JSON.
+pub const MAX_LEVELS: usize = 256;
+
+/// Why [`export_glb`] wrote nothing.
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+#[non_exhaustive]
+pub enum ExportError {
+    /// The hierarchy has more than [`MAX_LEVELS`] levels.
+    #[error("the hierarchy has {levels} levels, more than the {max} export draws (one mesh each)")]
+    TooManyLevels { levels: usize, max: usize },
+    /// The `.glb` would pass [`MAX_GLB_BYTES`].
+    #[error("the .glb would take about {mib} MiB ({spheres} spheres in {levels} level(s), {markers} sample markers), more than the {limit_mib} MiB export writes: export a proxy with fewer spheres or samples")]
+    TooLarge { mib: u64, spheres: u64, levels: usize, markers: u64, limit_mib: u64 },
+}
+
 struct MeshData {
     positions: Vec<[f32; 3]>,
     normals: Vec<[f32; 3]>,
@@ -54,37 +85,74 @@ pub(crate) fn hue(i: usize) -> [f32; 4] {
 pub fn hierarchy_levels(file: &SphbFile) -> Vec<Vec<([f32; 3], f32)>> {
     let mut levels = vec![file.spheres.iter().map(|s| (s.center, s.radius)).collect::<Vec<_>>()];
     let Some(h) = &file.hierarchy else { return levels };
-    // Height of each node = 1 + max height of node children (leaf-only nodes have height 1).
+    // Height of each node = 1 + max height of node children (leaf-only nodes have height 1),
+    // children first by an explicit depth-first walk: O(nodes + child links) for any shape (a
+    // chain of 200 000 single-child nodes took minutes with repeated passes). A validated
+    // file's nodes form a tree; a link back to a node still on the walk (only in a file built
+    // in memory) counts as height 0.
     let n = h.nodes.len();
     let mut height = vec![0usize; n];
-    let mut changed = true;
-    let mut guard = 0;
-    while changed && guard <= n {
-        changed = false;
-        guard += 1;
-        for i in 0..n {
-            let hgt =
-                1 + h.children_of(i).iter().map(|&c| height.get(c as usize).copied().unwrap_or(0)).max().unwrap_or(0);
-            if hgt != height[i] {
-                height[i] = hgt;
-                changed = true;
+    let mut state = vec![0u8; n]; // 0 new, 1 on the walk, 2 done
+    let mut stack: Vec<(usize, usize)> = Vec::new();
+    for start in 0..n {
+        if state[start] != 0 {
+            continue;
+        }
+        state[start] = 1;
+        stack.push((start, 0));
+        while let Some(&mut (node, ref mut next)) = stack.last_mut() {
+            let kids = h.children_of(node);
+            if let Some(&c) = kids.get(*next) {
+                *next += 1;
+                let c = c as usize;
+                if c < n && state[c] == 0 {
+                    state[c] = 1;
+                    stack.push((c, 0));
+                }
+            } else {
+                height[node] = 1 + kids.iter().filter_map(|&c| height.get(c as usize).copied()).max().unwrap_or(0);
+                state[node] = 2;
+                stack.pop();
             }
         }
     }
     let top = height.iter().copied().max().unwrap_or(0);
-    for lvl in 1..=top {
-        levels.push(
-            h.nodes.iter().zip(&height).filter(|(_, &hh)| hh == lvl).map(|(nd, _)| (nd.center, nd.radius)).collect(),
-        );
+    levels.resize(top + 1, Vec::new());
+    // Each node into its level in one pass, in node order within a level.
+    for (nd, &hh) in h.nodes.iter().zip(&height) {
+        if hh > 0 {
+            levels[hh].push((nd.center, nd.radius));
+        }
     }
     levels
 }
 
 /// Builds the `.glb` bytes of a proxy (see the module docs for the layout).
-pub fn export_glb(file: &SphbFile) -> (Vec<u8>, ExportSummary) {
+///
+/// # Errors
+///
+/// [`ExportError::TooManyLevels`] past [`MAX_LEVELS`] hierarchy levels and
+/// [`ExportError::TooLarge`] when the file would pass [`MAX_GLB_BYTES`], both checked from the
+/// counts before anything is built. Cost O(spheres + hierarchy nodes + samples).
+pub fn export_glb(file: &SphbFile) -> Result<(Vec<u8>, ExportSummary), ExportError> {
     // One subdivision of the icosahedron: 42 vertices, 80 triangles.
     let (ico_v, ico_f) = spherebake_geom::sphere::icosphere(1);
     let levels = hierarchy_levels(file);
+    if levels.len() > MAX_LEVELS {
+        return Err(ExportError::TooManyLevels { levels: levels.len(), max: MAX_LEVELS });
+    }
+    let spheres: u64 = levels.iter().map(|l| l.len() as u64).sum();
+    let markers = file.samples.as_ref().map_or(0, |s| s.per_sphere().map(|l| l.len() as u64).sum());
+    let estimate = spheres * SPHERE_BYTES + markers * MARKER_BYTES + (levels.len() as u64 + 2) * MESH_JSON_BYTES + 4096;
+    if estimate > MAX_GLB_BYTES {
+        return Err(ExportError::TooLarge {
+            mib: estimate.div_ceil(1 << 20),
+            spheres,
+            levels: levels.len(),
+            markers,
+            limit_mib: MAX_GLB_BYTES >> 20,
+        });
+    }
     let mut meshes: Vec<(String, MeshData, bool)> = Vec::new();
     for (li, spheres) in levels.iter().enumerate() {
         let mut m = MeshData::new();
@@ -157,7 +225,7 @@ pub fn export_glb(file: &SphbFile) -> (Vec<u8>, ExportSummary) {
         }
     }
     let summary = ExportSummary { levels: levels.len(), sample_markers, nodes: 1 + meshes.len() };
-    (encode_glb(&meshes), summary)
+    Ok((encode_glb(&meshes), summary))
 }
 
 fn encode_glb(meshes: &[(String, MeshData, bool)]) -> Vec<u8> {
@@ -231,4 +299,72 @@ fn encode_glb(meshes: &[(String, MeshData, bool)]) -> Vec<u8> {
     out.extend_from_slice(b"BIN\0");
     out.extend_from_slice(&bin);
     out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use spherebake_format::{Hierarchy, NodeLists, Sphere};
+
+    fn file_with(spheres: usize, nodes: Vec<NodeLists>) -> SphbFile {
+        let s = Sphere { center: [0.0; 3], radius: 1.0 };
+        let hierarchy = (!nodes.is_empty()).then(|| Hierarchy::from_lists(0, nodes));
+        SphbFile { spheres: vec![s; spheres], hierarchy, ..SphbFile::default() }
+    }
+
+    fn node(children: Vec<u32>, leaves: Vec<u32>) -> NodeLists {
+        NodeLists { center: [0.0; 3], radius: 1.0, children, leaf_children: leaves }
+    }
+
+    /// Random trees (each node's parent an earlier node) against heights from the definition,
+    /// 1 + the children's largest, computed from the last node back (a child comes after its
+    /// parent): level L holds the nodes of height L, in node order.
+    #[test]
+    fn levels_hold_the_nodes_of_each_height_in_node_order() {
+        let mut rng = spherebake_geom::rng::SplitMix64::new(3);
+        for case in 0..50 {
+            let n = 1 + rng.below(40) as usize;
+            let parent: Vec<usize> = (0..n).map(|i| if i == 0 { 0 } else { rng.below(i as u64) as usize }).collect();
+            let mut kids = vec![Vec::new(); n];
+            for i in 1..n {
+                kids[parent[i]].push(i as u32);
+            }
+            let mut height = vec![1usize; n];
+            for i in (0..n).rev() {
+                height[i] = 1 + kids[i].iter().map(|&c| height[c as usize]).max().unwrap_or(0);
+            }
+            let nodes: Vec<NodeLists> =
+                (0..n).map(|i| NodeLists { center: [i as f32, 0.0, 0.0], ..node(kids[i].clone(), vec![]) }).collect();
+            let levels = hierarchy_levels(&file_with(3, nodes));
+            assert_eq!(levels[0].len(), 3, "case {case}: the leaves");
+            assert_eq!(levels.len(), 1 + height.iter().max().unwrap(), "case {case}");
+            for (l, level) in levels.iter().enumerate().skip(1) {
+                let want: Vec<f32> = (0..n).filter(|&i| height[i] == l).map(|i| i as f32).collect();
+                let got: Vec<f32> = level.iter().map(|(c, _)| c[0]).collect();
+                assert_eq!(got, want, "case {case}, level {l}");
+            }
+        }
+    }
+
+    /// A chain of 100 000 single-child nodes is walked in linear time (it took minutes with
+    /// repeated passes) and refused past [`MAX_LEVELS`]; a file whose `.glb` would pass
+    /// [`MAX_GLB_BYTES`] is refused from its counts; a small file exports.
+    #[test]
+    fn deep_chains_and_huge_files_are_refused_before_anything_is_built() {
+        let n = 100_000u32;
+        let chain: Vec<NodeLists> =
+            (0..n).map(|i| if i + 1 < n { node(vec![i + 1], vec![]) } else { node(vec![], vec![0]) }).collect();
+        let f = file_with(1, chain);
+        assert_eq!(hierarchy_levels(&f).len(), n as usize + 1);
+        assert_eq!(export_glb(&f).unwrap_err(), ExportError::TooManyLevels { levels: n as usize + 1, max: MAX_LEVELS });
+        let spheres = (MAX_GLB_BYTES / SPHERE_BYTES) as usize + 1;
+        match export_glb(&file_with(spheres, vec![])) {
+            Err(ExportError::TooLarge { spheres: s, levels: 1, markers: 0, .. }) => assert_eq!(s, spheres as u64),
+            other => panic!("{:?}", other.map(|(b, s)| (b.len(), s))),
+        }
+        let (bytes, summary) = export_glb(&file_with(1000, vec![])).expect("a small file exports");
+        assert_eq!((summary.levels, summary.sample_markers), (1, 0));
+        assert!((bytes.len() as u64) < 1000 * SPHERE_BYTES + 2 * MESH_JSON_BYTES + 4096);
+        assert!((bytes.len() as u64) > 1000 * SPHERE_BYTES, "the estimate counts each sphere's bytes");
+    }
 }

@@ -74,7 +74,8 @@ pub fn run_export(a: ExportArgs) -> Result<ExitCode> {
         Some(e) => bail!("{}: unsupported output type .{e} (export writes binary glTF: use .glb)", a.output.display()),
     }
     let proxy = read_sphb(&a.file)?;
-    let (bytes, summary) = spherebake_bake::export::export_glb(proxy.file());
+    let (bytes, summary) =
+        spherebake_bake::export::export_glb(proxy.file()).map_err(|e| anyhow::anyhow!("{}: {e}", a.file.display()))?;
     crate::atomic::write_atomic(&a.output, &bytes, std::slice::from_ref(&a.file))?;
     println!(
         "exported {} -> {} ({} levels, {} sample markers, {} nodes)",
