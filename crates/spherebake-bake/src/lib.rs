@@ -156,8 +156,9 @@ pub struct SkinSummary {
     /// Spheres none of whose kept bones has an invertible rest joint matrix: their terms do not
     /// sum to the rest centre (Σ b ≠ 1; warned). 0 in every other case.
     pub remainder_dropped: usize,
-    /// Spheres whose centre's mean value coordinates could not be normalised (a rest pose that
-    /// folds the mesh onto itself), which follow the bones of their nearest surface point
+    /// Spheres whose centre's mean value coordinates could not be normalised, or only into
+    /// weights that nearly cancel (a rest pose that folds the mesh onto itself), which follow
+    /// the bones of their nearest surface point
     /// instead (warned). 0 in every other case.
     pub nearest_surface_centres: usize,
     /// What `--pose-margin auto` did ([`MarginResult`]).

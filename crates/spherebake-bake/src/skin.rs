@@ -95,7 +95,8 @@ pub struct SkinStats {
     /// Degenerate triangles skipped by MVC (per sphere count, max).
     pub degenerate_triangles: usize,
     /// Centres whose MVC could not be normalised (raw weights summing to about 0: a rest pose
-    /// that folds the mesh onto itself, or a point far outside an open mesh), which took the
+    /// that folds the mesh onto itself, or a point far outside an open mesh) or only into
+    /// weights that nearly cancel (Σ |λ| above `MAX_WEIGHT_SUM`), which took the
     /// weights of their nearest surface point instead ([`mvc::nearest_surface_weights`]); the
     /// kept bones carry the offset to it, so their rest centres stay exact.
     pub nearest_surface: usize,

@@ -1100,7 +1100,9 @@ fn split_start(prep: &Prepared, pts: &points::PointSet, k: usize, oblique: bool)
 }
 
 /// Stages 4–6c from a start: descent points, the exclusive descent, the seam rounds, the band
-/// and the gap rounds, each recorded in `tr`. Returns the spheres before the bounding pass.
+/// and the gap rounds, each recorded in `tr`. Stages 4–6 read `dsolid` ([`descent_solid`]'s
+/// blocks, or the cells), the band and the gap rounds the cells; the proxy E recorded after
+/// each stage is the cells'. Returns the spheres before the bounding pass.
 fn descend(
     prep: &Prepared,
     dsolid: &Solid,
@@ -1368,7 +1370,8 @@ fn referenced_vertices(prep: &Prepared) -> Vec<DVec3> {
 }
 
 /// Stage 4, descent points: the referenced vertices, a barycentric grid of spacing
-/// `plan.descent_grid_cells` voxel cells on triangles longer than that, rows at that spacing
+/// `plan.descent_grid_cells` cells of edge `h` (the descent's proxy, [`descent_solid`]) on
+/// triangles longer than that, rows at that spacing
 /// on slivers ([`grid_or_rows`]: a grid over a sliver's long edges crowds its points across
 /// the short one; a 3 : 1 capsule of 1024 triangles had 75 000 descent points, 19 000 with
 /// the rows, and its bake at 64 spheres took 10.6 s of CPU, 4.4 s with rows here and on the
@@ -1450,8 +1453,8 @@ fn add_seam_points(
 }
 
 /// Stage 6, one seam round: the surface points between vertices that no sphere covers
-/// (barycentric grid of spacing `plan.seam_spacing_cells` voxel cells on every triangle no
-/// single sphere contains) join the descent points, so the optimiser rather than the greedy
+/// (barycentric grid of spacing `plan.seam_spacing_cells` cells of `solid`, the descent's
+/// proxy, on every triangle no single sphere contains) join the descent points, so the optimiser rather than the greedy
 /// bounding pass decides which sphere covers each seam; then the descent runs again with the
 /// seam budget. `None` (and nothing changes) when no seam point is left. Cost: the seam search
 /// O(triangles × nearby spheres + grid points), then a descent as stage 5.

@@ -214,7 +214,8 @@ impl BoneTerm {
 
 /// Where [`mean_value_coordinates`] cannot normalise ([`MvcError::DegenerateSum`]: a rest
 /// pose that folds a closed mesh onto itself, so the solid angles cancel, or a point far
-/// outside an open mesh), the barycentric weights of the surface point nearest to `x` (Σ λ = 1,
+/// outside an open mesh), or normalises only into weights that nearly cancel (the bake's
+/// `skin` stage decides), the barycentric weights of the surface point nearest to `x` (Σ λ = 1,
 /// at most three non-zero, on the first nearest triangle in order) and that point's distance
 /// to `x`, which is then `|Σ λ_v p_v − x|`. A degenerate nearest triangle gives its corner
 /// nearest to `x` weight 1. `None` when no triangle has in-range ids and finite corners.
