@@ -224,10 +224,8 @@ impl BoneTerm {
 pub fn nearest_surface_weights(x: DVec3, positions: &[DVec3], triangles: &[[u32; 3]]) -> Option<(Vec<f64>, f64)> {
     let mut best: Option<(f64, [u32; 3], DVec3)> = None;
     for t in triangles {
-        let Some(c) = t.iter().map(|&v| positions.get(v as usize).copied()).collect::<Option<Vec<DVec3>>>() else {
-            continue;
-        };
-        let c = [c[0], c[1], c[2]];
+        let [Some(a), Some(b), Some(c)] = t.map(|v| positions.get(v as usize).copied()) else { continue };
+        let c = [a, b, c];
         if !c.iter().all(|p| p.is_finite()) {
             continue;
         }
