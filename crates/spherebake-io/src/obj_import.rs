@@ -850,7 +850,7 @@ pub(crate) fn import(ctx: &mut Ctx, bytes: &[u8]) -> Result<(Mesh, Vec<ImportedP
             }
             let first = tris.len();
             match triangulator.polygon(&positions, face, &mut tris) {
-                How::Fan | How::EarClipped => {}
+                How::Fan | How::Halves | How::EarClipped => {}
                 How::FanOverCap => fanned.over_cap += 1,
                 How::FanNoEar => fanned.no_ear += 1,
             }

@@ -3,7 +3,14 @@
 //!
 //! A polygon whose fan from its first corner is a triangulation of it (every convex polygon,
 //! and any polygon that first corner sees whole) gets that fan: the triangles tobj gave every
-//! face before, so convex faces import exactly as they did. Any other polygon (concave: an L,
+//! face before, so convex faces import exactly as they did. A convex polygon (up to the rounding
+//! of its f32 positions) of more than [`BALANCED_MIN_CORNERS`] corners is split in halves
+//! instead (triangle (a, m, b) with m midway from corner a to corner b, then the two halves
+//! alike): the fan's n − 2 triangles all
+//! reach from corner 0 across the polygon, slivers whose summed perimeter grows as n times
+//! its width, and every later stage (the BVH, the voxel rows, the bounding pass's pieces)
+//! pays for their length; the halves' triangles sum to about the polygon's perimeter times
+//! log₂ n. Any other polygon (concave: an L,
 //! a star) is ear-clipped: the fan would cover area outside it. Ear clipping takes the first
 //! ear from the second corner on, in polygon order, and is O(n²) for n corners; a concave
 //! polygon of more than [`MAX_EAR_CLIP_CORNERS`] corners, or one where no ear is found
@@ -17,12 +24,18 @@ use glam::{DVec2, DVec3, Vec3};
 /// (letter outlines, floor plans) are rare. A larger concave polygon gets the fan.
 pub(crate) const MAX_EAR_CLIP_CORNERS: usize = 256;
 
+/// Most corners a convex polygon keeps the fan with (see the module docs); cylinder caps
+/// and other everyday n-gons import as tobj gave them.
+pub(crate) const BALANCED_MIN_CORNERS: usize = 32;
+
 /// How a polygon was triangulated.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub(crate) enum How {
     /// The fan from the first corner, a triangulation of the polygon (or the polygon has no
     /// area: its Newell normal is zero).
     Fan,
+    /// Convex, more than [`BALANCED_MIN_CORNERS`] corners: split in halves.
+    Halves,
     /// Ear-clipped (concave).
     EarClipped,
     /// Concave, more than [`MAX_EAR_CLIP_CORNERS`] corners: the fan.
@@ -52,6 +65,39 @@ pub(crate) struct Triangulator {
 /// Twice the signed area of triangle (a, b, c): positive when counter-clockwise.
 fn orient(a: DVec2, b: DVec2, c: DVec2) -> f64 {
     (b - a).perp_dot(c - a)
+}
+
+/// No corner of the polygon `plane(i)` (counter-clockwise) turns right by more than the
+/// rounding of f32 positions as large as `largest` (the allowance of
+/// [`Triangulator::fan_is_a_triangulation`], which has checked that the polygon winds once):
+/// convex up to that rounding. (A circle of 12 500 corners in f32 is no more convex than
+/// this: each corner's sagitta, 3·10⁻⁸ of the radius, is under the rounding of its position.)
+fn convex_within_rounding(n: usize, plane: &impl Fn(usize) -> DVec2, largest: f64) -> bool {
+    let slack = 8.0 * f64::from(f32::EPSILON) * largest;
+    let (mut a, mut b) = (plane(n - 1), plane(0));
+    (0..n).all(|i| {
+        let c = plane((i + 1) % n);
+        let (d, e) = (b - a, c - b);
+        let left = d.perp_dot(e) >= -slack * (d.length() + e.length());
+        (a, b) = (b, c);
+        left
+    })
+}
+
+/// The n − 2 triangles of a convex polygon split in halves: (a, m, b) for the corners a..=b,
+/// m = ⌊(a + b) / 2⌋, then a..=m and m..=b alike (an explicit stack of O(log n) ranges), each
+/// in the polygon's winding.
+fn halves(corners: &[u32], out: &mut Vec<[u32; 3]>) {
+    let mut ranges = vec![(0usize, corners.len() - 1)];
+    while let Some((a, b)) = ranges.pop() {
+        if b - a < 2 {
+            continue;
+        }
+        let m = (a + b) / 2;
+        out.push([corners[a], corners[m], corners[b]]);
+        ranges.push((m, b));
+        ranges.push((a, m));
+    }
 }
 
 impl Triangulator {
@@ -103,6 +149,10 @@ impl Triangulator {
             DVec2::new(q.dot(u), q.dot(v))
         };
         if self.fan_is_a_triangulation(n, &plane, largest) {
+            if n > BALANCED_MIN_CORNERS && convex_within_rounding(n, &plane, largest) {
+                halves(corners, out);
+                return How::Halves;
+            }
             fan(out);
             return How::Fan;
         }
@@ -287,13 +337,13 @@ mod tests {
         (total, all_agree)
     }
 
-    /// Convex polygons (random, placed anywhere in space, up to 300 corners: past the cap too)
-    /// get exactly the fan from their first corner, as tobj gave them.
+    /// Convex polygons (random, placed anywhere in space) of up to [`BALANCED_MIN_CORNERS`]
+    /// corners get exactly the fan from their first corner, as tobj gave them.
     #[test]
     fn convex_polygons_get_the_fan() {
         for seed in 0..300u64 {
             let mut r = xor(seed);
-            let n = 4 + (seed as usize * 7) % 297;
+            let n = 4 + (seed as usize * 7) % (BALANCED_MIN_CORNERS - 3);
             let mut angles: Vec<f64> = (0..n).map(|_| r() * std::f64::consts::TAU).collect();
             angles.sort_by(f64::total_cmp);
             let (rx, ry) = (0.1 + r() * 3.0, 0.1 + r() * 3.0);
@@ -306,6 +356,64 @@ mod tests {
         // A straight corner (a vertex on an edge) next to the first keeps the fan.
         let flat = [(0.0, 0.0), (0.5, 0.0), (1.0, 0.0), (1.0, 1.0), (0.0, 1.0)];
         assert_eq!(run(&placed(&flat, 3)).1, How::Fan);
+    }
+
+    /// Σ over `tris` of the triangles' perimeters.
+    fn perimeters(points: &[Vec3], tris: &[[u32; 3]]) -> f64 {
+        let p = |i: u32| points[i as usize].as_dvec3();
+        tris.iter().map(|t| p(t[0]).distance(p(t[1])) + p(t[1]).distance(p(t[2])) + p(t[2]).distance(p(t[0]))).sum()
+    }
+
+    /// Convex polygons of more than [`BALANCED_MIN_CORNERS`] corners (random ellipses, placed
+    /// anywhere in space) are split in halves: n − 2 triangles of distinct corners, each facing
+    /// the polygon's way, covering its area (the shoelace formula on the flat corners) once,
+    /// whose perimeters sum to at most 2 P ⌈log₂ n⌉ for the polygon's perimeter P (each level
+    /// of halves splits the boundary into arcs, and a triangle's three sides are at most twice
+    /// its arc). The fan's sum is about n times the polygon's width.
+    #[test]
+    fn large_convex_polygons_are_split_in_halves_into_their_area() {
+        for seed in 0..200u64 {
+            let mut r = xor(seed + 7000);
+            let n = BALANCED_MIN_CORNERS + 1 + (seed as usize * 37) % 600;
+            // Corners jittered about even angles: no two within a third of the even step, so
+            // every corner turns left by far more than the f32 rounding.
+            let step = std::f64::consts::TAU / n as f64;
+            let angles: Vec<f64> = (0..n).map(|i| (i as f64 + 0.6 * r()) * step).collect();
+            let (rx, ry) = (1.0 + r() * 2.0, 1.0 + r() * 2.0);
+            let flat: Vec<(f64, f64)> = angles.iter().map(|a| (rx * a.cos(), ry * a.sin())).collect();
+            let pts = placed(&flat, seed);
+            let (tris, how) = run(&pts);
+            assert_eq!(how, How::Halves, "seed {seed}, {n} corners");
+            assert!(tris.iter().all(|t| t[0] != t[1] && t[1] != t[2] && t[0] != t[2]), "seed {seed}");
+            let shoelace: f64 =
+                (0..n).map(|i| flat[i].0 * flat[(i + 1) % n].1 - flat[(i + 1) % n].0 * flat[i].1).sum::<f64>() / 2.0;
+            let normal = (pts[1] - pts[0]).cross(pts[2] - pts[0]);
+            let (total, facing) = area(&pts, &tris, normal);
+            assert!(facing, "seed {seed}: a triangle faces the other way");
+            assert!((total - shoelace).abs() <= 1e-5 * shoelace, "seed {seed}: area {total} against {shoelace}");
+            let perimeter: f64 = (0..n).map(|i| pts[i].as_dvec3().distance(pts[(i + 1) % n].as_dvec3())).sum();
+            let bound = 2.0 * perimeter * (n as f64).log2().ceil();
+            let sum = perimeters(&pts, &tris);
+            assert!(sum <= bound, "seed {seed}: {sum} > {bound}");
+            let fan: Vec<[u32; 3]> = (1..n as u32 - 1).map(|i| [0, i, i + 1]).collect();
+            assert!(perimeters(&pts, &fan) > sum, "seed {seed}");
+        }
+        // A circle of 12 500 corners in f32 (convex only up to the rounding): the fan's
+        // triangles would sum to about 2 500 perimeters, the halves' to at most 28.
+        let n = 12_500;
+        let flat: Vec<(f64, f64)> =
+            (0..n).map(|i| i as f64 * std::f64::consts::TAU / n as f64).map(|a| (a.cos(), a.sin())).collect();
+        let pts = placed(&flat, 11);
+        let (tris, how) = run(&pts);
+        assert_eq!(how, How::Halves);
+        let perimeter = std::f64::consts::TAU;
+        assert!(perimeters(&pts, &tris) <= 2.0 * perimeter * 14.0);
+        let fan: Vec<[u32; 3]> = (1..n as u32 - 1).map(|i| [0, i, i + 1]).collect();
+        assert!(perimeters(&pts, &fan) > 2000.0 * perimeter);
+        // Star-shaped from corner 0 but not convex (one corner pushed in): the fan, as before.
+        let mut dent = flat.clone();
+        dent[n / 2] = (0.5 * dent[n / 2].0, 0.5 * dent[n / 2].1);
+        assert_eq!(run(&placed(&dent, 11)).1, How::Fan);
     }
 
     /// Star-shaped polygons about a centre (random radii: concave) are ear-clipped into
