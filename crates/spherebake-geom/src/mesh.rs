@@ -327,20 +327,83 @@ impl Mesh {
     /// Sets [`Mesh::surface_only`] to the triangles marked in `balanced` and those it held
     /// (indices before the triangles marked in `removed` are removed: [`Mesh::remove_triangles`]
     /// renumbers them), except those on closed surfaces of such triangles (a part exported
-    /// double-sided: [`Mesh::closed_groups`]), and none when that would be every triangle kept
-    /// (the whole mesh double-sided). Returns how many were set.
+    /// double-sided: [`Mesh::closed_groups`]) that are not wholly inside the solid of the other
+    /// triangles ([`Mesh::inside_groups`]: the faces between touching boxes each given whole
+    /// are), and none when that would be every triangle kept (the whole mesh double-sided).
+    /// Returns how many were set. Cost O(n log n) in the triangles, plus a winding-number tree
+    /// over the single-sided ones when a closed surface of such triangles is found.
     pub fn set_surface_only(&mut self, removed: &[bool], balanced: &[bool]) -> usize {
         let kept = (0..self.triangles.len()).filter(|&i| !removed.get(i).copied().unwrap_or(false));
         let held = std::mem::take(&mut self.surface_only);
         let is_balanced =
             |i: &usize| balanced.get(*i).copied().unwrap_or(false) || held.binary_search(&(*i as u32)).is_ok();
         let candidates: Vec<usize> = kept.clone().filter(is_balanced).collect();
-        let enclosing = self.closed_groups(&candidates);
+        let mut enclosing = self.closed_groups(&candidates);
+        // A closed surface of such faces inside the solid of the single-sided ones (the faces
+        // between touching boxes, each given once per box: voxel art, modular kits) encloses
+        // nothing that solid does not: surface only too.
+        if enclosing.contains(&true) {
+            let single: Vec<[u32; 3]> = kept.clone().filter(|i| !is_balanced(i)).map(|i| self.triangles[i]).collect();
+            for group in self.inside_groups(&candidates, &enclosing, &single) {
+                for n in group {
+                    enclosing[n] = false;
+                }
+            }
+        }
         self.surface_only = candidates.iter().zip(&enclosing).filter(|(_, &e)| !e).map(|(&i, _)| i as u32).collect();
         if self.surface_only.len() == kept.count() {
             self.surface_only.clear();
         }
         self.surface_only.len()
+    }
+
+    /// The connected groups (triangles sharing a welded edge) of the triangles of `tris` marked
+    /// in `closed`, as positions in `tris`, whose every triangle's centroid is inside the solid
+    /// of `single` (|w| ≥ ½, [`crate::voxel::inside`]). None when `single` is empty. Cost: a
+    /// winding-number tree over `single` and one evaluation per marked triangle.
+    fn inside_groups(&self, tris: &[usize], closed: &[bool], single: &[[u32; 3]]) -> Vec<Vec<usize>> {
+        if single.is_empty() {
+            return Vec::new();
+        }
+        let w = |v: u32| self.weld.get(v as usize).copied().unwrap_or(v);
+        let marked: Vec<usize> = (0..tris.len()).filter(|&n| closed[n]).collect();
+        // Union-find over `marked` through shared edges.
+        let mut parent: Vec<usize> = (0..marked.len()).collect();
+        fn root(parent: &mut [usize], mut a: usize) -> usize {
+            while parent[a] != a {
+                parent[a] = parent[parent[a]];
+                a = parent[a];
+            }
+            a
+        }
+        let mut edges: Vec<([u32; 2], usize)> = Vec::with_capacity(3 * marked.len());
+        for (m, &n) in marked.iter().enumerate() {
+            let c = self.triangles[tris[n]].map(w);
+            for e in 0..3 {
+                let (a, b) = (c[e], c[(e + 1) % 3]);
+                edges.push(([a.min(b), a.max(b)], m));
+            }
+        }
+        edges.sort_unstable();
+        for run in edges.chunk_by(|a, b| a.0 == b.0) {
+            for x in &run[1..] {
+                let (a, b) = (root(&mut parent, run[0].1), root(&mut parent, x.1));
+                parent[a.max(b)] = a.min(b);
+            }
+        }
+        let wn = crate::winding::WindingNumber::new(&self.positions, single);
+        let centroid = |t: usize| {
+            let [a, b, c] = self.triangles[t].map(|v| self.positions[v as usize].as_dvec3());
+            (a + b + c) / 3.0
+        };
+        let mut groups: std::collections::BTreeMap<usize, (Vec<usize>, bool)> = std::collections::BTreeMap::new();
+        for (m, &n) in marked.iter().enumerate() {
+            let r = root(&mut parent, m);
+            let g = groups.entry(r).or_insert((Vec::new(), true));
+            g.0.push(n);
+            g.1 &= crate::voxel::inside(wn.eval(centroid(tris[n])));
+        }
+        groups.into_values().filter(|g| g.1).map(|g| g.0).collect()
     }
 
     /// Per triangle of `tris` (indices into `triangles`): whether it is left after peeling,
@@ -751,6 +814,59 @@ mod tests {
         m.surface_only = vec![1];
         assert_eq!(m.remove_triangles(&[true, false]), 1);
         assert_eq!(m.surface_only, vec![0]);
+    }
+
+    /// Unit-cube-sized boxes `(min corner, edge)`, each whole (8 corners of its own, 12
+    /// outward triangles, the quads split on the same diagonal wherever two boxes touch).
+    fn boxes(list: &[(Vec3, f32)]) -> Mesh {
+        let mut m = Mesh::default();
+        for &(o, e) in list {
+            let b = m.positions.len() as u32;
+            m.positions.extend(
+                (0..8).map(|i| o + e * Vec3::new((i & 1) as f32, ((i >> 1) & 1) as f32, ((i >> 2) & 1) as f32)),
+            );
+            for q in [[0, 2, 3, 1], [4, 5, 7, 6], [0, 1, 5, 4], [2, 6, 7, 3], [0, 4, 6, 2], [1, 3, 7, 5]] {
+                m.triangles.push([b + q[0], b + q[1], b + q[2]]);
+                m.triangles.push([b + q[0], b + q[2], b + q[3]]);
+            }
+        }
+        m.triangle_materials = vec![0; m.triangles.len()];
+        m.rebuild_weld();
+        m
+    }
+
+    /// Touching boxes each given whole (voxel art, modular kits): every face between two of
+    /// them is there once per winding, and the faces around the middle box of a 3 × 3 × 3
+    /// block close a surface among themselves, inside the block. All 54 such faces (3 axes ×
+    /// 2 inner planes × 9 squares, 108 triangles) are surface only, and the 54 outer squares
+    /// are the closed solid. A closed box given double-sided is still solid beside a
+    /// single-sided one and where it reaches out of it, and surface only wholly inside it.
+    #[test]
+    fn closed_double_sided_faces_inside_the_single_sided_solid_are_surface_only() {
+        let block: Vec<(Vec3, f32)> =
+            (0..27).map(|i| (Vec3::new((i % 3) as f32, ((i / 3) % 3) as f32, (i / 9) as f32), 1.0)).collect();
+        let mut m = boxes(&block);
+        assert_eq!(m.remove_duplicate_triangles(), 108);
+        assert_eq!(m.surface_only.len(), 108);
+        let solid: Vec<[u32; 3]> = (0..m.triangles.len())
+            .filter(|i| m.surface_only.binary_search(&(*i as u32)).is_err())
+            .map(|i| m.triangles[i].map(|v| m.weld[v as usize]))
+            .collect();
+        assert_eq!(solid.len(), 6 * 9 * 2);
+        assert!(crate::voxel::is_closed(&m.welded_positions, &solid));
+
+        // A single-sided box (0..4)³ and a second box given once per winding.
+        let double = |o: Vec3, e: f32| {
+            let mut m = boxes(&[(Vec3::ZERO, 4.0), (o, e)]);
+            let copy: Vec<[u32; 3]> = m.triangles[12..].iter().map(|t| [t[0], t[2], t[1]]).collect();
+            m.triangles.extend(copy);
+            m.triangle_materials = vec![0; m.triangles.len()];
+            m.remove_duplicate_triangles();
+            m.surface_only.len()
+        };
+        assert_eq!(double(Vec3::splat(1.0), 2.0), 12, "wholly inside: surface only");
+        assert_eq!(double(Vec3::splat(6.0), 1.0), 0, "beside: its own solid");
+        assert_eq!(double(Vec3::splat(3.0), 2.0), 0, "reaching out: its own solid");
     }
 
     #[test]
