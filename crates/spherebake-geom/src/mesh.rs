@@ -816,8 +816,8 @@ mod tests {
         assert_eq!(m.surface_only, vec![0]);
     }
 
-    /// Unit-cube-sized boxes `(min corner, edge)`, each whole (8 corners of its own, 12
-    /// outward triangles, the quads split on the same diagonal wherever two boxes touch).
+    /// Axis-aligned cubes `(min corner, edge)`, each whole (8 corners of its own, 12 outward
+    /// triangles, the quads split on the same diagonal wherever two cubes touch).
     fn boxes(list: &[(Vec3, f32)]) -> Mesh {
         let mut m = Mesh::default();
         for &(o, e) in list {

@@ -4,14 +4,12 @@
 //! A polygon whose fan from its first corner is a triangulation of it (every convex polygon,
 //! and any polygon that first corner sees whole) gets that fan: the triangles tobj gave every
 //! face before, so convex faces import exactly as they did. A convex polygon (up to the rounding
-//! of its f32 positions) of more than [`BALANCED_MIN_CORNERS`] corners is split in halves
-//! instead (triangle (a, m, b) with m midway from corner a to corner b, then the two halves
-//! alike): the fan's n − 2 triangles all
-//! reach from corner 0 across the polygon, slivers whose summed perimeter grows as n times
-//! its width, and every later stage (the BVH, the voxel rows, the bounding pass's pieces)
-//! pays for their length; the halves' triangles sum to about the polygon's perimeter times
-//! log₂ n. Any other polygon (concave: an L,
-//! a star) is ear-clipped: the fan would cover area outside it. Ear clipping takes the first
+//! of its f32 positions) of more than [`FAN_MAX_CORNERS`] corners is split in halves instead
+//! (triangle (a, m, b) with m midway from corner a to corner b, then the two halves alike):
+//! the fan's n − 2 triangles all reach from corner 0 across the polygon, slivers whose summed
+//! perimeter grows as n times its width, and every later stage (the BVH, the voxel rows, the
+//! bounding pass's pieces) pays for their length; the halves' triangles sum to about the
+//! polygon's perimeter times log₂ n. Any other polygon (concave: an L, a star) is ear-clipped: the fan would cover area outside it. Ear clipping takes the first
 //! ear from the second corner on, in polygon order, and is O(n²) for n corners; a concave
 //! polygon of more than [`MAX_EAR_CLIP_CORNERS`] corners, or one where no ear is found
 //! (self-intersecting or degenerate), gets the fan, and the importer warns once per file.
@@ -26,7 +24,7 @@ pub(crate) const MAX_EAR_CLIP_CORNERS: usize = 256;
 
 /// Most corners a convex polygon keeps the fan with (see the module docs); cylinder caps
 /// and other everyday n-gons import as tobj gave them.
-pub(crate) const BALANCED_MIN_CORNERS: usize = 32;
+pub(crate) const FAN_MAX_CORNERS: usize = 32;
 
 /// How a polygon was triangulated.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -34,7 +32,7 @@ pub(crate) enum How {
     /// The fan from the first corner, a triangulation of the polygon (or the polygon has no
     /// area: its Newell normal is zero).
     Fan,
-    /// Convex, more than [`BALANCED_MIN_CORNERS`] corners: split in halves.
+    /// Convex, more than [`FAN_MAX_CORNERS`] corners: split in halves.
     Halves,
     /// Ear-clipped (concave).
     EarClipped,
@@ -149,7 +147,7 @@ impl Triangulator {
             DVec2::new(q.dot(u), q.dot(v))
         };
         if self.fan_is_a_triangulation(n, &plane, largest) {
-            if n > BALANCED_MIN_CORNERS && convex_within_rounding(n, &plane, largest) {
+            if n > FAN_MAX_CORNERS && convex_within_rounding(n, &plane, largest) {
                 halves(corners, out);
                 return How::Halves;
             }
@@ -337,13 +335,13 @@ mod tests {
         (total, all_agree)
     }
 
-    /// Convex polygons (random, placed anywhere in space) of up to [`BALANCED_MIN_CORNERS`]
+    /// Convex polygons (random, placed anywhere in space) of up to [`FAN_MAX_CORNERS`]
     /// corners get exactly the fan from their first corner, as tobj gave them.
     #[test]
     fn convex_polygons_get_the_fan() {
         for seed in 0..300u64 {
             let mut r = xor(seed);
-            let n = 4 + (seed as usize * 7) % (BALANCED_MIN_CORNERS - 3);
+            let n = 4 + (seed as usize * 7) % (FAN_MAX_CORNERS - 3);
             let mut angles: Vec<f64> = (0..n).map(|_| r() * std::f64::consts::TAU).collect();
             angles.sort_by(f64::total_cmp);
             let (rx, ry) = (0.1 + r() * 3.0, 0.1 + r() * 3.0);
@@ -364,7 +362,7 @@ mod tests {
         tris.iter().map(|t| p(t[0]).distance(p(t[1])) + p(t[1]).distance(p(t[2])) + p(t[2]).distance(p(t[0]))).sum()
     }
 
-    /// Convex polygons of more than [`BALANCED_MIN_CORNERS`] corners (random ellipses, placed
+    /// Convex polygons of more than [`FAN_MAX_CORNERS`] corners (random ellipses, placed
     /// anywhere in space) are split in halves: n − 2 triangles of distinct corners, each facing
     /// the polygon's way, covering its area (the shoelace formula on the flat corners) once,
     /// whose perimeters sum to at most 2 P ⌈log₂ n⌉ for the polygon's perimeter P (each level
@@ -374,7 +372,7 @@ mod tests {
     fn large_convex_polygons_are_split_in_halves_into_their_area() {
         for seed in 0..200u64 {
             let mut r = xor(seed + 7000);
-            let n = BALANCED_MIN_CORNERS + 1 + (seed as usize * 37) % 600;
+            let n = FAN_MAX_CORNERS + 1 + (seed as usize * 37) % 600;
             // Corners jittered about even angles: no two within a third of the even step, so
             // every corner turns left by far more than the f32 rounding.
             let step = std::f64::consts::TAU / n as f64;
