@@ -244,6 +244,11 @@ struct Prepared {
     /// How many of `tris` bound the solid.
     solid_tris: usize,
     solid: Solid,
+    /// `solid.grid`'s [`voxel::VoxelGrid::boundary_share`], computed once.
+    boundary_share: f64,
+    /// [`descent_solid`]'s blocks, made by the first run that reads them (the fit's plan is one
+    /// for all its runs and restarts).
+    blocks: std::sync::OnceLock<Solid>,
     lo: DVec3,
     hi: DVec3,
     object_volume: f64,
@@ -420,7 +425,8 @@ fn prepare(
         ));
         closed = false;
     }
-    if grid.solid_count() == 0 {
+    let surface_layer = grid.solid_count() == 0;
+    if surface_layer {
         // A sheet encloses nothing: bound it anyway, with the cells its surface passes through
         // as the solid (E is then relative to that one-cell-thick layer). A closed mesh thinner
         // than a cell (a plank, a blade) does enclose volume, which its exact E still measures:
@@ -434,14 +440,13 @@ fn prepare(
             "mesh encloses no volume: the solid is the layer of cells the surface passes through".into()
         });
         grid.solid = voxel::surface_cells(&bvh, &grid);
-    } else {
-        let share = grid.boundary_share();
-        if share >= THIN_SOLID_SHARE {
-            warnings.push(format!(
-                "the solid is only a few voxel cells thick ({:.0} % of its cells at resolution {voxel_resolution} lie on its surface): E is relative to its small volume, so even tight spheres give a large E, and whatever its walls enclose (a hollow model's inside) counts as outside",
-                100.0 * share
-            ));
-        }
+    }
+    let boundary_share = grid.boundary_share();
+    if !surface_layer && boundary_share >= THIN_SOLID_SHARE {
+        warnings.push(format!(
+            "the solid is only a few voxel cells thick ({:.0} % of its cells at resolution {voxel_resolution} lie on its surface): E is relative to its small volume, so even tight spheres give a large E, and whatever its walls enclose (a hollow model's inside) counts as outside",
+            100.0 * boundary_share
+        ));
     }
     let solid = Solid::from_grid(grid);
     if solid.solid_count == 0 {
@@ -457,7 +462,20 @@ fn prepare(
     };
     let solid_tris = tris.len();
     tris.extend_from_slice(surface_only);
-    Ok(Prepared { pos, tris, solid_tris, solid, lo, hi, object_volume, source, exact, warnings })
+    Ok(Prepared {
+        pos,
+        tris,
+        solid_tris,
+        solid,
+        boundary_share,
+        blocks: std::sync::OnceLock::new(),
+        lo,
+        hi,
+        object_volume,
+        source,
+        exact,
+        warnings,
+    })
 }
 
 /// A solid with at least this share of its voxel cells on its surface
@@ -856,15 +874,14 @@ const DESCENT_BLOCK_MAX_SHARE: f64 = 0.2;
 /// The proxy of the exclusive descent and the seam rounds (stages 5–6) from Lloyd's and the
 /// lattice start: the voxel solid in blocks of [`FitPlan::descent_block`]³ cells, a block solid
 /// when at least half its cells are ([`spherebake_geom::voxel::VoxelGrid::coarsened`]);
-/// `None` (the solid itself) for blocks of one cell, exact ball volumes
-/// (`solid::exact_is_cheaper`), or a thin solid ([`DESCENT_BLOCK_MAX_SHARE`]). Cost
-/// O(cells).
-fn descent_solid(solid: &Solid, plan: &FitPlan) -> Option<Solid> {
+/// the solid itself for blocks of one cell, exact ball volumes (`solid::exact_is_cheaper`),
+/// or a thin solid ([`DESCENT_BLOCK_MAX_SHARE`]). Cost O(cells), once per prepared part.
+fn descent_solid<'a>(prep: &'a Prepared, plan: &FitPlan) -> &'a Solid {
     let b = plan.descent_block;
-    if b <= 1 || solid.is_exact() || solid.grid.boundary_share() > DESCENT_BLOCK_MAX_SHARE {
-        return None;
+    if b <= 1 || prep.solid.is_exact() || prep.boundary_share > DESCENT_BLOCK_MAX_SHARE {
+        return &prep.solid;
     }
-    Some(Solid::from_grid(solid.grid.coarsened(b, (b * b * b).div_ceil(2))))
+    prep.blocks.get_or_init(|| Solid::from_grid(prep.solid.grid.coarsened(b, (b * b * b).div_ceil(2))))
 }
 
 /// Proxy E of a sphere set: Σ proxy V(S_i − T) / proxy V(T). Cost O(Σ r_i² / h²) row reads.
@@ -988,8 +1005,7 @@ fn variational_run(
     tr: &mut Tracer,
 ) -> Run {
     let (plan, solid) = (&settings.plan, &prep.solid);
-    let coarse = descent_solid(solid, plan);
-    let dsolid = coarse.as_ref().unwrap_or(solid);
+    let dsolid = descent_solid(prep, plan);
     // Without polish rounds (the fast plan) nothing reads the dense points.
     let all = if plan.polish_rounds > 0 { dense_points(prep, pts, plan) } else { Vec::new() };
     tr.record("dense_points", None, |x| x.points = all.len());

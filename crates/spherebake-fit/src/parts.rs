@@ -13,6 +13,7 @@
 //! (the fit then behaves as before the split).
 
 use glam::{DVec3, Vec3};
+use spherebake_geom::disjoint::{find, union};
 
 /// More connected components than this: no split (one part, one grid).
 pub const MAX_COMPONENTS: usize = 1024;
@@ -32,24 +33,6 @@ pub struct Part {
     pub source_triangles: Vec<usize>,
     /// Σ triangle area, square model units (f64).
     pub area: f64,
-}
-
-fn find(parent: &mut [usize], mut x: usize) -> usize {
-    while parent[x] != x {
-        parent[x] = parent[parent[x]];
-        x = parent[x];
-    }
-    x
-}
-
-fn union(parent: &mut [usize], a: usize, b: usize) -> bool {
-    let (ra, rb) = (find(parent, a), find(parent, b));
-    if ra == rb {
-        return false;
-    }
-    let (lo, hi) = if ra < rb { (ra, rb) } else { (rb, ra) };
-    parent[hi] = lo;
-    true
 }
 
 /// Box gap (Euclidean distance between two axis-aligned boxes; 0 when they touch).

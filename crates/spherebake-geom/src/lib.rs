@@ -10,6 +10,7 @@
 pub mod anim;
 mod bucket;
 pub mod bvh;
+pub mod disjoint;
 pub mod edges;
 pub mod mesh;
 pub mod motion;

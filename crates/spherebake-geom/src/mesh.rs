@@ -367,15 +367,8 @@ impl Mesh {
         }
         let w = |v: u32| self.weld.get(v as usize).copied().unwrap_or(v);
         let marked: Vec<usize> = (0..tris.len()).filter(|&n| closed[n]).collect();
-        // Union-find over `marked` through shared edges.
+        // Disjoint sets over `marked` through shared edges.
         let mut parent: Vec<usize> = (0..marked.len()).collect();
-        fn root(parent: &mut [usize], mut a: usize) -> usize {
-            while parent[a] != a {
-                parent[a] = parent[parent[a]];
-                a = parent[a];
-            }
-            a
-        }
         let mut edges: Vec<([u32; 2], usize)> = Vec::with_capacity(3 * marked.len());
         for (m, &n) in marked.iter().enumerate() {
             let c = self.triangles[tris[n]].map(w);
@@ -387,8 +380,7 @@ impl Mesh {
         edges.sort_unstable();
         for run in edges.chunk_by(|a, b| a.0 == b.0) {
             for x in &run[1..] {
-                let (a, b) = (root(&mut parent, run[0].1), root(&mut parent, x.1));
-                parent[a.max(b)] = a.min(b);
+                crate::disjoint::union(&mut parent, run[0].1, x.1);
             }
         }
         let wn = crate::winding::WindingNumber::new(&self.positions, single);
@@ -398,7 +390,7 @@ impl Mesh {
         };
         let mut groups: std::collections::BTreeMap<usize, (Vec<usize>, bool)> = std::collections::BTreeMap::new();
         for (m, &n) in marked.iter().enumerate() {
-            let r = root(&mut parent, m);
+            let r = crate::disjoint::find(&mut parent, m);
             let g = groups.entry(r).or_insert((Vec::new(), true));
             g.0.push(n);
             g.1 &= crate::voxel::inside(wn.eval(centroid(tris[n])));

@@ -222,37 +222,23 @@ impl BoneTerm {
 /// Cost O(triangles).
 #[must_use]
 pub fn nearest_surface_weights(x: DVec3, positions: &[DVec3], triangles: &[[u32; 3]]) -> Option<(Vec<f64>, f64)> {
-    let mut best: Option<(f64, [u32; 3], DVec3)> = None;
+    let mut best: Option<(f64, [u32; 3], [f64; 3])> = None;
     for t in triangles {
         let [Some(a), Some(b), Some(c)] = t.map(|v| positions.get(v as usize).copied()) else { continue };
         let c = [a, b, c];
         if !c.iter().all(|p| p.is_finite()) {
             continue;
         }
-        let q = crate::triangle::closest_point_on_triangle(x, &c);
+        let (q, l) = crate::triangle::closest_point_and_weights(x, &c);
         let d2 = x.distance_squared(q);
         if best.is_none_or(|(b, ..)| d2 < b) {
-            best = Some((d2, *t, q));
+            best = Some((d2, *t, l));
         }
     }
-    let (d2, t, q) = best?;
-    let [a, b, c] = t.map(|v| positions[v as usize]);
+    let (d2, t, l) = best?;
     let mut weights = vec![0.0; positions.len()];
-    // Barycentrics of q (Ericson §3.4); q lies on the closed triangle, so they are in [0, 1]
-    // up to rounding.
-    let (e0, e1, e2) = (b - a, c - a, q - a);
-    let (d00, d01, d11, d20, d21) = (e0.dot(e0), e0.dot(e1), e1.dot(e1), e2.dot(e0), e2.dot(e1));
-    let denom = d00 * d11 - d01 * d01;
-    if denom > 1e-30 * (d00 * d11).max(f64::MIN_POSITIVE) && denom.is_finite() {
-        let v = ((d11 * d20 - d01 * d21) / denom).clamp(0.0, 1.0);
-        let w = ((d00 * d21 - d01 * d20) / denom).clamp(0.0, 1.0 - v);
-        weights[t[0] as usize] += 1.0 - v - w;
-        weights[t[1] as usize] += v;
-        weights[t[2] as usize] += w;
-    } else {
-        let corner =
-            (0..3).min_by(|&i, &j| x.distance_squared([a, b, c][i]).total_cmp(&x.distance_squared([a, b, c][j])))?;
-        weights[t[corner] as usize] = 1.0;
+    for (v, l) in t.iter().zip(l) {
+        weights[*v as usize] += l;
     }
     Some((weights, d2.sqrt()))
 }

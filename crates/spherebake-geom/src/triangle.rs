@@ -148,6 +148,13 @@ fn snap(x: DVec3, corners: [DVec3; 3]) -> DVec3 {
 /// denominator) gives its corner nearest to `p`.
 #[must_use]
 pub fn closest_point_on_triangle(p: DVec3, t: &[DVec3; 3]) -> DVec3 {
+    closest_point_and_weights(p, t).0
+}
+
+/// [`closest_point_on_triangle`] and its barycentric weights (λ_a, λ_b, λ_c), Σ λ = 1, each in
+/// [0, 1]: the weights of the Voronoi region that gave the point (one-hot at a corner).
+#[must_use]
+pub fn closest_point_and_weights(p: DVec3, t: &[DVec3; 3]) -> (DVec3, [f64; 3]) {
     let [a, b, c] = *t;
     let ab = b - a;
     let ac = c - a;
@@ -155,42 +162,48 @@ pub fn closest_point_on_triangle(p: DVec3, t: &[DVec3; 3]) -> DVec3 {
     let d1 = ab.dot(ap);
     let d2 = ac.dot(ap);
     if d1 <= 0.0 && d2 <= 0.0 {
-        return a;
+        return (a, [1.0, 0.0, 0.0]);
     }
     let bp = p - b;
     let d3 = ab.dot(bp);
     let d4 = ac.dot(bp);
     if d3 >= 0.0 && d4 <= d3 {
-        return b;
+        return (b, [0.0, 1.0, 0.0]);
     }
     let vc = d1 * d4 - d3 * d2;
     if vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0 {
-        return a + ab * (d1 / (d1 - d3));
+        let v = d1 / (d1 - d3);
+        return (a + ab * v, [1.0 - v, v, 0.0]);
     }
     let cp = p - c;
     let d5 = ab.dot(cp);
     let d6 = ac.dot(cp);
     if d6 >= 0.0 && d5 <= d6 {
-        return c;
+        return (c, [0.0, 0.0, 1.0]);
     }
     let vb = d5 * d2 - d1 * d6;
     if vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0 {
-        return a + ac * (d2 / (d2 - d6));
+        let w = d2 / (d2 - d6);
+        return (a + ac * w, [1.0 - w, 0.0, w]);
     }
     let va = d3 * d6 - d5 * d4;
     if va <= 0.0 && (d4 - d3) >= 0.0 && (d5 - d6) >= 0.0 {
-        return b + (c - b) * ((d4 - d3) / ((d4 - d3) + (d5 - d6)));
+        let w = (d4 - d3) / ((d4 - d3) + (d5 - d6));
+        return (b + (c - b) * w, [0.0, 1.0 - w, w]);
     }
     let denom = va + vb + vc;
     if denom == 0.0 || !denom.is_finite() {
         // Degenerate triangle: the nearest corner is as good as any point.
-        return [a, b, c]
-            .into_iter()
-            .fold(a, |m, x| if (x - p).length_squared() < (m - p).length_squared() { x } else { m });
+        let i = (0..3).fold(0, |m, i| if (t[i] - p).length_squared() < (t[m] - p).length_squared() { i } else { m });
+        let mut l = [0.0; 3];
+        l[i] = 1.0;
+        return (t[i], l);
     }
     let v = vb / denom;
     let w = vc / denom;
-    a + ab * v + ac * w
+    // Inside the face v, w ≥ 0 and v + w ≤ 1 up to rounding: held there for the weights.
+    let (lv, lw) = (v.clamp(0.0, 1.0), w.clamp(0.0, 1.0 - v.clamp(0.0, 1.0)));
+    (a + ab * v + ac * w, [1.0 - lv - lw, lv, lw])
 }
 
 #[cfg(test)]

@@ -65,13 +65,19 @@ fn orient(a: DVec2, b: DVec2, c: DVec2) -> f64 {
     (b - a).perp_dot(c - a)
 }
 
+/// Moving a corner by the f32 rounding of `largest` (per coordinate) changes the cross product
+/// of two edges d × e by at most about this times |d| + |e|.
+fn rounding_slack(largest: f64) -> f64 {
+    8.0 * f64::from(f32::EPSILON) * largest
+}
+
 /// No corner of the polygon `plane(i)` (counter-clockwise) turns right by more than the
 /// rounding of f32 positions as large as `largest` (the allowance of
 /// [`Triangulator::fan_is_a_triangulation`], which has checked that the polygon winds once):
 /// convex up to that rounding. (A circle of 12 500 corners in f32 is no more convex than
 /// this: each corner's sagitta, 3·10⁻⁸ of the radius, is under the rounding of its position.)
 fn convex_within_rounding(n: usize, plane: &impl Fn(usize) -> DVec2, largest: f64) -> bool {
-    let slack = 8.0 * f64::from(f32::EPSILON) * largest;
+    let slack = rounding_slack(largest);
     let (mut a, mut b) = (plane(n - 1), plane(0));
     (0..n).all(|i| {
         let c = plane((i + 1) % n);
@@ -174,9 +180,7 @@ impl Triangulator {
     /// corner 0. Consecutive wedges that do not wrap around are disjoint, and their triangles
     /// are then the polygon, star-shaped from corner 0.
     fn fan_is_a_triangulation(&self, n: usize, plane: &impl Fn(usize) -> DVec2, largest: f64) -> bool {
-        // Moving a corner by the f32 rounding of `largest` (per coordinate) changes dᵢ × dᵢ₊₁
-        // by at most about this times |dᵢ| + |dᵢ₊₁|.
-        let slack = 8.0 * f64::from(f32::EPSILON) * largest;
+        let slack = rounding_slack(largest);
         let mut turned = 0.0f64;
         let mut d = plane(1);
         for i in 1..n - 1 {
