@@ -144,8 +144,9 @@ fn snap(x: DVec3, corners: [DVec3; 3]) -> DVec3 {
 
 /// Closest point of triangle `t` to `p` (Ericson, Real-Time Collision Detection §5.1.5): the
 /// point of the closed triangle nearest to `p`, found by the Voronoi region of `p` (a corner, an
-/// edge, or the face by barycentrics). A degenerate triangle (zero or non-finite barycentric
-/// denominator) gives its corner nearest to `p`.
+/// edge, or the face by barycentrics). A triangle with two equal corners gives the closest
+/// point of its segment; one with three (or collinear corners off every edge region) its
+/// corner nearest to `p`.
 #[must_use]
 pub fn closest_point_on_triangle(p: DVec3, t: &[DVec3; 3]) -> DVec3 {
     closest_point_and_weights(p, t).0
@@ -171,7 +172,9 @@ pub fn closest_point_and_weights(p: DVec3, t: &[DVec3; 3]) -> (DVec3, [f64; 3]) 
         return (b, [0.0, 1.0, 0.0]);
     }
     let vc = d1 * d4 - d3 * d2;
-    if vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0 {
+    // Each edge's denominator is its length squared: an edge of length 0 (two equal corners)
+    // is left to the other regions, which hold the triangle's segment (0 / 0 gave NaN).
+    if vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0 && d1 - d3 > 0.0 {
         let v = d1 / (d1 - d3);
         return (a + ab * v, [1.0 - v, v, 0.0]);
     }
@@ -182,12 +185,12 @@ pub fn closest_point_and_weights(p: DVec3, t: &[DVec3; 3]) -> (DVec3, [f64; 3]) 
         return (c, [0.0, 0.0, 1.0]);
     }
     let vb = d5 * d2 - d1 * d6;
-    if vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0 {
+    if vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0 && d2 - d6 > 0.0 {
         let w = d2 / (d2 - d6);
         return (a + ac * w, [1.0 - w, 0.0, w]);
     }
     let va = d3 * d6 - d5 * d4;
-    if va <= 0.0 && (d4 - d3) >= 0.0 && (d5 - d6) >= 0.0 {
+    if va <= 0.0 && (d4 - d3) >= 0.0 && (d5 - d6) >= 0.0 && (d4 - d3) + (d5 - d6) > 0.0 {
         let w = (d4 - d3) / ((d4 - d3) + (d5 - d6));
         return (b + (c - b) * w, [0.0, 1.0 - w, w]);
     }
@@ -209,6 +212,27 @@ pub fn closest_point_and_weights(p: DVec3, t: &[DVec3; 3]) -> (DVec3, [f64; 3]) 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A triangle with two equal corners (in each position) is the segment between its two
+    /// distinct corners: the closest point is the segment's, against its analytic clamp, and
+    /// finite (0 / 0 gave NaN off the zero-length edge); the weights reproduce it.
+    #[test]
+    fn a_triangle_with_two_equal_corners_gives_the_closest_point_of_its_segment() {
+        let mut rng = crate::rng::SplitMix64::new(21);
+        for n in 0..300 {
+            let mut r = || DVec3::new(rng.next_f64(), rng.next_f64(), rng.next_f64()) * 4.0 - 2.0;
+            let (a, c, p) = (r(), r(), r());
+            let s = ((p - a).dot(c - a) / (c - a).length_squared()).clamp(0.0, 1.0);
+            let want = a + (c - a) * s;
+            for t in [[a, a, c], [a, c, a], [c, a, a]] {
+                let (q, l) = closest_point_and_weights(p, &t);
+                assert!((q - want).length() < 1e-12, "{n}: {t:?} from {p}: {q}, segment {want}");
+                assert_eq!(q, closest_point_on_triangle(p, &t));
+                let back = t[0] * l[0] + t[1] * l[1] + t[2] * l[2];
+                assert!((back - q).length() < 1e-12 && (l.iter().sum::<f64>() - 1.0).abs() < 1e-12, "{n}");
+            }
+        }
+    }
 
     #[test]
     fn grid_counts_corners_and_spacing() {
