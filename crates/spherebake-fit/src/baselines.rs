@@ -7,6 +7,7 @@
 
 use crate::rng::SplitMix64;
 use crate::solid::Solid;
+use crate::Ball;
 use glam::DVec3;
 use std::collections::BinaryHeap;
 
@@ -309,9 +310,25 @@ pub fn lattices_at_most(lo: DVec3, hi: DVec3, points: &[DVec3], k: usize) -> Vec
 /// or `k` = 0. Cost O(points × depth) for the cuts (depth about log₂ k) and three pairs of
 /// balls per cut (six with `oblique`, plus the covariance), expected O(the cell's points) each.
 pub fn split_start(points: &[DVec3], k: usize, oblique: bool) -> Vec<(DVec3, f64)> {
+    split_starts(points, k, oblique, |_, _| 0.0).0
+}
+
+/// [`split_start`]'s `k` cells, and the same cuts stopped at the count of least total `cost`
+/// (summed over the cells' balls; the latest count on a tie, so a cost of 0 gives the `k`
+/// cells twice): the cells alive after that cut, in the order they were made. With the proxy
+/// outside volume as the cost the second is the bisection's best count up to `k`: more
+/// cells need not fit better (the balls of a round rod's slabs each reach out beside the
+/// rod by about as much however thin the slab, so on a short rod halving slabs adds outside
+/// volume). `cost` is called once per cell made.
+pub fn split_starts(
+    points: &[DVec3],
+    k: usize,
+    oblique: bool,
+    mut cost: impl FnMut(DVec3, f64) -> f64,
+) -> (Vec<Ball>, Vec<Ball>) {
     let pts: Vec<DVec3> = points.iter().copied().filter(|p| p.is_finite()).collect();
     if pts.is_empty() || k == 0 {
-        return Vec::new();
+        return (Vec::new(), Vec::new());
     }
     let ball_of = |idx: &[u32]| {
         let members: Vec<DVec3> = idx.iter().map(|&i| pts[i as usize]).collect();
@@ -322,6 +339,13 @@ pub fn split_start(points: &[DVec3], k: usize, oblique: bool) -> Vec<(DVec3, f64
     let all: Vec<u32> = (0..pts.len() as u32).collect();
     let whole = ball_of(&all);
     let mut cells: Vec<Cell> = vec![(all, whole)];
+    // Per cell: the cut it was cut at (usize::MAX: never) and its cost; the running total
+    // cost, and the number of cuts after which it was least.
+    let mut cut_at: Vec<usize> = vec![usize::MAX];
+    let mut costs: Vec<f64> = vec![cost(whole.0, whole.1)];
+    let mut total = costs[0];
+    let (mut best_total, mut best_cuts) = (total, 0usize);
+    let mut cuts = 0usize;
     // Max-heap on (radius as ordered bits, earliest cell first).
     let mut heap: BinaryHeap<(u64, std::cmp::Reverse<usize>)> = BinaryHeap::new();
     heap.push((cells[0].1 .1.to_bits(), std::cmp::Reverse(0)));
@@ -373,13 +397,33 @@ pub fn split_start(points: &[DVec3], k: usize, oblique: bool) -> Vec<(DVec3, f64
             cells[ci].0 = idx;
             continue;
         };
+        cuts += 1;
+        cut_at[ci] = cuts;
+        total -= costs[ci];
         for (part, ball) in parts {
+            let c = cost(ball.0, ball.1);
+            total += c;
             heap.push((ball.1.to_bits(), std::cmp::Reverse(cells.len())));
             cells.push((part, ball));
+            cut_at.push(usize::MAX);
+            costs.push(c);
+        }
+        if total <= best_total {
+            (best_total, best_cuts) = (total, cuts);
         }
         count += 1;
     }
-    cells.iter().filter(|(idx, _)| !idx.is_empty()).map(|(_, ball)| *ball).collect()
+    // The cells alive after `n` cuts; cells are made two per cut, in order: cell j ≥ 1 by
+    // cut ⌈j / 2⌉.
+    let alive = |n: usize| -> Vec<Ball> {
+        cells
+            .iter()
+            .enumerate()
+            .filter(|&(j, _)| j.div_ceil(2) <= n && cut_at[j] > n)
+            .map(|(_, (_, ball))| *ball)
+            .collect()
+    };
+    (alive(cuts), alive(best_cuts))
 }
 
 #[cfg(test)]
@@ -575,5 +619,58 @@ mod kmeanspp_tests {
         assert!(split_start(&[], 8, true).is_empty() && split_start(&cube, 0, true).is_empty());
         // Points that all coincide are one cell whatever k asks.
         assert_eq!(split_start(&[DVec3::ONE; 5], 4, true).len(), 1);
+    }
+
+    /// The best count of the split start against the brute force: the cuts do not depend on
+    /// `k`, so `split_start(points, j)` is the sequence stopped after j − 1 cuts, and the
+    /// returned cells must be those of the j ≤ k of least summed cost (the latest on a tie).
+    /// The cost here is a ball's volume outside a round rod of radius 0.5 and length 2 along
+    /// z, from a midpoint sum over the ball (an independent stand-in for the proxy). A cost of
+    /// 0 gives the k cells twice.
+    #[test]
+    fn the_split_starts_best_count_is_the_least_total_cost_of_every_count() {
+        let mut pts = Vec::new();
+        for iz in 0..=64 {
+            let z = -1.0 + 2.0 * iz as f64 / 64.0;
+            for ia in 0..16 {
+                let t = std::f64::consts::TAU * ia as f64 / 16.0;
+                for r in [0.5, 0.25] {
+                    pts.push(DVec3::new(r * t.cos(), r * t.sin(), z));
+                }
+            }
+        }
+        let outside = |c: DVec3, r: f64| {
+            let n = 24;
+            let step = 2.0 * r / n as f64;
+            let mut v = 0.0;
+            for i in 0..n {
+                for j in 0..n {
+                    for l in 0..n {
+                        let q = c + DVec3::new(i as f64 + 0.5, j as f64 + 0.5, l as f64 + 0.5) * step - DVec3::splat(r);
+                        let inside = q.x * q.x + q.y * q.y <= 0.25 && q.z.abs() <= 1.0;
+                        if q.distance(c) <= r && !inside {
+                            v += step.powi(3);
+                        }
+                    }
+                }
+            }
+            v
+        };
+        for (k, oblique) in [(12, false), (24, true), (5, false)] {
+            let (all, best) = split_starts(&pts, k, oblique, outside);
+            assert_eq!(all, split_start(&pts, k, oblique));
+            let totals: Vec<f64> = (1..=k)
+                .map(|j| split_start(&pts, j, oblique).iter().map(|&(c, r)| outside(c, r)).sum::<f64>())
+                .collect();
+            let least = totals.iter().copied().fold(f64::INFINITY, f64::min);
+            let j = totals.iter().rposition(|&t| t == least).unwrap() + 1;
+            assert_eq!(best, split_start(&pts, j, oblique), "k {k}: totals {totals:?}");
+            let (a0, b0) = split_starts(&pts, k, oblique, |_, _| 0.0);
+            assert!(a0 == all && b0 == all);
+            if k >= 12 {
+                // The short rod's slabs: beyond a few, thinner slabs add outside volume.
+                assert!(j < k && j >= 3, "best count {j} of {k}: {totals:?}");
+            }
+        }
     }
 }

@@ -26,7 +26,7 @@ use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::Arc;
 
 /// A ball: centre, radius.
-type Ball = (DVec3, f64);
+use crate::Ball;
 /// A split: (Δ outside volume, the two balls).
 type SplitMove = Option<(f64, Ball, Ball)>;
 /// A pair's boundary move: (summed outside volume, each ball with its outside volume).

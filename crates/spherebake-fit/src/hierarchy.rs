@@ -86,7 +86,7 @@ pub struct HierarchyStats {
 }
 
 /// A ball in f64, model units.
-type Ball = (DVec3, f64);
+use crate::Ball;
 
 fn leaf_ball(s: &[f32; 4]) -> Ball {
     (DVec3::new(f64::from(s[0]), f64::from(s[1]), f64::from(s[2])), f64::from(s[3]))

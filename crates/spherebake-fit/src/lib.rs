@@ -27,7 +27,10 @@
 //!    ball, [`baselines::split_start`]; cut along x, y and z, then also along the cells'
 //!    principal axes): each whose proxy E is below the lattice's and within
 //!    [`FitPlan::split_start_tie`] of Lloyd's (the second also below the first's), stages
-//!    4–8 run from it too and the lowest exact E of all runs is kept;
+//!    4–8 run from it too and the lowest exact E of all runs is kept; when its k cells do not
+//!    qualify, the same cuts stopped at their count of least proxy outside volume (padded
+//!    with empty spheres) are tried the same way, so a fit at more spheres than a part's best
+//!    chain is not left to Lloyd's start alone ([`baselines::split_starts`]);
 //! 3. **polish** on the dense points: assignment, joint radius shrinking (farthest members
 //!    handed to neighbouring spheres where that lowers the summed outside volume), centre
 //!    update ignoring members that another sphere already covers (all but the last round);
@@ -104,6 +107,9 @@ use std::f64::consts::PI;
 use std::time::Instant;
 
 pub use bound::{BoundReport, Sphere32};
+
+/// A ball in f64: centre and radius (model units).
+pub type Ball = (DVec3, f64);
 pub use plan::{FitPlan, Preset};
 
 /// Which fitting algorithm to run.
@@ -789,7 +795,8 @@ pub struct TraceEntry {
     /// E once bounded; iterations 1 when it was returned instead), `split_start` (E: its proxy
     /// E; iterations 1 when it ran, followed by its own `descent_points` … `exact_e`; trials 0
     /// for the cuts along x, y and z, 1 for the second split start, with the principal axes,
-    /// listed when its spheres differ), then `enclosing_ball` (computed first, listed last; E:
+    /// listed when its spheres differ; round 1 when it is the cuts' best count below k, taken
+    /// because the k cells did not qualify), then `enclosing_ball` (computed first, listed last; E:
     /// the exact E of the minimal enclosing ball; iterations 1 when it was returned instead; at one
     /// sphere the only stage). When both starts run
     /// (`lattice_start` iterations 2, see [`FitPlan::start_tie`]) the stages from `polish` to
@@ -798,7 +805,8 @@ pub struct TraceEntry {
     /// directly (a round part). The baselines record `kmeans` or `octree`,
     /// then `bound` and `exact_e`.
     pub stage: &'static str,
-    /// Round (1, 2, ...) for `seam` and `gap`, else 0.
+    /// Round (1, 2, ...) for `seam` and `gap`; 1 for a `split_start` at its best count below
+    /// k; else 0.
     pub round: usize,
     /// Proxy E (voxel proxy outside volume over the solid's volume) of the spheres after the
     /// stage; `None` for the point stages. After `exact_e`: the exact E of the part.
@@ -993,8 +1001,9 @@ struct LloydInfo {
 /// E (Lloyd's on a tie): before the descent the two proxies do not tell which start ends
 /// lower (see `lattice_start`). The split starts (2c: along x, y and z; then with the
 /// principal axes) run as a third and fourth when their proxy E is below the lattice's and
-/// within [`FitPlan::split_start_tie`] of Lloyd's (the second also below the first's); the
-/// lowest exact E of the runs is returned (the earliest on a tie), so each can only lower E.
+/// within [`FitPlan::split_start_tie`] of Lloyd's (the second also below the first's), each
+/// replaced by its cuts' best count below k when only that qualifies; the lowest exact E of
+/// the runs is returned (the earliest on a tie), so each can only lower E.
 fn variational_run(
     prep: &Prepared,
     pts: &points::PointSet,
@@ -1067,26 +1076,46 @@ fn variational_run(
     // cylinder 0.179 instead of 0.162), every seed.
     let mut split_runs = Vec::with_capacity(2);
     let (mut first, mut e_first): (Vec<(DVec3, f64)>, f64) = (Vec::new(), f64::INFINITY);
+    // The first's spheres as listed (its k cells or its best count).
+    let mut first_run: Vec<(DVec3, f64)> = Vec::new();
     for oblique in [false, true] {
         if oblique && !plan.split_start_oblique {
             break;
         }
-        let (split, e_split) = split_start(prep, pts, k, oblique);
-        if oblique && split == first {
+        let ((split, e_split), fewer) = split_start(prep, pts, k, oblique);
+        let skip = |tr: &mut Tracer| {
             // Not listed (the first's spheres again), but its cuts took time.
             add_timing(&mut tr.timings, "split_start", tr.t.elapsed().as_secs_f64());
             tr.t = Instant::now();
+        };
+        if oblique && split == first {
+            skip(tr);
             continue;
         }
-        let from_split =
-            e_split < e_start && e_split <= (1.0 + plan.split_start_tie) * e_lloyd && (!oblique || e_split < e_first);
+        let qualifies =
+            |e: f64| e < e_start && e <= (1.0 + plan.split_start_tie) * e_lloyd && (!oblique || e < e_first);
+        // Its best count below k (round 1) when the k cells do not qualify and it starts below
+        // Lloyd's proxy E (it is a run more, on fewer live spheres).
+        let (split, e_split, round) = match fewer {
+            Some((f, e_f)) if !qualifies(e_split) && qualifies(e_f) && e_f < e_lloyd => (f, e_f, 1),
+            _ => (split, e_split, 0),
+        };
+        if oblique && round == 1 && split == first_run {
+            skip(tr);
+            continue;
+        }
+        let from_split = qualifies(e_split);
         tr.record("split_start", Some(e_split), |x| {
             x.iterations = usize::from(from_split);
             x.trials = usize::from(oblique);
+            x.round = round;
         });
         if !oblique {
-            first.clone_from(&split);
-            e_first = e_split;
+            first_run.clone_from(&split);
+            if round == 0 {
+                first.clone_from(&split);
+                e_first = e_split;
+            }
         }
         if from_split {
             let key = if oblique { "split_oblique" } else { "split" };
@@ -1103,16 +1132,26 @@ fn variational_run(
     best.unwrap_or_else(|| finish(prep, pts, plan, &sp, LloydInfo::default(), tr))
 }
 
-/// Stage 2c, a split start ([`baselines::split_start`] on the clustering points, padded with
+/// A start: spheres and their proxy E.
+type Start = (Vec<Ball>, f64);
+
+/// Stage 2c, a split start ([`baselines::split_starts`] on the clustering points, padded with
 /// empty spheres to `k`; along the cells' principal axes too with `oblique`) and its proxy E
-/// (infinite when it has no sphere). Cost O(points × log k) and one proxy evaluation of k
-/// spheres.
-fn split_start(prep: &Prepared, pts: &points::PointSet, k: usize, oblique: bool) -> (Vec<(DVec3, f64)>, f64) {
-    let mut sp = baselines::split_start(&pts.points, k, oblique);
-    let Some(&(c0, _)) = sp.first() else { return (sp, f64::INFINITY) };
-    sp.resize(k, (c0, 0.0));
-    let e = proxy_e_of(&prep.solid, &sp);
-    (sp, e)
+/// (infinite when it has no sphere); and the same cuts stopped at their count of least proxy
+/// outside volume, padded alike, with its proxy E, when that is fewer than the k cells. Cost
+/// O(points × log k) and about two proxy evaluations per cell.
+fn split_start(prep: &Prepared, pts: &points::PointSet, k: usize, oblique: bool) -> (Start, Option<Start>) {
+    let (mut all, mut fewer) = baselines::split_starts(&pts.points, k, oblique, |c, r| prep.solid.outside(c, r));
+    let Some(&(c0, _)) = all.first() else { return ((all, f64::INFINITY), None) };
+    let fewer = (fewer.len() < all.len()).then(|| {
+        let f0 = fewer[0].0;
+        fewer.resize(k, (f0, 0.0));
+        let e = proxy_e_of(&prep.solid, &fewer);
+        (fewer, e)
+    });
+    all.resize(k, (c0, 0.0));
+    let e = proxy_e_of(&prep.solid, &all);
+    ((all, e), fewer)
 }
 
 /// Stages 4–6c from a start: descent points, the exclusive descent, the seam rounds, the band

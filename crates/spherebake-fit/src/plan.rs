@@ -145,7 +145,11 @@ pub struct FitPlan {
     /// same files; `docs/benchmarks.md`, "The split start at near ties"). At 50 % (`best`)
     /// it also runs on the unit cube at 64 spheres (4.4 s of CPU instead of 1.9 s, the same
     /// E) and on the capsule chain at 32 (E 0.351 → 0.308; `docs/benchmarks.md`, "The split
-    /// start"). Cost up to one more descent and bound where it runs. Range [0, 10].
+    /// start"). Cost up to one more descent and bound where it runs. When a split start's k
+    /// cells miss this bar, its cuts stopped at their best count below k are held to it
+    /// instead, and must also start below Lloyd's proxy E ([`crate::baselines::split_starts`]:
+    /// a round part at more spheres than its best chain; `docs/benchmarks.md`, "More spheres
+    /// than the chain needs"). Range [0, 10].
     pub split_start_tie: f64,
 
     /// Whether the second split start, with the cells' principal axes, is made at all (it

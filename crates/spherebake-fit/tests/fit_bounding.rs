@@ -831,3 +831,26 @@ fn a_short_cylinder_takes_the_split_start_at_a_near_tie() {
     assert!(e <= chain, "E {e} above the chain's {chain}");
     assert_triangles_covered(&p, &t, &out.spheres);
 }
+
+/// The same short cylinder at 24 spheres. A chain of more equal spheres fits a short rod worse
+/// ([`chain_e`] is least at 8–9 spheres, 0.2765, and 0.2996 at 24), so Lloyd's rim rings
+/// (proxy 0.337) are far below the 24-slab split start (0.934) and that start does not run;
+/// the run from Lloyd's ended at E 0.313, above the fit at 16 spheres (0.253) and above the
+/// best chain of at most 24. The split start's cuts stopped at their best count (proxy 0.280,
+/// padded with empty spheres) run instead. Asserted: E at most the best chain of ≤ 24
+/// spheres (measured 0.2725), from that start.
+#[test]
+fn a_short_cylinder_at_more_spheres_than_its_best_chain_takes_the_split_starts_best_count() {
+    let (a, l, k) = (0.5f64, 2.0f64, 24usize);
+    let (p, t) = cylinder(a, l, 64);
+    let p: Vec<Vec3> = p.iter().map(|q| Vec3::new(q.y, q.z, q.x - 1.0)).collect();
+    let best_chain = (1..=k).map(|j| chain_e(a, l, j)).fold(f64::INFINITY, f64::min);
+    assert!((best_chain - 0.2765).abs() < 1e-3, "{best_chain}");
+    let out = fit(&p, &t, &FitSettings { spheres: k, ..Default::default() }, &|_| {}).unwrap();
+    let e = out.stats.outside_ratio_e;
+    let split = out.stats.trace.iter().find(|x| x.stage == "split_start").expect("traced");
+    assert!(split.iterations == 1 && split.round == 1, "the best count should run: {split:?}");
+    assert!(e <= best_chain, "E {e} above the best chain's {best_chain}");
+    assert_eq!(out.spheres.len(), k);
+    assert_triangles_covered(&p, &t, &out.spheres);
+}
