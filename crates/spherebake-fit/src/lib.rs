@@ -107,10 +107,10 @@ use std::f64::consts::PI;
 use std::time::Instant;
 
 pub use bound::{BoundReport, Sphere32};
+pub use plan::{FitPlan, Preset};
 
 /// A ball in f64: centre and radius (model units).
 pub type Ball = (DVec3, f64);
-pub use plan::{FitPlan, Preset};
 
 /// Which fitting algorithm to run.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
@@ -1075,9 +1075,9 @@ fn variational_run(
     // `tests/fit_bounding.rs` ended at 0.170 instead of 0.130 at 32 spheres (a 16-sided long
     // cylinder 0.179 instead of 0.162), every seed.
     let mut split_runs = Vec::with_capacity(2);
-    let (mut first, mut e_first): (Vec<(DVec3, f64)>, f64) = (Vec::new(), f64::INFINITY);
+    let (mut first, mut e_first): (Vec<Ball>, f64) = (Vec::new(), f64::INFINITY);
     // The first's spheres as listed (its k cells or its best count).
-    let mut first_run: Vec<(DVec3, f64)> = Vec::new();
+    let mut first_run: Vec<Ball> = Vec::new();
     for oblique in [false, true] {
         if oblique && !plan.split_start_oblique {
             break;
