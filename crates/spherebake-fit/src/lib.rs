@@ -1336,24 +1336,38 @@ fn dense_points(prep: &Prepared, pts: &points::PointSet, plan: &FitPlan) -> Vec<
             corners.chain(std::iter::once((a + b + c) / 3.0)).chain(mids).chain(grid)
         })
         .collect();
-    thin_surface(&mut all, prep, plan);
+    thin_surface(&mut all, prep.solid.origin, prep.solid.h, plan);
     all.iter().chain(&pts.points[pts.surface_count..]).map(|p| points::Rep::point(*p)).collect()
 }
 
 /// When `v` holds more than `plan.point_budget` surface points, keeps one per cube of
-/// `plan.point_cell` voxel cells ([`points::keep_per_cell`], cubes aligned on the solid's
-/// grid), in their order; a cell of 0 keeps all.
-fn thin_surface(v: &mut Vec<DVec3>, prep: &Prepared, plan: &FitPlan) {
+/// `plan.point_cell` voxel cells of edge `h` ([`points::keep_per_cell`], cubes aligned on
+/// `origin`, the solid's grid), in their order; while that still leaves more than the budget,
+/// one per cube of twice the edge, up to [`THIN_MAX_DOUBLINGS`] times (a solid of many small
+/// parts, whose surface crosses far more cells than its volume suggests: 8 000 separate
+/// cubes, 800 000 descent points at one per cell); a cell of 0 keeps all.
+fn thin_surface(v: &mut Vec<DVec3>, origin: DVec3, h: f64, plan: &FitPlan) {
     if plan.point_cell <= 0.0 || v.len() <= plan.point_budget {
         return;
     }
-    let keep = points::keep_per_cell(v, prep.solid.origin, plan.point_cell * prep.solid.h, 1);
+    let mut cell = plan.point_cell * h;
+    let mut keep = points::keep_per_cell(v, origin, cell, 1);
+    for _ in 0..THIN_MAX_DOUBLINGS {
+        if keep.iter().filter(|&&k| k).count() <= plan.point_budget {
+            break;
+        }
+        cell *= 2.0;
+        keep = points::keep_per_cell(v, origin, cell, 1);
+    }
     let mut i = 0;
     v.retain(|_| {
         i += 1;
         keep[i - 1]
     });
 }
+
+/// Doublings of [`thin_surface`]'s cube at most: 4, cubes of 16 × `point_cell` cells.
+const THIN_MAX_DOUBLINGS: usize = 4;
 
 /// Stage 2, Lloyd on the sparse clustering points ([`lloyd::run_multi`]): inner-ball cover
 /// start, power assignment + Powell centre updates, teleportation when progress stalls; the
@@ -1450,7 +1464,7 @@ fn descent_points(prep: &Prepared, h: f64, pts: &points::PointSet, plan: &FitPla
             }
         });
     }
-    thin_surface(&mut dpts, prep, plan);
+    thin_surface(&mut dpts, prep.solid.origin, prep.solid.h, plan);
     dpts.extend(pts.points[pts.surface_count..].iter().copied());
     dpts
 }
@@ -2439,6 +2453,58 @@ mod tests_support {
 mod tests {
     use super::tests_support::uv_sphere;
     use super::*;
+
+    #[test]
+    fn surface_points_beyond_the_budget_keep_one_per_cube_doubled_until_within_it() {
+        // 64 parallel sheets 1.5 cells apart, each a 160 × 160 grid at a quarter cell: far more
+        // cells than one sheet's area suggests. The expected count for each cube edge comes
+        // from an independent set of cube keys.
+        let h = 0.01;
+        let mut v = Vec::new();
+        for s in 0..64 {
+            for i in 0..160 {
+                for j in 0..160 {
+                    v.push(DVec3::new(i as f64 * h / 4.0, j as f64 * h / 4.0, s as f64 * 1.5 * h + 0.3 * h));
+                }
+            }
+        }
+        let cubes = |edge: f64| {
+            let keys: std::collections::HashSet<[i64; 3]> =
+                v.iter().map(|p| [0, 1, 2].map(|a| (p[a] / edge).floor() as i64)).collect();
+            keys.len()
+        };
+        let per_cell = cubes(h);
+        assert_eq!(per_cell, 64 * 40 * 40);
+        for (budget, doublings) in
+            [(usize::MAX, None), (200_000, Some(0)), (50_000, Some(1)), (15_000, Some(2)), (10, Some(4))]
+        {
+            let plan = FitPlan { point_budget: budget, point_cell: 1.0, ..FitPlan::default() };
+            let mut kept = v.clone();
+            thin_surface(&mut kept, DVec3::ZERO, h, &plan);
+            let want = match doublings {
+                None => v.len(),
+                Some(d) => cubes(h * f64::from(1u32 << d)),
+            };
+            assert_eq!(kept.len(), want, "budget {budget}");
+            if budget < usize::MAX && doublings != Some(4) {
+                assert!(
+                    kept.len() <= budget
+                        && (doublings == Some(0) || cubes(h * f64::from(1u32 << (doublings.unwrap() - 1))) > budget)
+                );
+            }
+            // One point per cube of the final edge, the first of each in order.
+            if let Some(d) = doublings {
+                let edge = h * f64::from(1u32 << d);
+                let mut seen = std::collections::HashSet::new();
+                let firsts: Vec<DVec3> = v
+                    .iter()
+                    .copied()
+                    .filter(|p| seen.insert([0, 1, 2].map(|a| (p[a] / edge).floor() as i64)))
+                    .collect();
+                assert_eq!(kept, firsts, "budget {budget}");
+            }
+        }
+    }
 
     #[test]
     fn the_trial_budget_is_the_plans_up_to_64_spheres_and_grows_with_the_count_above() {

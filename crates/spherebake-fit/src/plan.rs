@@ -85,8 +85,10 @@ pub struct FitPlan {
     /// A dense or descent point set with more surface points than `point_budget` keeps one
     /// per cube of this edge, in voxel cells (the first in mesh order;
     /// `points::keep_per_cell`): a mesh finer than the voxel grid then costs what the grid
-    /// resolves, not its triangle count. 0 never thins. The bounding pass covers the surface
-    /// exactly either way. Range [0, 64].
+    /// resolves, not its triangle count. When that still leaves more than the budget (a solid
+    /// of many small parts, whose surface crosses far more cells than its volume suggests),
+    /// the cube's edge doubles until it does, four times at most. 0 never thins. The bounding
+    /// pass covers the surface exactly either way. Range [0, 64].
     pub point_cell: f64,
     /// Surface points a dense or descent set may hold before it is thinned to one per
     /// [`FitPlan::point_cell`] cube. Sets below it (every shared test model's: at most
