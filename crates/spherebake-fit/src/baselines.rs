@@ -345,10 +345,10 @@ pub fn split_starts(
     let mut costs: Vec<f64> = vec![cost(whole.0, whole.1)];
     let mut total = costs[0];
     let (mut best_total, mut best_cuts) = (total, 0usize);
-    let mut cuts = 0usize;
     // Max-heap on (radius as ordered bits, earliest cell first).
     let mut heap: BinaryHeap<(u64, std::cmp::Reverse<usize>)> = BinaryHeap::new();
     heap.push((cells[0].1 .1.to_bits(), std::cmp::Reverse(0)));
+    // Cells alive: one more than the cuts made.
     let mut count = 1;
     while count < k {
         let Some((_, std::cmp::Reverse(ci))) = heap.pop() else { break };
@@ -397,8 +397,7 @@ pub fn split_starts(
             cells[ci].0 = idx;
             continue;
         };
-        cuts += 1;
-        cut_at[ci] = cuts;
+        cut_at[ci] = count;
         total -= costs[ci];
         for (part, ball) in parts {
             let c = cost(ball.0, ball.1);
@@ -409,7 +408,7 @@ pub fn split_starts(
             costs.push(c);
         }
         if total <= best_total {
-            (best_total, best_cuts) = (total, cuts);
+            (best_total, best_cuts) = (total, count);
         }
         count += 1;
     }
@@ -423,7 +422,7 @@ pub fn split_starts(
             .map(|(_, (_, ball))| *ball)
             .collect()
     };
-    (alive(cuts), alive(best_cuts))
+    (alive(count - 1), alive(best_cuts))
 }
 
 #[cfg(test)]
