@@ -605,6 +605,40 @@ fn overlapping_closed_parts_are_measured_as_their_union() {
     assert!((r.stats.object_volume - 2.0).abs() < 1e-9, "V(T) {}", r.stats.object_volume);
 }
 
+/// A part pushed wholly into another (a kitbashed model; a voxel model exported one cube per
+/// voxel) leaves faces inside the solid. They bound nothing, so the fit's point sets leave them
+/// out once they carry a tenth of the surface's area: a unit cube with a cube of edge 0.6
+/// inside it (26 % of the area) gets exactly the clustering and dense points of the unit cube
+/// alone (same voxel solid, same outer triangles first), and its spheres still cover every
+/// triangle, the inner ones included, with E against the unit cube's Monte Carlo oracle.
+#[test]
+fn faces_inside_the_solid_leave_the_point_sets_and_are_still_covered() {
+    let s = FitSettings { spheres: 16, voxel_resolution: 64, ..Default::default() };
+    let (c, t) = spherebake_testkit::mesh::unit_cube();
+    let outer: Vec<Vec3> = c.iter().map(|q| Vec3::new(q[0] as f32, q[1] as f32, q[2] as f32)).collect();
+    let mut p = outer.clone();
+    p.extend(c.iter().map(|q| Vec3::new(0.2 + 0.6 * q[0] as f32, 0.2 + 0.6 * q[1] as f32, 0.2 + 0.6 * q[2] as f32)));
+    let mut tris = t.clone();
+    tris.extend(t.iter().map(|f| f.map(|v| v + 8)));
+    let points = |r: &spherebake_fit::FitResult, stage: &str| {
+        r.stats.trace.iter().find(|e| e.stage == stage).map(|e| e.points).expect("traced")
+    };
+    let alone = fit(&outer, &t, &s, &|_| {}).unwrap();
+    let nested = fit(&p, &tris, &s, &|_| {}).unwrap();
+    assert_eq!(nested.stats.parts.len(), 1, "one solid");
+    for stage in ["lloyd", "dense_points"] {
+        assert_eq!(points(&nested, stage), points(&alone, stage), "{stage} points");
+    }
+    assert_triangles_covered(&p, &tris, &nested.spheres);
+    let mc = outside_ratio(&nested.spheres, 1.0, 400_000, 11, |x| (0..3).all(|a| (0.0..=1.0).contains(&x[a])));
+    let tol = 4.0 * mc.standard_error + 0.03 * mc.e;
+    assert!(
+        (nested.stats.outside_ratio_e - mc.e).abs() <= tol,
+        "fit E {} vs oracle {mc:?}",
+        nested.stats.outside_ratio_e
+    );
+}
+
 /// One bounding sphere of least outside volume is the minimal ball around the vertices, so at
 /// one sphere the fit returns it: the unit cube's circumsphere (radius √3/2, E = π√3/2 − 1)
 /// and a UV sphere's circumsphere (radius 1 about the origin, E = V(ball) / V(T) − 1 with the

@@ -226,6 +226,10 @@ pub enum Neighbourhood {
 /// Most cells [`VoxelGrid::boundary_share`] looks at.
 pub const BOUNDARY_SHARE_PROBES: usize = 1 << 18;
 
+/// Divisions per edge [`VoxelGrid::holds_triangle`] reads a triangle at at most (a triangle
+/// longer than 64 cells is not read, and so not held).
+pub const HOLDS_MAX_DIVISIONS: usize = 64;
+
 /// A solid voxel grid (cubic cells, x fastest): cell (i, j, k) is solid when its centre is
 /// inside (see the module docs).
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -324,6 +328,32 @@ impl VoxelGrid {
             Neighbourhood::NoneSolid => false,
             Neighbourhood::Mixed => inside(winding_number(p)),
         }
+    }
+
+    /// Whether the grid alone reads the whole triangle (a, b, c) inside: every point of it lies
+    /// in the all-solid 3×3×3 block ([`Neighbourhood::AllSolid`]) of one of its sample points,
+    /// so in solid cells, away from the solid's boundary. The samples are the corners, then a
+    /// barycentric grid of spacing at most one cell (any point of a grid's small triangle is
+    /// within its longest edge, at most a cell, of each of its corners, so within the block of
+    /// a corner's cell). A triangle wanting more than [`HOLDS_MAX_DIVISIONS`] divisions, or
+    /// with a non-finite corner, is not read (false), so the cost is bounded: at most the
+    /// corners on a triangle at the boundary, O(area / cell²) blocks on one inside.
+    ///
+    /// Such triangles are inner faces of the solid (the faces between touching or overlapping
+    /// parts: a voxel model exported as one cube per voxel, a character's limb pushed into its
+    /// body); they bound nothing.
+    pub fn holds_triangle(&self, a: DVec3, b: DVec3, c: DVec3) -> bool {
+        let all = |p: DVec3| self.neighbourhood(p) == Neighbourhood::AllSolid;
+        if !(all(a) && all(b) && all(c)) {
+            return false;
+        }
+        let longest = a.distance(b).max(b.distance(c)).max(c.distance(a));
+        let m = (longest / self.cell_size).ceil();
+        // Finite: the corners' blocks were read, so the corners are finite.
+        if m > HOLDS_MAX_DIVISIONS as f64 {
+            return false;
+        }
+        m < 2.0 || crate::triangle::triangle_grid(a, b, c, m as usize).all(|(_, _, p)| all(p))
     }
 
     /// Number of solid cells.
@@ -1306,6 +1336,82 @@ pub fn tri_box_overlap(tri: &[DVec3; 3], box_center: DVec3, half: DVec3) -> bool
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_held_triangle_lies_in_solid_cells_and_one_far_inside_is_held() {
+        // A 40³ grid of unit cells, solid except a 6-cell-wide tunnel along z through the
+        // middle (x, y in [17, 23)). Oracles, written apart from the block rule: a triangle
+        // held must have every point of a fine sampling (a quarter of a cell) in a solid cell;
+        // a triangle whose every fine sample has its whole 5 × 5 × 5 block solid (two cells
+        // from any empty cell) must be held.
+        let n = 40u32;
+        let mut solid = Bits::new((n * n * n) as usize);
+        let tunnel = |i: u32, j: u32| (17..23).contains(&i) && (17..23).contains(&j);
+        for k in 0..n {
+            for j in 0..n {
+                for i in 0..n {
+                    if !tunnel(i, j) {
+                        solid.set((i + n * (j + n * k)) as usize);
+                    }
+                }
+            }
+        }
+        let grid = VoxelGrid { origin: DVec3::ZERO, cell_size: 1.0, dims: [n; 3], solid, covered_twice: 0 };
+        let cell_solid = |p: DVec3| grid.is_solid_at(p);
+        let fine = |[a, b, c]: [DVec3; 3]| {
+            let m = (a.distance(b).max(b.distance(c)).max(c.distance(a)) * 4.0).ceil().max(1.0) as usize;
+            crate::triangle::triangle_grid(a, b, c, m).map(|(_, _, p)| p).collect::<Vec<_>>()
+        };
+        let far_inside = |p: DVec3| {
+            (-2..=2).all(|dz| {
+                (-2..=2).all(|dy| (-2..=2).all(|dx| cell_solid(p + DVec3::new(dx as f64, dy as f64, dz as f64))))
+            })
+        };
+        let mut rng = crate::rng::SplitMix64::new(5);
+        let (mut held, mut far, mut crossing) = (0, 0, 0);
+        for t in 0..1500 {
+            // Triangles of every size up to 20 cells, anywhere in (and a little beyond) the grid.
+            // Every fourth from one side of the tunnel to the other.
+            let size = [1.5, 6.0, 20.0][t % 3];
+            let mut r = || DVec3::new(rng.next_f64(), rng.next_f64(), rng.next_f64());
+            let tri = if t % 4 == 3 {
+                let side = |u: DVec3, x0: f64| DVec3::new(x0, 12.0, 4.0) + u * DVec3::new(5.0, 16.0, 32.0);
+                [side(r(), 8.0), side(r(), 27.0), side(r(), 27.0)]
+            } else {
+                let a = r() * 44.0 - 2.0;
+                [a, a + (r() - 0.5) * size, a + (r() - 0.5) * size]
+            };
+            let samples = fine(tri);
+            let h = grid.holds_triangle(tri[0], tri[1], tri[2]);
+            if h {
+                held += 1;
+                assert!(samples.iter().all(|&p| cell_solid(p)), "held but reaches an empty cell: {tri:?}");
+            }
+            if samples.iter().all(|&p| far_inside(p)) {
+                far += 1;
+                assert!(h, "two cells inside everywhere but not held: {tri:?}");
+            }
+            // Corners beside the tunnel on both sides, the middle across it.
+            if !h && tri.iter().all(|&p| far_inside(p)) {
+                crossing += 1;
+            }
+        }
+        assert!(held > 200 && far > 100 && crossing > 100, "held {held}, far inside {far}, crossing {crossing}");
+        // A triangle across the tunnel whose corners are deep in the solid.
+        let across = [DVec3::new(10.0, 20.0, 20.0), DVec3::new(30.0, 19.0, 20.0), DVec3::new(30.0, 21.0, 21.0)];
+        assert!(across.iter().all(|&p| far_inside(p)) && !grid.holds_triangle(across[0], across[1], across[2]));
+        // Longer than HOLDS_MAX_DIVISIONS cells: not read, so not held, even deep inside a
+        // solid block of 80³ cells; one cell shorter it is held.
+        let m = 80u32;
+        let mut all = Bits::new((m * m * m) as usize);
+        (0..(m * m * m) as usize).for_each(|i| all.set(i));
+        let block = VoxelGrid { origin: DVec3::ZERO, cell_size: 1.0, dims: [m; 3], solid: all, covered_twice: 0 };
+        let max = HOLDS_MAX_DIVISIONS as f64;
+        let (a, b) = (DVec3::new(8.0, 8.0, 8.0), DVec3::new(12.0, 8.0, 8.0));
+        assert!(block.holds_triangle(a, b, DVec3::new(8.0, 8.0, 8.0 + max - 0.5)));
+        assert!(!block.holds_triangle(a, b, DVec3::new(8.0, 8.0, 8.0 + max + 0.5)));
+        assert!(!grid.holds_triangle(DVec3::NAN, DVec3::ONE * 5.0, DVec3::ONE * 6.0));
+    }
 
     fn check(tri: [DVec3; 3], expected: bool) {
         assert_eq!(tri_box_overlap(&tri, DVec3::ZERO, DVec3::splat(0.5)), expected, "{tri:?}");
