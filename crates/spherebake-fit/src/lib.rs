@@ -250,8 +250,9 @@ struct Prepared {
     /// How many of `tris` bound the solid.
     solid_tris: usize,
     /// The triangles the fit's point sets are laid on ([`Prepared::sampled`]): `tris` without
-    /// those the voxel solid holds ([`voxel::VoxelGrid::holds_triangle`]); empty when that is
-    /// all of them.
+    /// those the voxel solid holds ([`voxel::VoxelGrid::holds_triangle`]); empty when every
+    /// triangle is sampled ([`sampled_triangles`]: none held, all held, or those held below
+    /// [`INNER_FACES_MIN_SHARE`] of the area).
     sampled: Vec<[u32; 3]>,
     solid: Solid,
     /// `solid.grid`'s [`voxel::VoxelGrid::boundary_share`], computed once.
@@ -268,8 +269,8 @@ struct Prepared {
 }
 
 impl Prepared {
-    /// The triangles the fit's point sets (clustering samples, dense, descent, seam and band
-    /// points) are laid on: `tris` less the inner faces ([`sampled_triangles`]). The octree
+    /// The triangles the fit's point sets (clustering samples, dense, descent, seam, band and
+    /// gap points) are laid on: `tris` less the inner faces ([`sampled_triangles`]). The octree
     /// baselines, the bounding pass and the exact E read all of `tris`.
     fn sampled(&self) -> &[[u32; 3]] {
         if self.sampled.is_empty() {
@@ -508,8 +509,8 @@ fn prepare(
 /// area; else empty (every triangle is sampled). Inner faces (between touching or
 /// overlapping parts) bound nothing, and their points only repeat the interior lattice's
 /// constraint at a surface's density: a ball of 14 000 voxel cubes exported whole (89 136
-/// triangles, 74 % of the area inside) had 314 000 descent points and took 15 s of CPU at 64
-/// spheres, 5.5 s without them. The bounding pass still covers every triangle. Cost: the
+/// triangles, 74 % of the area inside) had 314 000 descent points and took 11.5 s of CPU at
+/// 64 spheres, 5.5 s without them. The bounding pass still covers every triangle. Cost: the
 /// corners' blocks of each triangle (27 cell reads each), and a grid of blocks on those inside.
 fn sampled_triangles(grid: &voxel::VoxelGrid, pos: &[DVec3], tris: &[[u32; 3]]) -> Vec<[u32; 3]> {
     let held: Vec<bool> = tris
