@@ -1,9 +1,9 @@
 //! Triangle BVH with watertight ray casts and box / ball overlap queries.
 //!
 //! The tree *topology* comes from obvhs 0.4 (PLOC builder, `fast_build` preset, built without
-//! obvhs' `parallel` feature so the tree is the same on every run); above half a million
-//! triangles they are first cut at the median into pieces built in parallel and joined
-//! (`SPLIT_ABOVE`), the cut independent of the thread count. It is then copied into a flat
+//! obvhs' `parallel` feature so the tree is the same on every run); above 32 768 triangles
+//! they are first cut at the median into pieces built in parallel and joined (`SPLIT_ABOVE`),
+//! the cut independent of the thread count. It is then copied into a flat
 //! node array of our own with bounding boxes recomputed in f64 from the triangles' f32 corners and
 //! padded by a tiny relative margin, so box tests are conservative.
 //!
@@ -17,9 +17,9 @@
 //! left out of the tree (never hit, never returned); degenerate (zero-area) triangles are kept in
 //! the tree but a ray never hits them (zero determinant). Nothing here panics on input data.
 //!
-//! Cost: build O(T log T) (69k triangles: ~30 ms CPU; 1.1 M: 1.1 s serial, 0.65–0.7 s wall in
-//! four pieces on two cores); a ray, ball or box query visits O(log T)
-//! nodes plus the answer size. Memory ≈ 120 bytes per triangle (f64 corners, ~0.8 nodes per
+//! Cost: build O(T log T) (69k triangles: ~30 ms CPU; 1.1 M: 1.1 s serial; the 1.1 M bunny's
+//! whole orientation stage, this build included, 0.74–0.78 s wall in 64 pieces on two cores);
+//! a ray, ball or box query visits O(log T) nodes plus the answer size. Memory ≈ 120 bytes per triangle (f64 corners, ~0.8 nodes per
 //! triangle with up to 4 triangles per leaf).
 
 use glam::{DVec3, Vec3};
@@ -91,8 +91,15 @@ fn valid_corners(positions: &[Vec3], tri: &[u32; 3]) -> Option<[Vec3; 3]> {
 /// (rayon), each the same way, joined under a new root ([`join`]); obvhs' own parallel build is
 /// not deterministic. The cut depends on the triangles only, never on the thread count, so
 /// the tree is the same on every run; no query answer depends on its shape (module docs).
-/// The bunny subdivided to 1.1 M triangles: four pieces of about 280 000 on two cores.
-const SPLIT_ABOVE: usize = 1 << 19;
+///
+/// It also bounds obvhs' worst case. Each PLOC pass merges the nodes that are each other's
+/// cheapest neighbour in Morton order, ties going to the right-hand one, so equal boxes equally
+/// spaced along a line tie every choice and a pass merges about one pair: the build grows
+/// with the square of the items. A row of 25 000 separate unit cubes (300 000 triangles) took
+/// 20 s to build whole at the old bound of 2¹⁹; in pieces of at most 2¹⁵, 1.5 s (10 000 cubes:
+/// 3.3 → 0.9 s). Every other input compared bakes to the same bytes (the bunny, in four
+/// pieces; the armadillo; the 1.1 M bunny, in 64), at the same CPU time.
+const SPLIT_ABOVE: usize = 1 << 15;
 
 /// The topology (nodes with unset boxes, triangle ids in leaf order) of a tree over `items`
 /// (triangle id, box): obvhs' build up to `split_above` items, else two halves by median
@@ -670,6 +677,69 @@ mod tests {
         // Too few triangles to cut, and none.
         same_answers(&TriangleBvh::build(&positions, &tris[..3], 1), &TriangleBvh::new(&positions, &tris[..3]), 23, 0);
         assert!(TriangleBvh::build(&positions, &[], 1).nodes.is_empty());
+    }
+
+    #[test]
+    fn a_long_row_of_equal_boxes_is_cut_before_obvhs_builds_it() {
+        // 3 000 unit cubes two apart along x (36 000 triangles): obvhs' PLOC ties every merge
+        // of equal, equally spaced boxes and merges about one pair per pass, so whole it
+        // builds in O(n²) (25 000 cubes: 20 s). Above SPLIT_ABOVE the median cut comes first:
+        // two halves of 18 000, left of each other along x, each within the bound.
+        let quads = [[0, 2, 3, 1], [4, 5, 7, 6], [0, 1, 5, 4], [2, 6, 7, 3], [0, 4, 6, 2], [1, 3, 7, 5]];
+        let (mut positions, mut tris) = (Vec::new(), Vec::new());
+        for c in 0..3000u32 {
+            let base = positions.len() as u32;
+            positions.extend((0..8).map(|i| Vec3::new((2 * c + (i & 1)) as f32, (i >> 1 & 1) as f32, (i >> 2) as f32)));
+            tris.extend(
+                quads.iter().flat_map(|q| [[q[0], q[1], q[2]], [q[0], q[2], q[3]]]).map(|t| t.map(|v| v + base)),
+            );
+        }
+        let tree = TriangleBvh::new(&positions, &tris);
+        let under = |root: usize| {
+            let (mut stack, mut out) = (vec![root], Vec::new());
+            while let Some(i) = stack.pop() {
+                let n = tree.nodes[i];
+                if n.is_leaf() {
+                    out.extend(&tree.prims[n.first as usize..(n.first + n.count) as usize]);
+                } else {
+                    stack.extend([n.first as usize, n.first as usize + 1]);
+                }
+            }
+            out
+        };
+        let (l, r) = (under(1), under(2));
+        assert_eq!((l.len(), r.len()), (18_000, 18_000));
+        let x = |t: &u32| tree.tris[*t as usize].iter().map(|p| p.x).fold(f64::NEG_INFINITY, f64::max);
+        let lmax = l.iter().map(x).fold(f64::NEG_INFINITY, f64::max);
+        assert!(r.iter().all(|t| tree.tris[*t as usize].iter().all(|p| p.x >= lmax - 1.0)));
+        // Every answer as a brute-force pass over the triangles gives it: rays and balls about
+        // the row.
+        let mut rng = crate::rng::SplitMix64::new(8);
+        let mut hits = Vec::new();
+        let mut found = 0;
+        for _ in 0..200 {
+            let o = Vec3::new(
+                rng.next_f64() as f32 * 6000.0,
+                rng.next_f64() as f32 * 3.0 - 1.0,
+                rng.next_f64() as f32 * 3.0 - 1.0,
+            );
+            let d = Vec3::new(rng.next_f64() as f32 - 0.5, rng.next_f64() as f32 - 0.5, rng.next_f64() as f32 - 0.5);
+            tree.ray_hits(o, d, 0.0, 20.0, &mut hits);
+            let pre = RayPre::new(o.as_dvec3(), d.as_dvec3());
+            // `ray_hits`' own reading: t in f32, strictly inside (0, 20).
+            let mut brute: Vec<(f32, u32)> = (0..tree.tris.len() as u32)
+                .filter_map(|t| pre.intersect(&tree.tris[t as usize], t))
+                .map(|h| (h.t as f32, h.triangle))
+                .filter(|h| h.0 > 0.0 && h.0 < 20.0)
+                .collect();
+            brute.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+            assert_eq!(
+                hits.iter().map(|h| h.triangle).collect::<Vec<_>>(),
+                brute.iter().map(|h| h.1).collect::<Vec<_>>()
+            );
+            found += hits.len();
+        }
+        assert!(found > 50, "{found} hits");
     }
 
     #[test]
