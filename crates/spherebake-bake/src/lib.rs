@@ -82,7 +82,7 @@ pub struct BakeReport {
     pub sphere_count: usize,
     /// Spheres the fit left empty (radius 0, stored as `f32::MIN_POSITIVE`, a point): no
     /// split trial of the descent put them to use within its budget. Sometimes no sphere could
-    /// lower E there (the capsule at 64 spheres uses 11 along its axis; each sphere off it would
+    /// lower E there (the capsule at 64 spheres uses 9 along its axis; each sphere off it would
     /// stick out), but not always: beetle-alt at `--preset fast` leaves 3 of 64 empty at
     /// E 1.033, where the default preset uses all 64 for E 0.862. They bound nothing and cost a
     /// reader little.

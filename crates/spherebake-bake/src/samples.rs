@@ -218,7 +218,7 @@ fn sample_areas(mesh: &Mesh, ctx: &Ctx<'_>, samples: &Samples) -> (Vec<f32>, Are
     }
     // The median radius of the spheres that carry samples: a fit stores the spheres it left
     // empty at the least positive normal f32 radius, and when they are the majority (the capsule at
-    // 64 spheres uses 11) a median over all would set a sub-triangle edge of 10⁻³⁹.
+    // 64 spheres uses 9) a median over all would set a sub-triangle edge of 10⁻³⁹.
     let mut radii: Vec<f64> =
         ctx.spheres.iter().filter(|s| s.2 < n && !samples.of(s.2).is_empty()).map(|s| s.1).collect();
     radii.sort_by(f64::total_cmp);

@@ -121,7 +121,7 @@ fn tiny_spheres_do_not_blow_up_the_area_work() {
 #[test]
 fn a_majority_of_empty_spheres_does_not_blow_up_the_area_work() {
     // A fit stores the spheres it leaves empty at the least positive normal f32 radius, and may leave
-    // most of them so (the capsule fixture at 64 spheres uses 11). Their radius must not set
+    // most of them so (the capsule fixture at 64 spheres uses 9). Their radius must not set
     // the sub-triangle edge: at most 256 sub-triangles per sample (or one per triangle), and
     // the sub-triangle edge of a tenth of the carrying spheres' median radius at most.
     let mesh = capsule_mesh(0.5, 0.5, 12, 6);

@@ -309,7 +309,7 @@ pub struct FitPlan {
 }
 
 impl Default for FitPlan {
-    /// The measured default (bunny at 64 spheres, whole bake: E 0.2243 at seed 1, mean
+    /// The measured default (bunny at 64 spheres, whole bake: E 0.2242 at seed 1, mean
     /// 0.2212 over seeds 1–4; `docs/benchmarks.md`, "The descent on blocks of two cells").
     fn default() -> Self {
         Self {
