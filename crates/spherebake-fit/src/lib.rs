@@ -520,6 +520,9 @@ fn sampled_triangles(grid: &voxel::VoxelGrid, pos: &[DVec3], tris: &[[u32; 3]]) 
             grid.holds_triangle(a, b, c)
         })
         .collect();
+    if !held.contains(&true) {
+        return Vec::new();
+    }
     let area = |t: &[u32; 3]| {
         let [a, b, c] = t.map(|v| pos[v as usize]);
         (b - a).cross(c - a).length()
@@ -1203,17 +1206,18 @@ type Start = (Vec<Ball>, f64);
 /// outside volume, padded alike, with its proxy E, when that is fewer than the k cells. Cost
 /// O(points × log k) and about two proxy evaluations per cell.
 fn split_start(prep: &Prepared, pts: &points::PointSet, k: usize, oblique: bool) -> (Start, Option<Start>) {
-    let (mut all, mut fewer) = baselines::split_starts(&pts.points, k, oblique, |c, r| prep.solid.outside(c, r));
-    let Some(&(c0, _)) = all.first() else { return ((all, f64::INFINITY), None) };
-    let fewer = (fewer.len() < all.len()).then(|| {
-        let f0 = fewer[0].0;
-        fewer.resize(k, (f0, 0.0));
-        let e = proxy_e_of(&prep.solid, &fewer);
-        (fewer, e)
-    });
-    all.resize(k, (c0, 0.0));
-    let e = proxy_e_of(&prep.solid, &all);
-    ((all, e), fewer)
+    let (all, fewer) = baselines::split_starts(&pts.points, k, oblique, |c, r| prep.solid.outside(c, r));
+    let fewer = (fewer.len() < all.len()).then(|| padded_start(&prep.solid, fewer, k)).flatten();
+    (padded_start(&prep.solid, all, k).unwrap_or((Vec::new(), f64::INFINITY)), fewer)
+}
+
+/// `sp` padded to `k` spheres with empty ones at its first centre (the descent's trials move
+/// them where a split pays), with its proxy E; `None` when `sp` has no sphere.
+fn padded_start(solid: &Solid, mut sp: Vec<Ball>, k: usize) -> Option<Start> {
+    let &(c0, _) = sp.first()?;
+    sp.resize(k, (c0, 0.0));
+    let e = proxy_e_of(solid, &sp);
+    Some((sp, e))
 }
 
 /// Stages 4–6c from a start: descent points, the exclusive descent, the seam rounds, the band
@@ -1473,18 +1477,11 @@ fn polish_stage(dense: &lloyd::Ctx, spheres: &[(DVec3, f64)], plan: &FitPlan) ->
 /// Stage 9 ([`keep_the_better_start`]) returns the start itself when the descent ends above it. Cost one
 /// octree (O(triangles × depth)), O(points × 64) for the lattices and at most 66 proxy
 /// evaluations of k spheres.
-fn lattice_start(prep: &Prepared, pts: &points::PointSet, k: usize) -> (Vec<(DVec3, f64)>, f64) {
+fn lattice_start(prep: &Prepared, pts: &points::PointSet, k: usize) -> Start {
     let mut cands = vec![baselines::octree_at_most(&prep.pos, &prep.tris, &prep.solid, k)];
     cands.extend(baselines::lattices_at_most(prep.lo, prep.hi, &pts.points, k));
-    let scored: Vec<(Vec<(DVec3, f64)>, f64)> = cands
-        .into_par_iter()
-        .filter_map(|mut sp| {
-            let &(c0, _) = sp.first()?;
-            sp.resize(k, (c0, 0.0));
-            let e = proxy_e_of(&prep.solid, &sp);
-            Some((sp, e))
-        })
-        .collect();
+    let scored: Vec<(Vec<(DVec3, f64)>, f64)> =
+        cands.into_par_iter().filter_map(|sp| padded_start(&prep.solid, sp, k)).collect();
     let mut best = (Vec::new(), f64::INFINITY);
     for (sp, e) in scored {
         if e < best.1 {
