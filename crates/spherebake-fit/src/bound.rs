@@ -127,6 +127,9 @@ struct Live {
     w_min: f64,
     /// First search radius of `cheapest`: the median reach.
     q0: f64,
+    /// At least every sphere's radius (+∞ when one is NaN): radii only grow between rebuilds,
+    /// and rule 4's set-backs leave it an upper bound.
+    r_max: f64,
     cand: Vec<u32>,
 }
 
@@ -138,7 +141,8 @@ impl Live {
         sorted.sort_by(f64::total_cmp);
         let q0 = sorted.get(sorted.len() / 2).copied().unwrap_or(0.0);
         let w_min = (0..spheres.len()).map(|i| weights.get(i).copied().unwrap_or(1.0)).fold(f64::INFINITY, f64::min);
-        Self { grid: BallGrid::new(&balls), reach, w_min, q0, cand: Vec::new() }
+        let r_max = spheres.iter().fold(0.0f64, |m, s| radius_bound(m, s[3]));
+        Self { grid: BallGrid::new(&balls), reach, w_min, q0, r_max, cand: Vec::new() }
     }
 
     fn covered(&mut self, spheres: &[Sphere32], ps: &[DVec3]) -> bool {
@@ -179,10 +183,20 @@ impl Live {
 
     /// Sphere `i` grew: keep it findable.
     fn grew(&mut self, spheres: &[Sphere32], i: usize) {
+        self.r_max = radius_bound(self.r_max, spheres[i][3]);
         let r = spheres[i][3] as f64;
         if r.is_nan() || r > self.reach[i] {
             self.grid.list_everywhere(i as u32);
         }
+    }
+}
+
+/// `m` raised to radius `r` (+∞ for a NaN radius).
+fn radius_bound(m: f64, r: f32) -> f64 {
+    if r.is_nan() {
+        f64::INFINITY
+    } else {
+        m.max(r as f64)
     }
 }
 
@@ -213,8 +227,10 @@ fn cover_piece(
     // `depth` counts half levels: a four-way split halves every edge (+2), a sliver bisection
     // halves one (+1), so both reach the same piece sizes. Below depth 10 a piece is always
     // split, so the growing sphere is only looked for from there (a search over the spheres
-    // near a large piece is most of the pass's cost with thousands of spheres).
-    let grows = (depth >= 10).then(|| live.cheapest(spheres, &t, weights));
+    // near a large piece is most of the pass's cost with thousands of spheres). Nor is it
+    // looked for while the piece is longer than 0.02 × the largest radius: it is split
+    // whichever sphere would grow (a thin rod's slivers: most pieces, and most of the pass).
+    let grows = (depth >= 10 && l <= 0.02 * live.r_max).then(|| live.cheapest(spheres, &t, weights));
     if depth < 20 && grows.is_none_or(|i| l > 0.02 * spheres[i][3] as f64) {
         if depth == 0 {
             rep.split_triangles += 1;
