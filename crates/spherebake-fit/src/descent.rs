@@ -45,6 +45,8 @@ struct Grid {
     start: Vec<u32>,
     /// Point indices, grouped by cell.
     items: Vec<u32>,
+    /// Each point's row of cells (`j + dims[1] k`).
+    line_of: Vec<u32>,
 }
 
 impl Grid {
@@ -68,7 +70,7 @@ impl Grid {
             ((ext.y / cell) as usize + 1).min(1024),
             ((ext.z / cell) as usize + 1).min(1024),
         ];
-        let mut g = Grid { origin: lo, cell, dims, start: Vec::new(), items: Vec::new() };
+        let mut g = Grid { origin: lo, cell, dims, start: Vec::new(), items: Vec::new(), line_of: Vec::new() };
         let n = dims[0] * dims[1] * dims[2];
         let keys: Vec<usize> = pts.iter().map(|p| g.key(*p)).collect();
         let mut count = vec![0u32; n + 1];
@@ -86,6 +88,7 @@ impl Grid {
         }
         g.start = count;
         g.items = items;
+        g.line_of = keys.iter().map(|&k| (k / dims[0]) as u32).collect();
         g
     }
 
@@ -116,6 +119,42 @@ impl Grid {
                 let (a, b) = (self.start[row + lo[0]] as usize, self.start[row + hi[0] + 1] as usize);
                 for &q in &self.items[a..b] {
                     if pts[q as usize].distance_squared(c) <= r2 {
+                        f(q);
+                    }
+                }
+            }
+        }
+    }
+
+    /// [`Grid::for_each_in`] over the rows of cells with `marked(row)` (row `j + dims[1] k`)
+    /// and the points with `keep(q)` only: the same calls in the same order, less those for
+    /// points of unmarked rows or not kept (`keep` is asked first: it can spare reading the
+    /// point).
+    fn for_each_in_marked(
+        &self,
+        pts: &[DVec3],
+        c: DVec3,
+        r: f64,
+        marked: impl Fn(usize) -> bool,
+        keep: impl Fn(u32) -> bool,
+        mut f: impl FnMut(u32),
+    ) {
+        if r < 0.0 {
+            return;
+        }
+        let lo = [self.coord(c.x - r, 0), self.coord(c.y - r, 1), self.coord(c.z - r, 2)];
+        let hi = [self.coord(c.x + r, 0), self.coord(c.y + r, 1), self.coord(c.z + r, 2)];
+        let r2 = r * r;
+        for k in lo[2]..=hi[2] {
+            for j in lo[1]..=hi[1] {
+                let line = j + self.dims[1] * k;
+                if !marked(line) {
+                    continue;
+                }
+                let row = self.dims[0] * line;
+                let (a, b) = (self.start[row + lo[0]] as usize, self.start[row + hi[0] + 1] as usize);
+                for &q in &self.items[a..b] {
+                    if keep(q) && pts[q as usize].distance_squared(c) <= r2 {
                         f(q);
                     }
                 }
@@ -199,6 +238,10 @@ struct Cover<'a> {
     pts: &'a [DVec3],
     grid: &'a Grid,
     cnt: Vec<u16>,
+    /// Per row of grid cells (`j + dims[1] k`), its points with `cnt` 1 (covered by one
+    /// sphere): the exclusive sets skip the rows without any (most rows, where spheres overlap
+    /// deeply).
+    ones: Vec<u32>,
     spheres: Vec<(DVec3, f64)>,
     outs: Vec<f64>,
     /// Per sphere, the key (sphere bits, exclusive-set hash) of its last descent step: the
@@ -253,11 +296,18 @@ impl<'a> Cover<'a> {
         }
         let outs = spheres.iter().map(|s| solid.outside(s.0, s.1)).collect();
         let k = spheres.len();
+        let mut ones = vec![0u32; grid.dims[1] * grid.dims[2]];
+        for (q, &n) in cnt.iter().enumerate() {
+            if n == 1 {
+                ones[grid.line_of[q] as usize] += 1;
+            }
+        }
         Cover {
             solid,
             pts,
             grid,
             cnt,
+            ones,
             spheres: spheres.to_vec(),
             outs,
             tried: vec![0; k],
@@ -277,11 +327,8 @@ impl<'a> Cover<'a> {
     fn exclusive(&self, i: usize) -> Vec<u32> {
         let (c, r) = self.spheres[i];
         let mut v = Vec::new();
-        self.grid.for_each_in(self.pts, c, r, |q| {
-            if self.cnt[q as usize] == 1 {
-                v.push(q)
-            }
-        });
+        let one = |q: u32| self.cnt[q as usize] == 1;
+        self.grid.for_each_in_marked(self.pts, c, r, |line| self.ones[line] > 0, one, |q| v.push(q));
         v
     }
 
@@ -293,9 +340,25 @@ impl<'a> Cover<'a> {
     /// `solid.outside(c, r)`, as [`best_ball`] returns it), so it is not read again.
     fn set_known(&mut self, i: usize, c: DVec3, r: f64, out: f64) {
         let (c0, r0) = self.spheres[i];
-        let cnt = &mut self.cnt;
-        self.grid.for_each_in(self.pts, c0, r0, |q| cnt[q as usize] -= 1);
-        self.grid.for_each_in(self.pts, c, r, |q| cnt[q as usize] = cnt[q as usize].saturating_add(1));
+        let (cnt, ones, line_of) = (&mut self.cnt, &mut self.ones, &self.grid.line_of);
+        self.grid.for_each_in(self.pts, c0, r0, |q| {
+            let n = cnt[q as usize];
+            cnt[q as usize] = n - 1;
+            match n {
+                1 => ones[line_of[q as usize] as usize] -= 1,
+                2 => ones[line_of[q as usize] as usize] += 1,
+                _ => {}
+            }
+        });
+        self.grid.for_each_in(self.pts, c, r, |q| {
+            let n = cnt[q as usize];
+            cnt[q as usize] = n.saturating_add(1);
+            match n {
+                0 => ones[line_of[q as usize] as usize] += 1,
+                1 => ones[line_of[q as usize] as usize] -= 1,
+                _ => {}
+            }
+        });
         self.spheres[i] = (c, r);
         self.outs[i] = out;
         // What the move can change: the exclusive sets of the spheres meeting the old or the
@@ -473,11 +536,19 @@ impl<'a> Cover<'a> {
                 pool.push(q)
             }
         });
-        self.grid.for_each_in(self.pts, sj.0, sj.1, |q| {
-            if self.cnt[q as usize] == 1 && !inside(si, q) {
-                pool.push(q)
-            }
-        });
+        let one = |q: u32| self.cnt[q as usize] == 1;
+        self.grid.for_each_in_marked(
+            self.pts,
+            sj.0,
+            sj.1,
+            |line| self.ones[line] > 0,
+            one,
+            |q| {
+                if !inside(si, q) {
+                    pool.push(q)
+                }
+            },
+        );
         if pool.len() < 4 {
             return 0.0;
         }
@@ -1536,6 +1607,41 @@ mod tests {
             }
         }
         (solid, pts)
+    }
+
+    /// The exclusive sets, read through the rows that hold a point covered once, against a
+    /// brute-force count over every sphere, after every one of 300 random moves (balls grown,
+    /// shrunk to nothing, moved away): the same points in the grid's order.
+    #[test]
+    fn exclusive_sets_skip_only_rows_without_a_point_covered_once() {
+        let (solid, pts) = setup(5, 3000);
+        let grid = Grid::new(&pts, 2.0 * solid.h);
+        let mut rng = SplitMix64::new(91);
+        let ball = |rng: &mut SplitMix64| {
+            (DVec3::new(rng.next_f64(), rng.next_f64(), rng.next_f64()) * 8.0, rng.next_f64() * 2.5)
+        };
+        let spheres: Vec<(DVec3, f64)> = (0..12).map(|_| ball(&mut rng)).collect();
+        let mut cov = Cover::new(&solid, &pts, &grid, &spheres, Search::default());
+        let mut nonempty = 0;
+        for step in 0..300 {
+            let i = rng.below(12) as usize;
+            let (c, r) = match step % 4 {
+                0 => (cov.spheres[i].0, 0.0),
+                1 => (cov.spheres[i].0, cov.spheres[i].1 * 1.5 + 0.2),
+                _ => ball(&mut rng),
+            };
+            cov.set(i, c, r);
+            let inside = |s: (DVec3, f64), q: usize| pts[q].distance_squared(s.0) <= s.1 * s.1;
+            let count = |q: usize| cov.spheres.iter().filter(|&&s| inside(s, q)).count();
+            for l in 0..12 {
+                let mut want: Vec<u32> =
+                    (0..pts.len()).filter(|&q| inside(cov.spheres[l], q) && count(q) == 1).map(|q| q as u32).collect();
+                want.sort_by_key(|&q| (grid.key(pts[q as usize]), q));
+                nonempty += usize::from(!want.is_empty());
+                assert_eq!(cov.exclusive(l), want, "step {step}, sphere {l}");
+            }
+        }
+        assert!(nonempty > 1000, "{nonempty}");
     }
 
     #[test]
