@@ -106,24 +106,8 @@ impl Grid {
 
     /// Calls `f` for every point within distance `r` of `c` (|p − c| ≤ r), in the grid's
     /// order (by cell, then by index).
-    fn for_each_in(&self, pts: &[DVec3], c: DVec3, r: f64, mut f: impl FnMut(u32)) {
-        if r < 0.0 {
-            return;
-        }
-        let lo = [self.coord(c.x - r, 0), self.coord(c.y - r, 1), self.coord(c.z - r, 2)];
-        let hi = [self.coord(c.x + r, 0), self.coord(c.y + r, 1), self.coord(c.z + r, 2)];
-        let r2 = r * r;
-        for k in lo[2]..=hi[2] {
-            for j in lo[1]..=hi[1] {
-                let row = self.dims[0] * (j + self.dims[1] * k);
-                let (a, b) = (self.start[row + lo[0]] as usize, self.start[row + hi[0] + 1] as usize);
-                for &q in &self.items[a..b] {
-                    if pts[q as usize].distance_squared(c) <= r2 {
-                        f(q);
-                    }
-                }
-            }
-        }
+    fn for_each_in(&self, pts: &[DVec3], c: DVec3, r: f64, f: impl FnMut(u32)) {
+        self.for_each_in_marked(pts, c, r, |_| true, |_| true, f);
     }
 
     /// [`Grid::for_each_in`] over the rows of cells with `marked(row)` (row `j + dims[1] k`)
