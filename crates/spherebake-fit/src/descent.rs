@@ -244,6 +244,21 @@ struct Cover<'a> {
     search: Search,
 }
 
+/// Point `q`'s cover count one up (`up`) or down, and the count of points covered once in its
+/// row of cells (`ones`, see [`Cover`]) with it. A count held at `u16::MAX` stays there.
+fn recount(cnt: &mut [u16], ones: &mut [u32], line_of: &[u32], q: u32, up: bool) {
+    let (q, line) = (q as usize, line_of[q as usize] as usize);
+    let n = cnt[q];
+    let m = if up { n.saturating_add(1) } else { n - 1 };
+    cnt[q] = m;
+    if n == 1 {
+        ones[line] -= 1;
+    }
+    if m == 1 {
+        ones[line] += 1;
+    }
+}
+
 /// A reach `x` with a relative slack of 1e-9 for the rounding of the membership tests
 /// |p − c|² ≤ r² (and 1e-300 so a reach of 0 still holds its own centre).
 fn with_slack(x: f64) -> f64 {
@@ -325,24 +340,8 @@ impl<'a> Cover<'a> {
     fn set_known(&mut self, i: usize, c: DVec3, r: f64, out: f64) {
         let (c0, r0) = self.spheres[i];
         let (cnt, ones, line_of) = (&mut self.cnt, &mut self.ones, &self.grid.line_of);
-        self.grid.for_each_in(self.pts, c0, r0, |q| {
-            let n = cnt[q as usize];
-            cnt[q as usize] = n - 1;
-            match n {
-                1 => ones[line_of[q as usize] as usize] -= 1,
-                2 => ones[line_of[q as usize] as usize] += 1,
-                _ => {}
-            }
-        });
-        self.grid.for_each_in(self.pts, c, r, |q| {
-            let n = cnt[q as usize];
-            cnt[q as usize] = n.saturating_add(1);
-            match n {
-                0 => ones[line_of[q as usize] as usize] += 1,
-                1 => ones[line_of[q as usize] as usize] -= 1,
-                _ => {}
-            }
-        });
+        self.grid.for_each_in(self.pts, c0, r0, |q| recount(cnt, ones, line_of, q, false));
+        self.grid.for_each_in(self.pts, c, r, |q| recount(cnt, ones, line_of, q, true));
         self.spheres[i] = (c, r);
         self.outs[i] = out;
         // What the move can change: the exclusive sets of the spheres meeting the old or the
@@ -520,19 +519,7 @@ impl<'a> Cover<'a> {
                 pool.push(q)
             }
         });
-        let one = |q: u32| self.cnt[q as usize] == 1;
-        self.grid.for_each_in_marked(
-            self.pts,
-            sj.0,
-            sj.1,
-            |line| self.ones[line] > 0,
-            one,
-            |q| {
-                if !inside(si, q) {
-                    pool.push(q)
-                }
-            },
-        );
+        pool.extend(self.exclusive(j).into_iter().filter(|&q| !inside(si, q)));
         if pool.len() < 4 {
             return 0.0;
         }
