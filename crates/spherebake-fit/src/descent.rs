@@ -129,14 +129,36 @@ impl Grid {
         let lo = [self.coord(c.x - r, 0), self.coord(c.y - r, 1), self.coord(c.z - r, 2)];
         let hi = [self.coord(c.x + r, 0), self.coord(c.y + r, 1), self.coord(c.z + r, 2)];
         let r2 = r * r;
+        // Each row of cells is read only over the cells its chord of the ball can reach: the
+        // gap from c to the row's cells in y and z (`gap`, never more than the true one) leaves
+        // a half chord of at most √(r² − gy² − gz²) in x (widened by the same slack). A point
+        // of a cell outside it is farther than r, so the calls are the same, in the same order.
+        let gap = |axis: usize, i: usize| -> f64 {
+            let (o, x) = ([self.origin.x, self.origin.y, self.origin.z][axis], [c.x, c.y, c.z][axis]);
+            // Cell keys are rounded quotients (and the last cell holds what lies beyond it), so
+            // the bounds carry a slack far above their rounding (1e-9 of the magnitudes).
+            let slack = 1e-9 * (o.abs() + x.abs() + self.cell * self.dims[axis] as f64) + 1e-300;
+            let g = match i.cmp(&self.coord(x, axis)) {
+                std::cmp::Ordering::Less => x - (o + (i + 1) as f64 * self.cell),
+                std::cmp::Ordering::Equal => 0.0,
+                std::cmp::Ordering::Greater => o + i as f64 * self.cell - x,
+            };
+            (g - slack).max(0.0)
+        };
+        let slack_x = 1e-9 * (self.origin.x.abs() + c.x.abs() + self.cell * self.dims[0] as f64) + 1e-300;
         for k in lo[2]..=hi[2] {
+            let gz = gap(2, k);
             for j in lo[1]..=hi[1] {
                 let line = j + self.dims[1] * k;
-                if !marked(line) {
+                let gy = gap(1, j);
+                let rem = r2 - gy * gy - gz * gz;
+                if rem < 0.0 || !marked(line) {
                     continue;
                 }
+                let w = rem.sqrt() * (1.0 + 1e-9) + slack_x;
+                let (x0, x1) = (self.coord(c.x - w, 0).max(lo[0]), self.coord(c.x + w, 0).min(hi[0]));
                 let row = self.dims[0] * line;
-                let (a, b) = (self.start[row + lo[0]] as usize, self.start[row + hi[0] + 1] as usize);
+                let (a, b) = (self.start[row + x0] as usize, self.start[row + x1 + 1] as usize);
                 for &q in &self.items[a..b] {
                     if keep(q) && pts[q as usize].distance_squared(c) <= r2 {
                         f(q);
