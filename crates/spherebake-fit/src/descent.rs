@@ -133,19 +133,20 @@ impl Grid {
         // gap from c to the row's cells in y and z (`gap`, never more than the true one) leaves
         // a half chord of at most √(r² − gy² − gz²) in x (widened by the same slack). A point
         // of a cell outside it is farther than r, so the calls are the same, in the same order.
-        let gap = |axis: usize, i: usize| -> f64 {
-            let (o, x) = ([self.origin.x, self.origin.y, self.origin.z][axis], [c.x, c.y, c.z][axis]);
-            // Cell keys are rounded quotients (and the last cell holds what lies beyond it), so
-            // the bounds carry a slack far above their rounding (1e-9 of the magnitudes).
-            let slack = 1e-9 * (o.abs() + x.abs() + self.cell * self.dims[axis] as f64) + 1e-300;
-            let g = match i.cmp(&self.coord(x, axis)) {
-                std::cmp::Ordering::Less => x - (o + (i + 1) as f64 * self.cell),
+        let (o, x) = (self.origin.to_array(), c.to_array());
+        // Cell keys are rounded quotients (and the last cell holds what lies beyond it), so the
+        // bounds carry a slack far above their rounding (1e-9 of the magnitudes).
+        let slack: [f64; 3] =
+            std::array::from_fn(|a| 1e-9 * (o[a].abs() + x[a].abs() + self.cell * self.dims[a] as f64) + 1e-300);
+        let own: [usize; 3] = std::array::from_fn(|a| self.coord(x[a], a));
+        let gap = |a: usize, i: usize| -> f64 {
+            let g = match i.cmp(&own[a]) {
+                std::cmp::Ordering::Less => x[a] - (o[a] + (i + 1) as f64 * self.cell),
                 std::cmp::Ordering::Equal => 0.0,
-                std::cmp::Ordering::Greater => o + i as f64 * self.cell - x,
+                std::cmp::Ordering::Greater => o[a] + i as f64 * self.cell - x[a],
             };
-            (g - slack).max(0.0)
+            (g - slack[a]).max(0.0)
         };
-        let slack_x = 1e-9 * (self.origin.x.abs() + c.x.abs() + self.cell * self.dims[0] as f64) + 1e-300;
         for k in lo[2]..=hi[2] {
             let gz = gap(2, k);
             for j in lo[1]..=hi[1] {
@@ -155,7 +156,7 @@ impl Grid {
                 if rem < 0.0 || !marked(line) {
                     continue;
                 }
-                let w = rem.sqrt() * (1.0 + 1e-9) + slack_x;
+                let w = rem.sqrt() * (1.0 + 1e-9) + slack[0];
                 let (x0, x1) = (self.coord(c.x - w, 0).max(lo[0]), self.coord(c.x + w, 0).min(hi[0]));
                 let row = self.dims[0] * line;
                 let (a, b) = (self.start[row + x0] as usize, self.start[row + x1 + 1] as usize);
