@@ -361,11 +361,25 @@ impl Default for FitPlan {
 impl FitPlan {
     /// Less work in every stage: half the Lloyd iterations from the even thinning of the cover
     /// start only ([`FitPlan::both_thinnings`]), no polish (the descent covers the
-    /// points from the Lloyd result directly), a quarter of the descent's trials and a
+    /// points from the Lloyd result directly), two Gauss–Seidel sweeps before the trials of
+    /// the descent and of each seam round (not eight), a quarter of the descent's trials and a
     /// thirtieth of its budget, two seam rounds with a quarter of their trials on a grid of
-    /// half a voxel cell (not a quarter), half the band's sweeps, no boundary moves and no gap
+    /// half a voxel cell (not a quarter), one band sweep, no boundary moves and no gap
     /// round; and, through [`Preset::voxels`], a voxel grid of 96 cells instead of 128, whose
     /// cells its descent reads directly ([`FitPlan::descent_block`] 1, see there).
+    ///
+    /// The sweep counts were measured last (whole bake, one thread, 64 spheres, seeds 1–4
+    /// unless noted; 2026-12-07, session 53). With four of each, the sweeps stopped at their
+    /// 0.01 % rule, and on the bunny their gains were 20 %, 0.3 % and nothing (the descent;
+    /// each seam round alike) and 1.6 %, 0.13 % and nothing (the band, whose sweeps over
+    /// 250 000 band points were three quarters of its time). Two and one: mean E of the bunny
+    /// 0.2381 → 0.2379 over seeds 1–8 (every seed within 0.002), armadillo 0.4365 → 0.4373,
+    /// teapot 0.1914 → 0.1903, spot 0.1684 → 0.1684, Duck 0.1245 → 0.1242, unit cube 0.3048 →
+    /// 0.3023, CesiumMan 0.7420 → 0.7355, Fox 0.5056 → 0.5066, milk truck 0.5535 → 0.5543, the
+    /// capsule the same file. Instructions executed (cachegrind, seed 1; CPU times were too
+    /// noisy that day to resolve this): bunny −5.3 %, spot −5.3 %, Duck −5.9 %, armadillo
+    /// −3.3 %, CesiumMan −3.0 %, teapot −1.5 %, unit cube +1.4 % (another trajectory, lower
+    /// E). One sweep before the trials too raised E (armadillo 0.4485, teapot 0.1953).
     ///
     /// The coarser grid was measured first (fit alone, CPU, one thread, load ≈ 2, 64 spheres):
     /// with three seam rounds at a quarter cell, 96 cells gave the bunny E 0.2372 over seeds
@@ -405,7 +419,7 @@ impl FitPlan {
             split_start_tie: 0.0,
             split_start_oblique: false,
             polish_rounds: 0,
-            descent_sweeps: 4,
+            descent_sweeps: 2,
             descent_trials: 16,
             descent_max_fails: 8,
             descent_work_budget: 4_000_000,
@@ -414,7 +428,7 @@ impl FitPlan {
             seam_trials: 4,
             seam_max_fails: 2,
             seam_work_budget: 1_000_000,
-            band_sweeps: 4,
+            band_sweeps: 1,
             gap_rounds: 0,
             pair_first_cut: 0.0,
             descent_block: 1,
