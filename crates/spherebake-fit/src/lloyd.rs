@@ -339,6 +339,77 @@ const FAR_BUCKET_MEMBERS: usize = 8;
 /// from the member to c); a relative 10⁻¹² covers the few roundings of the three distances.
 const FAR_BOUND_SLACK: f64 = 1.0 + 1e-12;
 
+/// (distance, index) pairs in farthest-first order (ties: the lower index first, so the order
+/// is total and unique), sorted only as far as they are read. A radius transfer
+/// ([`crate::descent`]'s and Lloyd's) hands over the farthest members one by one and stops
+/// once the spheres that take them grow more than the shrinking one can lose: on the bunny
+/// (`fast`) after 87 of 737 members on average. So instead of sorting them all, each read past
+/// the sorted front selects the next chunk (as many as are sorted, at least an eighth of all
+/// and at least [`FarthestFirst::FIRST`]) and sorts only it: the same entries at the same
+/// places as a full sort, at O(n) per chunk plus the sort of what is read. The same files;
+/// instructions of a whole bake (cachegrind, seed 1): the bunny −3.1 % (default) and −1.4 %
+/// (`fast`), the unit cube −3.5 % and −1.4 % (chunks of a quarter: about the same; growing
+/// from 32 alone: −0.7 % on the fast bunny).
+pub(crate) struct FarthestFirst {
+    v: Vec<(f64, u32)>,
+    /// `v[..done]` holds the first `done` entries of the order, in order; the rest follow them
+    /// in the order but not among themselves.
+    done: usize,
+}
+
+impl FarthestFirst {
+    /// The first chunk sorted.
+    const FIRST: usize = 32;
+
+    pub(crate) fn new(v: Vec<(f64, u32)>) -> Self {
+        Self { v, done: 0 }
+    }
+
+    pub(crate) fn len(&self) -> usize {
+        self.v.len()
+    }
+
+    /// Entry `n` of the order (panics when n ≥ len, as indexing would).
+    pub(crate) fn at(&mut self, n: usize) -> (f64, u32) {
+        self.sort_through(n);
+        self.v[n]
+    }
+
+    /// The first `n` entries, in order.
+    pub(crate) fn prefix(&mut self, n: usize) -> &[(f64, u32)] {
+        if n > 0 {
+            self.sort_through(n - 1);
+        }
+        &self.v[..n]
+    }
+
+    /// The entries after the first `n`, in no particular order.
+    pub(crate) fn rest(&mut self, n: usize) -> &[(f64, u32)] {
+        if n > 0 {
+            self.sort_through(n - 1);
+        }
+        &self.v[n..]
+    }
+
+    fn sort_through(&mut self, n: usize) {
+        let order = |a: &(f64, u32), b: &(f64, u32)| b.0.total_cmp(&a.0).then(a.1.cmp(&b.1));
+        while self.done <= n && self.done < self.v.len() {
+            let chunk = self.done.max(Self::FIRST).max(self.v.len() / 8);
+            let rest = &mut self.v[self.done..];
+            if chunk + 1 < rest.len() {
+                // rest[chunk] is then the entry of rank `chunk` among the rest, the `chunk`
+                // before it those ranked before it.
+                rest.select_nth_unstable_by(chunk, order);
+                rest[..chunk].sort_unstable_by(order);
+                self.done += chunk + 1;
+            } else {
+                rest.sort_unstable_by(order);
+                self.done = self.v.len();
+            }
+        }
+    }
+}
+
 /// Members grouped by their distance from a reference centre c0 into buckets of decreasing
 /// distance (a counting sort, O(members); members in their given order within a bucket): the
 /// farthest-member distance from any centre, exact, by a scan that stops at the first bucket
@@ -868,8 +939,7 @@ pub fn shrink(solid: &Solid, pts: &[Rep], centres: &[DVec3], radii: &mut [f64], 
         if nb.is_empty() {
             continue;
         }
-        let mut sorted: Vec<(f64, u32)> = mem[i].iter().map(|&q| (pts[q as usize].far(centres[i]), q)).collect();
-        sorted.sort_unstable_by(|a, b| b.0.total_cmp(&a.0).then(a.1.cmp(&b.1)));
+        let mut sorted = FarthestFirst::new(mem[i].iter().map(|&q| (pts[q as usize].far(centres[i]), q)).collect());
         for &j in &nb {
             new_r[j] = radii[j];
             new_o[j] = outs[j];
@@ -879,11 +949,11 @@ pub fn shrink(solid: &Solid, pts: &[Rep], centres: &[DVec3], radii: &mut [f64], 
         let mut best = (0.0f64, 0usize); // (ΔE, dropped count)
         let mut target: Vec<u32> = Vec::new();
         let mut dirty: Vec<usize> = Vec::new();
-        let mut checkpoint = sorted[0].0 - step;
+        let mut checkpoint = sorted.at(0).0 - step;
         // Hand over at most half of the members (measured: allowing all gains < 1e-4 in E).
         let cap = sorted.len() / 2;
-        for (n, &(_, q)) in sorted.iter().enumerate().take(cap) {
-            let p = &pts[q as usize];
+        for n in 0..cap {
+            let p = &pts[sorted.at(n).1 as usize];
             let mut bj = (f64::INFINITY, usize::MAX);
             for &j in &nb {
                 let g = p.far(centres[j]) - new_r[j];
@@ -899,7 +969,7 @@ pub fn shrink(solid: &Solid, pts: &[Rep], centres: &[DVec3], radii: &mut [f64], 
                     dirty.push(j);
                 }
             }
-            let r_next = sorted[n + 1].0;
+            let r_next = sorted.at(n + 1).0;
             if r_next <= checkpoint || n + 1 == cap {
                 checkpoint = r_next - step;
                 for &j in &dirty {
@@ -922,15 +992,14 @@ pub fn shrink(solid: &Solid, pts: &[Rep], centres: &[DVec3], radii: &mut [f64], 
         }
         // Apply the best prefix.
         let drop = best.1;
-        for (&(_, q), &j) in sorted[..drop].iter().zip(&target) {
+        for (&(_, q), &j) in sorted.prefix(drop).iter().zip(&target) {
             assign[q as usize] = j;
             mem[j as usize].push(q);
         }
-        let keep: Vec<u32> = sorted[drop..].iter().map(|x| x.1).collect();
-        let mut keep = keep;
+        radii[i] = sorted.at(drop).0;
+        let mut keep: Vec<u32> = sorted.rest(drop).iter().map(|x| x.1).collect();
         keep.sort_unstable();
         mem[i] = keep;
-        radii[i] = sorted[drop].0;
         outs[i] = solid.outside(centres[i], radii[i]);
         for &j in &nb {
             if target[..drop].contains(&(j as u32)) {
@@ -948,6 +1017,40 @@ pub fn shrink(solid: &Solid, pts: &[Rep], centres: &[DVec3], radii: &mut [f64], 
 mod tests {
     use super::*;
     use spherebake_geom::voxel::Bits;
+
+    /// Whatever is read and in whatever order, [`FarthestFirst`] gives the entries of a full
+    /// sort (farthest first, ties by index) at the same places; `prefix` is the sort's prefix
+    /// and `rest` the other entries. Distances on a coarse grid, so many tie.
+    #[test]
+    fn farthest_first_reads_as_a_full_sort() {
+        let mut rng = crate::rng::SplitMix64::new(5);
+        for &n in &[1usize, 2, 3, 31, 32, 33, 34, 64, 100, 257, 737, 2000] {
+            // Distinct indices in a scrambled order.
+            let v: Vec<(f64, u32)> = (0..n)
+                .map(|i| ((rng.below(n as u64 / 3 + 1) as f64) * 0.25, (i as u32).wrapping_mul(2_654_435_761)))
+                .collect();
+            let mut full = v.clone();
+            full.sort_by(|a, b| b.0.partial_cmp(&a.0).expect("finite").then(a.1.cmp(&b.1)));
+            // In order, one at a time (a transfer's scan).
+            let mut f = FarthestFirst::new(v.clone());
+            assert_eq!(f.len(), n);
+            for (k, want) in full.iter().enumerate() {
+                assert_eq!(f.at(k), *want, "n {n}, entry {k} in order");
+            }
+            // Jumping ahead, then back, then a prefix and the rest as sets.
+            for stop in [0, 1, n / 10, n / 2, n - 1].into_iter().filter(|&k| k < n) {
+                let mut f = FarthestFirst::new(v.clone());
+                let jump = (stop + n / 3).min(n - 1);
+                assert_eq!(f.at(jump), full[jump], "n {n}, jump to {jump}");
+                assert_eq!(f.at(stop), full[stop], "n {n}, back to {stop}");
+                let mut f = FarthestFirst::new(v.clone());
+                assert_eq!(f.prefix(stop), &full[..stop], "n {n}, prefix {stop}");
+                let mut rest = f.rest(stop).to_vec();
+                rest.sort_by(|a, b| b.0.partial_cmp(&a.0).expect("finite").then(a.1.cmp(&b.1)));
+                assert_eq!(rest, full[stop..], "n {n}, rest after {stop}");
+            }
+        }
+    }
 
     /// A 20³-cell block with a 10³ bite out of one corner, and the cube mesh's points: an
     /// L-ish solid where clusters settle unevenly.
