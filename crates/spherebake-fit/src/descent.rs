@@ -550,9 +550,12 @@ impl<'a> Cover<'a> {
             (p.distance(si.0) - si.1) - (p.distance(sj.0) - sj.1)
         };
         let mut ranked: Vec<(f64, u32)> = pool.iter().map(|&q| (t(q), q)).collect();
-        ranked.sort_unstable_by(|x, y| x.0.total_cmp(&y.0).then(x.1.cmp(&y.1)));
+        // By t, ties by index (a total order). A cut needs only which points fall on each side,
+        // so each cut selects its rank instead of a sort of all: the same two sets (the pattern
+        // searches read their members in any order to the same bits).
+        let order = |x: &(f64, u32), y: &(f64, u32)| x.0.total_cmp(&y.0).then(x.1.cmp(&y.1));
         let n = ranked.len();
-        let now = ranked.partition_point(|x| x.0 <= 0.0);
+        let now = ranked.iter().filter(|x| x.0 <= 0.0).count();
         let before = self.outs[i] + self.outs[j];
         let mut best: Option<PairMove> = None;
         for dir in [-1i64, 1] {
@@ -564,6 +567,7 @@ impl<'a> Cover<'a> {
                     break;
                 }
                 let (ma, mb): (Vec<u32>, Vec<u32>) = {
+                    ranked.select_nth_unstable_by(cut as usize, order);
                     let (l, r) = ranked.split_at(cut as usize);
                     (l.iter().map(|x| x.1).collect(), r.iter().map(|x| x.1).collect())
                 };
@@ -593,8 +597,8 @@ impl<'a> Cover<'a> {
     /// points): each sphere, largest outside volume first, with the meeting sphere it shares
     /// the most points with (points no third sphere covers), or overlaps deepest when it
     /// shares none; a pair is tried once per sweep unless one of its spheres moved.
-    /// Sequential and deterministic. Cost O(k²) for the neighbour lists plus, per pair, a
-    /// sort of its points and two pattern searches per cut tried (O(log points) cuts).
+    /// Sequential and deterministic. Cost O(k²) for the neighbour lists plus, per pair and cut
+    /// tried (O(log points) cuts), a selection over its points and two pattern searches.
     /// Returns the summed gain.
     fn pair_sweep(&mut self, first: f64) -> f64 {
         let k = self.spheres.len();
