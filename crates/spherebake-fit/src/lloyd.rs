@@ -459,6 +459,11 @@ impl<M: FarMember> FarQuery<M> {
         Self { c0, members, buckets }
     }
 
+    /// The reference centre the members are bucketed by.
+    pub(crate) fn centre(&self) -> DVec3 {
+        self.c0
+    }
+
     /// max |p − c| over the members (0 for none).
     pub(crate) fn max_dist(&self, c: DVec3) -> f64 {
         let shift = c.distance(self.c0);
