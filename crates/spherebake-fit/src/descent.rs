@@ -568,7 +568,8 @@ impl<'a> Cover<'a> {
         let mut ranked: Vec<(f64, u32)> = pool.iter().map(|&q| (t(q), q)).collect();
         // By t, ties by index (a total order). A cut needs only which points fall on each side,
         // so each cut selects its rank instead of a sort of all: the same two sets (the pattern
-        // searches read their members in any order to the same bits).
+        // searches read their members in any order to the same bits). The current boundary is
+        // the count of t ≤ 0, where a sorted list's partition point was (t is finite).
         let order = |x: &(f64, u32), y: &(f64, u32)| x.0.total_cmp(&y.0).then(x.1.cmp(&y.1));
         let n = ranked.len();
         let now = ranked.iter().filter(|x| x.0 <= 0.0).count();
