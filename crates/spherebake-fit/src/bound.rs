@@ -408,7 +408,7 @@ fn shrink_back(
     if order.is_empty() {
         return 0;
     }
-    order.sort_unstable_by(|a, b| b.0.total_cmp(&a.0).then(a.1.cmp(&b.1)));
+    order.sort_unstable_by(crate::largest_first);
     order.truncate(SHRINK_MAX);
     // The grid at today's radii: spheres that outgrew their first reach would otherwise be
     // returned by every query (with 4096 spheres on a cube, sorting those lists was most of

@@ -686,7 +686,7 @@ impl<'a> Cover<'a> {
                 (g, q)
             })
             .collect();
-        gaps.sort_unstable_by(|a, b| b.0.total_cmp(&a.0).then(a.1.cmp(&b.1)));
+        gaps.sort_unstable_by(crate::largest_first);
         let mut grown: Vec<usize> = Vec::new();
         for &(_, q) in &gaps {
             let p = self.pts[q as usize];
@@ -1230,7 +1230,7 @@ pub(crate) fn cheapest_of_three_nearest(
 pub fn cover_points(solid: &Solid, spheres: &mut [(DVec3, f64)], new: &[DVec3]) {
     let gap = |p: DVec3, sp: &[(DVec3, f64)]| sp.iter().map(|s| p.distance(s.0) - s.1).fold(f64::INFINITY, f64::min);
     let mut order: Vec<(f64, usize)> = new.iter().enumerate().map(|(i, p)| (gap(*p, spheres), i)).collect();
-    order.sort_unstable_by(|a, b| b.0.total_cmp(&a.0).then(a.1.cmp(&b.1)));
+    order.sort_unstable_by(crate::largest_first);
     for &(_, i) in &order {
         let p = new[i];
         let gaps = spheres.iter().enumerate().map(|(l, s)| (l, p.distance(s.0) - s.1));

@@ -281,6 +281,14 @@ impl Prepared {
     }
 }
 
+/// The fit's one order of (value, index) pairs: largest value first (`f64::total_cmp`), ties
+/// to the lower index, so the order is total and a sort of distinct indices is unique (the same
+/// bits for any sort algorithm and thread count). Farthest members, largest gaps, largest
+/// costs.
+pub(crate) fn largest_first<T: Ord>(a: &(f64, T), b: &(f64, T)) -> std::cmp::Ordering {
+    b.0.total_cmp(&a.0).then(a.1.cmp(&b.1))
+}
+
 /// `Err(InvalidSetting)` naming the setting unless lo ≤ v ≤ hi (NaN is rejected too).
 pub(crate) fn check_range<T: PartialOrd + std::fmt::Display>(
     name: &'static str,

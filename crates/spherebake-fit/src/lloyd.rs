@@ -275,7 +275,7 @@ pub fn assign_grow(solid: &Solid, pts: &[Rep], centres: &[DVec3], radii: &[f64])
         })
         .flatten()
         .collect();
-    out.sort_unstable_by(|a, b| b.0.total_cmp(&a.0).then(a.1.cmp(&b.1)));
+    out.sort_unstable_by(crate::largest_first);
     for &(_, i) in &out {
         let p = &pts[i as usize];
         let gaps = centres.iter().enumerate().map(|(ci, c)| (ci, p.far(*c) - r[ci]));
@@ -339,8 +339,8 @@ const FAR_BUCKET_MEMBERS: usize = 8;
 /// from the member to c); a relative 10⁻¹² covers the few roundings of the three distances.
 const FAR_BOUND_SLACK: f64 = 1.0 + 1e-12;
 
-/// (distance, index) pairs in farthest-first order (ties: the lower index first, so the order
-/// is total and unique), sorted only as far as they are read. A radius transfer
+/// (distance, index) pairs in farthest-first order ([`crate::largest_first`]: ties to the lower
+/// index, so the order is total and unique), sorted only as far as they are read. A radius transfer
 /// ([`crate::descent`]'s and Lloyd's) hands over the farthest members one by one and stops
 /// once the spheres that take them grow more than the shrinking one can lose: on the bunny
 /// (`fast`) after 87 of 737 members on average. So instead of sorting them all, each read past
@@ -392,7 +392,7 @@ impl FarthestFirst {
     }
 
     fn sort_through(&mut self, n: usize) {
-        let order = |a: &(f64, u32), b: &(f64, u32)| b.0.total_cmp(&a.0).then(a.1.cmp(&b.1));
+        let order = crate::largest_first::<u32>;
         while self.done <= n && self.done < self.v.len() {
             let chunk = self.done.max(Self::FIRST).max(self.v.len() / 8);
             let rest = &mut self.v[self.done..];

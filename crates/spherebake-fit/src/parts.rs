@@ -157,7 +157,7 @@ pub fn allocate(parts: &[Part], k: usize) -> Vec<usize> {
     let share = |p: &Part| if total > 0.0 { spare as f64 * p.area / total } else { spare as f64 / n as f64 };
     let mut counts: Vec<usize> = parts.iter().map(|p| 1 + share(p).floor() as usize).collect();
     let mut rest: Vec<(f64, usize)> = parts.iter().enumerate().map(|(i, p)| (share(p) - share(p).floor(), i)).collect();
-    rest.sort_unstable_by(|a, b| b.0.total_cmp(&a.0).then(a.1.cmp(&b.1)));
+    rest.sort_unstable_by(crate::largest_first);
     let mut left = k.saturating_sub(counts.iter().sum::<usize>());
     for &(_, i) in rest.iter().cycle().take(n * 2) {
         if left == 0 {
