@@ -364,9 +364,21 @@ impl FitPlan {
     /// points from the Lloyd result directly), two Gauss–Seidel sweeps before the trials of
     /// the descent and of each seam round (not eight), a quarter of the descent's trials and a
     /// thirtieth of its budget, two seam rounds with a quarter of their trials on a grid of
-    /// half a voxel cell (not a quarter), one band sweep, no boundary moves and no gap
-    /// round; and, through [`Preset::voxels`], a voxel grid of 96 cells instead of 128, whose
-    /// cells its descent reads directly ([`FitPlan::descent_block`] 1, see there).
+    /// half a voxel cell (not a quarter), one band sweep over a band a quarter of a cell wide
+    /// (not one cell), no boundary moves and no gap round; and, through [`Preset::voxels`], a
+    /// voxel grid of 96 cells instead of 128, whose cells its descent reads directly
+    /// ([`FitPlan::descent_block`] 1, see there).
+    ///
+    /// The band's width was measured last (whole bake, 64 spheres, seeds 1–4 unless noted;
+    /// 2026-12-07, session 54). The band's gain comes from the points nearest the spheres'
+    /// surfaces: a quarter of a cell keeps it with a fifth of the band points (the bunny, seed
+    /// 1: 247 000 → 55 000; the band stage 0.08 → 0.04 s). Mean E at one cell → a quarter:
+    /// bunny 0.2379 → 0.2376 (seeds 1–8), armadillo 0.4373 → 0.4375, spot 0.1684 → 0.1684,
+    /// Duck 0.1242 → 0.1243, teapot 0.1903 → 0.1903, capsule 0.0578 → 0.0578, Fox 0.5066 →
+    /// 0.5073, milk truck 0.5543 → 0.5546, unit cube 0.3002 → 0.3023, CesiumMan 0.7355 →
+    /// 0.7410. Instructions executed by the bunny's bake (cachegrind, seed 1): 9.85 G → 9.44 G
+    /// (−4.1 %). Half a cell saved 2.4 %, a tenth 5.1 % at a higher E (CesiumMan 0.7448, unit
+    /// cube 0.3034).
     ///
     /// The sweep counts were measured last (whole bake, one thread, 64 spheres, seeds 1–4
     /// unless noted; 2026-12-07, session 53). With four of each, the sweeps stopped at their
@@ -429,6 +441,7 @@ impl FitPlan {
             seam_max_fails: 2,
             seam_work_budget: 1_000_000,
             band_sweeps: 1,
+            band_width_cells: 0.25,
             gap_rounds: 0,
             pair_first_cut: 0.0,
             descent_block: 1,
