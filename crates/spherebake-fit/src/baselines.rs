@@ -228,23 +228,40 @@ pub fn lattices_at_most(lo: DVec3, hi: DVec3, points: &[DVec3], k: usize) -> Vec
     let near_cubic =
         |n: usize| -> [usize; 3] { [0, 1, 2].map(|a| ((n as f64 * ext[a] / longest).round() as usize).clamp(1, n)) };
     let cell_cap = k.saturating_mul(64);
-    let occupied = |d: [usize; 3]| -> Option<Vec<bool>> {
-        let cells = d[0].checked_mul(d[1])?.checked_mul(d[2])?;
-        if cells > cell_cap {
-            return None;
-        }
+    // Each point's place in the box per axis, (p − lo) / ext (0 on a flat axis), computed once:
+    // a lattice of n cells along the axis puts it in cell ⌊u n⌋, the same product as
+    // (p − lo) / ext × n, so the same cells.
+    let unit: [Vec<f64>; 3] =
+        [0, 1, 2].map(|a| points.iter().map(|p| if ext[a] > 0.0 { (p[a] - lo[a]) / ext[a] } else { 0.0 }).collect());
+    // The points' cells along axis `a` in a lattice of `n` cells there; NaN and out-of-box
+    // points clamp to the border cells.
+    let cells_along = |a: usize, n: usize| -> Vec<u32> {
+        unit[a]
+            .iter()
+            .map(|&u| {
+                let t = u * n as f64;
+                if t >= 0.0 {
+                    (t as usize).min(n - 1) as u32
+                } else {
+                    0
+                }
+            })
+            .collect()
+    };
+    // Lattice `d`'s cell count when at most the cap.
+    let cells_of = |d: [usize; 3]| d[0].checked_mul(d[1])?.checked_mul(d[2]).filter(|&c| c <= cell_cap);
+    // Which of `cells` cells of lattice `d` hold a point, from the points' cells along each axis.
+    let occupied_from = |d: [usize; 3], cells: usize, along: [&[u32]; 3]| -> Vec<bool> {
         let mut occ = vec![false; cells];
-        for p in points {
-            let mut idx = 0usize;
-            for a in (0..3).rev() {
-                let t = if ext[a] > 0.0 { (p[a] - lo[a]) / ext[a] * d[a] as f64 } else { 0.0 };
-                // NaN and out-of-box points clamp to the border cells.
-                let i = if t >= 0.0 { (t as usize).min(d[a] - 1) } else { 0 };
-                idx = idx * d[a] + i;
-            }
-            occ[idx] = true;
+        for ((&x, &y), &z) in along[0].iter().zip(along[1]).zip(along[2]) {
+            occ[(z as usize * d[1] + y as usize) * d[0] + x as usize] = true;
         }
-        Some(occ)
+        occ
+    };
+    let occupied = |d: [usize; 3]| -> Option<Vec<bool>> {
+        let cells = cells_of(d)?;
+        let along = [0, 1, 2].map(|a| cells_along(a, d[a]));
+        Some(occupied_from(d, cells, [&along[0], &along[1], &along[2]]))
     };
     let kept = |d: [usize; 3]| occupied(d).map_or(usize::MAX, |o| o.iter().filter(|&&x| x).count());
     // The largest n whose near-cubic lattice keeps at most k cells (binary search: the kept
@@ -276,9 +293,19 @@ pub fn lattices_at_most(lo: DVec3, hi: DVec3, points: &[DVec3], k: usize) -> Vec
             }
         }
     }
+    // The lattices share their cell counts per axis (four each): each axis's cells are
+    // computed once per count.
+    let mut along: [Vec<(usize, Vec<u32>)>; 3] = Default::default();
     let mut out = Vec::new();
     for d in dims {
-        let Some(occ) = occupied(d) else { continue };
+        let Some(cells) = cells_of(d) else { continue };
+        for (a, list) in along.iter_mut().enumerate() {
+            if !list.iter().any(|(n, _)| *n == d[a]) {
+                list.push((d[a], cells_along(a, d[a])));
+            }
+        }
+        let get = |a: usize| along[a].iter().find(|(n, _)| *n == d[a]).map_or(&[][..], |(_, c)| c.as_slice());
+        let occ = occupied_from(d, cells, [get(0), get(1), get(2)]);
         if occ.iter().filter(|&&x| x).count() > k {
             continue;
         }
