@@ -187,7 +187,7 @@ struct AreaTotals {
 /// all areas to the mesh's, except segments of spheres without samples.
 ///
 /// Cost: O(P (log S + 92)) for P ≤ max(T, min([`AREA_MAX_POINTS`], 256 × samples)) points, parallel over fixed
-/// chunks of triangles, summed in chunk order (deterministic for any thread count).
+/// chunks of triangles, summed in point order (deterministic for any thread count).
 fn sample_areas(mesh: &Mesh, ctx: &Ctx<'_>, samples: &Samples) -> (Vec<f32>, AreaTotals) {
     let mut totals = AreaTotals::default();
     let total = samples.total();
@@ -294,11 +294,12 @@ fn sample_areas(mesh: &Mesh, ctx: &Ctx<'_>, samples: &Samples) -> (Vec<f32>, Are
                     }
                 }
             }
-            // Stable: equal sample indices keep their push order, so the sums below are fixed.
-            out.sort_by_key(|e| e.0);
             (out, t)
         })
         .collect();
+    // Each sample's area is summed in the points' order (chunk by chunk, each list in push
+    // order), whatever the threads; the lists need no sorting: the sums of different samples
+    // never mix.
     let mut acc = vec![0.0f64; total];
     for (list, t) in per_chunk {
         for (g, w) in list {
