@@ -51,7 +51,8 @@
 //!    full render (the same texels, up to the f32 rounding of the barycentric interpolation of
 //!    COLOR_0), without the coverage pass: on the bunny subdivided to 1.1 M triangles (one
 //!    colour, 64 spheres) the stage fell from 4.5–4.6 s to 1.2 s, byte-identical files
-//!    (`docs/benchmarks.md`).
+//!    (`docs/benchmarks.md`). Such maps are all the same, so their projection is computed once
+//!    per bake (the same sums in the same order: the same coefficients).
 //! 3. **Colour** = base colour factor × base-colour texture × COLOR_0, linear RGB. Alpha is
 //!    ignored, except for an alpha-masked material (glTF `alphaMode` `MASK`): a fragment of the
 //!    segment's own triangles whose alpha (factor × texture × COLOR_0, the texture at level 0) is
@@ -244,14 +245,23 @@ pub fn bake_albedo(
     let ctx = Context::new(mesh, flip, spheres, settings)?;
     let projector = Projector::new(settings.sh_order, settings.cubemap_size)?;
     let keep = settings.debug_dir.is_some();
+    // A one-colour sphere's map is that colour at every texel, all covered (module docs, "One
+    // colour"): the fill leaves it as it is and its projection, the same sums in the same order
+    // on the same texels, is this one, computed once instead of once per sphere.
+    let one_colour_coeffs = ctx.one_colour.map(|c| projector.project(&vec![c; ctx.grid.texel_count()]));
     let per_sphere: Vec<(Vec<[f32; 3]>, Option<CubeMap>, SphereCounts)> = (0..spheres.len())
         .into_par_iter()
         .map(|s| {
             let (mut texels, counts, covered) = ctx.render_sphere(s);
-            if settings.fill_uncovered {
-                ctx.fill_uncovered(&mut texels, &covered);
-            }
-            let coeffs = projector.project(&texels);
+            let coeffs = match &one_colour_coeffs {
+                Some(c) if counts.one_colour => c.clone(),
+                _ => {
+                    if settings.fill_uncovered {
+                        ctx.fill_uncovered(&mut texels, &covered);
+                    }
+                    projector.project(&texels)
+                }
+            };
             let map =
                 if keep { Some(CubeMap { face_size: settings.cubemap_size, texels_linear: texels }) } else { None };
             (coeffs, map, counts)
