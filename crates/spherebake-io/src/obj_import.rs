@@ -13,6 +13,7 @@ use std::path::{Path, PathBuf};
 use glam::Vec3;
 use spherebake_geom::{Material, Mesh, TextureRef, UvTransform, NO_UV};
 
+use crate::obj_parse::{words, Words};
 use crate::polygon::{How, Triangulator, MAX_EAR_CLIP_CORNERS};
 use crate::texture::{
     decode_mask, decode_srgb_texture, srgb_to_linear, DecodeBudget, Mask, MaskChannel, TexelBudget, OVER_DECODE_BUDGET,
@@ -305,8 +306,8 @@ fn names<'a>(line: &'a str, key: &str) -> (&'a str, &'a str) {
 }
 
 /// The keyword of a logical line (comment removed) and its other tokens.
-fn keyword(line: &str) -> (Option<&str>, std::str::SplitWhitespace<'_>) {
-    let mut tok = line.split('#').next().unwrap_or("").split_whitespace();
+fn keyword(line: &str) -> (Option<&str>, Words<'_>) {
+    let mut tok = words(line.split('#').next().unwrap_or(""));
     (tok.next(), tok)
 }
 
@@ -314,11 +315,22 @@ fn keyword(line: &str) -> (Option<&str>, std::str::SplitWhitespace<'_>) {
 fn check_piece(text: &str) -> PieceCheck {
     let mut out = PieceCheck::default();
     let (mut counts, mut most) = (Counts::default(), [0i64; 3]);
+    // The `#` of the piece in the lines not yet read (each physical line is in one logical
+    // line): once none is left, a line is not searched for one (a search per line was 6 % of
+    // a 2.4 MB OBJ's check, whose comments are at its start).
+    let mut hashes = text.matches('#').count();
     let lines = logical_lines(text, |i, line, joined| {
         let at = i + 1;
-        // One search for `#` per line (a second cost a 43 MB OBJ 90 ms).
-        let (body, commented) = line.split_once('#').map_or((line, false), |(b, _)| (b, true));
-        let mut tok = body.split_whitespace();
+        // At most one search for `#` per line (a second cost a 43 MB OBJ 90 ms).
+        let found = if hashes > 0 { line.split_once('#') } else { None };
+        let (body, commented) = match found {
+            Some((body, _)) => {
+                hashes = hashes.saturating_sub(line.matches('#').count());
+                (body, true)
+            }
+            None => (line, false),
+        };
+        let mut tok = words(body);
         let key = tok.next();
         out.rewrite_lines |= joined || (commented && is_data(key));
         match key {
@@ -364,36 +376,32 @@ fn check_piece(text: &str) -> PieceCheck {
                 counts.vn += 1;
             }
             Some(kw @ ("f" | "l")) => {
-                let corners = tok.clone().count();
-                if kw == "f" && corners < 3 {
-                    return Err((at, format!("face with {corners} vertices (a face needs at least 3)")));
-                }
-                if corners == 0 {
-                    return Err((at, "line element with no vertex".into()));
-                }
-                out.rewrite_lines |= kw == "l";
-                for c in tok {
-                    for (kind, slot) in c.split('/').enumerate() {
-                        if kind >= 3 && !slot.is_empty() {
-                            return Err((at, format!("face corner {c:?} has more than three indices")));
-                        }
-                        if kind >= 3 || (slot.is_empty() && kind > 0) {
-                            continue;
-                        }
-                        let what = ["vertex", "texture", "normal"][kind];
-                        let Ok(x) = slot.parse::<i64>() else {
-                            return Err((at, format!("bad {what} index {slot:?} in face corner {c:?}")));
-                        };
-                        // Valid when 1 ≤ resolved ≤ defined, defined = before + local: x ≤ defined
-                        // for x > 0, −x ≤ defined for x < 0; never for 0.
-                        let local = [counts.v, counts.vt, counts.vn][kind];
-                        let need = if x == 0 { i64::MAX } else { x.unsigned_abs().min(i64::MAX as u64) as i64 - local };
-                        if need > most[kind] {
-                            most[kind] = need;
-                            out.needs.push(Need { line: at, kind, index: x, local, need });
+                // Too few corners is the line's error before any of its corners' (so what its
+                // corners added to `needs` is taken back then). The corners are read in one
+                // pass and counted as they go: counting them first tokenised each face twice.
+                let few = |corners: usize| match corners {
+                    n if kw == "f" && n < 3 => Some(format!("face with {n} vertices (a face needs at least 3)")),
+                    0 => Some("line element with no vertex".to_string()),
+                    _ => None,
+                };
+                let needs_before = out.needs.len();
+                let mut corners = 0;
+                while let Some(c) = tok.next() {
+                    corners += 1;
+                    let local = [counts.v, counts.vt, counts.vn];
+                    if let Some(message) = check_corner(c, local, &mut most, at, &mut out.needs) {
+                        // Unless the line has too few corners (below), this is its error.
+                        corners += tok.by_ref().count();
+                        if few(corners).is_none() {
+                            return Err((at, message));
                         }
                     }
                 }
+                if let Some(message) = few(corners) {
+                    out.needs.truncate(needs_before);
+                    return Err((at, message));
+                }
+                out.rewrite_lines |= kw == "l";
             }
             _ => {}
         }
@@ -405,6 +413,53 @@ fn check_piece(text: &str) -> PieceCheck {
     }
     out.counts = counts;
     out
+}
+
+/// Checks a face corner `c` (`v`, `v/vt`, `v//vn`, `v/vt/vn`) of line `at` of a piece with
+/// `local` definitions (v, vt, vn) in the piece before it: each index is a number, valid when
+/// at least `need` definitions of its kind come before the piece; one needing more than every
+/// earlier one of its kind (`most`) is appended to `needs`. Returns the corner's error.
+fn check_corner(c: &str, local: [i64; 3], most: &mut [i64; 3], at: usize, needs: &mut Vec<Need>) -> Option<String> {
+    for (kind, slot) in slots(c).enumerate() {
+        if kind >= 3 && !slot.is_empty() {
+            return Some(format!("face corner {c:?} has more than three indices"));
+        }
+        if kind >= 3 || (slot.is_empty() && kind > 0) {
+            continue;
+        }
+        let what = ["vertex", "texture", "normal"][kind];
+        let Ok(x) = slot.parse::<i64>() else {
+            return Some(format!("bad {what} index {slot:?} in face corner {c:?}"));
+        };
+        // Valid when 1 ≤ resolved ≤ defined, defined = before + local: x ≤ defined for x > 0,
+        // −x ≤ defined for x < 0; never for 0.
+        let local = local[kind];
+        let need = if x == 0 { i64::MAX } else { x.unsigned_abs().min(i64::MAX as u64) as i64 - local };
+        if need > most[kind] {
+            most[kind] = need;
+            needs.push(Need { line: at, kind, index: x, local, need });
+        }
+    }
+    None
+}
+
+/// The `/`-separated slots of a face corner, as `str::split('/')` gives them, found by a byte
+/// search (`/` is ASCII; `split`'s char searcher cost more per corner than the search).
+fn slots(corner: &str) -> impl Iterator<Item = &str> {
+    let mut rest = Some(corner);
+    std::iter::from_fn(move || {
+        let r = rest?;
+        match r.bytes().position(|b| b == b'/') {
+            Some(i) => {
+                rest = r.get(i + 1..);
+                r.get(..i)
+            }
+            None => {
+                rest = None;
+                Some(r)
+            }
+        }
+    })
 }
 
 /// A `v` line's kind ([`vertex_values`]).
@@ -420,7 +475,7 @@ enum Vertex {
 
 /// Checks a `v` line's values (after the keyword) as tobj reads them: x y z, then nothing, a
 /// weight w (a finite number, not 0: tobj divides by it) or three colour values.
-fn vertex_values(tok: std::str::SplitWhitespace<'_>) -> Result<Vertex, String> {
+fn vertex_values(tok: Words<'_>) -> Result<Vertex, String> {
     // No allocation per line (a large OBJ has millions of `v` lines).
     let mut values = [""; 8];
     let mut len = 0;
@@ -1803,6 +1858,42 @@ mod tests {
             }
         }
         Ok(triangles)
+    }
+
+    /// [`slots`] splits a corner as `str::split('/')` does.
+    #[test]
+    fn slots_split_as_split() {
+        for c in ["", "/", "//", "1", "1/2", "1//3", "1/2/3", "/2/", "1/2/3/", "é/1/", "-1//-2", "a/b/c/d"] {
+            assert_eq!(slots(c).collect::<Vec<_>>(), c.split('/').collect::<Vec<_>>(), "{c:?}");
+        }
+    }
+
+    /// A face or line element with too few corners is refused for that, whatever its corners
+    /// hold (bad or out-of-range indices), in one piece or many; else its first bad corner
+    /// or, before it, an index out of range is the error.
+    #[test]
+    fn too_few_corners_is_the_error_before_the_corners() {
+        let cases = [
+            ("v 0 0 0\nf 1 99\n", "line 2: face with 2 vertices (a face needs at least 3)"),
+            ("v 0 0 0\nf 99 x\n", "line 2: face with 2 vertices (a face needs at least 3)"),
+            ("f x\n", "line 1: face with 1 vertices (a face needs at least 3)"),
+            ("f # 1 2 3\n", "line 1: face with 0 vertices (a face needs at least 3)"),
+            ("l\n", "line 1: line element with no vertex"),
+            ("v 0 0 0\nl 99\n", "line 2: vertex index 99 out of range (1 defined so far)"),
+            ("v 0 0 0\nl 1 x\n", "line 2: bad vertex index \"x\" in face corner \"x\""),
+            ("v 0 0 0\nf 1 1 99 x\n", "line 2: vertex index 99 out of range (1 defined so far)"),
+            ("v 0 0 0\nf 1 x 99\n", "line 2: bad vertex index \"x\" in face corner \"x\""),
+            ("v 0 0 0\nf 1 1///4 1\n", "line 2: face corner \"1///4\" has more than three indices"),
+            ("v 0 0 0\nv 0 0 0\nf 1 2 1\nf 3 -9\nf 1 2 3\n", "line 4: face with 2 vertices (a face needs at least 3)"),
+        ];
+        for (text, want) in cases {
+            for piece in [1, 8, usize::MAX] {
+                match check_lines_in(Path::new("x.obj"), text, piece) {
+                    Err(IoError::Obj { message, .. }) => assert_eq!(message, want, "{text:?}, pieces of {piece}"),
+                    other => panic!("{text:?}: {other:?}"),
+                }
+            }
+        }
     }
 
     #[test]
