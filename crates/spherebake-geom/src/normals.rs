@@ -17,6 +17,8 @@
 //! shared by more triangles, a fan's apex or a pole, gives its corners their own face's
 //! normal), so O(64 × corners) at worst; corners of triangles without area take their
 //! position's whole sum, summed once per position; one hash per position and per split corner.
+//! A position whose triangles all lie pairwise within the crease angle (a smooth region) is
+//! summed once for all its corners, after k (k + 1) / 2 comparisons of its k triangles.
 
 use glam::{DVec3, Vec3};
 use std::collections::HashMap;
@@ -71,6 +73,17 @@ pub struct CreaseNormals {
 ///
 /// Deterministic: only the input's order decides.
 pub fn crease_normals(positions: &[Vec3], triangles: &[[u32; 3]], groups: Option<&[u32]>) -> CreaseNormals {
+    crease_normals_with(positions, triangles, groups, true)
+}
+
+/// [`crease_normals`], with `share`: whether a position's shared normal is computed once
+/// (`false` computes every corner on its own, for the test that holds the two equal).
+fn crease_normals_with(
+    positions: &[Vec3],
+    triangles: &[[u32; 3]],
+    groups: Option<&[u32]>,
+    share: bool,
+) -> CreaseNormals {
     let group = |t: usize| groups.and_then(|g| g.get(t).copied()).unwrap_or(NO_GROUP);
     let n = positions.len();
     // Welded position per vertex.
@@ -150,6 +163,32 @@ pub fn crease_normals(positions: &[Vec3], triangles: &[[u32; 3]], groups: Option
         // A sum whose terms all underflowed (areas below 10⁻³⁸ of the largest) is the face's.
         sum.try_normalize().or_else(|| u.try_normalize()).map_or(Vec3::Z, |s| s.as_vec3())
     };
+    // The normal of every corner at a welded position whose triangles all have an area, are
+    // in no smoothing group and lie pairwise within the crease angle (a smooth region: most
+    // positions of a scan), `None` where the corners may differ. Each such corner's sum is
+    // over all the position's triangles in one order, so it is the same sum: computed once,
+    // at the position's first corner, after k (k + 1) / 2 comparisons where its corners made
+    // k² (the dot product is symmetric in f64: x·x' + y·y' + z·z' either way). Bit-equal to
+    // `corner_normal` at each corner (a sum that cannot be normalised falls back per corner).
+    let shared_normal = |w: usize| -> Option<Vec3> {
+        let near = &around[start[w]..start[w + 1]];
+        if !share || near.len() > MAX_CREASE_VALENCE {
+            return None;
+        }
+        for (i, &a) in near.iter().enumerate() {
+            let ua = unit[a as usize];
+            if ua == Vec3::ZERO || group(a as usize) != NO_GROUP {
+                return None;
+            }
+            let ua = ua.as_dvec3();
+            if !near[i..].iter().all(|&b| unit[b as usize].as_dvec3().dot(ua) >= cos_crease) {
+                return None;
+            }
+        }
+        let sum: DVec3 = near.iter().map(|&o| area[o as usize].as_dvec3()).sum();
+        sum.try_normalize().map(DVec3::as_vec3)
+    };
+    let mut shared: Vec<Option<Option<Vec3>>> = vec![None; welded];
     // Split vertices whose corners differ: the first normal keeps the vertex.
     let mut normals = vec![None::<Vec3>; n];
     let mut extra: HashMap<(u32, [u32; 3]), u32> = HashMap::new();
@@ -161,7 +200,11 @@ pub fn crease_normals(positions: &[Vec3], triangles: &[[u32; 3]], groups: Option
             if !valid(v) {
                 return v;
             }
-            let m = corner_normal(ti, v);
+            let w = weld[v as usize] as usize;
+            let m = match *shared[w].get_or_insert_with(|| shared_normal(w)) {
+                Some(m) => m,
+                None => corner_normal(ti, v),
+            };
             match normals[v as usize] {
                 None => {
                     normals[v as usize] = Some(m);
@@ -305,6 +348,54 @@ mod tests {
                 }
             }
         }
+    }
+
+    /// A position's normal computed once for all its corners ([`crease_normals`]) is each
+    /// corner's own, to the bit: smooth grids (every position shared), folds and creases at
+    /// any angle, smoothing groups, degenerate and repeated triangles, at several scales.
+    #[test]
+    fn a_shared_normal_is_each_corners_own() {
+        let mut rng = crate::rng::SplitMix64::new(0x5A4E_D0C0_4E55);
+        for round in 0..300 {
+            // A height field of k × k points, bumpy enough that some folds pass the crease
+            // angle and some do not; now and then a random soup over a lattice instead.
+            let k = 3 + (rng.next_u64() % 6) as u32;
+            let bump = [0.05, 0.5, 2.0][round % 3];
+            let scale = [1.0, 1e-20, 1e15][(round / 3) % 3];
+            let mut h = || (rng.next_u64() % 1000) as f32 / 1000.0 * bump;
+            let mut p: Vec<Vec3> = (0..k * k).map(|i| Vec3::new((i % k) as f32, (i / k) as f32, h()) * scale).collect();
+            let mut t: Vec<[u32; 3]> = Vec::new();
+            for y in 0..k - 1 {
+                for x in 0..k - 1 {
+                    let i = y * k + x;
+                    t.push([i, i + 1, i + k + 1]);
+                    t.push([i, i + k + 1, i + k]);
+                }
+            }
+            if round % 5 == 4 {
+                let nv = p.len() as u64;
+                let extra: Vec<[u32; 3]> =
+                    (0..1 + rng.next_u64() % 20).map(|_| [0; 3].map(|_| (rng.next_u64() % nv) as u32)).collect();
+                t.extend(extra);
+                p.push(p[0]);
+                t.push([nv as u32, 1, 2]);
+            }
+            let groups: Option<Vec<u32>> = (round % 4 == 3)
+                .then(|| t.iter().map(|_| [NO_GROUP, NO_GROUP, 0, 1][(rng.next_u64() % 4) as usize]).collect());
+            let g = groups.as_deref();
+            assert_eq!(
+                bits(&crease_normals_with(&p, &t, g, true)),
+                bits(&crease_normals_with(&p, &t, g, false)),
+                "round {round}"
+            );
+        }
+        let (p, t) = cube();
+        assert_eq!(bits(&crease_normals_with(&p, &t, None, true)), bits(&crease_normals_with(&p, &t, None, false)));
+    }
+
+    /// A result's triangles, sources and normals' bits.
+    fn bits(r: &CreaseNormals) -> (Vec<[u32; 3]>, Vec<u32>, Vec<[u32; 3]>) {
+        (r.triangles.clone(), r.source.clone(), r.normals.iter().map(|n| n.to_array().map(f32::to_bits)).collect())
     }
 
     #[test]
