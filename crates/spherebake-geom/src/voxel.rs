@@ -275,7 +275,8 @@ impl VoxelGrid {
         let u = (p - self.origin) / self.cell_size;
         let mut out = [0u32; 3];
         for a in 0..3 {
-            let v = u[a].floor();
+            // Without a library call (the fit's pocket checks call this per poll).
+            let v = spherebake_format::quant::floor_f64(u[a]);
             if !(v >= 0.0 && v < self.dims[a] as f64) {
                 return None;
             }
