@@ -252,6 +252,13 @@ pub fn ball_mesh_intersection_volume(center: DVec3, r: f64, positions: &[DVec3],
 /// V(B(center, r) ∩ T) touching only the triangles in `near`, exact provided every triangle
 /// *not* listed lies entirely outside the open ball and `winding_at_center` is the winding
 /// number of `center` w.r.t. T (1 inside, 0 outside for a closed outward mesh).
+///
+/// A listed triangle whose three corners lie in the closed ball adds its signed tetrahedron
+/// with the centre, a·(b × c) / 6 (corners relative to the centre): the cone over it is cut by
+/// its plane before it leaves the ball, so [`triangle_ball_volume`] is that tetrahedron (its
+/// sector less its edge caps, up to rounding), without the solid angle and the three caps.
+/// Most listed triangles of a ball on a finely meshed surface are inside it (the bunny's
+/// bounding pass: about four in five).
 pub fn ball_mesh_intersection_volume_near(
     center: DVec3,
     r: f64,
@@ -267,8 +274,15 @@ pub fn ball_mesh_intersection_volume_near(
     for &ti in near {
         let Some(t) = triangles.get(ti as usize) else { continue };
         let Some((a, b, c)) = corners(positions, t) else { continue };
-        near_exact += triangle_ball_volume(center, r, a, b, c);
-        near_sector += signed_triangle_solid_angle(a - center, b - center, c - center);
+        let (a0, b0, c0) = (a - center, b - center, c - center);
+        let r2 = r * r;
+        near_exact += if r > 0.0 && a0.length_squared() <= r2 && b0.length_squared() <= r2 && c0.length_squared() <= r2
+        {
+            a0.dot(b0.cross(c0)) / 6.0
+        } else {
+            triangle_ball_volume(center, r, a, b, c)
+        };
+        near_sector += signed_triangle_solid_angle(a0, b0, c0);
     }
     // The signed solid angle convention: positive seen from behind, which is the σ > 0 side.
     r3 / 3.0 * (4.0 * PI * winding_at_center - near_sector) + near_exact

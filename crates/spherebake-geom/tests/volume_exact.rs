@@ -96,8 +96,13 @@ fn culled_sum_equals_full_sum() {
         (DVec3::new(0.5, 0.5, 0.5), 0.45),
         (DVec3::new(2.5, 0.5, 0.5), 0.3),
         (DVec3::new(1.4, 0.6, 0.9), 0.6),
+        // Every corner of the row of three cubes along x is in this ball (their triangles take
+        // the tetrahedron path of the culled sum), the cubes above it cross it.
+        (DVec3::new(1.0, 0.5, 0.5), 1.3),
     ];
+    let mut inside = 0;
     for (c, r) in cases {
+        inside += t.iter().filter(|tri| tri.iter().all(|&v| p[v as usize].distance(c) <= r)).count();
         let full = ball_mesh_intersection_volume(c, r, &p, &t);
         // Near = triangles whose bounding box meets the ball's box (conservative).
         let near: Vec<u32> = (0..t.len() as u32)
@@ -114,6 +119,7 @@ fn culled_sum_equals_full_sum() {
         let culled = ball_mesh_intersection_volume_near(c, r, &p, &t, &near, w.round());
         close_rel(culled, full, 1e-11);
     }
+    assert!(inside >= 8, "{inside} triangles inside a ball");
 }
 
 /// Seeded Monte Carlo on the real armadillo (closed): the exact intersection volume lies within
