@@ -463,14 +463,7 @@ fn assign(pos: &[DVec3], triangles: &[[u32; 3]], spheres: &[SphereF64]) -> (Vec<
             // some owner's largest corner value is clearly below sphere i's bound everywhere,
             // that owner dominates i (`dominates` would say so; skipping it saves its cost).
             // (No spheres, or a NaN anywhere: +∞, no skipping.)
-            let mut owner_max = f64::INFINITY;
-            for &o in owners.iter().filter(|&&o| o < spheres.len()) {
-                let d =
-                    t.iter()
-                        .map(|p| spheres[o].d2(*p))
-                        .fold(0.0f64, |a, d| if d.is_nan() { f64::INFINITY } else { a.max(d) });
-                owner_max = owner_max.min(d);
-            }
+            let owner_max = owner_max(spheres, &owners, &t);
             // Each sphere's d at the triangle's bounding box is a lower bound of d on the
             // triangle; where it is clearly above `owner_max`, an owner dominates the sphere
             // (`dominates` would say so). The others and the owners, in increasing order, are
@@ -514,6 +507,20 @@ fn assign(pos: &[DVec3], triangles: &[[u32; 3]], spheres: &[SphereF64]) -> (Vec<
         }
     }
     (per_sphere, shared)
+}
+
+/// The least over the corners' owners (`owners`; an index past `spheres` is none) of the
+/// owner's largest d² at the triangle's corners `t`: below it an owner holds the whole triangle
+/// nearer than any sphere whose bound on the triangle is larger. +∞ without owners, or where
+/// some d² is NaN.
+fn owner_max(spheres: &[SphereF64], owners: &[usize; 3], t: &[DVec3; 3]) -> f64 {
+    let mut owner_max = f64::INFINITY;
+    for &o in owners.iter().filter(|&&o| o < spheres.len()) {
+        let d =
+            t.iter().map(|p| spheres[o].d2(*p)).fold(0.0f64, |a, d| if d.is_nan() { f64::INFINITY } else { a.max(d) });
+        owner_max = owner_max.min(d);
+    }
+    owner_max
 }
 
 /// Spheres per [`SphereGroup`].
@@ -1609,14 +1616,7 @@ mod tests {
                 continue;
             }
             let owners = tri.map(|v| vertex_owner[v as usize]);
-            let mut owner_max = f64::INFINITY;
-            for &o in owners.iter().filter(|&&o| o < spheres.len()) {
-                let d =
-                    t.iter()
-                        .map(|p| spheres[o].d2(*p))
-                        .fold(0.0f64, |a, d| if d.is_nan() { f64::INFINITY } else { a.max(d) });
-                owner_max = owner_max.min(d);
-            }
+            let owner_max = owner_max(&spheres, &owners, &t);
             let (lo, hi) = (t[0].min(t[1]).min(t[2]), t[0].max(t[1]).max(t[2]));
             for (i, si) in spheres.iter().enumerate() {
                 if si.inv_r2.is_infinite() {
@@ -1647,13 +1647,8 @@ mod tests {
     /// coincident spheres among up to 70 (several groups).
     #[test]
     fn assign_with_sphere_groups_matches_the_per_sphere_bound() {
-        let mut state = 0x2545_F491_4F6C_DD1Du64;
-        let mut next = move || {
-            state ^= state << 13;
-            state ^= state >> 7;
-            state ^= state << 17;
-            (state >> 11) as f64 / (1u64 << 53) as f64
-        };
+        let mut rng = spherebake_geom::rng::SplitMix64::new(0x2545_F491_4F6C_DD1D);
+        let mut next = move || rng.next_f64();
         let mut checked = 0;
         for case in 0..24 {
             let n = [1, 3, 8, 9, 17, 40, 70][case % 7];
