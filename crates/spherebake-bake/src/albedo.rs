@@ -1616,7 +1616,7 @@ mod tests {
                 continue;
             }
             let owners = tri.map(|v| vertex_owner[v as usize]);
-            let owner_max = owner_max(&spheres, &owners, &t);
+            let owner_max = owner_max(spheres, &owners, &t);
             let (lo, hi) = (t[0].min(t[1]).min(t[2]), t[0].max(t[1]).max(t[2]));
             for (i, si) in spheres.iter().enumerate() {
                 if si.inv_r2.is_infinite() {
