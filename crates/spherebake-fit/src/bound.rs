@@ -420,11 +420,14 @@ fn shrink_back(
     // Centres stay; only radii change below.
     let centre = |i: usize| DVec3::new(rounded[i][0] as f64, rounded[i][1] as f64, rounded[i][2] as f64);
     // Whether triangle t, with sphere i at radius `old`, may lose cover when i is set back:
-    // it meets the old ball (else no piece of it was in i) and is not inside the set-back ball.
+    // it is not inside the set-back ball and meets the old ball (else no piece of it was in
+    // i). Both tests are pure, so their order is free: the three corner tests go first, as
+    // they settle most of the pieces rule 4 re-covers (those inside the set-back ball) for
+    // less than the closest point costs (the bunny at `fast`: 742 000 calls).
     let tri_at_risk = |i: usize, old: f64, t: &[DVec3; 3]| -> bool {
         let c = centre(i);
-        closest_point_on_triangle(c, t).distance_squared(c) <= old * old * (1.0 + 1e-9)
-            && !t.iter().all(|p| contains(&rounded[i], *p))
+        !t.iter().all(|p| contains(&rounded[i], *p))
+            && closest_point_on_triangle(c, t).distance_squared(c) <= old * old * (1.0 + 1e-9)
     };
     let point_at_risk = |i: usize, old: f64, p: DVec3| -> bool {
         p.distance_squared(centre(i)) <= old * old * (1.0 + 1e-9) && !contains(&rounded[i], p)

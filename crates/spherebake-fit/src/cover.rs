@@ -239,14 +239,18 @@ struct Sorted {
 }
 
 impl Sorted {
-    fn unsorted(grid: &Grid, pts: &[DVec3], c: DVec3, r: f64) -> Self {
-        let mut v: Vec<(f64, u32)> = Vec::new();
-        grid.within_d2(pts, c, r, &mut v);
-        Self { d2: v.iter().map(|x| x.0).collect(), idx: v.iter().map(|x| x.1).collect() }
+    /// `buf` is scratch, reused across calls (a thread's queries share one): the query's
+    /// entries are gathered there, so the two lists kept are allocated once at their exact
+    /// length instead of a fresh list growing by doubling per query (about 170 000
+    /// reallocations in a bunny bake at `fast`). The entries and their order are the query's.
+    fn unsorted(grid: &Grid, pts: &[DVec3], c: DVec3, r: f64, buf: &mut Vec<(f64, u32)>) -> Self {
+        buf.clear();
+        grid.within_d2(pts, c, r, buf);
+        Self { d2: buf.iter().map(|x| x.0).collect(), idx: buf.iter().map(|x| x.1).collect() }
     }
     #[cfg(test)]
     fn new(grid: &Grid, pts: &[DVec3], c: DVec3, r: f64) -> Self {
-        let mut s = Self::unsorted(grid, pts, c, r);
+        let mut s = Self::unsorted(grid, pts, c, r, &mut Vec::new());
         s.sort();
         s
     }
@@ -361,7 +365,10 @@ pub fn start(
     // Each doubling's lists are sorted only once the dilation is feasible: the feasibility
     // test at the lists' own dilation reads every entry, in any order.
     let unsorted_at = |t: f64| -> Vec<Sorted> {
-        cand.par_iter().zip(rho.par_iter()).map(|(p, r)| Sorted::unsorted(&grid, surface, *p, r + t)).collect()
+        cand.par_iter()
+            .zip(rho.par_iter())
+            .map_init(Vec::new, |buf, (p, r)| Sorted::unsorted(&grid, surface, *p, r + t, buf))
+            .collect()
     };
     let greedy_at = |lists: &[Sorted], t: f64| -> Option<Vec<usize>> {
         let covers: Vec<&[u32]> = lists.iter().zip(&rho).map(|(l, r)| l.within(r + t)).collect();
@@ -434,7 +441,9 @@ mod tests {
         twins.extend(pts.iter().map(|p| 2.0 * c - *p));
         let twin_grid = Grid::new(&twins, 0.07);
         let t = Sorted::new(&twin_grid, &twins, c, 0.6);
-        let mut want = Sorted::unsorted(&twin_grid, &twins, c, 0.6);
+        // A scratch buffer left holding an entry from an earlier query: the list is the
+        // query's alone.
+        let mut want = Sorted::unsorted(&twin_grid, &twins, c, 0.6, &mut vec![(1.0, 7)]);
         let mut pairs: Vec<(f64, u32)> = want.d2.drain(..).zip(want.idx.drain(..)).collect();
         pairs.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
         let got: Vec<(f64, u32)> = t.d2.iter().copied().zip(t.idx.iter().copied()).collect();

@@ -49,14 +49,18 @@ pub fn sphere_pair_bound(c1: DVec3, r1: f64, c2: DVec3, r2: f64) -> (DVec3, f64)
 
 /// Centre of the smallest sphere through the points `support` with its centre in their affine
 /// hull (1 point: itself; 2: midpoint; 3: circumcentre in their plane; 4: circumsphere).
-/// `None` if the points are (numerically) affinely dependent.
+/// `None` if the points are (numerically) affinely dependent. At most 4 points (panics on
+/// more); no allocation (the move-to-front recursion calls it at every support change).
 fn circumsphere(support: &[DVec3]) -> Option<(DVec3, f64)> {
     let p0 = *support.first()?;
     let k = support.len() - 1;
     if k == 0 {
         return Some((p0, 0.0));
     }
-    let v: Vec<DVec3> = support[1..].iter().map(|p| *p - p0).collect();
+    let mut v = [DVec3::ZERO; 3];
+    for (vj, p) in v.iter_mut().zip(&support[1..=k]) {
+        *vj = *p - p0;
+    }
     // Solve G λ = b with G_jl = 2 v_j·v_l, b_j = |v_j|²; centre = p0 + Σ λ_l v_l.
     let mut g = [[0.0f64; 4]; 3];
     for j in 0..k {
@@ -283,14 +287,16 @@ pub fn min_enclosing_ball(points: &[DVec3]) -> (DVec3, f64) {
     let tol = 1e-12 * scale;
     let mut list: Vec<DVec3> = order.iter().map(|&i| pts[i]).collect();
     let mut support: Vec<DVec3> = Vec::with_capacity(4);
-    let (c, _) = mtf_mb(&mut list, pts.len(), &mut support, tol);
+    let start = (list[0], -1.0);
+    let (c, _) = mtf_mb(&mut list, pts.len(), &mut support, start, tol);
     let r = pts.iter().map(|p| p.distance(c)).fold(0.0, f64::max);
     (c, r)
 }
 
-fn mtf_mb(list: &mut [DVec3], end: usize, support: &mut Vec<DVec3>, tol: f64) -> (DVec3, f64) {
-    let mut ball =
-        if support.is_empty() { (list[0], -1.0) } else { circumsphere(support).unwrap_or((support[0], 0.0)) };
+/// The minimal ball of `list[..end]` with the points of `support` on its boundary, starting
+/// from `ball`: the circumsphere of `support` (the caller computed it to know the support is
+/// affinely independent, so it is not solved twice), or (list[0], −1) with no support.
+fn mtf_mb(list: &mut [DVec3], end: usize, support: &mut Vec<DVec3>, mut ball: (DVec3, f64), tol: f64) -> (DVec3, f64) {
     if support.len() == 4 {
         return ball;
     }
@@ -299,7 +305,7 @@ fn mtf_mb(list: &mut [DVec3], end: usize, support: &mut Vec<DVec3>, tol: f64) ->
         let p = list[i];
         if ball.1 < 0.0 || p.distance(ball.0) > ball.1 + tol {
             support.push(p);
-            let candidate = if circumsphere(support).is_some() { Some(mtf_mb(list, i, support, tol)) } else { None };
+            let candidate = circumsphere(support).map(|b| mtf_mb(list, i, support, b, tol));
             support.pop();
             if let Some(b) = candidate {
                 ball = b;
@@ -455,6 +461,90 @@ pub fn tangent_balls(balls: &[(DVec3, f64)], sub: &[usize]) -> Vec<(DVec3, f64)>
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The move-to-front recursion as it was before it passed each support's circumsphere
+    /// down (solving it twice, once to test the support and once to start from) and before
+    /// `circumsphere` kept its differences on the stack.
+    #[allow(clippy::needless_range_loop)]
+    fn mtf_mb_reference(list: &mut [DVec3], end: usize, support: &mut Vec<DVec3>, tol: f64) -> (DVec3, f64) {
+        let circ = |s: &[DVec3]| -> Option<(DVec3, f64)> {
+            let p0 = s[0];
+            let k = s.len() - 1;
+            if k == 0 {
+                return Some((p0, 0.0));
+            }
+            let v: Vec<DVec3> = s[1..].iter().map(|p| *p - p0).collect();
+            let mut g = [[0.0f64; 4]; 3];
+            for j in 0..k {
+                for l in 0..k {
+                    g[j][l] = 2.0 * v[j].dot(v[l]);
+                }
+                g[j][3] = v[j].length_squared();
+            }
+            let lambda = solve_small(&mut g, k)?;
+            let mut c = p0;
+            for l in 0..k {
+                c += v[l] * lambda[l];
+            }
+            Some((c, s.iter().map(|p| p.distance(c)).fold(0.0, f64::max)))
+        };
+        let mut ball = if support.is_empty() { (list[0], -1.0) } else { circ(support).unwrap_or((support[0], 0.0)) };
+        if support.len() == 4 {
+            return ball;
+        }
+        let mut i = 0;
+        while i < end {
+            let p = list[i];
+            if ball.1 < 0.0 || p.distance(ball.0) > ball.1 + tol {
+                support.push(p);
+                let candidate =
+                    if circ(support).is_some() { Some(mtf_mb_reference(list, i, support, tol)) } else { None };
+                support.pop();
+                if let Some(b) = candidate {
+                    ball = b;
+                    list[..=i].rotate_right(1);
+                }
+            }
+            i += 1;
+        }
+        if ball.1 < 0.0 {
+            ball.1 = 0.0;
+        }
+        ball
+    }
+
+    /// The same bits as the reference recursion, and the same list order after it, on random
+    /// clouds, cospherical and coplanar sets and duplicates (degenerate supports).
+    #[test]
+    fn min_enclosing_ball_matches_the_reference_recursion_bit_for_bit() {
+        let mut rng = crate::rng::SplitMix64::new(17);
+        for case in 0..300 {
+            let n = 1 + (rng.next_u64() % 200) as usize;
+            let pts: Vec<DVec3> = (0..n)
+                .map(|_| {
+                    let p = DVec3::new(rng.next_f64(), rng.next_f64(), rng.next_f64()) * 2.0 - DVec3::ONE;
+                    match case % 4 {
+                        0 => p * 10.0 + DVec3::splat(3.0),
+                        1 => p.normalize_or_zero(),
+                        2 => DVec3::new(p.x, p.y, 0.25),
+                        _ => (p * 4.0).round() * 0.5,
+                    }
+                })
+                .collect();
+            let tol = 1e-12 * pts.iter().map(|p| p.abs().max_element()).fold(0.0, f64::max).max(f64::MIN_POSITIVE);
+            let (mut a, mut b) = (pts.clone(), pts.clone());
+            let mut support = Vec::with_capacity(4);
+            let start = (a[0], -1.0);
+            let got = mtf_mb(&mut a, n, &mut support, start, tol);
+            let want = mtf_mb_reference(&mut b, n, &mut Vec::new(), tol);
+            assert_eq!(
+                (got.0.to_array().map(f64::to_bits), got.1.to_bits()),
+                (want.0.to_array().map(f64::to_bits), want.1.to_bits()),
+                "case {case}"
+            );
+            assert_eq!(a, b, "case {case}");
+        }
+    }
 
     #[test]
     fn the_principal_axes_are_eigenvectors_largest_spread_first() {
