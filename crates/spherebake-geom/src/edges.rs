@@ -91,10 +91,26 @@ pub fn group_edges<K: Ord + Copy + Send>(edges: &mut [(K, bool)]) -> impl Iterat
     } else {
         edges.par_sort_unstable();
     }
+    sorted_groups(edges)
+}
+
+/// The groups of `edges` already in ascending order (what [`group_edges`] yields after its
+/// sort): one per run of equal keys, in the runs' order. Cost: a linear scan.
+pub fn sorted_groups<K: PartialEq + Copy>(edges: &[(K, bool)]) -> impl Iterator<Item = EdgeGroup<K>> + '_ {
     edges.chunk_by(|x, y| x.0 == y.0).map(|g| {
         let forward = g.iter().filter(|e| e.1).count();
         EdgeGroup { key: g[0].0, forward, backward: g.len() - forward }
     })
+}
+
+/// `edges` (keys made by [`directed_ids`]) in ascending order, the list `group_edges` sorts them
+/// to, by a counting sort on the keys' lower ends ([`crate::bucket::bucket_sorted`]; a lower end
+/// of `ids` or more shares the last bucket, still in order), each vertex's few edges then
+/// sorted on their own: O(n + ids) where the comparison sort is O(n log n) (on the bunny's
+/// topology report, 208 k directed edges over 35 k welded ids, the sort was most of its
+/// 96 M instructions). One thread; the same list whatever the thread count.
+pub fn sort_id_edges(edges: &[(u64, bool)], ids: usize) -> Vec<(u64, bool)> {
+    crate::bucket::bucket_sorted(|| edges.iter().copied(), ids + 1, |e| (id_ends(e.0).0 as usize).min(ids))
 }
 
 /// Undirected edges counted by class, so `bake` and `inspect` name the same numbers: used once
@@ -137,6 +153,28 @@ mod tests {
 
     use super::*;
     use crate::rng::SplitMix64;
+
+    /// Random directed id edges (ids below and at or above the bucket count, duplicates, edges
+    /// from a vertex to itself): [`sort_id_edges`] gives the list `group_edges` sorts them to,
+    /// so the same groups; fails if an edge lands in the wrong bucket or a bucket is unsorted.
+    #[test]
+    fn sort_id_edges_is_group_edges_sort() {
+        let mut rng = SplitMix64::new(5);
+        for case in 0..300usize {
+            let nv = 1 + (rng.next_u64() % 40) as u32;
+            let ids = (rng.next_u64() % (u64::from(nv) + 2)) as usize;
+            let n = (rng.next_u64() % 200) as usize;
+            let edges: Vec<(u64, bool)> = (0..n)
+                .map(|_| directed_ids((rng.next_u64() % u64::from(nv)) as u32, (rng.next_u64() % u64::from(nv)) as u32))
+                .collect();
+            let got = sort_id_edges(&edges, ids);
+            let mut want = edges.clone();
+            let want_groups: Vec<_> = group_edges(&mut want).collect();
+            assert_eq!(got, want, "case {case}");
+            assert_eq!(sorted_groups(&got).collect::<Vec<_>>(), want_groups, "case {case}");
+        }
+        assert!(sort_id_edges(&[], 0).is_empty());
+    }
 
     /// Random soups over few vertices (duplicates, fans of three and more, edges from a vertex
     /// to itself, holes, turned triangles), against a count of each undirected edge's uses in a
