@@ -12,6 +12,7 @@ mod bucket;
 pub mod bvh;
 pub mod disjoint;
 pub mod edges;
+pub mod fold_hash;
 pub mod mesh;
 pub mod motion;
 pub mod mvc;

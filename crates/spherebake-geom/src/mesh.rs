@@ -213,11 +213,14 @@ pub fn has_uv(uv: [f32; 2]) -> bool {
 /// ([`Mesh::rebuild_weld`], `normals::crease_normals`).
 pub(crate) fn weld(positions: &[Vec3]) -> (Vec<u32>, Vec<Vec3>) {
     use std::collections::HashMap;
+    // Only looked up (ids come from `welded`'s order), so the hasher's random key changes
+    // nothing; `FoldKey` hashes a key in a few multiplies where SipHash took most of the weld.
     let key = |p: Vec3| {
         let f = |x: f32| if x == 0.0 { 0u32 } else { x.to_bits() };
         (f(p.x), f(p.y), f(p.z))
     };
-    let mut map: HashMap<(u32, u32, u32), u32> = HashMap::with_capacity(positions.len());
+    let mut map: HashMap<(u32, u32, u32), u32, crate::fold_hash::FoldKey> =
+        HashMap::with_capacity_and_hasher(positions.len(), Default::default());
     let mut welded = Vec::new();
     let ids = positions
         .iter()

@@ -6,9 +6,10 @@
 //! map for the vertex dedup, a `String` per line, its per-model export); this one reads the
 //! text in place, without allocating per line, and numbers the vertices as the faces are read:
 //! a position's first corner in a model through a table indexed by position, any other through
-//! a map with [`FoldHasher`] ([`Parser::number`]). On a 1.1 M-triangle file (43 MB) it takes
-//! 0.19 s where tobj took 0.44 s. MTL files are still parsed by tobj (`tobj::load_mtl_buf`, in
-//! the callback). The differential test in `obj_import` holds the two equal.
+//! a map with [`spherebake_geom::fold_hash::FoldHasher`] ([`Parser::number`]). On a
+//! 1.1 M-triangle file (43 MB) it takes 0.19 s where tobj took 0.44 s. MTL files are still
+//! parsed by tobj (`tobj::load_mtl_buf`, in the callback). The differential test in
+//! `obj_import` holds the two equal.
 //!
 //! What of tobj's behaviour is reproduced (each point also in the code):
 //! - Lines end at `\n`, and a `\r` before it is dropped (`BufRead::lines`); a line's words are
@@ -52,7 +53,6 @@
 
 use std::collections::hash_map::Entry;
 use std::collections::HashMap;
-use std::hash::Hasher;
 use std::path::Path;
 
 use tobj::{LoadError, MTLLoadResult, Material, Mesh, Model};
@@ -74,60 +74,11 @@ struct Corner {
 /// A corner slot with no index (tobj's `MISSING_INDEX`).
 const ABSENT: usize = usize::MAX;
 
-/// A fast hasher for [`Corner`] keys: each `usize` written is mixed in by a 64 × 64 → 128-bit
-/// multiply folded to 64 bits, from a per-map random key ([`FoldKey`]), so a file cannot be
-/// crafted to make its corners collide (std's SipHash map, as tobj used, was the larger part of
-/// tobj's cost). The map is only looked up, never iterated, so the key changes no output.
-#[derive(Clone, Copy, Debug)]
-struct FoldHasher(u64);
-
-/// The [`std::hash::BuildHasher`] of [`FoldHasher`]: its start value drawn from std's
-/// `RandomState` (randomly keyed per process) when the map is made.
-#[derive(Clone, Copy, Debug)]
-struct FoldKey(u64);
-
-impl Default for FoldKey {
-    fn default() -> Self {
-        use std::hash::BuildHasher;
-        FoldKey(std::collections::hash_map::RandomState::new().hash_one(0x243F_6A88_85A3_08D3u64))
-    }
-}
-
-impl std::hash::BuildHasher for FoldKey {
-    type Hasher = FoldHasher;
-    fn build_hasher(&self) -> FoldHasher {
-        FoldHasher(self.0)
-    }
-}
-
-impl FoldHasher {
-    fn mix(&mut self, x: u64) {
-        let m = u128::from(self.0 ^ x) * 0x9E37_79B9_7F4A_7C15u128;
-        self.0 = (m as u64) ^ ((m >> 64) as u64);
-    }
-}
-
-impl Hasher for FoldHasher {
-    fn write(&mut self, bytes: &[u8]) {
-        for chunk in bytes.chunks(8) {
-            let mut b = [0u8; 8];
-            b[..chunk.len()].copy_from_slice(chunk);
-            self.mix(u64::from_le_bytes(b));
-        }
-    }
-
-    fn write_usize(&mut self, x: usize) {
-        self.mix(x as u64);
-    }
-
-    fn write_u64(&mut self, x: u64) {
-        self.mix(x);
-    }
-
-    fn finish(&self) -> u64 {
-        self.0
-    }
-}
+// The corner map's hasher: `FoldKey` (each `usize` written is mixed in by a 64 × 64 → 128-bit
+// multiply folded to 64 bits, from a per-map random key, so a file cannot be crafted to make
+// its corners collide; std's SipHash map, as tobj used, was the larger part of tobj's cost).
+// The map is only looked up, never iterated, so the key changes no output.
+use spherebake_geom::fold_hash::FoldKey;
 
 /// The words of a line, split at whitespace exactly as `str::split_whitespace` splits them
 /// (`char::is_whitespace`: ASCII tab, line feed, vertical tab, form feed, carriage return and
