@@ -463,31 +463,11 @@ mod tests {
     use super::*;
 
     /// The move-to-front recursion as it was before it passed each support's circumsphere
-    /// down (solving it twice, once to test the support and once to start from) and before
-    /// `circumsphere` kept its differences on the stack.
-    #[allow(clippy::needless_range_loop)]
+    /// down (solving it twice, once to test the support and once to start from).
     fn mtf_mb_reference(list: &mut [DVec3], end: usize, support: &mut Vec<DVec3>, tol: f64) -> (DVec3, f64) {
-        let circ = |s: &[DVec3]| -> Option<(DVec3, f64)> {
-            let p0 = s[0];
-            let k = s.len() - 1;
-            if k == 0 {
-                return Some((p0, 0.0));
-            }
-            let v: Vec<DVec3> = s[1..].iter().map(|p| *p - p0).collect();
-            let mut g = [[0.0f64; 4]; 3];
-            for j in 0..k {
-                for l in 0..k {
-                    g[j][l] = 2.0 * v[j].dot(v[l]);
-                }
-                g[j][3] = v[j].length_squared();
-            }
-            let lambda = solve_small(&mut g, k)?;
-            let mut c = p0;
-            for l in 0..k {
-                c += v[l] * lambda[l];
-            }
-            Some((c, s.iter().map(|p| p.distance(c)).fold(0.0, f64::max)))
-        };
+        // The circumsphere itself is shared: keeping its differences on the stack changed no
+        // arithmetic.
+        let circ = circumsphere;
         let mut ball = if support.is_empty() { (list[0], -1.0) } else { circ(support).unwrap_or((support[0], 0.0)) };
         if support.len() == 4 {
             return ball;
