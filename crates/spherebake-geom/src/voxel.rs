@@ -275,9 +275,11 @@ impl VoxelGrid {
         let u = (p - self.origin) / self.cell_size;
         let mut out = [0u32; 3];
         for a in 0..3 {
-            // Without a library call (the fit's pocket checks call this per poll).
-            let v = spherebake_format::quant::floor_f64(u[a]);
-            if !(v >= 0.0 && v < self.dims[a] as f64) {
+            // Without a floor (the fit's pocket checks call this per poll): for an integer d,
+            // ⌊u⌋ ∈ [0, d) exactly when u ∈ [0, d) (NaN in neither), and there ⌊u⌋ is the
+            // truncating cast.
+            let v = u[a];
+            if !(v >= 0.0 && v < f64::from(self.dims[a])) {
                 return None;
             }
             out[a] = v as u32;
@@ -1337,6 +1339,52 @@ pub fn tri_box_overlap(tri: &[DVec3; 3], box_center: DVec3, half: DVec3) -> bool
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// `cell_of` (compare, then truncate) answers as the floor it replaced: ⌊u⌋ per axis, the
+    /// cell when every ⌊u⌋ lies in [0, dims). Points anywhere near and beyond the grid, on cell
+    /// faces exactly, and non-finite.
+    #[test]
+    fn cell_of_matches_the_floor() {
+        let reference = |g: &VoxelGrid, p: DVec3| -> Option<[u32; 3]> {
+            let u = (p - g.origin) / g.cell_size;
+            let mut out = [0u32; 3];
+            for a in 0..3 {
+                let v = u[a].floor();
+                if !(v >= 0.0 && v < g.dims[a] as f64) {
+                    return None;
+                }
+                out[a] = v as u32;
+            }
+            Some(out)
+        };
+        let mut rng = crate::rng::SplitMix64::new(55);
+        for _ in 0..20 {
+            let dims = [1 + rng.below(40) as u32, 1 + rng.below(40) as u32, 1 + rng.below(40) as u32];
+            let origin = DVec3::new(rng.next_f64() - 0.5, rng.next_f64() * 4.0 - 2.0, rng.next_f64() * 100.0 - 50.0);
+            let cell_size = 0.01 + rng.next_f64();
+            let grid = VoxelGrid { origin, cell_size, dims, solid: Bits::new(0), covered_twice: 0 };
+            for k in 0..5000 {
+                let mut u = [0.0; 3];
+                for (a, v) in u.iter_mut().enumerate() {
+                    let span = f64::from(dims[a]) + 4.0;
+                    // On a cell face (or just beside one after the scaling rounds), within
+                    // 10⁻¹² of the grid's first or last face, or anywhere.
+                    let edge = [0.0, f64::from(dims[a])][rng.below(2) as usize];
+                    *v = match k % 4 {
+                        0 => rng.below(span as u64) as f64 - 2.0,
+                        1 => edge + (rng.next_f64() - 0.5) * 1e-12,
+                        _ => rng.next_f64() * span - 2.0,
+                    };
+                }
+                let p = origin + DVec3::from(u) * cell_size;
+                assert_eq!(grid.cell_of(p), reference(&grid, p), "dims {dims:?} u {u:?}");
+            }
+            for bad in [f64::NAN, f64::INFINITY, f64::NEG_INFINITY, 1e300, -1e300, -0.0] {
+                let p = DVec3::new(bad, origin.y, origin.z);
+                assert_eq!(grid.cell_of(p), reference(&grid, p), "x {bad}");
+            }
+        }
+    }
 
     #[test]
     fn a_held_triangle_lies_in_solid_cells_and_one_far_inside_is_held() {
