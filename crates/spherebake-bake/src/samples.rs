@@ -187,7 +187,9 @@ struct AreaTotals {
 /// all areas to the mesh's, except segments of spheres without samples.
 ///
 /// Cost: O(P (log S + 92)) for P ≤ max(T, min([`AREA_MAX_POINTS`], 256 × samples)) points, parallel over fixed
-/// chunks of triangles, summed in point order (deterministic for any thread count).
+/// chunks of triangles, summed in point order (deterministic for any thread count). A split
+/// triangle walks the sphere tree once for its box's candidate owners, its points then scan
+/// only those (the fast bunny's 280 000 points: 140 M instructions fewer than a walk per point).
 fn sample_areas(mesh: &Mesh, ctx: &Ctx<'_>, samples: &Samples) -> (Vec<f32>, AreaTotals) {
     let mut totals = AreaTotals::default();
     let total = samples.total();
@@ -252,8 +254,13 @@ fn sample_areas(mesh: &Mesh, ctx: &Ctx<'_>, samples: &Samples) -> (Vec<f32>, Are
     // The sample that carries a surface point: its segment's sphere (the previous point's
     // owner as the search's hint), then the nearest direction (the largest dot product, ties
     // to the lowest index).
-    let carrier_of = |x: DVec3, hint: &mut Option<usize>| -> Option<u32> {
-        let (slot, k, ck) = ctx.tree.owner(&ctx.spheres, x, *hint)?;
+    // With `cands` (the spheres that may own a point of the point's triangle), the owner is
+    // found among them alone: the same answer.
+    let carrier_of = |x: DVec3, hint: &mut Option<usize>, cands: Option<&[(usize, f64)]>| -> Option<u32> {
+        let (slot, k, ck) = match cands {
+            Some(cands) => SphereTree::owner_among(&ctx.spheres, cands, x)?,
+            None => ctx.tree.owner(&ctx.spheres, x, *hint)?,
+        };
         *hint = Some(slot);
         let q = nearest.nearest((x - ck).to_array());
         carrier.get(k * GEODESIC_DIRECTION_COUNT + q).copied().filter(|&g| g != u32::MAX)
@@ -265,6 +272,7 @@ fn sample_areas(mesh: &Mesh, ctx: &Ctx<'_>, samples: &Samples) -> (Vec<f32>, Are
             let mut out: Vec<(u32, f64)> = Vec::new();
             let mut t = AreaTotals::default();
             let mut hint = None;
+            let mut cands = Vec::new();
             for (k, &edge) in chunk.iter().enumerate() {
                 let Some(c) = corners(ci * AREA_CHUNK + k).filter(|_| edge.is_finite()) else { continue };
                 let m = split(h, edge);
@@ -274,6 +282,16 @@ fn sample_areas(mesh: &Mesh, ctx: &Ctx<'_>, samples: &Samples) -> (Vec<f32>, Are
                 }
                 let w = area / (m * m) as f64;
                 let (e1, e2) = ((c[1] - c[0]) / m as f64, (c[2] - c[0]) / m as f64);
+                // Split triangles (four points or more) find their points' owners among the
+                // spheres that may own a point of the triangle's box, padded for the rounding
+                // of the points (a few ulps of the corners), listed once: a list of a few
+                // where each point's own walk of the sphere tree visits dozens.
+                let cands = (m > 1).then(|| {
+                    let (lo, hi) = (c[0].min(c[1]).min(c[2]), c[0].max(c[1]).max(c[2]));
+                    let pad = DVec3::splat((lo.abs().max(hi.abs()).max_element() + (hi - lo).max_element()) * 1e-9);
+                    ctx.tree.candidates(&ctx.spheres, lo - pad, hi + pad, hint, &mut cands);
+                    &cands[..]
+                });
                 // Upward sub-triangles (i, j), i + j ≤ m − 1, centroid at (i + ⅓, j + ⅓); downward
                 // ones, i + j ≤ m − 2, at (i + ⅔, j + ⅔), in units of the edge steps.
                 for i in 0..m {
@@ -283,7 +301,7 @@ fn sample_areas(mesh: &Mesh, ctx: &Ctx<'_>, samples: &Samples) -> (Vec<f32>, Are
                                 continue;
                             }
                             t.points += 1;
-                            match carrier_of(c[0] + e1 * (i as f64 + off) + e2 * (j as f64 + off), &mut hint) {
+                            match carrier_of(c[0] + e1 * (i as f64 + off) + e2 * (j as f64 + off), &mut hint, cands) {
                                 Some(g) => {
                                     out.push((g, w));
                                     t.assigned += w;
@@ -574,6 +592,24 @@ impl SphereTree {
         &self,
         spheres: &[(DVec3, f64, usize)],
         p: DVec3,
+        bound: f64,
+        mut visit: impl FnMut(DVec3, f64, usize, usize, &mut f64) -> bool,
+    ) -> bool {
+        self.walk_near(
+            spheres,
+            |min, max| (p - p.clamp(min, max)).length(),
+            bound,
+            |c, r, j, slot, bound| visit(c, (p - c).length() / r, j, slot, bound),
+        )
+    }
+
+    /// [`SphereTree::walk`] for any query: `gap(min, max)` is its distance to a node's box;
+    /// `visit(c_j, r_j, j, slot, &mut bound)` is called for the spheres of every node with
+    /// gap ≤ bound · r_max (with the same margin).
+    fn walk_near(
+        &self,
+        spheres: &[(DVec3, f64, usize)],
+        gap: impl Fn(DVec3, DVec3) -> f64,
         mut bound: f64,
         mut visit: impl FnMut(DVec3, f64, usize, usize, &mut f64) -> bool,
     ) -> bool {
@@ -585,13 +621,12 @@ impl SphereTree {
         while top > 0 {
             top -= 1;
             let n = self.nodes[stack[top] as usize];
-            let gap = (p - p.clamp(n.min, n.max)).length();
-            if gap > bound * n.r_max * (1.0 + 1e-9) {
+            if gap(n.min, n.max) > bound * n.r_max * (1.0 + 1e-9) {
                 continue;
             }
             if n.leaf {
                 for (slot, &(c, r, j)) in spheres.iter().enumerate().take(n.end as usize).skip(n.start as usize) {
-                    if visit(c, (p - c).length() / r, j, slot, &mut bound) {
+                    if visit(c, r, j, slot, &mut bound) {
                         return true;
                     }
                 }
@@ -603,11 +638,105 @@ impl SphereTree {
         }
         false
     }
+
+    /// The slots of the spheres that may own a point of the box `[lo, hi]` into `out`: a
+    /// superset of the [`SphereTree::owner`] of every point in it, and of every sphere tied with
+    /// that owner there. With u the least over the spheres of (farthest distance from the box to
+    /// c_j) / r_j, every point of the box has an owner with d ≤ u, so a sphere whose nearest
+    /// distance to the box over its radius exceeds u (with the walk's relative margin, far
+    /// above the rounding) owns none of it. `hint`, a slot, only sets the first bound.
+    fn candidates(
+        &self,
+        spheres: &[(DVec3, f64, usize)],
+        lo: DVec3,
+        hi: DVec3,
+        hint: Option<usize>,
+        out: &mut Vec<(usize, f64)>,
+    ) {
+        out.clear();
+        let far = |c: DVec3| (c - lo).abs().max((c - hi).abs()).length();
+        let mut u = f64::INFINITY;
+        if let Some(&(c, r, _)) = hint.and_then(|h| spheres.get(h)) {
+            u = u.min(far(c) / r);
+        }
+        self.walk_near(
+            spheres,
+            |min, max| (lo - max).max(min - hi).max(DVec3::ZERO).length(),
+            u,
+            |c, r, _, slot, bound| {
+                u = u.min(far(c) / r);
+                *bound = u;
+                let d = (c - c.clamp(lo, hi)).length() / r;
+                if d <= u * (1.0 + 1e-9) {
+                    out.push((slot, d));
+                }
+                false
+            },
+        );
+        out.retain(|&(_, d)| d <= u * (1.0 + 1e-9));
+    }
+
+    /// [`SphereTree::owner`] of `p` found among `cands` (slots, in any order; they must hold
+    /// it: [`SphereTree::candidates`] of a box around p): the same smallest d and ties to the
+    /// lowest index, so the same answer.
+    fn owner_among(spheres: &[(DVec3, f64, usize)], cands: &[(usize, f64)], p: DVec3) -> Option<(usize, usize, DVec3)> {
+        let mut best: Option<(f64, usize, DVec3, usize)> = None;
+        for &(slot, _) in cands {
+            let (c, r, j) = spheres[slot];
+            let dj = (p - c).length() / r;
+            if best.is_none_or(|(bd, bj, _, _)| dj < bd || (dj == bd && j < bj)) {
+                best = Some((dj, j, c, slot));
+            }
+        }
+        best.map(|(_, j, c, slot)| (slot, j, c))
+    }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The owner found among a box's candidates is the brute-force owner ([`segment_of`], ties
+    /// to the lowest index) of every point of the box, for boxes of every size, points on its
+    /// faces and corners, and exact duplicate spheres; fails when a candidate that owns a point
+    /// is left out.
+    #[test]
+    fn box_candidates_hold_every_owner() {
+        let mut rng = spherebake_geom::rng::SplitMix64::new(55);
+        let mut next = || rng.next_f64() as f32;
+        let mut cands = Vec::new();
+        for &n in &[1usize, 3, 9, 40, 300] {
+            let mut spheres: Vec<[f32; 4]> =
+                (0..n).map(|_| [next() * 4.0 - 2.0, next() * 4.0 - 2.0, next() * 4.0 - 2.0, 0.05 + next()]).collect();
+            if n > 2 {
+                spheres[n - 1] = spheres[1];
+            }
+            let mesh = Mesh::default();
+            let ctx = Ctx::new(&mesh, &[], &spheres);
+            for b in 0..300 {
+                let size = [1e-3f32, 0.05, 0.5, 3.0][b % 4];
+                let lo = Vec3::new(next() * 6.0 - 3.0, next() * 6.0 - 3.0, next() * 6.0 - 3.0);
+                let hi = lo + Vec3::new(next(), next(), next()) * size;
+                let hint = [None, Some(0), Some(n / 2), Some(n + 5)][b % 4];
+                ctx.tree.candidates(&ctx.spheres, lo.as_dvec3(), hi.as_dvec3(), hint, &mut cands);
+                for k in 0..40 {
+                    let t = Vec3::new(next(), next(), next());
+                    // Corners and face points too: a coordinate at lo or hi.
+                    let t = if k % 4 == 0 {
+                        t.round()
+                    } else if k % 4 == 1 {
+                        Vec3::new(t.x.round(), t.y, t.z)
+                    } else {
+                        t
+                    };
+                    let p = (lo + (hi - lo) * t).clamp(lo, hi);
+                    let want = segment_of(p, &spheres).expect("valid spheres");
+                    let got = SphereTree::owner_among(&ctx.spheres, &cands, p.as_dvec3()).map(|o| o.1);
+                    assert_eq!(got, Some(want), "n {n} box {b} point {k}");
+                }
+            }
+        }
+    }
 
     /// The tree's "does any sphere beat i" equals the brute-force argmin, including exact ties.
     #[test]
