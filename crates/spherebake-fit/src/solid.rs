@@ -185,14 +185,30 @@ impl Solid {
             let f = |y: f64| (w2 - y * y).max(0.0).sqrt();
             std::f64::consts::PI * w2 + f(ya) + f(yb)
         };
-        let mut unread = if BOUNDED { (k0..=k1).map(disc).sum::<f64>() } else { 0.0 };
+        // Each slab's bound is summed up front and subtracted once the slab is read: kept
+        // here for up to DISCS slabs (balls of r < 64 cells) rather than computed twice (a
+        // root, two floors and two more roots each), the same values in the same order, so the
+        // same bound.
+        const DISCS: usize = 128;
+        let mut discs = [0.0f64; DISCS];
+        let kept = BOUNDED && k1.saturating_sub(k0) < DISCS;
+        let mut unread = 0.0;
+        if BOUNDED {
+            for k in k0..=k1 {
+                let d = disc(k);
+                if kept {
+                    discs[k - k0] = d;
+                }
+                unread += d;
+            }
+        }
         for k in k0..=k1 {
             let dz = f64::from(k as u32) + 0.5 - u.z;
             let rem_z = r2 - dz * dz;
             if BOUNDED {
                 // After this slab, the rest adds at most `unread` (checked with a margin for
                 // rounding below).
-                unread -= disc(k);
+                unread -= if kept { discs[k - k0] } else { disc(k) };
             }
             if rem_z <= 0.0 {
                 continue;
