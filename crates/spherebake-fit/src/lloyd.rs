@@ -493,18 +493,24 @@ impl FarQuery<DVec3> {
     /// step, in one scan, the same bits as [`FarQuery::max_dist`] at each: the scan stops once
     /// d₀ + max |xs[i] − c0| cannot beat the least of the 14 maxima (a bucket's largest d₀ at
     /// its start, each member's within it).
+    ///
+    /// The least of the maxima is taken at each bucket's start only, and members within the
+    /// bucket are skipped against it: it only grows, so an older value is a weaker bound and
+    /// still skips only members that cannot beat any maximum (the answer is the same bits).
+    /// Measured on the fast bunny: 97 % of the members read are scanned even with the least
+    /// taken after every member, whose 16-way running minimum cost a third of this scan;
+    /// with [`least`] and 14 lanes instead of 16, the whole bake −1.7 % instructions.
     pub(crate) fn max_dists(&self, xs: &[DVec3; 14], out: &mut [f64; 14]) {
         let shift = xs.iter().map(|x| x.distance(self.c0)).fold(0.0, f64::max);
-        // The centres by coordinate, padded to 16 with copies of the last (a copy has the same
-        // maximum, so the least of the maxima is unchanged): the per-member loop is then plain
-        // lanes the compiler vectorizes. Each squared distance is glam's
-        // `distance_squared`, (dx² + dy²) + dz², so the bits are those of `max_dist`.
-        let lane = |f: fn(&DVec3) -> f64| -> [f64; 16] { std::array::from_fn(|i| f(&xs[i.min(13)])) };
+        // The centres by coordinate: the per-member loop is then plain lanes the compiler
+        // vectorizes. Each squared distance is glam's `distance_squared`, (dx² + dy²) + dz²,
+        // so the bits are those of `max_dist`.
+        let lane = |f: fn(&DVec3) -> f64| -> [f64; 14] { std::array::from_fn(|i| f(&xs[i])) };
         let (ax, ay, az) = (lane(|v| v.x), lane(|v| v.y), lane(|v| v.z));
-        let mut best = [0.0f64; 16];
-        let mut floor = 0.0f64;
+        let mut best = [0.0f64; 14];
         let mut start = 0;
         for &(end, top) in &self.buckets {
+            let floor = least(&best);
             let ub = (top + shift) * FAR_BOUND_SLACK;
             if ub * ub <= floor {
                 break;
@@ -515,16 +521,11 @@ impl FarQuery<DVec3> {
                     continue;
                 }
                 // Plain comparisons: the values are finite, and they compile to max/min.
-                for i in 0..16 {
+                for i in 0..14 {
                     let (dx, dy, dz) = (p.x - ax[i], p.y - ay[i], p.z - az[i]);
                     let v = dx * dx + dy * dy + dz * dz;
                     best[i] = if v > best[i] { v } else { best[i] };
                 }
-                let mut low = f64::INFINITY;
-                for b in best {
-                    low = if b < low { b } else { low };
-                }
-                floor = low;
             }
             start = end;
         }
@@ -532,6 +533,26 @@ impl FarQuery<DVec3> {
             out[i] = best[i].sqrt();
         }
     }
+}
+
+/// The least of [`FarQuery::max_dists`]'s 14 maxima, by halving (lane-wise minima the compiler
+/// vectorizes, where a running minimum is a chain of dependent scalar steps): 14 to 8 (entries
+/// 0–7 against 6–13, the overlap harmless for a minimum), then 4, 2, 1. The maxima are never
+/// NaN (they start at 0 and take only greater values), so the least is the same value in any
+/// order of comparison.
+fn least(v: &[f64; 14]) -> f64 {
+    let half = |v: &[f64], out: &mut [f64]| {
+        let n = out.len();
+        for i in 0..n {
+            out[i] = if v[i + v.len() - n] < v[i] { v[i + v.len() - n] } else { v[i] };
+        }
+    };
+    let (mut a, mut b, mut c, mut d) = ([0.0f64; 8], [0.0f64; 4], [0.0f64; 2], [0.0f64; 1]);
+    half(v, &mut a);
+    half(&a, &mut b);
+    half(&b, &mut c);
+    half(&c, &mut d);
+    d[0]
 }
 
 fn max_dist(pts: &[Rep], mem: &[u32], c: DVec3) -> f64 {
@@ -1054,6 +1075,19 @@ mod tests {
                 rest.sort_by(|a, b| b.0.partial_cmp(&a.0).expect("finite").then(a.1.cmp(&b.1)));
                 assert_eq!(rest, full[stop..], "n {n}, rest after {stop}");
             }
+        }
+    }
+
+    /// [`least`] against a running minimum, on maxima drawn from a few values (so many tie
+    /// and the least sits at every position) and on spread ones.
+    #[test]
+    fn least_is_the_running_minimum() {
+        let mut rng = SplitMix64::new(17);
+        for t in 0..2000 {
+            let v: [f64; 14] =
+                std::array::from_fn(|_| if t % 2 == 0 { rng.below(4) as f64 * 0.5 } else { rng.next_f64() * 1e3 });
+            let want = v.iter().copied().fold(f64::INFINITY, f64::min);
+            assert_eq!(least(&v).to_bits(), want.to_bits(), "{v:?}");
         }
     }
 
