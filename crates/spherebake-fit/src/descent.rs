@@ -481,7 +481,7 @@ impl<'a> Cover<'a> {
         if nb.is_empty() {
             return 0.0;
         }
-        let mut sorted = FarthestFirst::new(ex.iter().map(|&q| (self.pts[q as usize].distance(ci), q)).collect());
+        let mut sorted = FarthestFirst::new(ex.iter().map(|&q| (self.pts[q as usize].distance(ci), q)));
         let mut r: Vec<f64> = self.spheres.iter().map(|s| s.1).collect();
         let mut o: Vec<f64> = self.outs.clone();
         let step = 0.25 * self.solid.h;

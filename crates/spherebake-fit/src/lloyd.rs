@@ -351,7 +351,12 @@ const FAR_BOUND_SLACK: f64 = 1.0 + 1e-12;
 /// (`fast`), the unit cube −3.5 % and −1.4 % (chunks of a quarter: about the same; growing
 /// from 32 alone: −0.7 % on the fast bunny).
 pub(crate) struct FarthestFirst {
-    v: Vec<(f64, u32)>,
+    /// Each entry as one integer ([`FarthestFirst::key`]) whose ascending order is the order,
+    /// so the selections and sorts compare integers instead of calling
+    /// [`crate::largest_first`] (whose `total_cmp` transforms both distances at every
+    /// comparison): the same order, so the same entries at the same places; a fast bunny bake
+    /// −0.5 % instructions.
+    v: Vec<u128>,
     /// `v[..done]` holds the first `done` entries of the order, in order; the rest follow them
     /// in the order but not among themselves.
     done: usize,
@@ -361,8 +366,24 @@ impl FarthestFirst {
     /// The first chunk sorted.
     const FIRST: usize = 32;
 
-    pub(crate) fn new(v: Vec<(f64, u32)>) -> Self {
-        Self { v, done: 0 }
+    pub(crate) fn new(v: impl IntoIterator<Item = (f64, u32)>) -> Self {
+        Self { v: v.into_iter().map(Self::key).collect(), done: 0 }
+    }
+
+    /// (d, i) as an integer ordered as [`crate::largest_first`] orders the pairs: the bits of
+    /// d mapped as `f64::total_cmp` maps them (negative values' magnitude bits flipped), then
+    /// made unsigned (sign bit flipped) and complemented (largest first), above the index.
+    fn key((d, i): (f64, u32)) -> u128 {
+        let b = d.to_bits();
+        let t = b ^ (((b as i64 >> 63) as u64) >> 1);
+        (u128::from(!(t ^ (1 << 63))) << 32) | u128::from(i)
+    }
+
+    /// The pair of a [`FarthestFirst::key`] (the total_cmp mapping is its own inverse: it
+    /// keeps the sign bit it depends on).
+    fn pair(k: u128) -> (f64, u32) {
+        let t = !((k >> 32) as u64) ^ (1 << 63);
+        (f64::from_bits(t ^ (((t as i64 >> 63) as u64) >> 1)), k as u32)
     }
 
     pub(crate) fn len(&self) -> usize {
@@ -371,39 +392,40 @@ impl FarthestFirst {
 
     /// Entry `n` of the order (panics when n ≥ len, as indexing would).
     pub(crate) fn at(&mut self, n: usize) -> (f64, u32) {
-        self.sort_through(n);
-        self.v[n]
+        if n >= self.done {
+            self.sort_through(n);
+        }
+        Self::pair(self.v[n])
     }
 
     /// The first `n` entries, in order.
-    pub(crate) fn prefix(&mut self, n: usize) -> &[(f64, u32)] {
+    pub(crate) fn prefix(&mut self, n: usize) -> impl Iterator<Item = (f64, u32)> + '_ {
         if n > 0 {
             self.sort_through(n - 1);
         }
-        &self.v[..n]
+        self.v[..n].iter().map(|&k| Self::pair(k))
     }
 
     /// The entries after the first `n`, in no particular order.
-    pub(crate) fn rest(&mut self, n: usize) -> &[(f64, u32)] {
+    pub(crate) fn rest(&mut self, n: usize) -> impl Iterator<Item = (f64, u32)> + '_ {
         if n > 0 {
             self.sort_through(n - 1);
         }
-        &self.v[n..]
+        self.v[n..].iter().map(|&k| Self::pair(k))
     }
 
     fn sort_through(&mut self, n: usize) {
-        let order = crate::largest_first::<u32>;
         while self.done <= n && self.done < self.v.len() {
             let chunk = self.done.max(Self::FIRST).max(self.v.len() / 8);
             let rest = &mut self.v[self.done..];
             if chunk + 1 < rest.len() {
                 // rest[chunk] is then the entry of rank `chunk` among the rest, the `chunk`
                 // before it those ranked before it.
-                rest.select_nth_unstable_by(chunk, order);
-                rest[..chunk].sort_unstable_by(order);
+                rest.select_nth_unstable(chunk);
+                rest[..chunk].sort_unstable();
                 self.done += chunk + 1;
             } else {
-                rest.sort_unstable_by(order);
+                rest.sort_unstable();
                 self.done = self.v.len();
             }
         }
@@ -965,7 +987,7 @@ pub fn shrink(solid: &Solid, pts: &[Rep], centres: &[DVec3], radii: &mut [f64], 
         if nb.is_empty() {
             continue;
         }
-        let mut sorted = FarthestFirst::new(mem[i].iter().map(|&q| (pts[q as usize].far(centres[i]), q)).collect());
+        let mut sorted = FarthestFirst::new(mem[i].iter().map(|&q| (pts[q as usize].far(centres[i]), q)));
         for &j in &nb {
             new_r[j] = radii[j];
             new_o[j] = outs[j];
@@ -1018,12 +1040,12 @@ pub fn shrink(solid: &Solid, pts: &[Rep], centres: &[DVec3], radii: &mut [f64], 
         }
         // Apply the best prefix.
         let drop = best.1;
-        for (&(_, q), &j) in sorted.prefix(drop).iter().zip(&target) {
+        for ((_, q), &j) in sorted.prefix(drop).zip(&target) {
             assign[q as usize] = j;
             mem[j as usize].push(q);
         }
         radii[i] = sorted.at(drop).0;
-        let mut keep: Vec<u32> = sorted.rest(drop).iter().map(|x| x.1).collect();
+        let mut keep: Vec<u32> = sorted.rest(drop).map(|x| x.1).collect();
         keep.sort_unstable();
         mem[i] = keep;
         outs[i] = solid.outside(centres[i], radii[i]);
@@ -1070,10 +1092,32 @@ mod tests {
                 assert_eq!(f.at(jump), full[jump], "n {n}, jump to {jump}");
                 assert_eq!(f.at(stop), full[stop], "n {n}, back to {stop}");
                 let mut f = FarthestFirst::new(v.clone());
-                assert_eq!(f.prefix(stop), &full[..stop], "n {n}, prefix {stop}");
-                let mut rest = f.rest(stop).to_vec();
+                assert_eq!(f.prefix(stop).collect::<Vec<_>>(), &full[..stop], "n {n}, prefix {stop}");
+                let mut rest: Vec<(f64, u32)> = f.rest(stop).collect();
                 rest.sort_by(|a, b| b.0.partial_cmp(&a.0).expect("finite").then(a.1.cmp(&b.1)));
                 assert_eq!(rest, full[stop..], "n {n}, rest after {stop}");
+            }
+        }
+    }
+
+    /// [`FarthestFirst::key`] orders pairs as [`crate::largest_first`] does and
+    /// [`FarthestFirst::pair`] gives back the same bits, on every kind of f64 (both zeros,
+    /// negatives, subnormals, infinities, NaNs of both signs) and on random bits.
+    #[test]
+    fn the_farthest_first_key_orders_as_largest_first() {
+        let mut rng = SplitMix64::new(29);
+        let mut ds = vec![0.0, -0.0, 1.0, -1.0, 0.25, -0.25, f64::MIN_POSITIVE, -f64::MIN_POSITIVE, 5e-324, -5e-324];
+        ds.extend([f64::MAX, f64::MIN, f64::INFINITY, f64::NEG_INFINITY, f64::NAN, -f64::NAN]);
+        ds.extend((0..200).map(|_| f64::from_bits(rng.next_u64())));
+        ds.extend((0..200).map(|_| rng.next_f64() * 3.0));
+        let pairs: Vec<(f64, u32)> =
+            ds.iter().flat_map(|&d| [(d, 0u32), (d, 7), (d, u32::MAX), (d, rng.next_u64() as u32)]).collect();
+        for a in &pairs {
+            let back = FarthestFirst::pair(FarthestFirst::key(*a));
+            assert_eq!((back.0.to_bits(), back.1), (a.0.to_bits(), a.1), "{a:?}");
+            for b in &pairs {
+                let want = crate::largest_first(a, b);
+                assert_eq!(FarthestFirst::key(*a).cmp(&FarthestFirst::key(*b)), want, "{a:?} {b:?}");
             }
         }
     }
