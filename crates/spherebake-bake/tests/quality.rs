@@ -150,10 +150,11 @@ fn bunny_stays_under_its_e_ceiling() {
 /// settings for it, its plan and its own voxel grid (`Preset::voxels`, 96 cells).
 #[test]
 fn fast_bunny_stays_under_its_e_ceiling() {
-    // Seed 1: 0.2268 with the band a quarter of a cell wide (session 54; seeds 1–8 mean
-    // 0.2376, every seed at most 0.2427). The ceiling is also below the 0.25.
+    // Seed 1: 0.2285 with one seam round (session 55; seeds 1–8 mean 0.2411, every seed at
+    // most 0.2450; two rounds gave 0.2268, none 0.2395, above the ceiling). The ceiling is
+    // also below the 0.25.
     let Some(path) = spherebake_testkit::shared_model("obj/stanford-bunny.obj") else { return };
-    let case = Case { rel: "obj/stanford-bunny.obj", measured: 0.2268, ceiling: 0.2382 };
+    let case = Case { rel: "obj/stanford-bunny.obj", measured: 0.2285, ceiling: 0.2380 };
     let preset = spherebake_bake::Preset::Fast;
     let settings = BakeSettings { preset, voxels: preset.voxels(), ..BakeSettings::default() };
     bake_and_check_with(&path, &case, settings);

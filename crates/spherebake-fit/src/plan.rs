@@ -363,13 +363,24 @@ impl FitPlan {
     /// start only ([`FitPlan::both_thinnings`]), no polish (the descent covers the
     /// points from the Lloyd result directly), two Gauss–Seidel sweeps before the trials of
     /// the descent and of each seam round (not eight), a quarter of the descent's trials and a
-    /// thirtieth of its budget, two seam rounds with a quarter of their trials on a grid of
-    /// half a voxel cell (not a quarter), one band sweep over a band a quarter of a cell wide
+    /// thirtieth of its budget, one seam round with a quarter of its trials on a grid of
+    /// half a voxel cell (not five on a quarter), one band sweep over a band a quarter of a cell wide
     /// (not one cell), no boundary moves and no gap round; and, through [`Preset::voxels`], a
     /// voxel grid of 96 cells instead of 128, whose cells its descent reads directly
     /// ([`FitPlan::descent_block`] 1, see there).
     ///
-    /// The band's width was measured last (whole bake, 64 spheres, seeds 1–4 unless noted;
+    /// One seam round, not two, was chosen last (whole bake, one thread, 64 spheres, seeds 1–4,
+    /// the bunny 1–8; 2026-12-07, session 55), for the bunny's 1.0 s of CPU: with the exact
+    /// speed-ups of that session the bake took 0.98 s (median of 7, 0.92–1.10 s), at the
+    /// target's edge as the machine's speed varies. Instructions of the bunny's bake
+    /// (cachegrind, seed 1): −9.4 %. Mean E at two rounds → one: bunny 0.2376 → 0.2411 (every
+    /// seed at most 0.2450, under the 0.25), armadillo 0.4375 → 0.4486, spot 0.1684 →
+    /// 0.1697, Duck 0.1243 → 0.1262, teapot 0.1903 → 0.1948, Fox 0.5073 → 0.5246, CesiumMan
+    /// 0.7410 → 0.7464, the capsule and the unit cube the same. A smaller seam budget (0.5 M)
+    /// saved 5.0 % and kept the bunny (0.2378) but not the armadillo (0.4468) or the Duck
+    /// (0.1267); one round with twice the trials and budget saved about 9 % for 0.2398.
+    ///
+    /// The band's width was measured (whole bake, 64 spheres, seeds 1–4 unless noted;
     /// 2026-12-07, session 54). The band's gain comes from the points nearest the spheres'
     /// surfaces: a quarter of a cell keeps it with a fifth of the band points (the bunny, seed
     /// 1: 247 000 → 55 000; the band stage 0.08 → 0.04 s). Mean E at one cell → a quarter:
@@ -435,7 +446,7 @@ impl FitPlan {
             descent_trials: 16,
             descent_max_fails: 8,
             descent_work_budget: 4_000_000,
-            seam_rounds: 2,
+            seam_rounds: 1,
             seam_spacing_cells: 0.5,
             seam_trials: 4,
             seam_max_fails: 2,
