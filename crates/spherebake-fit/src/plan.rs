@@ -245,6 +245,17 @@ pub struct FitPlan {
     /// spacing. Range 0..=100.
     pub band_sweeps: usize,
     /// Half-width of the band around each sphere's surface, in voxel cells. Range (0, 64].
+    ///
+    /// A quarter of a cell in every preset: the band's gain comes from the points nearest the
+    /// spheres' surfaces, and the wider band's points cost more than they bring. Measured for
+    /// the default (whole bake, 64 spheres, seeds 1–4, mean E; 2026-12-08, session 56), one
+    /// cell → half → a quarter: bunny 0.2212 → 0.2212 → 0.2221, armadillo 0.3865 → 0.3855 →
+    /// 0.3864, spot 0.1513 → 0.1499 → 0.1504, Duck 0.0987 → 0.0987 → 0.0992, teapot 0.1598
+    /// → 0.1610 → 0.1608, Fox 0.4862 → 0.4879 → 0.4939, CesiumMan 0.6578 → 0.6589 → 0.6637,
+    /// milk truck 0.4451 → 0.4435 → 0.4453, capsule 0.0509 → 0.0507 → 0.0509, unit cube
+    /// 0.2830 → 0.2830 → 0.2839; the bunny at 128 spheres 0.1416 → 0.1413 → 0.1416.
+    /// Instructions executed by the bunny's bake (cachegrind, seed 1): 24.05 G → 23.31 G
+    /// (−3.1 %) → 21.95 G (−8.7 %). For `fast`, see [`FitPlan::fast`].
     pub band_width_cells: f64,
     /// Gap rounds after the band at most (stage 6c; ends early when there are no gap points):
     /// the surface points at the seam spacing that no sphere covers after the band's sweeps
@@ -309,8 +320,9 @@ pub struct FitPlan {
 }
 
 impl Default for FitPlan {
-    /// The measured default (bunny at 64 spheres, whole bake: E 0.2242 at seed 1, mean
-    /// 0.2212 over seeds 1–4; `docs/benchmarks.md`, "The descent on blocks of two cells").
+    /// The measured default (bunny at 64 spheres, whole bake: E 0.2252 at seed 1, mean
+    /// 0.2221 over seeds 1–4; `docs/benchmarks.md`, "The descent on blocks of two cells" and
+    /// the band's width, [`FitPlan::band_width_cells`]).
     fn default() -> Self {
         Self {
             point_resolution: 40,
@@ -342,7 +354,7 @@ impl Default for FitPlan {
             seam_max_fails: 3,
             seam_work_budget: 30_000_000,
             band_sweeps: 8,
-            band_width_cells: 1.0,
+            band_width_cells: 0.25,
             gap_rounds: 1,
             pair_first_cut: 1.0 / 16.0,
             search_first_share: 0.1,
@@ -364,8 +376,7 @@ impl FitPlan {
     /// points from the Lloyd result directly), two Gauss–Seidel sweeps before the trials of
     /// the descent and of each seam round (not eight), a quarter of the descent's trials and a
     /// thirtieth of its budget, one seam round with a quarter of its trials on a grid of
-    /// half a voxel cell (not five on a quarter), one band sweep over a band a quarter of a cell wide
-    /// (not one cell), no boundary moves and no gap round; and, through [`Preset::voxels`], a
+    /// half a voxel cell (not five on a quarter), one band sweep (not eight), no boundary moves and no gap round; and, through [`Preset::voxels`], a
     /// voxel grid of 96 cells instead of 128, whose cells its descent reads directly
     /// ([`FitPlan::descent_block`] 1, see there).
     ///
@@ -380,8 +391,9 @@ impl FitPlan {
     /// saved 5.0 % and kept the bunny (0.2378) but not the armadillo (0.4468) or the Duck
     /// (0.1267); one round with twice the trials and budget saved about 9 % for 0.2398.
     ///
-    /// The band's width was measured (whole bake, 64 spheres, seeds 1–4 unless noted;
-    /// 2026-12-07, session 54). The band's gain comes from the points nearest the spheres'
+    /// The band's width was measured for `fast` first, which took a quarter of a cell before
+    /// the default did (whole bake, 64 spheres, seeds 1–4 unless noted; 2026-12-07, session
+    /// 54). The band's gain comes from the points nearest the spheres'
     /// surfaces: a quarter of a cell keeps it with a fifth of the band points (the bunny, seed
     /// 1: 247 000 → 55 000; the band stage 0.08 → 0.04 s). Mean E at one cell → a quarter:
     /// bunny 0.2379 → 0.2376 (seeds 1–8), armadillo 0.4373 → 0.4375, spot 0.1684 → 0.1684,
@@ -452,7 +464,6 @@ impl FitPlan {
             seam_max_fails: 2,
             seam_work_budget: 1_000_000,
             band_sweeps: 1,
-            band_width_cells: 0.25,
             gap_rounds: 0,
             pair_first_cut: 0.0,
             descent_block: 1,

@@ -344,8 +344,9 @@ fn the_band_stage_and_the_gap_round_narrow_what_the_bounding_pass_adds_on_the_bu
     // Since the descent and seam points lay rows on slivers (the bunny's base has some), seed 1
     // gives E 0.2313 with the gap round and 0.2319 without (whole bakes, seeds 1–4: mean
     // 0.2226 → 0.2218). Since the descent reads blocks of two cells (`FitPlan::descent_block`),
-    // 0.2325 and 0.2341 (whole bakes, seeds 1–4: mean 0.2218 → 0.2212).
-    const GAP_E: f64 = 0.2325;
+    // 0.2325 and 0.2341 (whole bakes, seeds 1–4: mean 0.2218 → 0.2212). Since the band is a
+    // quarter of a cell wide, not one (`FitPlan::band_width_cells`), 0.2339 and 0.2347.
+    const GAP_E: f64 = 0.2339;
     let g = gap.stats.trace.iter().find(|e| e.stage == "gap").expect("gap traced");
     assert!(g.round == 1 && g.points > 0 && g.iterations == 0 && g.trials == 0, "{g:?}");
     let a_gap = added(&gap, "gap");
