@@ -19,7 +19,7 @@
 //! stage: 0.276 and 0.511 at seed 1).
 
 use crate::lloyd::{FarQuery, FarthestFirst};
-use crate::solid::Solid;
+use crate::solid::{Bits, Solid};
 use glam::DVec3;
 use spherebake_geom::triangle::grid_or_rows;
 use std::sync::atomic::{AtomicU64, Ordering};
@@ -47,6 +47,19 @@ struct Grid {
     items: Vec<u32>,
     /// Each point's row of cells (`j + dims[1] k`).
     line_of: Vec<u32>,
+    /// Each point's place in `items`.
+    pos_of: Vec<u32>,
+}
+
+/// A ball query's bounds on a [`Grid`] ([`Grid::reach`]): the cells of its box, the cell of
+/// its centre, and the slack of the chord bounds.
+struct Reach {
+    c: [f64; 3],
+    r2: f64,
+    lo: [usize; 3],
+    hi: [usize; 3],
+    own: [usize; 3],
+    slack: [f64; 3],
 }
 
 impl Grid {
@@ -70,7 +83,15 @@ impl Grid {
             ((ext.y / cell) as usize + 1).min(1024),
             ((ext.z / cell) as usize + 1).min(1024),
         ];
-        let mut g = Grid { origin: lo, cell, dims, start: Vec::new(), items: Vec::new(), line_of: Vec::new() };
+        let mut g = Grid {
+            origin: lo,
+            cell,
+            dims,
+            start: Vec::new(),
+            items: Vec::new(),
+            line_of: Vec::new(),
+            pos_of: Vec::new(),
+        };
         let n = dims[0] * dims[1] * dims[2];
         let keys: Vec<usize> = pts.iter().map(|p| g.key(*p)).collect();
         let mut count = vec![0u32; n + 1];
@@ -82,10 +103,13 @@ impl Grid {
         }
         let mut fill = count.clone();
         let mut items = vec![0u32; pts.len()];
+        let mut pos_of = vec![0u32; pts.len()];
         for (i, &k) in keys.iter().enumerate() {
             items[fill[k] as usize] = i as u32;
+            pos_of[i] = fill[k];
             fill[k] += 1;
         }
+        g.pos_of = pos_of;
         g.start = count;
         g.items = items;
         g.line_of = keys.iter().map(|&k| (k / dims[0]) as u32).collect();
@@ -95,8 +119,10 @@ impl Grid {
     fn coord(&self, x: f64, axis: usize) -> usize {
         let o = [self.origin.x, self.origin.y, self.origin.z][axis];
         // A cast floors a non-negative value and sends a negative one or NaN to 0: the same
-        // cell as ⌊x⌋ clamped at 0, without a library call for the floor.
-        (((x - o) / self.cell) as usize).min(self.dims[axis] - 1)
+        // cell as ⌊x⌋ clamped at 0, without a library call for the floor. Cast to u32, which a
+        // dimension (at most 1024) fits: the same index as a cast to usize (both saturate
+        // beyond the grid) in fewer instructions, as in [`crate::ballgrid`].
+        (((x - o) / self.cell) as u32 as usize).min(self.dims[axis] - 1)
     }
 
     fn key(&self, p: DVec3) -> usize {
@@ -106,63 +132,142 @@ impl Grid {
 
     /// Calls `f` for every point within distance `r` of `c` (|p − c| ≤ r), in the grid's
     /// order (by cell, then by index).
-    fn for_each_in(&self, pts: &[DVec3], c: DVec3, r: f64, f: impl FnMut(u32)) {
-        self.for_each_in_marked(pts, c, r, |_| true, |_| true, f);
+    fn for_each_in(&self, pts: &[DVec3], c: DVec3, r: f64, mut f: impl FnMut(u32)) {
+        let r2 = r * r;
+        self.for_each_row(
+            c,
+            r,
+            |_| true,
+            |span| {
+                for &q in &self.items[span] {
+                    if pts[q as usize].distance_squared(c) <= r2 {
+                        f(q);
+                    }
+                }
+            },
+        );
     }
 
-    /// [`Grid::for_each_in`] over the rows of cells with `marked(row)` (row `j + dims[1] k`)
-    /// and the points with `keep(q)` only: the same calls in the same order, less those for
-    /// points of unmarked rows or not kept (`keep` is asked first: it can spare reading the
-    /// point).
-    fn for_each_in_marked(
+    /// The bounds of a query for the ball (c, r); `None` when r < 0 (no point is within).
+    fn reach(&self, c: DVec3, r: f64) -> Option<Reach> {
+        if r < 0.0 {
+            return None;
+        }
+        let x = c.to_array();
+        let o = self.origin.to_array();
+        Some(Reach {
+            c: x,
+            r2: r * r,
+            lo: std::array::from_fn(|a| self.coord(x[a] - r, a)),
+            hi: std::array::from_fn(|a| self.coord(x[a] + r, a)),
+            own: std::array::from_fn(|a| self.coord(x[a], a)),
+            // Cell keys are rounded quotients (and the last cell holds what lies beyond it), so
+            // the bounds carry a slack far above their rounding (1e-9 of the magnitudes).
+            slack: std::array::from_fn(|a| 1e-9 * (o[a].abs() + x[a].abs() + self.cell * self.dims[a] as f64) + 1e-300),
+        })
+    }
+
+    /// The gap along axis `a` from the query's centre to the cells `i` (0 in its own cell),
+    /// less the slack: never more than the true one.
+    fn gap(&self, q: &Reach, a: usize, i: usize) -> f64 {
+        let o = [self.origin.x, self.origin.y, self.origin.z][a];
+        let g = match i.cmp(&q.own[a]) {
+            std::cmp::Ordering::Less => q.c[a] - (o + (i + 1) as f64 * self.cell),
+            std::cmp::Ordering::Equal => 0.0,
+            std::cmp::Ordering::Greater => o + i as f64 * self.cell - q.c[a],
+        };
+        (g - q.slack[a]).max(0.0)
+    }
+
+    /// The places in `items` of row `line`'s cells that the query's chord reaches, `rem` its
+    /// squared half chord less the gaps (≥ 0).
+    fn span(&self, q: &Reach, line: usize, rem: f64) -> std::ops::Range<usize> {
+        let w = rem.sqrt() * (1.0 + 1e-9) + q.slack[0];
+        let (x0, x1) = (self.coord(q.c[0] - w, 0).max(q.lo[0]), self.coord(q.c[0] + w, 0).min(q.hi[0]));
+        let row = self.dims[0] * line;
+        self.start[row + x0] as usize..self.start[row + x1 + 1] as usize
+    }
+
+    /// The squared half chord of row (j, k) of the query less the gaps, negative when the row
+    /// is beyond the ball (`gz` the gap of layer k).
+    fn rem(&self, q: &Reach, j: usize, gz: f64) -> f64 {
+        let gy = self.gap(q, 1, j);
+        q.r2 - gy * gy - gz * gz
+    }
+
+    /// Calls `f` with the places in `items` of every row of cells with `marked(row)` (row
+    /// `j + dims[1] k`) that the ball (c, r) reaches, over the cells its chord can reach: the
+    /// gap from c to the row's cells in y and z (never more than the true one) leaves a half
+    /// chord of at most √(r² − gy² − gz²) in x (widened by the same slack). A point of a cell
+    /// outside it is farther than r, so the points within r are all in the spans, in the
+    /// grid's order.
+    fn for_each_row(
         &self,
-        pts: &[DVec3],
         c: DVec3,
         r: f64,
         marked: impl Fn(usize) -> bool,
-        keep: impl Fn(u32) -> bool,
-        mut f: impl FnMut(u32),
+        mut f: impl FnMut(std::ops::Range<usize>),
     ) {
-        if r < 0.0 {
-            return;
-        }
-        let lo = [self.coord(c.x - r, 0), self.coord(c.y - r, 1), self.coord(c.z - r, 2)];
-        let hi = [self.coord(c.x + r, 0), self.coord(c.y + r, 1), self.coord(c.z + r, 2)];
-        let r2 = r * r;
-        // Each row of cells is read only over the cells its chord of the ball can reach: the
-        // gap from c to the row's cells in y and z (`gap`, never more than the true one) leaves
-        // a half chord of at most √(r² − gy² − gz²) in x (widened by the same slack). A point
-        // of a cell outside it is farther than r, so the calls are the same, in the same order.
-        let (o, x) = (self.origin.to_array(), c.to_array());
-        // Cell keys are rounded quotients (and the last cell holds what lies beyond it), so the
-        // bounds carry a slack far above their rounding (1e-9 of the magnitudes).
-        let slack: [f64; 3] =
-            std::array::from_fn(|a| 1e-9 * (o[a].abs() + x[a].abs() + self.cell * self.dims[a] as f64) + 1e-300);
-        let own: [usize; 3] = std::array::from_fn(|a| self.coord(x[a], a));
-        let gap = |a: usize, i: usize| -> f64 {
-            let g = match i.cmp(&own[a]) {
-                std::cmp::Ordering::Less => x[a] - (o[a] + (i + 1) as f64 * self.cell),
-                std::cmp::Ordering::Equal => 0.0,
-                std::cmp::Ordering::Greater => o[a] + i as f64 * self.cell - x[a],
-            };
-            (g - slack[a]).max(0.0)
-        };
-        for k in lo[2]..=hi[2] {
-            let gz = gap(2, k);
-            for j in lo[1]..=hi[1] {
+        let Some(q) = self.reach(c, r) else { return };
+        for k in q.lo[2]..=q.hi[2] {
+            let gz = self.gap(&q, 2, k);
+            for j in q.lo[1]..=q.hi[1] {
                 let line = j + self.dims[1] * k;
-                let gy = gap(1, j);
-                let rem = r2 - gy * gy - gz * gz;
+                let rem = self.rem(&q, j, gz);
                 if rem < 0.0 || !marked(line) {
                     continue;
                 }
-                let w = rem.sqrt() * (1.0 + 1e-9) + slack[0];
-                let (x0, x1) = (self.coord(c.x - w, 0).max(lo[0]), self.coord(c.x + w, 0).min(hi[0]));
-                let row = self.dims[0] * line;
-                let (a, b) = (self.start[row + x0] as usize, self.start[row + x1 + 1] as usize);
-                for &q in &self.items[a..b] {
-                    if keep(q) && pts[q as usize].distance_squared(c) <= r2 {
-                        f(q);
+                f(self.span(&q, line, rem));
+            }
+        }
+    }
+
+    /// Calls `f(q, inside b)` for every point inside exactly one of the balls `a` and `b`
+    /// (|p − c|² ≤ r²), each once: the points [`Grid::for_each_in`] finds for one ball and not
+    /// for the other. One pass over the rows of both: a point inside both (most of them when a
+    /// ball moves a little) is read once, and costs no call.
+    fn for_each_in_one(&self, pts: &[DVec3], a: (DVec3, f64), b: (DVec3, f64), mut f: impl FnMut(u32, bool)) {
+        let (qa, qb) = (self.reach(a.0, a.1), self.reach(b.0, b.1));
+        let (lo, hi) = match (&qa, &qb) {
+            (Some(x), Some(y)) => {
+                ([x.lo[1].min(y.lo[1]), x.lo[2].min(y.lo[2])], [x.hi[1].max(y.hi[1]), x.hi[2].max(y.hi[2])])
+            }
+            (Some(x), None) | (None, Some(x)) => ([x.lo[1], x.lo[2]], [x.hi[1], x.hi[2]]),
+            (None, None) => return,
+        };
+        // The ball's span of row (j, k), empty beyond its box or its chord.
+        let span = |q: &Option<Reach>, j: usize, k: usize, gz: f64| -> std::ops::Range<usize> {
+            match q {
+                Some(q) if (q.lo[1]..=q.hi[1]).contains(&j) && (q.lo[2]..=q.hi[2]).contains(&k) => {
+                    let rem = self.rem(q, j, gz);
+                    if rem < 0.0 {
+                        0..0
+                    } else {
+                        self.span(q, j + self.dims[1] * k, rem)
+                    }
+                }
+                _ => 0..0,
+            }
+        };
+        let gz = |q: &Option<Reach>, k: usize| q.as_ref().map_or(0.0, |q| self.gap(q, 2, k));
+        let (ra2, rb2) = (a.1 * a.1, b.1 * b.1);
+        for k in lo[1]..=hi[1] {
+            let (gza, gzb) = (gz(&qa, k), gz(&qb, k));
+            for j in lo[0]..=hi[0] {
+                let (sa, sb) = (span(&qa, j, k, gza), span(&qb, j, k, gzb));
+                let all = match (sa.is_empty(), sb.is_empty()) {
+                    (true, true) => continue,
+                    (false, true) => sa.clone(),
+                    (true, false) => sb.clone(),
+                    (false, false) => sa.start.min(sb.start)..sa.end.max(sb.end),
+                };
+                for at in all {
+                    let q = self.items[at];
+                    let p = pts[q as usize];
+                    let ina = sa.contains(&at) && p.distance_squared(a.0) <= ra2;
+                    let inb = sb.contains(&at) && p.distance_squared(b.0) <= rb2;
+                    if ina != inb {
+                        f(q, inb);
                     }
                 }
             }
@@ -265,6 +370,9 @@ struct Cover<'a> {
     /// sphere): the exclusive sets skip the rows without any (most rows, where spheres overlap
     /// deeply).
     ones: Vec<u32>,
+    /// Per place in the grid's `items`, whether its point has `cnt` 1: an exclusive set reads
+    /// only those (a word of 64 places at a time), not every point of the ball.
+    one_bits: Bits,
     spheres: Vec<(DVec3, f64)>,
     outs: Vec<f64>,
     /// Per sphere, the key (sphere bits, exclusive-set hash) of its last descent step: the
@@ -283,18 +391,21 @@ struct Cover<'a> {
     search: Search,
 }
 
-/// Point `q`'s cover count one up (`up`) or down, and the count of points covered once in its
-/// row of cells (`ones`, see [`Cover`]) with it. A count held at `u16::MAX` stays there.
-fn recount(cnt: &mut [u16], ones: &mut [u32], line_of: &[u32], q: u32, up: bool) {
-    let (q, line) = (q as usize, line_of[q as usize] as usize);
+/// Point `q`'s cover count one up (`up`) or down, and with it the count of points covered once
+/// in its row of cells and its bit (`ones`, `one_bits`, see [`Cover`]). A count held at
+/// `u16::MAX` stays there.
+fn recount(cnt: &mut [u16], ones: &mut [u32], one_bits: &mut Bits, grid: &Grid, q: u32, up: bool) {
+    let (q, line) = (q as usize, grid.line_of[q as usize] as usize);
     let n = cnt[q];
     let m = if up { n.saturating_add(1) } else { n - 1 };
     cnt[q] = m;
     if n == 1 {
         ones[line] -= 1;
+        one_bits.clear(grid.pos_of[q] as usize);
     }
     if m == 1 {
         ones[line] += 1;
+        one_bits.set(grid.pos_of[q] as usize);
     }
 }
 
@@ -335,9 +446,11 @@ impl<'a> Cover<'a> {
         let outs = spheres.iter().map(|s| solid.outside(s.0, s.1)).collect();
         let k = spheres.len();
         let mut ones = vec![0u32; grid.dims[1] * grid.dims[2]];
+        let mut one_bits = Bits::new(pts.len());
         for (q, &n) in cnt.iter().enumerate() {
             if n == 1 {
                 ones[grid.line_of[q] as usize] += 1;
+                one_bits.set(grid.pos_of[q] as usize);
             }
         }
         Cover {
@@ -346,6 +459,7 @@ impl<'a> Cover<'a> {
             grid,
             cnt,
             ones,
+            one_bits,
             spheres: spheres.to_vec(),
             outs,
             tried: vec![0; k],
@@ -364,9 +478,21 @@ impl<'a> Cover<'a> {
     /// one order for a set, whatever the sphere that finds it).
     fn exclusive(&self, i: usize) -> Vec<u32> {
         let (c, r) = self.spheres[i];
+        let r2 = r * r;
         let mut v = Vec::new();
-        let one = |q: u32| self.cnt[q as usize] == 1;
-        self.grid.for_each_in_marked(self.pts, c, r, |line| self.ones[line] > 0, one, |q| v.push(q));
+        self.grid.for_each_row(
+            c,
+            r,
+            |line| self.ones[line] > 0,
+            |span| {
+                self.one_bits.for_each_one_in(span, |at| {
+                    let q = self.grid.items[at];
+                    if self.pts[q as usize].distance_squared(c) <= r2 {
+                        v.push(q);
+                    }
+                })
+            },
+        );
         v
     }
 
@@ -378,9 +504,9 @@ impl<'a> Cover<'a> {
     /// `solid.outside(c, r)`, as [`best_ball`] returns it), so it is not read again.
     fn set_known(&mut self, i: usize, c: DVec3, r: f64, out: f64) {
         let (c0, r0) = self.spheres[i];
-        let (cnt, ones, line_of) = (&mut self.cnt, &mut self.ones, &self.grid.line_of);
-        self.grid.for_each_in(self.pts, c0, r0, |q| recount(cnt, ones, line_of, q, false));
-        self.grid.for_each_in(self.pts, c, r, |q| recount(cnt, ones, line_of, q, true));
+        let (cnt, ones, one_bits, grid) = (&mut self.cnt, &mut self.ones, &mut self.one_bits, self.grid);
+        // The points inside both balls keep their counts (one down, one up).
+        grid.for_each_in_one(self.pts, (c0, r0), (c, r), |q, up| recount(cnt, ones, one_bits, grid, q, up));
         self.spheres[i] = (c, r);
         self.outs[i] = out;
         // What the move can change: the exclusive sets of the spheres meeting the old or the
@@ -1425,6 +1551,40 @@ mod tests {
         }
     }
 
+    /// The one-pass symmetric difference of two balls against two brute-force filters: every
+    /// point inside exactly one, once, with the side it is inside; balls overlapping, nested,
+    /// equal, disjoint, empty (r < 0) and of radius 0.
+    #[test]
+    fn the_points_inside_one_ball_of_two_are_those_a_filter_finds() {
+        let mut rng = SplitMix64::new(29);
+        let pts: Vec<DVec3> =
+            (0..4000).map(|_| DVec3::new(rng.next_f64(), rng.next_f64(), rng.next_f64()) * 3.0).collect();
+        let grid = Grid::new(&pts, 0.1);
+        let mut both = 0;
+        for round in 0..400 {
+            let mut ball = || (DVec3::new(rng.next_f64(), rng.next_f64(), rng.next_f64()) * 3.4 - 0.2, rng.next_f64());
+            let a = ball();
+            let b = match round % 6 {
+                0 => (a.0 + DVec3::splat(0.01), a.1),
+                1 => (a.0, a.1 * 0.5),
+                2 => a,
+                3 => (a.0, -1.0),
+                4 => (a.0, 0.0),
+                _ => ball(),
+            };
+            let (a, b) = if round % 12 >= 6 { (b, a) } else { (a, b) };
+            let mut got = Vec::new();
+            grid.for_each_in_one(&pts, a, b, |q, up| got.push((q, up)));
+            got.sort_unstable();
+            let inside = |s: (DVec3, f64), q: usize| s.1 >= 0.0 && pts[q].distance_squared(s.0) <= s.1 * s.1;
+            let want: Vec<(u32, bool)> =
+                (0..pts.len()).filter(|&q| inside(a, q) != inside(b, q)).map(|q| (q as u32, inside(b, q))).collect();
+            both += (0..pts.len()).filter(|&q| inside(a, q) && inside(b, q)).count();
+            assert_eq!(got, want, "round {round}: {a:?} {b:?}");
+        }
+        assert!(both > 10_000, "{both}");
+    }
+
     #[test]
     fn cheapest_of_three_nearest_prices_only_the_three_nearest() {
         let gaps = [(0, 5.0), (1, 1.0), (2, 2.0), (3, 3.0), (4, 0.5)];
@@ -1647,6 +1807,13 @@ mod tests {
             cov.set(i, c, r);
             let inside = |s: (DVec3, f64), q: usize| pts[q].distance_squared(s.0) <= s.1 * s.1;
             let count = |q: usize| cov.spheres.iter().filter(|&&s| inside(s, q)).count();
+            // The counts a move leaves (recounted over the points inside one ball only) and
+            // their bits (the places of the points covered once) are those of a count from
+            // scratch.
+            for q in 0..pts.len() {
+                assert_eq!(usize::from(cov.cnt[q]), count(q), "step {step}, point {q}");
+                assert_eq!(cov.one_bits.get(grid.pos_of[q] as usize), count(q) == 1, "step {step}, point {q}");
+            }
             for l in 0..12 {
                 let mut want: Vec<u32> =
                     (0..pts.len()).filter(|&q| inside(cov.spheres[l], q) && count(q) == 1).map(|q| q as u32).collect();

@@ -155,6 +155,35 @@ impl Bits {
         debug_assert!(i < self.len);
         self.words[i >> 6] |= 1 << (i & 63);
     }
+    /// Clears bit `i`. Precondition: `i < len`.
+    #[inline]
+    pub fn clear(&mut self, i: usize) {
+        debug_assert!(i < self.len);
+        self.words[i >> 6] &= !(1 << (i & 63));
+    }
+    /// Calls `f` with the index of every set bit in `range`, ascending: a word at a time, so a
+    /// sparse range costs about its length / 64.
+    #[inline]
+    pub fn for_each_one_in(&self, range: std::ops::Range<usize>, mut f: impl FnMut(usize)) {
+        if range.start >= range.end {
+            return;
+        }
+        debug_assert!(range.end <= self.len);
+        let (first, last) = (range.start >> 6, (range.end - 1) >> 6);
+        for w in first..=last {
+            let mut x = self.words[w];
+            if w == first {
+                x &= !0 << (range.start & 63);
+            }
+            if w == last {
+                x &= !0 >> (63 - ((range.end - 1) & 63));
+            }
+            while x != 0 {
+                f(w * 64 + x.trailing_zeros() as usize);
+                x &= x - 1;
+            }
+        }
+    }
     pub fn len(&self) -> usize {
         self.len
     }
@@ -1543,6 +1572,38 @@ mod tests {
         assert_eq!(ones, want);
         assert_eq!(b.count_ones(), want.len());
         assert!(Bits::new(0).ones().next().is_none());
+    }
+
+    /// `for_each_one_in` against a bit-by-bit filter of the range, and `clear` against `set`,
+    /// on random bits and random ranges (within one word, across words, empty, to the end).
+    #[test]
+    fn bits_ones_in_a_range_are_the_set_bits_there() {
+        let mut rng = crate::rng::SplitMix64::new(71);
+        for round in 0..300 {
+            let n = 1 + (rng.next_u64() % 400) as usize;
+            let density = [0.02, 0.3, 0.9][round % 3];
+            let mut b = Bits::new(n);
+            let mut want = vec![false; n];
+            for _ in 0..3 * n {
+                let i = (rng.next_u64() % n as u64) as usize;
+                let on = rng.next_f64() < density;
+                if on {
+                    b.set(i);
+                } else {
+                    b.clear(i);
+                }
+                want[i] = on;
+            }
+            assert_eq!(b.ones().collect::<Vec<_>>(), (0..n).filter(|&i| want[i]).collect::<Vec<_>>());
+            for _ in 0..20 {
+                let a = (rng.next_u64() % (n as u64 + 1)) as usize;
+                let e = if round % 5 == 0 { n } else { (rng.next_u64() % (n as u64 + 1)) as usize };
+                let mut got = Vec::new();
+                b.for_each_one_in(a..e, |i| got.push(i));
+                let expect: Vec<usize> = (a..e.max(a)).filter(|&i| want[i]).collect();
+                assert_eq!(got, expect, "n {n}, range {a}..{e}");
+            }
+        }
     }
 
     #[test]
