@@ -357,10 +357,7 @@ pub fn split_starts(
     if pts.is_empty() || k == 0 {
         return (Vec::new(), Vec::new());
     }
-    let ball_of = |idx: &[u32]| {
-        let members: Vec<DVec3> = idx.iter().map(|&i| pts[i as usize]).collect();
-        spherebake_geom::sphere::min_enclosing_ball(&members)
-    };
+    let ball_of = |idx: &[u32]| spherebake_geom::sphere::min_enclosing_ball_of(idx.iter().map(|&i| pts[i as usize]));
     // A cell: its points' indices and their smallest ball.
     type Cell = (Vec<u32>, (DVec3, f64));
     let all: Vec<u32> = (0..pts.len() as u32).collect();

@@ -272,24 +272,31 @@ pub fn principal_axes(points: &[DVec3]) -> Option<[DVec3; 3]> {
 /// point distance, so every point is inside. Duplicates and cospherical sets are fine: a point
 /// within 1e-12 · scale of the current ball counts as inside.
 pub fn min_enclosing_ball(points: &[DVec3]) -> (DVec3, f64) {
-    let pts: Vec<DVec3> = points.iter().copied().filter(|p| p.is_finite()).collect();
-    if pts.is_empty() {
+    min_enclosing_ball_of(points.iter().copied())
+}
+
+/// [`min_enclosing_ball`] of the points `points` yields, without a slice of them made first
+/// (the split starts ask for the balls of many subsets of one point set). The same ball, bit
+/// for bit: the finite points are shuffled in place by the same swaps the index shuffle made
+/// (so the same list), and the scale and the final radius are maxima, whatever the order.
+pub fn min_enclosing_ball_of(points: impl Iterator<Item = DVec3>) -> (DVec3, f64) {
+    let mut list: Vec<DVec3> = Vec::with_capacity(points.size_hint().0);
+    list.extend(points.filter(|p| p.is_finite()));
+    if list.is_empty() {
         return (DVec3::ZERO, 0.0);
     }
-    let mut order: Vec<usize> = (0..pts.len()).collect();
     // Fixed seed: the one shuffle Welzl's expected-linear bound needs.
     let mut rng = crate::rng::SplitMix64::new(0x5EED_5BE2_E0B1_BA11);
-    for i in (1..order.len()).rev() {
+    for i in (1..list.len()).rev() {
         let j = (rng.next_u64() % (i as u64 + 1)) as usize;
-        order.swap(i, j);
+        list.swap(i, j);
     }
-    let scale = pts.iter().map(|p| p.abs().max_element()).fold(0.0, f64::max).max(f64::MIN_POSITIVE);
+    let scale = list.iter().map(|p| p.abs().max_element()).fold(0.0, f64::max).max(f64::MIN_POSITIVE);
     let tol = 1e-12 * scale;
-    let mut list: Vec<DVec3> = order.iter().map(|&i| pts[i]).collect();
     let mut support: Vec<DVec3> = Vec::with_capacity(4);
-    let start = (list[0], -1.0);
-    let (c, _) = mtf_mb(&mut list, pts.len(), &mut support, start, tol);
-    let r = pts.iter().map(|p| p.distance(c)).fold(0.0, f64::max);
+    let (start, n) = ((list[0], -1.0), list.len());
+    let (c, _) = mtf_mb(&mut list, n, &mut support, start, tol);
+    let r = list.iter().map(|p| p.distance(c)).fold(0.0, f64::max);
     (c, r)
 }
 
@@ -461,6 +468,60 @@ pub fn tangent_balls(balls: &[(DVec3, f64)], sub: &[usize]) -> Vec<(DVec3, f64)>
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The minimal ball as it was before it shuffled the points in place: the finite points
+    /// copied, their indices shuffled and gathered, the scale and the radius over the copy.
+    fn min_enclosing_ball_by_indices(points: &[DVec3]) -> (DVec3, f64) {
+        let pts: Vec<DVec3> = points.iter().copied().filter(|p| p.is_finite()).collect();
+        if pts.is_empty() {
+            return (DVec3::ZERO, 0.0);
+        }
+        let mut order: Vec<usize> = (0..pts.len()).collect();
+        let mut rng = crate::rng::SplitMix64::new(0x5EED_5BE2_E0B1_BA11);
+        for i in (1..order.len()).rev() {
+            let j = (rng.next_u64() % (i as u64 + 1)) as usize;
+            order.swap(i, j);
+        }
+        let scale = pts.iter().map(|p| p.abs().max_element()).fold(0.0, f64::max).max(f64::MIN_POSITIVE);
+        let tol = 1e-12 * scale;
+        let mut list: Vec<DVec3> = order.iter().map(|&i| pts[i]).collect();
+        let mut support: Vec<DVec3> = Vec::with_capacity(4);
+        let start = (list[0], -1.0);
+        let (c, _) = mtf_mb(&mut list, pts.len(), &mut support, start, tol);
+        (c, pts.iter().map(|p| p.distance(c)).fold(0.0, f64::max))
+    }
+
+    /// The in-place shuffle gives the index shuffle's ball bit for bit: random clouds, flat and
+    /// collinear ones, duplicates, non-finite points mixed in, one point and none; from a
+    /// slice and from an iterator.
+    #[test]
+    fn the_ball_of_the_points_shuffled_in_place_is_the_ball_of_the_shuffled_indices() {
+        let mut rng = crate::rng::SplitMix64::new(77);
+        for round in 0..300 {
+            let n = (rng.next_u64() % 300) as usize;
+            let mut pts: Vec<DVec3> = (0..n)
+                .map(|_| {
+                    let p = DVec3::new(rng.next_f64(), rng.next_f64(), rng.next_f64()) * 10.0 - 3.0;
+                    match round % 5 {
+                        0 => DVec3::new(p.x, p.y, 1.5),
+                        1 => DVec3::new(p.x, 2.0 * p.x, -p.x),
+                        _ => p,
+                    }
+                })
+                .collect();
+            if round % 7 == 0 && n > 3 {
+                pts[1] = pts[0];
+                pts[n - 1] = DVec3::new(f64::NAN, 0.0, 0.0);
+                pts[n / 2] = DVec3::INFINITY;
+            }
+            let want = min_enclosing_ball_by_indices(&pts);
+            let bits = |b: (DVec3, f64)| (b.0.to_array().map(f64::to_bits), b.1.to_bits());
+            assert_eq!(bits(min_enclosing_ball(&pts)), bits(want), "round {round}, {n} points");
+            let by_index: Vec<u32> = (0..n as u32).collect();
+            let of = min_enclosing_ball_of(by_index.iter().map(|&i| pts[i as usize]));
+            assert_eq!(bits(of), bits(want), "round {round}, {n} points");
+        }
+    }
 
     /// The move-to-front recursion as it was before it passed each support's circumsphere
     /// down (solving it twice, once to test the support and once to start from).
