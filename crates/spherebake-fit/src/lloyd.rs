@@ -806,13 +806,25 @@ pub fn run(ctx: &Ctx, k: usize, seed: u64, limits: Limits, thinning: cover::Thin
     let mut accepted = 0;
     let mut fails = 0;
     let mut history = Vec::new();
+    // The step from `st` when it was rejected (E not lower) and `st` has not changed since. A
+    // step is a function of its start alone (centres and radii from `st`; the memo only spares
+    // searches whose results are the same bits), so after a rejected teleportation the step
+    // from the unchanged `st` would repeat this one bit for bit: it is taken instead.
+    let mut rejected: Option<State> = None;
     while iterations < max_iterations {
-        centres.clone_from(&st.centres);
-        let next = step(&centres, Some(&st.radii), Some(&st));
+        let next = match rejected.take() {
+            Some(next) => next,
+            None => {
+                centres.clone_from(&st.centres);
+                step(&centres, Some(&st.radii), Some(&st))
+            }
+        };
         iterations += 1;
         let (e0, e1) = (st.energy(), next.energy());
         if e1 < e0 {
             st = next;
+        } else {
+            rejected = Some(next);
         }
         if e1 < e0 * (1.0 - 5e-3) {
             continue;
@@ -842,6 +854,7 @@ pub fn run(ctx: &Ctx, k: usize, seed: u64, limits: Limits, thinning: cover::Thin
         history.push(TeleportRecord { e_before: st.energy(), e_trial: trial.energy(), accepted: ok });
         if ok {
             st = trial;
+            rejected = None;
             accepted += 1;
             fails = 0;
         } else {
