@@ -228,6 +228,12 @@ pub fn power_assign(pts: &[Rep], centres: &[DVec3], radii: &[f64]) -> Vec<u32> {
             let mut best_in = (f64::INFINITY, u32::MAX);
             for &i in cand.iter() {
                 let (c, r) = (centres[i as usize], radii[i as usize]);
+                // A candidate whose power is certainly above 0 (not containing) or not below
+                // the best so far cannot be chosen: skipped before the costlier `far`.
+                let lb = power_lower_bound(p.p.distance_squared(c), r * r);
+                if lb > 0.0 || lb >= best_in.0 {
+                    continue;
+                }
                 let d2 = p.far(c).powi(2);
                 let pw = d2 - r * r;
                 if pw <= 0.0 && pw < best_in.0 {
@@ -250,6 +256,20 @@ pub fn power_assign(pts: &[Rep], centres: &[DVec3], radii: &[f64]) -> Vec<u32> {
             best_out.1
         })
         .collect()
+}
+
+/// Relative slack of [`power_lower_bound`]: far beyond the few roundings (each ≤ 2⁻⁵³
+/// relative) that separate its value from the power [`power_assign`] computes.
+const POWER_SLACK: f64 = 1e-12;
+
+/// A lower bound of the power `far(c)² − r²` as [`power_assign`] computes it, from the squared
+/// distance `d2` = |p − c|² of the representative's point and `r2` = r²: `far` is at least
+/// |p − c| (a representative's samples include its point: exactly |p − c| for a point, the
+/// bound of a disc or slab with s, t ≥ 0 at least that), so the computed power is at least
+/// d2 − r2 up to a few roundings, which the relative slack and an absolute `f64::MIN_POSITIVE`
+/// (roundings among subnormals) more than cover. A NaN never skips (comparisons false).
+fn power_lower_bound(d2: f64, r2: f64) -> f64 {
+    (d2 - r2) - (POWER_SLACK * (d2 + r2) + f64::MIN_POSITIVE)
 }
 
 /// Assignment for a point set the spheres do not yet cover: covered points as in
@@ -1244,6 +1264,76 @@ mod tests {
             assert_eq!(bits(&run_multi(&ctx, k, seed, limits, 1, false).state), bits(&even.state), "seed {seed}");
             let lower = if even.state.energy() < strided.state.energy() { &even } else { &strided };
             assert_eq!(bits(&run_multi(&ctx, k, seed, limits, 1, true).state), bits(&lower.state), "seed {seed}");
+        }
+    }
+
+    /// [`power_assign`] (grid candidates, skipped by [`power_lower_bound`]) chooses as a full
+    /// scan of every sphere with the plain formula does: the containing sphere of least power
+    /// (ties to the lower index), else the one whose volume grows least. Points on and near
+    /// sphere boundaries, at centres, spheres repeated (equal powers) and of radius 0, and
+    /// representatives of points and of discs.
+    #[test]
+    fn power_assign_chooses_as_the_full_scan() {
+        let reference = |pts: &[Rep], centres: &[DVec3], radii: &[f64]| -> Vec<u32> {
+            pts.iter()
+                .map(|p| {
+                    let pw: Vec<f64> = centres.iter().zip(radii).map(|(c, r)| p.far(*c).powi(2) - r * r).collect();
+                    let mut best = (f64::INFINITY, u32::MAX);
+                    for (i, &w) in pw.iter().enumerate() {
+                        if w <= 0.0 && w < best.0 {
+                            best = (w, i as u32);
+                        }
+                    }
+                    if best.1 != u32::MAX {
+                        return best.1;
+                    }
+                    for (i, (c, r)) in centres.iter().zip(radii).enumerate() {
+                        let d = p.far(*c);
+                        if pw[i] > 0.0 && d * d * d - r * r * r < best.0 {
+                            best = (d * d * d - r * r * r, i as u32);
+                        }
+                    }
+                    best.1
+                })
+                .collect()
+        };
+        let mut rng = SplitMix64::new(71);
+        let unit = |rng: &mut SplitMix64| {
+            let v = DVec3::new(rng.next_f64(), rng.next_f64(), rng.next_f64()) * 2.0 - 1.0;
+            if v.length_squared() > 1e-6 {
+                v.normalize()
+            } else {
+                DVec3::X
+            }
+        };
+        for round in 0..20 {
+            let k = 1 + rng.below(60) as usize;
+            let mut centres: Vec<DVec3> =
+                (0..k).map(|_| DVec3::new(rng.next_f64(), rng.next_f64(), rng.next_f64())).collect();
+            let mut radii: Vec<f64> = (0..k).map(|_| 0.4 * rng.next_f64()).collect();
+            // Repeated spheres (equal powers everywhere) and radius 0.
+            for _ in 0..k / 4 {
+                let (a, b) = (rng.below(k as u64) as usize, rng.below(k as u64) as usize);
+                centres[b] = centres[a];
+                radii[b] = radii[a];
+            }
+            radii[rng.below(k as u64) as usize] = 0.0;
+            let mut pts = Vec::new();
+            for _ in 0..3000 {
+                let ci = rng.below(k as u64) as usize;
+                let p = match rng.below(4) {
+                    0 => DVec3::new(rng.next_f64(), rng.next_f64(), rng.next_f64()) * 1.4 - 0.2,
+                    1 => centres[ci] + unit(&mut rng) * radii[ci],
+                    2 => centres[ci] + unit(&mut rng) * radii[ci] * (1.0 + 1e-15 * (rng.next_f64() - 0.5)),
+                    _ => centres[ci],
+                };
+                let mut rep = Rep::point(p);
+                if round % 2 == 1 && rng.below(2) == 0 {
+                    rep = Rep { p, n: unit(&mut rng), s: 0.02 * rng.next_f64(), t: 0.01 * rng.next_f64() };
+                }
+                pts.push(rep);
+            }
+            assert_eq!(power_assign(&pts, &centres, &radii), reference(&pts, &centres, &radii), "round {round}");
         }
     }
 
