@@ -340,7 +340,7 @@ fn best_ball(
     let mut predict = |c: DVec3, moves: &[DVec3; 14], out: &mut [f64; 14]| {
         let step = moves.iter().map(|m| m.length()).fold(0.0, f64::max);
         if c.distance(fq.borrow().centre()) > FAR_REBUCKET * step {
-            *fq.borrow_mut() = FarQuery::new(pts, mem, c);
+            fq.borrow_mut().rebucket(pts, mem, c);
         }
         let s = match surface {
             Some(s) if s.c == c => s,

@@ -471,36 +471,62 @@ pub(crate) struct FarQuery<M> {
 
 impl<M: FarMember> FarQuery<M> {
     pub(crate) fn new(pts: &[M], mem: &[u32], c0: DVec3) -> Self {
-        let far: Vec<(f64, M)> = mem.iter().map(|&i| (pts[i as usize].far_from(c0), pts[i as usize])).collect();
-        let Some(&fill) = far.first() else {
-            return Self { c0, members: Vec::new(), buckets: Vec::new() };
+        let mut q = Self { c0, members: Vec::new(), buckets: Vec::new() };
+        q.rebucket(pts, mem, c0);
+        q
+    }
+
+    /// The same query as [`FarQuery::new`] from `c0`, in place: its vectors are reused.
+    ///
+    /// The distances go to a buffer of their own (8 bytes a member) with the range folded into
+    /// the same pass, and the members are written once, to their places: building the
+    /// (distance, member) pairs first and moving them (32 bytes a point, twice) cost about as
+    /// much as the distances.
+    pub(crate) fn rebucket(&mut self, pts: &[M], mem: &[u32], c0: DVec3) {
+        self.c0 = c0;
+        self.members.clear();
+        self.buckets.clear();
+        let Some(&first) = mem.first() else {
+            return;
         };
-        let (lo, hi) = far.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), x| (l.min(x.0), h.max(x.0)));
+        let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
+        let far: Vec<f64> = mem
+            .iter()
+            .map(|&i| {
+                let d = pts[i as usize].far_from(c0);
+                (lo, hi) = (lo.min(d), hi.max(d));
+                d
+            })
+            .collect();
         let nb = (far.len() / FAR_BUCKET_MEMBERS).clamp(1, FAR_BUCKETS);
         // Bucket 0 holds the largest distances. A width of 0 (one distance) or a non-finite
         // one puts every member in bucket 0; so does a NaN distance.
         let scale = if hi > lo && (hi - lo).is_finite() { nb as f64 / (hi - lo) } else { 0.0 };
         // Cast to u32 (nb ≤ FAR_BUCKETS fits): the same index as a cast to usize (both
         // saturate, NaN to 0) in about half the instructions.
-        let bucket = |d: f64| (((hi - d) * scale) as u32 as usize).min(nb - 1);
-        let mut count = vec![0usize; nb + 1];
-        for x in &far {
-            count[bucket(x.0) + 1] += 1;
-        }
+        let bucket = |d: f64| (((hi - d) * scale) as u32).min(nb as u32 - 1) as u8;
+        let mut count = [0usize; FAR_BUCKETS + 1];
+        let mut top = [f64::NEG_INFINITY; FAR_BUCKETS];
+        let of: Vec<u8> = far
+            .iter()
+            .map(|&d| {
+                let b = bucket(d);
+                count[b as usize + 1] += 1;
+                top[b as usize] = top[b as usize].max(d);
+                b
+            })
+            .collect();
         for b in 0..nb {
             count[b + 1] += count[b];
         }
-        let mut top = vec![f64::NEG_INFINITY; nb];
-        let mut next = count.clone();
-        let mut members = vec![fill; far.len()];
-        for x in far {
-            let b = bucket(x.0);
-            top[b] = top[b].max(x.0);
-            members[next[b]] = x;
-            next[b] += 1;
+        let mut next = count;
+        self.members.resize(far.len(), (far[0], pts[first as usize]));
+        for ((&d, &b), &i) in far.iter().zip(&of).zip(mem) {
+            let at = &mut next[b as usize];
+            self.members[*at] = (d, pts[i as usize]);
+            *at += 1;
         }
-        let buckets = (0..nb).filter(|&b| count[b + 1] > count[b]).map(|b| (count[b + 1], top[b])).collect();
-        Self { c0, members, buckets }
+        self.buckets.extend((0..nb).filter(|&b| count[b + 1] > count[b]).map(|b| (count[b + 1], top[b])));
     }
 
     /// The reference centre the members are bucketed by.
@@ -1157,7 +1183,7 @@ mod tests {
         }
     }
 
-    /// [`FarQuery::new`]'s buckets against a layout written apart (each member's bucket
+    /// [`FarQuery::new`]'s (and [`FarQuery::rebucket`]'s) buckets against a layout written apart (each member's bucket
     /// ⌊(hi − d₀) nb / (hi − lo)⌋ cast to usize and clamped, members stable within a bucket),
     /// on spread distances, distances that tie on bucket edges, and one distance for all.
     #[test]
@@ -1204,6 +1230,10 @@ mod tests {
                 .collect();
             assert_eq!(got, want_pts, "case {case}");
             assert_eq!(fq.buckets, ends, "case {case}");
+            // Rebucketing a query built from elsewhere for other members gives the same.
+            let mut re = FarQuery::new(&pts, &mem[..n / 2], c0 + DVec3::X);
+            re.rebucket(&pts, &mem, c0);
+            assert_eq!((re.members, re.buckets), (fq.members, fq.buckets), "case {case}");
         }
     }
 
