@@ -795,7 +795,6 @@ impl<'a> Cover<'a> {
     fn delete_cost(&self, j: usize) -> DeleteMove {
         let ex = self.exclusive(j);
         let k = self.spheres.len();
-        let mut r: Vec<f64> = self.spheres.iter().map(|s| s.1).collect();
         let (cj, rj) = self.spheres[j];
         // Spheres that can absorb a point of j with growth below 2 r_j (+ a cell).
         let nb: Vec<usize> = (0..k)
@@ -804,40 +803,46 @@ impl<'a> Cover<'a> {
         if nb.is_empty() && !ex.is_empty() {
             return (f64::INFINITY, Vec::new());
         }
+        // Those spheres' centres and radii (grown as points are handed over) side by side,
+        // in `nb`'s order: the gaps below read them per point and sphere, without the
+        // indirection through `nb` and the bounds checks of two more vectors.
+        let mut near: Vec<(DVec3, f64)> = nb.iter().map(|&l| self.spheres[l]).collect();
         let mut gaps: Vec<(f64, u32)> = ex
             .iter()
             .map(|&q| {
                 let p = self.pts[q as usize];
-                let g = nb.iter().map(|&l| p.distance(self.spheres[l].0) - r[l]).fold(f64::INFINITY, f64::min);
+                let g = near.iter().map(|&(c, r)| p.distance(c) - r).fold(f64::INFINITY, f64::min);
                 (g, q)
             })
             .collect();
         gaps.sort_unstable_by(crate::largest_first);
+        // Indices into `near` (and `nb`, ascending as the sphere indices are).
         let mut grown: Vec<usize> = Vec::new();
         for &(_, q) in &gaps {
             let p = self.pts[q as usize];
-            let gaps = nb.iter().map(|&l| (l, p.distance(self.spheres[l].0) - r[l]));
+            let gaps = near.iter().enumerate().map(|(a, &(c, r))| (a, p.distance(c) - r));
             // The candidate whose ball volume grows least (outside volume is evaluated once
             // per grown sphere below).
-            let grow_to = |l: usize| p.distance(self.spheres[l].0) * (1.0 + 1e-12);
-            let cost = |l: usize| {
-                let d = grow_to(l);
-                d * d * d - r[l] * r[l] * r[l]
+            let grow_to = |a: usize| p.distance(near[a].0) * (1.0 + 1e-12);
+            let cost = |a: usize| {
+                let (d, r) = (grow_to(a), near[a].1);
+                d * d * d - r * r * r
             };
-            let l = match cheapest_of_three_nearest(gaps, cost) {
+            let a = match cheapest_of_three_nearest(gaps, cost) {
                 Growth::Inside(_) => continue,
                 Growth::Nothing => return (f64::INFINITY, Vec::new()),
-                Growth::Grow(l) => l,
+                Growth::Grow(a) => a,
             };
-            r[l] = grow_to(l);
-            if !grown.contains(&l) {
-                grown.push(l);
+            near[a].1 = grow_to(a);
+            if !grown.contains(&a) {
+                grown.push(a);
             }
         }
         grown.sort_unstable();
-        let delta: f64 = grown.iter().map(|&l| self.solid.outside(self.spheres[l].0, r[l]) - self.outs[l]).sum::<f64>()
-            - self.outs[j];
-        (delta, grown.into_iter().map(|l| (l, r[l])).collect())
+        let delta: f64 =
+            grown.iter().map(|&a| self.solid.outside(near[a].0, near[a].1) - self.outs[nb[a]]).sum::<f64>()
+                - self.outs[j];
+        (delta, grown.into_iter().map(|a| (nb[a], near[a].1)).collect())
     }
 
     /// Best split of sphere `i`'s exclusive points into two balls, keyed by the exclusive
