@@ -350,8 +350,10 @@ impl FarMember for DVec3 {
     }
 }
 
-/// Buckets of a [`FarQuery`] at most (and about one per [`FAR_BUCKET_MEMBERS`] members).
+/// Buckets of a [`FarQuery`] at most (and about one per [`FAR_BUCKET_MEMBERS`] members); at
+/// most 256, since [`FarQuery::rebucket`] keeps each member's bucket as a `u8`.
 const FAR_BUCKETS: usize = 64;
+const _: () = assert!(FAR_BUCKETS <= 256);
 /// Members per bucket of a [`FarQuery`] aimed at.
 const FAR_BUCKET_MEMBERS: usize = 8;
 /// Relative slack of a [`FarQuery`]'s triangle bound d₀ + |c − c0|: computed in floating point
@@ -1183,9 +1185,10 @@ mod tests {
         }
     }
 
-    /// [`FarQuery::new`]'s (and [`FarQuery::rebucket`]'s) buckets against a layout written apart (each member's bucket
-    /// ⌊(hi − d₀) nb / (hi − lo)⌋ cast to usize and clamped, members stable within a bucket),
-    /// on spread distances, distances that tie on bucket edges, and one distance for all.
+    /// [`FarQuery::new`]'s (and [`FarQuery::rebucket`]'s) buckets against a layout written
+    /// apart (each member's bucket ⌊(hi − d₀) nb / (hi − lo)⌋ cast to usize and clamped,
+    /// members stable within a bucket), on spread distances, distances that tie on bucket
+    /// edges, and one distance for all.
     #[test]
     fn far_query_buckets_are_the_clamped_floor_layout() {
         let mut rng = SplitMix64::new(43);
