@@ -376,9 +376,10 @@ impl FitPlan {
     /// points from the Lloyd result directly), two Gauss–Seidel sweeps before the trials of
     /// the descent and of each seam round (not eight), a quarter of the descent's trials and a
     /// thirtieth of its budget, one seam round with a quarter of its trials on a grid of
-    /// half a voxel cell (not five on a quarter), one band sweep (not eight), no boundary moves and no gap round; and, through [`Preset::voxels`], a
-    /// voxel grid of 96 cells instead of 128, whose cells its descent reads directly
-    /// ([`FitPlan::descent_block`] 1, see there).
+    /// half a voxel cell (not five on a quarter), one band sweep (not eight), no boundary
+    /// moves and no gap round; and, through [`Preset::voxels`], a voxel grid of 96 cells
+    /// instead of 128, whose cells its descent reads directly ([`FitPlan::descent_block`] 1,
+    /// see there).
     ///
     /// One seam round, not two, was chosen last (whole bake, one thread, 64 spheres, seeds 1–4,
     /// the bunny 1–8; 2026-12-07, session 55), for the bunny's 1.0 s of CPU: with the exact
@@ -393,8 +394,8 @@ impl FitPlan {
     ///
     /// The band's width was measured for `fast` first, which took a quarter of a cell before
     /// the default did (whole bake, 64 spheres, seeds 1–4 unless noted; 2026-12-07, session
-    /// 54). The band's gain comes from the points nearest the spheres'
-    /// surfaces: a quarter of a cell keeps it with a fifth of the band points (the bunny, seed
+    /// 54). The band's gain comes from the points nearest the spheres' surfaces: a quarter of
+    /// a cell keeps it with a fifth of the band points (the bunny, seed
     /// 1: 247 000 → 55 000; the band stage 0.08 → 0.04 s). Mean E at one cell → a quarter:
     /// bunny 0.2379 → 0.2376 (seeds 1–8), armadillo 0.4373 → 0.4375, spot 0.1684 → 0.1684,
     /// Duck 0.1242 → 0.1243, teapot 0.1903 → 0.1903, capsule 0.0578 → 0.0578, Fox 0.5066 →
